@@ -1,0 +1,79 @@
+"""Human and environment models (SPEC §2 "Human and environment models").
+
+A human attaches at θ_h with impedance Z_h(s) (torque on the cuff = −Z_h θ_h):
+
+=====================  ===========================  ==========================================
+kind                   Z_h(s)                       ranged parameter
+=====================  ===========================  ==========================================
+``spring``             k + b s                      stiffness k [N·m/rad]
+``mass``               m s² + b s                   inertia m [kg·m²]
+``msd``                m s² + b s + k               exactly one of inertia/damping/stiffness
+``complex_stiffness``  k (1 + j η sign ω)           stiffness k [N·m/rad]; η fixed [–]
+=====================  ===========================  ==========================================
+
+Environments attach at θ_j: ``locked`` (θ_j = 0), ``free``, ``spring`` or ``mass`` with a range.
+
+Each family is *linear in its ranged parameter* p: Z(s) = Z0(s) + p·φ(s), which is what makes
+the exact stability intervals of :mod:`exotune.analysis` possible.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["HumanFamily", "EnvModel", "PARAM_UNITS", "family_split"]
+
+PARAM_UNITS = {"stiffness": "N·m/rad", "inertia": "kg·m²", "damping": "N·m·s/rad", "eta": "1"}
+
+
+@dataclass(frozen=True)
+class HumanFamily:
+    """A human model family over a range of one parameter (the others fixed)."""
+
+    kind: str  # spring | mass | msd | complex_stiffness
+    param: str  # the ranged parameter: stiffness | inertia | damping
+    lo: float
+    hi: float
+    inertia: float = 0.0  # fixed values of the non-ranged parameters
+    damping: float = 0.0
+    stiffness: float = 0.0
+    eta: float = 0.0
+
+    @property
+    def range(self) -> tuple[float, float]:
+        return (self.lo, self.hi)
+
+    @property
+    def unit(self) -> str:
+        return PARAM_UNITS[self.param]
+
+    def fixed(self) -> dict[str, float]:
+        return {"inertia": self.inertia, "damping": self.damping, "stiffness": self.stiffness}
+
+
+@dataclass(frozen=True)
+class EnvModel:
+    """Environment at the joint: ``locked``, ``free``, or a ``spring``/``mass`` family."""
+
+    kind: str  # locked | free | spring | mass
+    param: str | None = None  # stiffness | inertia
+    lo: float | None = None
+    hi: float | None = None
+    damping: float = 0.0
+
+
+def family_split(kind: str, param: str, fixed: dict[str, float], eta: float = 0.0):
+    """Z(s) = Z0(s) + p φ(s): return (z0 ascending coeffs [k, b, m], phi ascending coeffs,
+    complex factor applied to φ for ω > 0 (1 + jη for complex stiffness))."""
+    m = fixed.get("inertia", 0.0) if kind in ("mass", "msd") else 0.0
+    b = fixed.get("damping", 0.0)
+    k = fixed.get("stiffness", 0.0) if kind in ("spring", "msd", "complex_stiffness") else 0.0
+    z0 = np.array([k, b, m], dtype=float)
+    phi = np.zeros(3)
+    slot = {"stiffness": 0, "damping": 1, "inertia": 2}[param]
+    z0[slot] = 0.0
+    phi[slot] = 1.0
+    factor = complex(1.0, eta) if kind == "complex_stiffness" else 1.0 + 0j
+    return z0, phi, factor

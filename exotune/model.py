@@ -1,0 +1,224 @@
+"""The physical model and the compliance-pair algebra (paper §II, Table II, Propositions 1-4).
+
+Two representations live here:
+
+* :class:`Plant` — the joint-reflected parameters of SPEC §2 (all fields numpy-broadcastable, so
+  one object can hold a million designs).
+* :class:`Tf` and :class:`CompliancePair` — transfer functions as *exact frequency-response
+  expressions*: a ``Tf`` is evaluated at any array of complex ``s`` by composing the
+  elementary rational and delay factors, so ``e^{-sT}`` in ``H1`` is exact (no Padé).
+  Propositions 1-4 of the paper are the four operations :func:`parallel`, :func:`series`,
+  :func:`virtual_parallel` and :func:`virtual_series`; :func:`seven_systems` builds paper
+  Table II (plus the virtual motor system Ŝ5) from a plant and a set of controller blocks.
+
+Sign conventions (paper Table II): ``τ_m = G_θ θ_m + τ_2``, ``τ_2 = G_s τ_s + τ_3``,
+``τ_3 = G_c τ_c + τ_6``; with the compliance-shaping controller ``G_θ = −(K1 + B1 s)`` and
+``G_s = K2 + B2 s`` (torque units, SPEC §4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Callable
+
+import numpy as np
+
+from .poly import pval
+
+__all__ = [
+    "Plant",
+    "Tf",
+    "CompliancePair",
+    "parallel",
+    "series",
+    "virtual_parallel",
+    "virtual_series",
+    "seven_systems",
+]
+
+
+@dataclass(frozen=True)
+class Plant:
+    """Joint-reflected plant parameters (SPEC §2). Units: kg·m², N·m·s/rad, N·m/rad.
+
+    Every field may be a scalar or a numpy array (a batch of plants).
+    """
+
+    motor_inertia: np.ndarray  # J_m [kg·m²]
+    motor_damping: np.ndarray  # B_m [N·m·s/rad]
+    sea_stiffness: np.ndarray  # K_s [N·m/rad]
+    joint_inertia: np.ndarray  # J_j [kg·m²]
+    cuff_stiffness: np.ndarray = 300.0  # K_c [N·m/rad]
+
+    UNITS = {
+        "motor_inertia": "kg·m²",
+        "motor_damping": "N·m·s/rad",
+        "sea_stiffness": "N·m/rad",
+        "joint_inertia": "kg·m²",
+        "cuff_stiffness": "N·m/rad",
+    }
+
+    @property
+    def J_m(self):
+        return np.asarray(self.motor_inertia, dtype=float)
+
+    @property
+    def B_m(self):
+        return np.asarray(self.motor_damping, dtype=float)
+
+    @property
+    def K_s(self):
+        return np.asarray(self.sea_stiffness, dtype=float)
+
+    @property
+    def J_j(self):
+        return np.asarray(self.joint_inertia, dtype=float)
+
+    @property
+    def K_c(self):
+        return np.asarray(self.cuff_stiffness, dtype=float)
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+class Tf:
+    """A transfer function as an exact, lazily composed frequency-response expression.
+
+    ``Tf(fn)(s)`` evaluates ``fn`` at an array of complex ``s``. Arithmetic (+, -, *, /, unary -,
+    :meth:`inv`) composes expressions, so rational factors and exact delays mix freely.
+    """
+
+    __slots__ = ("_fn", "label")
+
+    def __init__(self, fn: Callable[[np.ndarray], np.ndarray], label: str = ""):
+        self._fn = fn
+        self.label = label
+
+    def __call__(self, s) -> np.ndarray:
+        s = np.asarray(s, dtype=complex)
+        return np.asarray(self._fn(s))
+
+    # constructors -------------------------------------------------------------------------
+    @staticmethod
+    def const(k) -> "Tf":
+        k = np.asarray(k)
+        return Tf(lambda s: k * np.ones_like(s), "const")
+
+    @staticmethod
+    def rational(num, den) -> "Tf":
+        """num/den with **ascending** coefficients (scalars per coefficient)."""
+        num = np.asarray(num, dtype=float)
+        den = np.asarray(den, dtype=float)
+        return Tf(lambda s: pval(num, s) / pval(den, s), "rational")
+
+    @staticmethod
+    def s() -> "Tf":
+        return Tf(lambda s: s, "s")
+
+    @staticmethod
+    def delay(T) -> "Tf":
+        """The exact delay factor e^{-sT}."""
+        T = np.asarray(T, dtype=float)
+        return Tf(lambda s: np.exp(-s * T), "delay")
+
+    @staticmethod
+    def _lift(x) -> "Tf":
+        return x if isinstance(x, Tf) else Tf.const(x)
+
+    # algebra ------------------------------------------------------------------------------
+    def __add__(self, o):
+        o = Tf._lift(o)
+        return Tf(lambda s: self(s) + o(s))
+
+    __radd__ = __add__
+
+    def __sub__(self, o):
+        o = Tf._lift(o)
+        return Tf(lambda s: self(s) - o(s))
+
+    def __rsub__(self, o):
+        return Tf._lift(o) - self
+
+    def __mul__(self, o):
+        o = Tf._lift(o)
+        return Tf(lambda s: self(s) * o(s))
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, o):
+        o = Tf._lift(o)
+        return Tf(lambda s: self(s) / o(s))
+
+    def __rtruediv__(self, o):
+        return Tf._lift(o) / self
+
+    def __neg__(self):
+        return Tf(lambda s: -self(s))
+
+    def inv(self) -> "Tf":
+        return Tf(lambda s: 1.0 / self(s))
+
+
+@dataclass(frozen=True)
+class CompliancePair:
+    """A "system" of the paper: (external compliance C, motor compliance H) (paper §II)."""
+
+    C: Tf
+    H: Tf
+
+
+def parallel(S: CompliancePair, C2: Tf) -> CompliancePair:
+    """Proposition 1 (Systems in Parallel): ([C1⁻¹ + C2⁻¹]⁻¹, [C1⁻¹ + C2⁻¹]⁻¹ C1⁻¹ H1)."""
+    C = (S.C.inv() + Tf._lift(C2).inv()).inv()
+    return CompliancePair(C, C / S.C * S.H)
+
+
+def series(S: CompliancePair, C2: Tf) -> CompliancePair:
+    """Proposition 2 (Systems in Series): (C1 + C2, H1)."""
+    return CompliancePair(S.C + C2, S.H)
+
+
+def virtual_parallel(S: CompliancePair, G: Tf) -> Tf:
+    """Proposition 3: a position controller ``τ_m = G θ + τ'`` equals the parallel compliance
+    C' = −C1 / (H1 G)."""
+    return -S.C / (S.H * G)
+
+
+def virtual_series(S: CompliancePair, G: Tf) -> Tf:
+    """Proposition 4: a force controller ``τ_m = G τ + τ'`` equals the series compliance
+    C' = G H1."""
+    return Tf._lift(G) * S.H
+
+
+def seven_systems(
+    plant: Plant,
+    G_theta: Tf,
+    G_s: Tf,
+    G_c: Tf,
+    delay_s: float = 0.0,
+    actuator: Tf | None = None,
+    J_m_hat=None,
+    B_m_hat=None,
+) -> dict[str, CompliancePair]:
+    """Paper Table II: S1…S7 (and Ŝ5 when ``J_m_hat``/``B_m_hat`` are given).
+
+    ``actuator`` replaces the pure delay e^{-sT} in H1 when given (e.g. the DOB-modified
+    actuator path of SPEC §3); by default H1 = e^{-sT}/(J_m s² + B_m s).
+    """
+    s = Tf.s()
+    M = plant.J_m * s * s + plant.B_m * s
+    C1 = M.inv()
+    E = actuator if actuator is not None else Tf.delay(delay_s)
+    S1 = CompliancePair(C1, E * C1)
+    S2 = parallel(S1, virtual_parallel(S1, G_theta))
+    S3 = series(S2, virtual_series(S2, G_s))
+    S4 = series(S3, Tf.const(1.0 / plant.K_s))
+    S5 = parallel(S4, (plant.J_j * s * s).inv())
+    S6 = series(S5, virtual_series(S5, G_c))
+    S7 = series(S6, Tf.const(1.0 / plant.K_c))
+    out = {"S1": S1, "S2": S2, "S3": S3, "S4": S4, "S5": S5, "S6": S6, "S7": S7}
+    if J_m_hat is not None:
+        C5h = (J_m_hat * s * s + B_m_hat * s).inv()
+        out["S5_hat"] = CompliancePair(C5h, C5h)
+    return out

@@ -1,0 +1,210 @@
+"""Batched polynomial and rational-function arithmetic.
+
+Conventions used throughout exotune's numerics:
+
+* A polynomial batch is an array ``c`` of shape ``(..., d + 1)`` holding the coefficients in
+  **ascending** powers of ``s``: ``p(s) = c[..., 0] + c[..., 1] s + ... + c[..., d] s^d``.
+  Leading dimensions index designs (or tasks); every operation is vectorized over them.
+* Products and sums are formed coefficient-wise without any rounding tricks, so a structural zero
+  coefficient (e.g. the constant term of ``J_m s^2 + B_m s``) stays *exactly* ``0.0``. The analysis
+  relies on this to remove the rigid-body root at ``s = 0`` exactly (SPEC §4), never by a tolerance.
+
+Only numpy is used; these are tiny kernels (degrees <= ~16) applied to large batches.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "as_poly",
+    "padd",
+    "psub",
+    "pmul",
+    "pscale",
+    "pder",
+    "pval",
+    "pval_flat",
+    "degree",
+    "leading",
+    "strip_common_low_zeros",
+    "Rational",
+]
+
+
+def as_poly(*coeffs, shape=None) -> np.ndarray:
+    """Stack ascending coefficients (scalars or arrays broadcast together) into a poly batch."""
+    arrs = np.broadcast_arrays(*[np.asarray(c) for c in coeffs])
+    out = np.stack(arrs, axis=-1)
+    if out.dtype.kind not in "fc":
+        out = out.astype(float)
+    if shape is not None:
+        out = np.broadcast_to(out, tuple(shape) + out.shape[-1:]).copy()
+    return out
+
+
+def _pad(a: np.ndarray, n: int) -> np.ndarray:
+    if a.shape[-1] == n:
+        return a
+    pad = [(0, 0)] * (a.ndim - 1) + [(0, n - a.shape[-1])]
+    return np.pad(a, pad)
+
+
+def padd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a + b for polynomial batches (broadcast over leading dims)."""
+    n = max(a.shape[-1], b.shape[-1])
+    return _pad(np.asarray(a), n) + _pad(np.asarray(b), n)
+
+
+def psub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a - b for polynomial batches."""
+    n = max(a.shape[-1], b.shape[-1])
+    return _pad(np.asarray(a), n) - _pad(np.asarray(b), n)
+
+
+def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a * b (batched convolution); exact zeros stay exact."""
+    a = np.asarray(a)
+    b = np.asarray(b)
+    lead = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
+    na, nb = a.shape[-1], b.shape[-1]
+    dtype = np.result_type(a, b, float)
+    out = np.zeros(lead + (na + nb - 1,), dtype=dtype)
+    for j in range(nb):
+        out[..., j : j + na] += a * b[..., j : j + 1]
+    return out
+
+
+def pscale(a: np.ndarray, k) -> np.ndarray:
+    """k * a with k a scalar or an array over the leading dims."""
+    return np.asarray(a) * np.asarray(k)[..., None]
+
+
+def pder(a: np.ndarray) -> np.ndarray:
+    """d/ds of a polynomial batch."""
+    a = np.asarray(a)
+    if a.shape[-1] == 1:
+        return np.zeros_like(a)
+    return a[..., 1:] * np.arange(1, a.shape[-1])
+
+
+def pval(c: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Evaluate ``c`` (shape (..., d+1)) at ``s`` (shape (..., K)) by Horner's rule -> (..., K)."""
+    c = np.asarray(c)
+    s = np.asarray(s)
+    acc = np.broadcast_to(c[..., -1:], np.broadcast_shapes(c.shape[:-1] + (1,), s.shape)).astype(
+        np.result_type(c, s, complex if np.iscomplexobj(s) else float)
+    )
+    for k in range(c.shape[-1] - 2, -1, -1):
+        acc = acc * s + c[..., k : k + 1]
+    return acc
+
+
+def pval_flat(c: np.ndarray, idx: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Evaluate row ``idx[i]`` of the batch ``c`` (shape (T, d+1)) at ``s[i]`` -> shape (M,)."""
+    cc = c[idx]
+    acc = cc[:, -1].astype(np.result_type(cc, s, complex))
+    for k in range(c.shape[-1] - 2, -1, -1):
+        acc = acc * s + cc[:, k]
+    return acc
+
+
+def degree(c: np.ndarray) -> np.ndarray:
+    """Index of the highest non-zero coefficient per row (-1 for the zero polynomial)."""
+    nz = np.asarray(c) != 0
+    rev = nz[..., ::-1]
+    has = rev.any(axis=-1)
+    d = c.shape[-1] - 1 - np.argmax(rev, axis=-1)
+    return np.where(has, d, -1)
+
+
+def leading(c: np.ndarray) -> np.ndarray:
+    """Leading (highest non-zero) coefficient per row."""
+    d = np.maximum(degree(c), 0)
+    return np.take_along_axis(np.asarray(c), d[..., None], axis=-1)[..., 0]
+
+
+def strip_common_low_zeros(*polys: np.ndarray, max_strip: int | None = None):
+    """Divide every polynomial of a group by ``s**r``, r = the common number of *exactly* zero
+    low-order coefficients (per row). Returns ``(r, stripped_polys)``.
+
+    Used to take out the structural root at s = 0 (rigid-body mode, SPEC §4) exactly.
+    """
+    n = max(p.shape[-1] for p in polys)
+    lead = np.broadcast_shapes(*[p.shape[:-1] for p in polys])
+    big = np.full(lead, n, dtype=int)
+    r = big
+    for p in polys:
+        nz = np.broadcast_to(np.asarray(p) != 0, lead + p.shape[-1:])
+        has = nz.any(axis=-1)
+        first = np.where(has, np.argmax(nz, axis=-1), n)
+        r = np.minimum(r, first)
+    r = np.where(r >= n, 0, r)
+    if max_strip is not None:
+        r = np.minimum(r, max_strip)
+    out = []
+    for p in polys:
+        p = np.broadcast_to(np.asarray(p), lead + p.shape[-1:])
+        m = p.shape[-1]
+        j = np.arange(m)
+        src = j + r[..., None]
+        valid = src < m
+        q = np.take_along_axis(p, np.minimum(src, m - 1), axis=-1)
+        out.append(np.where(valid, q, 0).astype(p.dtype))
+    return r, out
+
+
+@dataclass(frozen=True)
+class Rational:
+    """A batch of rational transfer functions num(s)/den(s), ascending coefficients.
+
+    ``num`` has shape (N, m+1) and ``den`` shape (N, n+1) (or broadcastable). Used for every
+    controller block of the implementation structure (SPEC §3).
+    """
+
+    num: np.ndarray
+    den: np.ndarray
+
+    @staticmethod
+    def poly(c: np.ndarray) -> "Rational":
+        c = np.asarray(c, dtype=float)
+        return Rational(c, np.ones(c.shape[:-1] + (1,)))
+
+    @staticmethod
+    def const(k) -> "Rational":
+        k = np.asarray(k, dtype=float)
+        return Rational(k[..., None], np.ones(k.shape + (1,)))
+
+    def __call__(self, s: np.ndarray) -> np.ndarray:
+        return pval(self.num, s) / pval(self.den, s)
+
+    def __mul__(self, other: "Rational") -> "Rational":
+        if not isinstance(other, Rational):
+            other = Rational.const(other)
+        return Rational(pmul(self.num, other.num), pmul(self.den, other.den))
+
+    __rmul__ = __mul__
+
+    def __add__(self, other: "Rational") -> "Rational":
+        if not isinstance(other, Rational):
+            other = Rational.const(other)
+        num = padd(pmul(self.num, other.den), pmul(other.num, self.den))
+        return Rational(num, pmul(self.den, other.den))
+
+    __radd__ = __add__
+
+    def __neg__(self) -> "Rational":
+        return Rational(-self.num, self.den)
+
+    def __sub__(self, other: "Rational") -> "Rational":
+        return self + (-other if isinstance(other, Rational) else Rational.const(-np.asarray(other)))
+
+    def is_proper(self) -> np.ndarray:
+        return degree(self.num) <= degree(self.den)
+
+    def take(self, idx) -> "Rational":
+        n = np.broadcast_to(self.num, np.broadcast_shapes(self.num.shape[:-1], self.den.shape[:-1]) + self.num.shape[-1:])
+        d = np.broadcast_to(self.den, n.shape[:-1] + self.den.shape[-1:])
+        return Rational(n[idx], d[idx])

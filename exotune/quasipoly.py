@@ -1,0 +1,279 @@
+"""Quasi-polynomials Δ(s) = P0(s) + P1(s)·e^{−sT} and exact root counting (SPEC §5).
+
+Every closed loop exotune analyses (any controller structure, any rational human or environment,
+the DOB, the exact delay) has a characteristic function of this form with a *single* delay:
+the DOB substitutes e^{−sT} → e^{−sT} d_q/(d_q − n_q + n_q e^{−sT}), which keeps Δ affine in e^{−sT}.
+With deg P1 < deg P0 (retarded type, guaranteed by proper controller blocks) Δ has finitely many
+right-half-plane (RHP) zeros and the argument principle on the imaginary axis counts them:
+
+    N_RHP = ( n·π/2 + ψ − Δθ ) / π,      Δθ = arg Δ(j∞) − arg Δ(j0) (continuous),
+
+n = deg P0, ψ = atan(Im c_n / Re c_n) for the leading coefficient c_n (0 for real Δ). This is
+the Nyquist criterion for 1 + L with L = P1 e^{−sT}/P0 multiplied through by the open-loop
+characteristic polynomial P0: the open-loop poles (roots of P0, however close to the axis)
+become ordinary, smooth points of Δ, and the number of open-loop RHP poles is accounted for
+exactly instead of being assumed.
+
+The phase is followed on an *adaptive* frequency set: an interval [a, b] is accepted only when
+the wrapped phase step is < 0.5 rad **and** (b − a)·|Δ'/Δ| < 0.8 at both ends. A zero of Δ at
+distance d from the axis makes |Δ'/Δ| ≈ 1/d near it, so an interval that steps over it is always
+split, down to the zero's own damping (10⁻⁵ rad/s or less costs ~25 bisections, only there).
+The tail ω > ω_max is bounded analytically (no sampling): ω_max is chosen so that for every
+ω ≥ ω_max, |Σ_{k<n} c_k (jω)^k| ≤ ¼|c_n ω^n| and |P1(jω)| ≤ ¼|P0(jω)|.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .poly import degree, leading, pder, pval_flat
+
+__all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
+
+ARG_STEP = 0.5  # max accepted phase step per interval [rad]
+DER_STEP = 0.8  # max accepted (b − a)·|Δ'/Δ| per interval
+MAX_LEVELS = 64
+
+
+@dataclass(frozen=True)
+class QP:
+    """A batch of quasi-polynomials: rows of ``p0``/``p1`` (ascending coefficients), delays ``T``."""
+
+    p0: np.ndarray
+    p1: np.ndarray
+    T: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "T", np.broadcast_to(np.asarray(self.T, dtype=float), self.p0.shape[:1]).copy())
+
+    @property
+    def n(self) -> int:
+        return self.p0.shape[0]
+
+    def take(self, idx) -> "QP":
+        return QP(self.p0[idx], self.p1[idx], self.T[idx])
+
+    def eval(self, idx: np.ndarray, w: np.ndarray, deriv: bool = True):
+        """Δ(jω) and dΔ/ds at s = jω for rows ``idx`` (flat arrays of equal length)."""
+        s = 1j * w
+        e = np.exp(-s * self.T[idx])
+        v0 = pval_flat(self.p0, idx, s)
+        v1 = pval_flat(self.p1, idx, s)
+        val = v0 + v1 * e
+        if not deriv:
+            return val, None
+        d0 = pval_flat(_der(self.p0), idx, s)
+        d1 = pval_flat(_der(self.p1), idx, s)
+        return val, d0 + (d1 - self.T[idx] * v1) * e
+
+
+def _der(c: np.ndarray) -> np.ndarray:
+    d = pder(c)
+    return d if d.shape[-1] else np.zeros(c.shape[:-1] + (1,), c.dtype)
+
+
+def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, w0: float = 1e-3, steps: int = 96) -> np.ndarray:
+    """Smallest ω = w0·2^j beyond which the tail bounds of the module docstring hold.
+
+    Returns +inf for rows where they never hold (neutral/advanced type: deg P1 ≥ deg P0, or P0 ≡ 0).
+    """
+    n = degree(p0)
+    cn = np.abs(leading(p0))
+    a0 = np.abs(p0)
+    a1 = np.abs(p1)
+    ws = w0 * 2.0 ** np.arange(steps)  # (S,)
+    lw = np.log(ws)
+    k0 = np.arange(p0.shape[-1])
+    k1 = np.arange(p1.shape[-1])
+    # δ(ω) = Σ_{k<n} |c_k| ω^{k−n} / |c_n|
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        e0 = (k0[None, :] - n[:, None]).astype(float)  # (T, d0)
+        mask0 = k0[None, :] < n[:, None]
+        t0 = np.where(mask0[:, None, :], a0[:, None, :] * np.exp(e0[:, None, :] * lw[None, :, None]), 0.0)
+        delta = t0.sum(-1) / cn[:, None]
+        e1 = (k1[None, :] - n[:, None]).astype(float)
+        t1 = a1[:, None, :] * np.exp(e1[:, None, :] * lw[None, :, None])
+        rho = t1.sum(-1) / (cn[:, None] * (1.0 - np.minimum(delta, 0.999)))
+        good = (delta <= frac) & (rho <= frac) & (cn[:, None] > 0)
+    deg1 = degree(p1)
+    good &= (deg1 < n)[:, None]
+    # the bounds are non-increasing in ω, so the first good step is valid for all larger ω
+    first = np.argmax(good, axis=1)
+    ok = good.any(axis=1)
+    return np.where(ok, ws[first], np.inf)
+
+
+def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None):
+    """Adaptive refinement of per-task frequency grids.
+
+    ``evalfn(idx, w) -> list[(val, der)]`` evaluates the tracked functions at s = jω.
+    ``grid`` has shape (T, K), increasing along axis 1. Returns a dict of flat arrays describing
+    the accepted leaf intervals: ``task, a, b`` and per tracked function ``va[i], vb[i]``; plus a
+    per-task boolean ``resolved`` (False where refinement hit the resolution floor or a value was
+    not finite / exactly zero — a zero on the imaginary axis).
+    """
+    T, K = grid.shape
+    if valid is None:
+        valid = np.ones(T, bool)
+    tasks = np.nonzero(valid)[0]
+    idx = np.repeat(tasks, K)
+    w = grid[tasks].ravel()
+    vals = evalfn(idx, w)
+    nf = len(vals)
+    V = [v.reshape(len(tasks), K) for v, _ in vals]
+    D = [d.reshape(len(tasks), K) for _, d in vals]
+    # intervals between consecutive points
+    ti = np.repeat(tasks, K - 1)
+    a = grid[tasks, :-1].ravel()
+    b = grid[tasks, 1:].ravel()
+    va = [x[:, :-1].ravel() for x in V]
+    vb = [x[:, 1:].ravel() for x in V]
+    da = [x[:, :-1].ravel() for x in D]
+    db = [x[:, 1:].ravel() for x in D]
+    resolved = np.ones(ntask, bool)
+    out_t, out_a, out_b = [], [], []
+    out_va = [[] for _ in range(nf)]
+    out_vb = [[] for _ in range(nf)]
+    for level in range(MAX_LEVELS + 1):
+        if ti.size == 0:
+            break
+        h = b - a
+        ok = np.ones(ti.size, bool)
+        bad = np.zeros(ti.size, bool)
+        for i in range(nf):
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                ratio = vb[i] / va[i]
+                ang = np.abs(np.angle(ratio))
+                la = np.abs(da[i] / va[i])
+                lb = np.abs(db[i] / vb[i])
+                crit = h * np.maximum(la, lb)
+            # an exact zero at ω = 0 (a structural root at s = 0) is known, not sampled: the
+            # function is skipped on the first interval [0, ω1] only
+            skip = (a == 0) & (va[i] == 0) & (vb[i] != 0) & np.isfinite(vb[i])
+            fin = np.isfinite(ratio) & np.isfinite(crit) & (va[i] != 0) & (vb[i] != 0)
+            bad |= ~fin & ~skip
+            ok &= skip | (fin & (ang <= ARG_STEP) & (crit <= DER_STEP))
+        floor = h <= 1e-13 * np.maximum(np.abs(b), 1e-300)
+        if level == MAX_LEVELS:
+            floor[:] = True
+        stop = ok | floor | bad
+        unres = (floor & ~ok) | bad
+        if unres.any():
+            resolved[np.unique(ti[unres])] = False
+        if stop.any():
+            out_t.append(ti[stop])
+            out_a.append(a[stop])
+            out_b.append(b[stop])
+            for i in range(nf):
+                out_va[i].append(va[i][stop])
+                out_vb[i].append(vb[i][stop])
+        go = ~stop
+        if not go.any():
+            break
+        ti, a, b = ti[go], a[go], b[go]
+        va = [x[go] for x in va]
+        vb = [x[go] for x in vb]
+        da = [x[go] for x in da]
+        db = [x[go] for x in db]
+        m = 0.5 * (a + b)
+        mv = evalfn(ti, m)
+        ti = np.concatenate([ti, ti])
+        a, b = np.concatenate([a, m]), np.concatenate([m, b])
+        va = [np.concatenate([va[i], mv[i][0]]) for i in range(nf)]
+        vb = [np.concatenate([mv[i][0], vb[i]]) for i in range(nf)]
+        da = [np.concatenate([da[i], mv[i][1]]) for i in range(nf)]
+        db = [np.concatenate([mv[i][1], db[i]]) for i in range(nf)]
+    cat = lambda xs, dt=float: np.concatenate(xs) if xs else np.zeros(0, dt)
+    res = {
+        "task": cat(out_t, int),
+        "a": cat(out_a),
+        "b": cat(out_b),
+        "va": [cat(x, complex) for x in out_va],
+        "vb": [cat(x, complex) for x in out_vb],
+        "resolved": resolved,
+    }
+    order = np.lexsort((res["a"], res["task"]))
+    for key in ("task", "a", "b"):
+        res[key] = res[key][order]
+    res["va"] = [x[order] for x in res["va"]]
+    res["vb"] = [x[order] for x in res["vb"]]
+    return res
+
+
+def log_grid(wmax: np.ndarray, decades: float = 9.0, per_decade: int = 8) -> np.ndarray:
+    """Per-task grid: 0, then log-spaced from wmax·10^-decades to wmax."""
+    K = int(decades * per_decade) + 1
+    u = np.linspace(-decades, 0.0, K)
+    g = wmax[:, None] * 10.0 ** u[None, :]
+    return np.concatenate([np.zeros((len(wmax), 1)), g], axis=1)
+
+
+def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 8):
+    """Number of zeros of Δ in the open RHP, by the argument principle (module docstring).
+
+    ``v0`` optionally overrides Δ(j0) (a real number per row): used for the hysteretic
+    (complex-stiffness) human, whose Z(jω) = k(1 + jη sign ω) is regularized through the real
+    value k at ω = 0 (the jump to 0+ is the straight segment, which never passes through 0).
+
+    Returns ``(N, conclusive)``: integer counts and a flag that is False when a zero lies on (or
+    within the float resolution of) the imaginary axis, the type is not retarded, or the count is
+    not an integer — callers must treat inconclusive as **not stable**.
+    """
+    p0 = np.asarray(qp.p0)
+    p1 = np.asarray(qp.p1)
+    T = qp.T
+    # zero delay: fold P1 into P0 (Δ is then an ordinary polynomial)
+    z = T == 0
+    if z.any():
+        n = max(p0.shape[-1], p1.shape[-1])
+        p0 = np.pad(p0, ((0, 0), (0, n - p0.shape[-1]))).astype(np.result_type(p0, p1))
+        p1 = np.pad(p1, ((0, 0), (0, n - p1.shape[-1]))).astype(np.result_type(p0, p1))
+        p0[z] = p0[z] + p1[z]
+        p1[z] = 0
+    q = QP(p0, p1, T)
+    ntask = q.n
+    wmax = omega_max(p0, p1)
+    valid = np.isfinite(wmax)
+    grid = log_grid(np.where(valid, wmax, 1.0), per_decade=per_decade)
+    evalfn = lambda idx, w: [q.eval(idx, w)]
+    lv = adaptive_leaves(evalfn, ntask, grid, valid)
+    # Δ(0+) is the first leaf value; v0 is the regularized value at 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        steps = np.angle(lv["vb"][0] / lv["va"][0])
+    total = np.bincount(lv["task"], weights=steps, minlength=ntask)
+    idx = np.arange(ntask)
+    vmax, _ = q.eval(idx, np.where(valid, wmax, 1.0), deriv=False)
+    n = degree(p0)
+    cn = leading(p0)
+    tail = np.angle(cn * (1j ** n) / vmax)
+    total = total + tail
+    if v0 is not None:
+        v00, _ = q.eval(idx, np.zeros(ntask), deriv=False)
+        total = total + np.angle(v00 / np.asarray(v0, dtype=complex))
+        base = np.asarray(v0, dtype=complex)
+    else:
+        base, _ = q.eval(idx, np.zeros(ntask), deriv=False)
+    psi = np.arctan(np.imag(cn) / np.real(cn)) if np.iscomplexobj(cn) else np.zeros(ntask)
+    N = (n * np.pi / 2 + psi - total) / np.pi
+    Nr = np.rint(N)
+    conclusive = valid & lv["resolved"] & (np.abs(N - Nr) < 0.05) & (base != 0) & np.isfinite(N)
+    return Nr.astype(int), conclusive
+
+
+def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.ndarray, iters: int = 60):
+    """Vectorized bisection of sign changes of the real function ``fun(task, w)`` on [a, b]."""
+    a = a.copy()
+    b = b.copy()
+    fa = fa.copy()
+    for _ in range(iters):
+        m = 0.5 * (a + b)
+        fm = fun(task, m)
+        left = np.sign(fm) == np.sign(fa)
+        a = np.where(left, m, a)
+        fa = np.where(left, fm, fa)
+        b = np.where(left, b, m)
+        if np.all(b - a <= 1e-15 * np.maximum(np.abs(b), 1e-300)):
+            break
+    return 0.5 * (a + b)
