@@ -32,9 +32,10 @@ from .poly import degree, leading, pder, pval_flat
 
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
 
-ARG_STEP = 0.5  # max accepted phase step per interval [rad]
-DER_STEP = 0.8  # max accepted (b − a)·|Δ'/Δ| per interval
+ARG_STEP = 0.8  # max accepted phase step per interval [rad] (any value < π keeps unwrapping exact)
+DER_STEP = 1.2  # max accepted (b − a)·|Δ'/Δ| per interval
 MAX_LEVELS = 64
+_TAN_ARG = float(np.tan(ARG_STEP))
 
 
 @dataclass(frozen=True)
@@ -59,14 +60,24 @@ class QP:
         """Δ(jω) and dΔ/ds at s = jω for rows ``idx`` (flat arrays of equal length)."""
         s = 1j * w
         e = np.exp(-s * self.T[idx])
-        v0 = pval_flat(self.p0, idx, s)
-        v1 = pval_flat(self.p1, idx, s)
+        v0, d0 = _horner_vd(self.p0, idx, s, deriv)
+        v1, d1 = _horner_vd(self.p1, idx, s, deriv)
         val = v0 + v1 * e
         if not deriv:
             return val, None
-        d0 = pval_flat(_der(self.p0), idx, s)
-        d1 = pval_flat(_der(self.p1), idx, s)
         return val, d0 + (d1 - self.T[idx] * v1) * e
+
+
+def _horner_vd(c: np.ndarray, idx: np.ndarray, s: np.ndarray, deriv: bool):
+    """Value and derivative of rows ``idx`` of ``c`` at ``s`` in one Horner pass (column gathers)."""
+    m = c.shape[-1]
+    v = np.take(c[:, m - 1], idx).astype(complex)
+    d = np.zeros_like(v) if deriv else None
+    for k in range(m - 2, -1, -1):
+        if deriv:
+            d = d * s + v
+        v = v * s + np.take(c[:, k], idx)
+    return v, d
 
 
 def _der(c: np.ndarray) -> np.ndarray:
@@ -74,35 +85,35 @@ def _der(c: np.ndarray) -> np.ndarray:
     return d if d.shape[-1] else np.zeros(c.shape[:-1] + (1,), c.dtype)
 
 
-def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, w0: float = 1e-3, steps: int = 96) -> np.ndarray:
-    """Smallest ω = w0·2^j beyond which the tail bounds of the module docstring hold.
+def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
+    """A frequency beyond which the tail bounds of the module docstring hold, in closed form.
 
-    Returns +inf for rows where they never hold (neutral/advanced type: deg P1 ≥ deg P0, or P0 ≡ 0).
+    With n = deg P0 and m_k the number of terms, requiring every term of
+    δ(ω) = Σ_{k<n} |c_k| ω^{k−n}/|c_n| to be ≤ frac/n0 and every term of
+    ρ(ω) = Σ_k |p1_k| ω^{k−n}/(|c_n|(1 − frac)) to be ≤ frac/n1 gives
+    ω ≥ (n0 |c_k| / (frac |c_n|))^{1/(n−k)} and ω ≥ (n1 |p1_k| / (frac (1−frac) |c_n|))^{1/(n−k)};
+    both sums are non-increasing in ω, so the bounds hold on the whole tail.
+    Returns +inf for rows that are not of retarded type (deg P1 ≥ deg P0) or where P0 ≡ 0.
     """
     n = degree(p0)
     cn = np.abs(leading(p0))
+    deg1 = degree(p1)
     a0 = np.abs(p0)
     a1 = np.abs(p1)
-    ws = w0 * 2.0 ** np.arange(steps)  # (S,)
-    lw = np.log(ws)
-    k0 = np.arange(p0.shape[-1])
-    k1 = np.arange(p1.shape[-1])
-    # δ(ω) = Σ_{k<n} |c_k| ω^{k−n} / |c_n|
+    k0 = np.arange(p0.shape[-1])[None, :]
+    k1 = np.arange(p1.shape[-1])[None, :]
+    nn = n[:, None]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        e0 = (k0[None, :] - n[:, None]).astype(float)  # (T, d0)
-        mask0 = k0[None, :] < n[:, None]
-        t0 = np.where(mask0[:, None, :], a0[:, None, :] * np.exp(e0[:, None, :] * lw[None, :, None]), 0.0)
-        delta = t0.sum(-1) / cn[:, None]
-        e1 = (k1[None, :] - n[:, None]).astype(float)
-        t1 = a1[:, None, :] * np.exp(e1[:, None, :] * lw[None, :, None])
-        rho = t1.sum(-1) / (cn[:, None] * (1.0 - np.minimum(delta, 0.999)))
-        good = (delta <= frac) & (rho <= frac) & (cn[:, None] > 0)
-    deg1 = degree(p1)
-    good &= (deg1 < n)[:, None]
-    # the bounds are non-increasing in ω, so the first good step is valid for all larger ω
-    first = np.argmax(good, axis=1)
-    ok = good.any(axis=1)
-    return np.where(ok, ws[first], np.inf)
+        m0 = (k0 < nn) & (a0 > 0)
+        cnt0 = np.maximum(m0.sum(-1), 1)[:, None]
+        e0 = np.where(m0, np.exp(np.log(cnt0 * a0 / (frac * cn[:, None])) / (nn - k0)), 0.0)
+        m1 = a1 > 0
+        cnt1 = np.maximum(m1.sum(-1), 1)[:, None]
+        e1 = np.where(m1 & (k1 < nn), np.exp(np.log(cnt1 * a1 / (frac * (1 - frac) * cn[:, None])) / (nn - k1)), 0.0)
+        w = np.maximum(e0.max(-1, initial=0.0), e1.max(-1, initial=0.0))
+    ok = (cn > 0) & (deg1 < n) & np.isfinite(w)
+    w = np.where(w > 0, w, 1.0)
+    return np.where(ok, w * 1.0000001, np.inf)
 
 
 def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None):
@@ -145,7 +156,8 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         for i in range(nf):
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 ratio = vb[i] / va[i]
-                ang = np.abs(np.angle(ratio))
+                # |arg ratio| ≤ ARG_STEP without computing the angle
+                small_arg = (ratio.real > 0) & (np.abs(ratio.imag) <= _TAN_ARG * ratio.real)
                 la = np.abs(da[i] / va[i])
                 lb = np.abs(db[i] / vb[i])
                 crit = h * np.maximum(la, lb)
@@ -154,7 +166,7 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
             skip = (a == 0) & (va[i] == 0) & (vb[i] != 0) & np.isfinite(vb[i])
             fin = np.isfinite(ratio) & np.isfinite(crit) & (va[i] != 0) & (vb[i] != 0)
             bad |= ~fin & ~skip
-            ok &= skip | (fin & (ang <= ARG_STEP) & (crit <= DER_STEP))
+            ok &= skip | (fin & small_arg & (crit <= DER_STEP))
         floor = h <= 1e-13 * np.maximum(np.abs(b), 1e-300)
         if level == MAX_LEVELS:
             floor[:] = True
@@ -210,7 +222,7 @@ def log_grid(wmax: np.ndarray, decades: float = 9.0, per_decade: int = 8) -> np.
     return np.concatenate([np.zeros((len(wmax), 1)), g], axis=1)
 
 
-def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 8):
+def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 4):
     """Number of zeros of Δ in the open RHP, by the argument principle (module docstring).
 
     ``v0`` optionally overrides Δ(j0) (a real number per row): used for the hysteretic
@@ -236,7 +248,7 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 8):
     ntask = q.n
     wmax = omega_max(p0, p1)
     valid = np.isfinite(wmax)
-    grid = log_grid(np.where(valid, wmax, 1.0), per_decade=per_decade)
+    grid = log_grid(np.where(valid, wmax, 1.0), decades=8, per_decade=per_decade)
     evalfn = lambda idx, w: [q.eval(idx, w)]
     lv = adaptive_leaves(evalfn, ntask, grid, valid)
     # Δ(0+) is the first leaf value; v0 is the regularized value at 0
@@ -249,12 +261,14 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 8):
     cn = leading(p0)
     tail = np.angle(cn * (1j ** n) / vmax)
     total = total + tail
+    base, _ = q.eval(idx, np.zeros(ntask), deriv=False)
     if v0 is not None:
-        v00, _ = q.eval(idx, np.zeros(ntask), deriv=False)
-        total = total + np.angle(v00 / np.asarray(v0, dtype=complex))
-        base = np.asarray(v0, dtype=complex)
-    else:
-        base, _ = q.eval(idx, np.zeros(ntask), deriv=False)
+        v0 = np.asarray(v0, dtype=complex)
+        use = np.isfinite(v0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            jump = np.angle(base / np.where(use, v0, 1.0))
+        total = total + np.where(use, jump, 0.0)
+        base = np.where(use, v0, base)
     psi = np.arctan(np.imag(cn) / np.real(cn)) if np.iscomplexobj(cn) else np.zeros(ntask)
     N = (n * np.pi / 2 + psi - total) / np.pi
     Nr = np.rint(N)
@@ -262,18 +276,42 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 8):
     return Nr.astype(int), conclusive
 
 
-def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.ndarray, iters: int = 60):
-    """Vectorized bisection of sign changes of the real function ``fun(task, w)`` on [a, b]."""
-    a = a.copy()
-    b = b.copy()
-    fa = fa.copy()
+def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.ndarray, iters: int = 80, fb=None):
+    """Vectorized Illinois (modified regula falsi) on sign changes of real ``fun(task, w)``.
+
+    Brackets are kept, so convergence is guaranteed; stops at a relative width of 1e-14.
+    """
+    a = a.astype(float).copy()
+    b = b.astype(float).copy()
+    fa = fa.astype(float).copy()
+    fb = fun(task, b) if fb is None else fb.astype(float).copy()
+    side = np.zeros(a.shape, int)
+    x = 0.5 * (a + b)
+    act = np.ones(a.shape, bool)
     for _ in range(iters):
-        m = 0.5 * (a + b)
-        fm = fun(task, m)
-        left = np.sign(fm) == np.sign(fa)
-        a = np.where(left, m, a)
-        fa = np.where(left, fm, fa)
-        b = np.where(left, b, m)
-        if np.all(b - a <= 1e-15 * np.maximum(np.abs(b), 1e-300)):
+        act &= np.abs(b - a) > 1e-14 * np.maximum(np.abs(b), 1e-300)
+        if not act.any():
             break
-    return 0.5 * (a + b)
+        x_old = x
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = (a * fb - b * fa) / (fb - fa)
+        bad = ~np.isfinite(x) | (x <= np.minimum(a, b)) | (x >= np.maximum(a, b))
+        x = np.where(bad, 0.5 * (a + b), x)
+        fx = np.zeros_like(x)
+        fx[act] = fun(task[act], x[act])
+        left = (np.sign(fx) == np.sign(fa)) & act
+        right = ~left & act
+        # Illinois: halve the retained end's value when the same side is kept twice
+        fb = np.where(left & (side == 1), 0.5 * fb, fb)
+        fa = np.where(right & (side == -1), 0.5 * fa, fa)
+        a = np.where(left, x, a)
+        fa = np.where(left, fx, fa)
+        b = np.where(right, x, b)
+        fb = np.where(right, fx, fb)
+        side = np.where(left, 1, np.where(right, -1, side))
+        hit = (fx == 0) & act
+        a = np.where(hit, x, a)
+        b = np.where(hit, x, b)
+        # converged once the iterate stops moving (the bracket may stay one-sided)
+        act &= np.abs(x - x_old) > 1e-15 * np.maximum(np.abs(x), 1e-300)
+    return np.where(act | (a == b), 0.5 * (a + b), x)
