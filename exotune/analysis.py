@@ -761,18 +761,19 @@ def coupled_stable(plant: Plant, cs: ControllerStructure, N: int, human: dict | 
         q = ct.qp("01") if human is None else _affine(ct, "01", "11", _zpoly(human))
         N_, r, ok = rhp_count(q)
         return {"stable": ok & (N_ == 0) & (r == 0), "n_rhp": N_, "rigid_body_roots": r, "conclusive": ok}
-    zh = _zpoly(human) if human else np.zeros(1)
-    ze = _zpoly(env) if isinstance(env, dict) else np.zeros(1)
+    zh = np.broadcast_to(_zpoly(human) if human else np.zeros(1), (N, 3 if human else 1))
+    ze = np.broadcast_to(_zpoly(env) if isinstance(env, dict) else np.zeros(1), (N, 3 if isinstance(env, dict) else 1))
     # Δ = Δ00 + z Δ10 + ze Δ01 + z ze Δ11
     t = ct.terms
-    p0 = padd(padd(t["00"].p0, pmul(t["10"].p0, zh[None])), padd(pmul(t["01"].p0, ze[None]), pmul(t["11"].p0, pmul(zh, ze)[None])))
-    p1 = padd(padd(t["00"].p1, pmul(t["10"].p1, zh[None])), padd(pmul(t["01"].p1, ze[None]), pmul(t["11"].p1, pmul(zh, ze)[None])))
+    p0 = padd(padd(t["00"].p0, pmul(t["10"].p0, zh)), padd(pmul(t["01"].p0, ze), pmul(t["11"].p0, pmul(zh, ze))))
+    p1 = padd(padd(t["00"].p1, pmul(t["10"].p1, zh)), padd(pmul(t["01"].p1, ze), pmul(t["11"].p1, pmul(zh, ze))))
     N_, r, ok = rhp_count(QP(_trim(p0), _trim(p1), ct.T))
     return {"stable": ok & (N_ == 0) & (r <= 1), "n_rhp": N_, "rigid_body_roots": r, "conclusive": ok}
 
 
 def _zpoly(d: dict) -> np.ndarray:
-    return np.array([d.get("stiffness", 0.0), d.get("damping", 0.0), d.get("inertia", 0.0)], dtype=float)
+    """[k, b, m] ascending coefficients of Z(s) = k + b s + m s²; values may be arrays (per design)."""
+    return as_poly(*(np.asarray(d.get(k, 0.0), dtype=float) for k in ("stiffness", "damping", "inertia")))
 
 
 def _affine(ct: CharTerms, k0: str, k1: str, z: np.ndarray) -> QP:
@@ -903,3 +904,169 @@ def _concat_columns(parts: list[dict]) -> dict:
         else:
             out[k] = [x for p in parts for x in p[k]]
     return out
+
+
+# ----------------------------------------------------------------------------------------------
+# single design (CLI)
+# ----------------------------------------------------------------------------------------------
+METRIC_UNITS = {
+    "passivity.max_phase_excess_deg": "deg",
+    "passivity.nonpassive_band_hz": "Hz",
+    "dob.gain_margin_db": "dB",
+    "dob.phase_margin_deg": "deg",
+    "dob.delay_margin_s": "s (extra delay on top of the modelled T)",
+    "dob.crossover_hz": "Hz",
+    "amplification.dc": "1 (|C6/C5| at ω → 0)",
+    "amplification.bandwidth_hz": "Hz (first −3 dB frequency of |C6/C5|)",
+    "delay_s": "s",
+}
+
+
+def analyze_design(cfg) -> dict:
+    """All SPEC §5 metrics for one design, as a JSON-ready dict (SPEC §8 ``analyze --json``)."""
+    from .shaping import GAIN_UNITS_TORQUE, double_compliance_shaping
+
+    if cfg.implementation.gv_filter is None or cfg.implementation.derivative_filter is None:
+        from .errors import ConfigError
+
+        raise ConfigError(
+            "implementation.gv_filter" if cfg.implementation.gv_filter is None else "implementation.derivative_filter",
+            "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (SPEC §3)",
+        )
+    cols = analyze_batch(cfg)
+    ds = double_compliance_shaping(cfg.plant, cfg.design)
+    g = lambda k: float(np.asarray(cols[k])[0])
+    humans = []
+    for i, fam in enumerate(cfg.humans):
+        key = f"human{i}_{fam.kind}"
+        iv = cols[f"{key}_stable_intervals"][0]
+        entry = {
+            "kind": fam.kind,
+            "parameter": fam.param,
+            "unit": fam.unit,
+            "range": [fam.lo, fam.hi],
+            "fixed": {k: v for k, v in {**fam.fixed(), **({"eta": fam.eta} if fam.kind == "complex_stiffness" else {})}.items() if k != fam.param},
+            "stable_intervals": iv,
+            "robust": bool(cols[f"{key}_robust"][0]),
+            "conclusive": bool(cols[f"{key}_conclusive"][0]),
+            "critical": [{"value": p, "frequency_hz": f} for p, f in cols[f"{key}_critical"][0]],
+        }
+        if iv:
+            # the stable interval reaching the top of the range gives e.g. the lightest stable inertia
+            top = [x for x in iv if x[1] == fam.hi]
+            entry["lowest_stable_value_below_range_top"] = top[0][0] if top else None
+        humans.append(entry)
+    env = []
+    for i, e in enumerate(cfg.environment):
+        key = f"env{i}_{e.kind}"
+        if e.kind in ("locked", "free"):
+            env.append({"kind": e.kind, "stable": bool(cols[f"{key}_stable"][0])})
+        else:
+            env.append(
+                {
+                    "kind": e.kind,
+                    "parameter": e.param,
+                    "range": [e.lo, e.hi],
+                    "stable_intervals": cols[f"{key}_stable_intervals"][0],
+                    "robust": bool(cols[f"{key}_robust"][0]),
+                }
+            )
+    dob = None
+    if cfg.implementation.dob is not None:
+        dob = {
+            "gain_margin_db": g("dob_gain_margin_db"),
+            "phase_margin_deg": g("dob_phase_margin_deg"),
+            "delay_margin_s": g("dob_delay_margin_s"),
+            "crossover_hz": g("dob_crossover_hz"),
+        }
+    ratio = float(ds.J_m_hat / cfg.plant.J_j)
+    warnings = list(ds.warnings)
+    if cfg.implementation.sample_rate_hz:
+        warnings.append(
+            "sample_rate_hz is set: this analysis is continuous-time (exact delay); the discrete "
+            "controller is checked exactly by `exotune certify` on the exported file"
+        )
+    if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
+        warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution): treated as NOT stable")
+    return {
+        "model": "continuous-time, exact delay e^{-sT} (SPEC §3); verdicts by the argument principle on the closed-loop characteristic quasi-polynomial",
+        "structure": cfg.implementation.structure,
+        "delay_s": float(np.asarray(cfg.implementation.delay_s)),
+        "gain_convention": "torque",
+        "gains": {k: g(k) for k in GAIN_NAMES},
+        "units": dict(GAIN_UNITS_TORQUE),
+        "free_stable": bool(cols["free_stable"][0]),
+        "free": {
+            "stable": bool(cols["free_stable"][0]),
+            "rigid_body_roots": int(cols["free_rigid_body_roots"][0]),
+            "note": "the rigid-body root at s = 0 (K1 = 0, cuff free) is physical and removed exactly (SPEC §4)",
+        },
+        "locked_stable": bool(cols["locked_stable"][0]),
+        "humans": humans,
+        "environment": env,
+        "passivity": {
+            "max_phase_excess_deg": g("passivity_max_phase_excess_deg"),
+            "nonpassive_band_hz": cols["passivity_nonpassive_band_hz"][0],
+        },
+        "dob": dob,
+        "amplification": {
+            "dc": g("amplification_dc"),
+            "bandwidth_hz": g("amplification_bandwidth_hz"),
+            "minimum_phase": bool(cols["amplification_minimum_phase"][0]),
+        },
+        "J_m_hat_over_J_j": ratio,
+        "metric_units": METRIC_UNITS,
+        "warnings": warnings,
+    }
+
+
+def _fmt_iv(iv, unit):
+    if not iv:
+        return "none"
+    return ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in iv) + f" {unit}"
+
+
+def format_report(r: dict) -> str:
+    """Readable text report of :func:`analyze_design` with units."""
+    L = []
+    yn = lambda b: "yes" if b else "NO"
+    L.append("exotune analyze — " + r["model"])
+    L.append(f"delay T = {r['delay_s'] * 1e3:.4g} ms, controller structure '{r['structure']}'")
+    L.append("")
+    L.append("Gains (torque units, SPEC §4):")
+    for k, v in r["gains"].items():
+        L.append(f"  {k:7s} = {v:12.6g}  [{r['units'][k]}]")
+    L.append("")
+    L.append(f"Free exoskeleton (cuff free) stable: {yn(r['free_stable'])} (rigid-body roots at s=0 removed: {r['free']['rigid_body_roots']})")
+    L.append(f"Output locked stable:               {yn(r['locked_stable'])}")
+    for e in r["environment"]:
+        if "stable" in e:
+            L.append(f"Environment {e['kind']}: stable {yn(e['stable'])}")
+        else:
+            L.append(f"Environment {e['kind']} {e['parameter']} {e['range']}: robust {yn(e['robust'])}, stable on {_fmt_iv(e['stable_intervals'], '')}")
+    L.append("")
+    L.append("Coupled stability with the human models:")
+    for h in r["humans"]:
+        L.append(f"  {h['kind']:17s} {h['parameter']} in [{h['range'][0]:.6g}, {h['range'][1]:.6g}] {h['unit']}: robust {yn(h['robust'])}")
+        L.append(f"    stable on {_fmt_iv(h['stable_intervals'], h['unit'])}")
+        for c in h["critical"]:
+            L.append(f"    boundary at {h['parameter']} = {c['value']:.6g} {h['unit']} (crossing at {c['frequency_hz']:.4g} Hz)")
+        if h.get("lowest_stable_value_below_range_top") is not None and h["kind"] in ("mass", "msd") and h["parameter"] == "inertia":
+            L.append(f"    lightest stable inertia: {h['lowest_stable_value_below_range_top']:.6g} kg·m²")
+    L.append("")
+    p = r["passivity"]
+    L.append(f"Passivity of C7: max phase excess {p['max_phase_excess_deg']:.4g} deg outside [-180°, 0°]; non-passive bands: {_fmt_iv(p['nonpassive_band_hz'], 'Hz')}")
+    if r["dob"]:
+        d = r["dob"]
+        L.append(
+            f"DOB loop L_dob = Q e^(-sT)/(1-Q): gain margin {d['gain_margin_db']:.4g} dB, phase margin {d['phase_margin_deg']:.4g} deg, "
+            f"delay margin {d['delay_margin_s'] * 1e3:.4g} ms (extra delay), crossover {d['crossover_hz']:.4g} Hz"
+        )
+    else:
+        L.append("DOB: none")
+    a = r["amplification"]
+    L.append(f"Amplification C6/C5: DC {a['dc']:.6g}, -3 dB bandwidth {a['bandwidth_hz']:.4g} Hz, minimum phase {yn(a['minimum_phase'])}")
+    L.append(f"J_m_hat / J_j = {r['J_m_hat_over_J_j']:.4g}")
+    for w in r["warnings"]:
+        L.append(f"warning: {w}")
+    return "\n".join(L)

@@ -479,7 +479,8 @@ def sea_report(cfg) -> dict:
     stiffness = math.inf if n0 == 0 else float(d0 / n0)
 
     poles = _roots(c5[1])
-    nonzero = poles[np.abs(poles) > 0] if np.any(c5[1][:1] == 0) else poles
+    rigid = bool(c5[1][0] == 0)  # exact pole at s = 0 (K1 = 0): rigid-body mode, not an instability
+    nonzero = poles[np.abs(poles) > 0] if rigid else poles
     stable = bool(np.all(nonzero.real < 0))
     res_hz, res_peak = _resonance(*c5)
     max_ph, max_hz = _phase_extremum(*c4, sign=+1)
@@ -489,8 +490,10 @@ def sea_report(cfg) -> dict:
     notes = []
     if K1t == 0:
         notes.append("K1 = 0: no motor-position feedback, so the closed-loop SEA has zero static stiffness")
+    if rigid:
+        notes.append("C5 has a pole at s = 0 (rigid-body mode of the free joint, not an instability)")
     if not stable:
-        notes.append("C5 has poles in the closed right half-plane: the SEA with the joint inertia is unstable")
+        notes.append("C5 has poles with Re ≥ 0 (other than a rigid-body pole at 0): the SEA with the joint inertia is unstable")
     if res_hz is None:
         notes.append("|C5(jω)| has no resonant peak")
     if max_ph > 0:
@@ -512,6 +515,7 @@ def sea_report(cfg) -> dict:
         "resonance_peak_compliance": res_peak,
         "c5_poles": _root_entries(poles),
         "c5_stable": stable,
+        "c5_rigid_body_mode": rigid,
         "passivity": {
             "passive": all(cond.values()),
             "conditions": cond,
