@@ -287,7 +287,7 @@ class _Side:
     g(ω) = Im[Δ_0 · conj(f φ(jω) Δ{key1})] (f = 1 + jη for the hysteretic human).
     """
 
-    def __init__(self, ct: CharTerms, key0: str, key1: str, families, per_decade: int = 4):
+    def __init__(self, ct: CharTerms, key0: str, key1: str, families, per_decade: int = 2):
         self.ct, self.key0, self.key1 = ct, key0, key1
         self.fams = list(families)
         self.per_decade = per_decade
@@ -310,7 +310,7 @@ class _Side:
             fam = self.fams[i]
             wmax = np.maximum(wmax, _family_wmax(D0, D1, phi, factor, fam.lo, fam.hi))
         valid = np.isfinite(wmax) & (wmax > 0)
-        grid = log_grid(np.where(valid, wmax, 1.0), decades=8, per_decade=self.per_decade)
+        grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=self.per_decade)
         lv = adaptive_leaves(lambda i, w: [D0.eval(i, w), D1.eval(i, w)], Nd, grid, valid)
         lv["valid"] = valid
         self.leaves[tuple(z0)] = (D0, D1, lv)
@@ -699,7 +699,7 @@ def _batched_roots(c: np.ndarray) -> np.ndarray:
     return out
 
 
-def _amp_dc_bandwidth(num: QP, den: QP, per_decade: int = 4):
+def _amp_dc_bandwidth(num: QP, den: QP, per_decade: int = 2):
     """DC value and first −3 dB frequency [Hz] of C6/C5 = num/den (inf when never reached)."""
     N = num.n
     rows = np.arange(N)

@@ -15,9 +15,12 @@ become ordinary, smooth points of Δ, and the number of open-loop RHP poles is a
 exactly instead of being assumed.
 
 The phase is followed on an *adaptive* frequency set: an interval [a, b] is accepted only when
-the wrapped phase step is < 0.5 rad **and** (b − a)·|Δ'/Δ| < 0.8 at both ends. A zero of Δ at
-distance d from the axis makes |Δ'/Δ| ≈ 1/d near it, so an interval that steps over it is always
-split, down to the zero's own damping (10⁻⁵ rad/s or less costs ~25 bisections, only there).
+the wrapped phase step is < 0.8 rad **and** h·|L(b) − L(a)| ≤ 1 with L = Δ'/Δ and h = b − a.
+A zero of Δ at distance σ from the axis inside the interval makes h·|L(b) − L(a)| ≈ h²/(σ² + h²/4),
+so an accepted interval has h ≲ 1.2σ and that zero moves the phase by < 1.1 rad across it: an
+interval that steps over a near-axis zero is always split, down to the zero's own damping
+(10⁻⁵ rad/s or less costs ~25 bisections, only there), while the smooth background of distant
+zeros (L ≈ n/ω) does not force dense sampling.
 The tail ω > ω_max is bounded analytically (no sampling): ω_max is chosen so that for every
 ω ≥ ω_max, |Σ_{k<n} c_k (jω)^k| ≤ ¼|c_n ω^n| and |P1(jω)| ≤ ¼|P0(jω)|.
 """
@@ -33,7 +36,7 @@ from .poly import degree, leading, pder, pval_flat
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
 
 ARG_STEP = 0.8  # max accepted phase step per interval [rad] (any value < π keeps unwrapping exact)
-DER_STEP = 1.2  # max accepted (b − a)·|Δ'/Δ| per interval
+DER_STEP = 1.0  # max accepted (b − a)·|Δ'/Δ(b) − Δ'/Δ(a)| per interval
 MAX_LEVELS = 64
 _TAN_ARG = float(np.tan(ARG_STEP))
 
@@ -158,9 +161,10 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
                 ratio = vb[i] / va[i]
                 # |arg ratio| ≤ ARG_STEP without computing the angle
                 small_arg = (ratio.real > 0) & (np.abs(ratio.imag) <= _TAN_ARG * ratio.real)
-                la = np.abs(da[i] / va[i])
-                lb = np.abs(db[i] / vb[i])
-                crit = h * np.maximum(la, lb)
+                # change of the logarithmic derivative across the interval: a zero at distance
+                # σ from the axis inside (or next to) [a, b] makes h·|L(b) − L(a)| ≳ h²/(σ² + h²/4),
+                # while the smooth background of distant zeros (≈ n/ω) barely changes
+                crit = h * np.abs(db[i] / vb[i] - da[i] / va[i])
             # an exact zero at ω = 0 (a structural root at s = 0) is known, not sampled: the
             # function is skipped on the first interval [0, ω1] only
             skip = (a == 0) & (va[i] == 0) & (vb[i] != 0) & np.isfinite(vb[i])
@@ -222,7 +226,7 @@ def log_grid(wmax: np.ndarray, decades: float = 9.0, per_decade: int = 8) -> np.
     return np.concatenate([np.zeros((len(wmax), 1)), g], axis=1)
 
 
-def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 4):
+def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     """Number of zeros of Δ in the open RHP, by the argument principle (module docstring).
 
     ``v0`` optionally overrides Δ(j0) (a real number per row): used for the hysteretic
@@ -248,7 +252,7 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 4):
     ntask = q.n
     wmax = omega_max(p0, p1)
     valid = np.isfinite(wmax)
-    grid = log_grid(np.where(valid, wmax, 1.0), decades=8, per_decade=per_decade)
+    grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=per_decade)
     evalfn = lambda idx, w: [q.eval(idx, w)]
     lv = adaptive_leaves(evalfn, ntask, grid, valid)
     # Δ(0+) is the first leaf value; v0 is the regularized value at 0
