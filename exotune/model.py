@@ -90,6 +90,8 @@ class Tf:
     """
 
     __slots__ = ("_fn", "label")
+    # make numpy defer to Tf's reflected operators (array * Tf -> Tf.__rmul__)
+    __array_ufunc__ = None
 
     def __init__(self, fn: Callable[[np.ndarray], np.ndarray], label: str = ""):
         self._fn = fn

@@ -164,7 +164,14 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
                 # change of the logarithmic derivative across the interval: a zero at distance
                 # σ from the axis inside (or next to) [a, b] makes h·|L(b) − L(a)| ≳ h²/(σ² + h²/4),
                 # while the smooth background of distant zeros (≈ n/ω) barely changes
-                crit = h * np.abs(db[i] / vb[i] - da[i] / va[i])
+                La = da[i] / va[i]
+                Lb = db[i] / vb[i]
+                crit = h * np.abs(Lb - La)
+                # the trapezoid estimate of the phase change, ∫ Re L dω ≈ h (Re L_a + Re L_b)/2,
+                # must agree with the measured principal step (guards against L_a ≈ L_b by
+                # coincidence while the phase winds in between)
+                trap = np.abs(0.5 * h * (La.real + Lb.real) - np.angle(ratio))
+                crit = np.maximum(crit, 2.0 * trap)
             # an exact zero at ω = 0 (a structural root at s = 0) is known, not sampled: the
             # function is skipped on the first interval [0, ω1] only
             skip = (a == 0) & (va[i] == 0) & (vb[i] != 0) & np.isfinite(vb[i])

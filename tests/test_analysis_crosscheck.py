@@ -147,3 +147,53 @@ def test_light_inertia_trap_matches_eigenvalues():
         assert bool(res["stable"][i]) == ref, i
         agree += 1
     assert agree >= 30
+
+
+@pytest.mark.parametrize("env_kind", ["spring", "mass", "locked"])
+def test_environment_verdicts_match_eigenvalues(env_kind):
+    """Environment at the joint (cuff free): locked output, springs and masses (SPEC §5)."""
+    n = 80
+    cases = _random_cases(n, 11)
+    rng = np.random.default_rng(12)
+    plant = Plant(PLANT["J_m"], PLANT["B_m"], PLANT["K_s"], PLANT["J_j"], cases["Kc"])
+    design = DesignParams(cases["alpha"], cases["felt_inertia"], cases["felt_damping"], cases["zeta"], cases["zeta_hat"])
+    impl = Implementation(delay_s=cases["delay"], gv_filter=SecondOrderFilter(cases["fv"], 0.7),
+                          derivative_filter=FirstOrderFilter(cases["fd"]), dob=SecondOrderFilter(60.0, 0.7))
+    cs, ds = build_controller(plant, design, impl)
+    if env_kind == "locked":
+        env = "locked"
+        values = np.zeros(n)
+    elif env_kind == "spring":
+        values = np.exp(rng.uniform(np.log(10.0), np.log(1e5), n))
+        env = {"stiffness": values, "damping": np.full(n, 2.0)}
+    else:
+        values = np.exp(rng.uniform(np.log(1e-3), np.log(10.0), n))
+        env = {"inertia": values, "damping": np.zeros(n)}
+    res = coupled_stable(plant, cs, n, human=None, env=env)
+    compared = 0
+    for i in range(n):
+        p = dict(PLANT, K_c=float(cases["Kc"][i]))
+        g = ds.gains
+        gains = dict(K1=float(g.K1[i]), B1=float(g.B1[i]), K2=float(g.K2[i]), B2=float(g.B2[i]),
+                     Gc=(cs.cuff_torque.num[i], cs.cuff_torque.den[i]))
+        im = dict(T=float(cases["delay"][i]), dob={"cutoff_hz": 60.0, "damping": 0.7})
+
+        def verdict(scale=1.0, order=10):
+            if env_kind == "locked":
+                e = "locked"
+            elif env_kind == "spring":
+                e = {"kind": "spring", "stiffness": values[i] * scale, "damping": 2.0}
+            else:
+                e = {"kind": "mass", "inertia": values[i] * scale, "damping": 0.0}
+            poles = closed_loop_poles(p, gains, im, None, e, pade_order=order)
+            if has_rigid_body_mode(gains, None, e):
+                poles = np.delete(poles, int(np.argmin(np.abs(poles))))
+            return bool(np.max(poles.real) < 0)
+
+        ref = verdict()
+        if ref != verdict(order=14) or (env_kind != "locked" and (verdict(1.005) != ref or verdict(1 / 1.005) != ref)):
+            continue
+        assert res["conclusive"][i]
+        assert bool(res["stable"][i]) == ref, (i, env_kind)
+        compared += 1
+    assert compared >= 70

@@ -1,0 +1,355 @@
+"""The command-line contract (SPEC §8): outputs with units, JSON conventions, and the error
+contract (one line naming the field, exit code 2, no traceback, nothing written)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from exotune import __version__
+from exotune.cli import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER = ROOT / "examples" / "paper.yaml"
+SEA = ROOT / "examples" / "sea.yaml"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+
+
+def bad_design(tmp_path, old, new, name="bad.yaml") -> Path:
+    text = PAPER.read_text(encoding="utf-8")
+    assert old in text
+    p = tmp_path / name
+    p.write_text(text.replace(old, new, 1), encoding="utf-8")
+    return p
+
+
+def assert_input_error(res, field):
+    assert res.exit_code == 2, res.output
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith(f"exotune: error: {field}: "), lines[0]
+    assert "Traceback" not in res.output
+    assert res.stdout == ""
+
+
+# ------------------------------------------------------------------------------ exotune design
+@pytest.fixture(scope="module")
+def design_json():
+    res = run("design", PAPER, "--json")
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout)
+
+
+def test_design_gains_match_spec_formulas(design_json):
+    """Independent evaluation of the SPEC §4 formulas for the §9 example."""
+    J_m, B_m, K_s, J_j, K_c = 0.44, 17.9, 1180.0, 0.29, 300.0
+    a, fi, fd, z, zh = 8.0, 0.25, 1.0, 0.7, 0.7
+    Jh, Bh = a * fi, a * fd
+    K2t, B1t = K_s / Jh, Bh / Jh
+    B2t = 2 * z * math.sqrt(K_s / Jh)
+    expect = {
+        "K1": 0.0,
+        "B1": J_m * B1t - B_m,
+        "K2": J_m / Jh - 1,
+        "B2": (B2t - B1t) * J_m / K_s,
+        "K2_hat": a - 1,
+        "B2_hat": (2 * zh * math.sqrt(a * K_c * Jh) - Bh) / K_c,
+    }
+    g = design_json["gains"]
+    assert set(g) == set(expect)
+    for k, v in expect.items():
+        assert g[k] == pytest.approx(v, rel=1e-12, abs=1e-12), k
+    assert g["K1"] == 0.0 and g["K2_hat"] == 7.0
+    assert g["B1"] == pytest.approx(0.44 * 4.0 - 17.9)
+    assert design_json["gain_convention"] == "torque"
+    assert set(design_json["units"]) == set(expect)
+    assert design_json["units"]["K1"] == "N·m/rad" and design_json["units"]["B2"].startswith("s")
+    sh = design_json["shape"]
+    assert sh == pytest.approx({"K1_tilde": 0.0, "B1_tilde": B1t, "K2_tilde": K2t, "B2_tilde": B2t,
+                                "J_m_hat": Jh, "B_m_hat": Bh})
+    assert set(design_json["shape_units"]) >= set(sh)
+
+
+def test_design_poles_and_zeros(design_json):
+    tfs = design_json["transfer_functions"]
+    assert set(tfs) == {"C4", "C5", "C5_hat", "C7_nominal", "G_v"}
+    for tf in tfs.values():
+        assert tf["units"] and tf["poles"] is not None
+        for r in tf["poles"] + tf["zeros"]:
+            assert set(r) == {"re", "im", "natural_frequency_hz", "damping_ratio"}
+    # C4 zeros: s² + 2ζ√(K_s/Ĵ_m) s + K_s/Ĵ_m -> f_n = √590/2π, ζ = 0.7
+    for r in tfs["C4"]["zeros"]:
+        assert r["natural_frequency_hz"] == pytest.approx(math.sqrt(590.0) / (2 * math.pi))
+        assert r["damping_ratio"] == pytest.approx(0.7)
+    # C4 poles: s (s + B̃1) -> 0 and −4 rad/s; the root at 0 has no damping ratio (null)
+    poles = sorted((p["re"], p["im"]) for p in tfs["C4"]["poles"])
+    assert poles == [pytest.approx((-4.0, 0.0)), pytest.approx((0.0, 0.0))]
+    assert [p["damping_ratio"] for p in tfs["C4"]["poles"] if p["re"] == 0.0] == [None]
+    # C5 poles: roots of J_j s² (s² + B̃2 s + K̃2) + K_s (s² + B̃1 s) (descending for np.roots)
+    B2t = 1.4 * math.sqrt(590.0)
+    den = np.polyadd(0.29 * np.array([1.0, B2t, 590.0, 0.0, 0.0]), 1180.0 * np.array([1.0, 4.0, 0.0]))
+    want = np.sort_complex(np.roots(den))
+    got = np.sort_complex(np.array([p["re"] + 1j * p["im"] for p in tfs["C5"]["poles"]]))
+    np.testing.assert_allclose(got, want, atol=1e-9)
+    # G_v: the common root at s = 0 is cancelled exactly -> proper denominator s + B̃1
+    assert [(p["re"], p["im"]) for p in tfs["G_v"]["poles"]] == [pytest.approx((-4.0, 0.0))]
+    # C7 zeros: s² + 2ζ̂√(αK_c/Ĵ_m) s + αK_c/Ĵ_m (erratum fixed), ω_n² = 1200
+    for r in tfs["C7_nominal"]["zeros"]:
+        assert r["natural_frequency_hz"] == pytest.approx(math.sqrt(1200.0) / (2 * math.pi))
+        assert r["damping_ratio"] == pytest.approx(0.7)
+
+
+def test_design_approximation(design_json):
+    ap = design_json["approximation"]
+    f = ap["valid_below_hz"]
+    assert isinstance(f, float) and 0 < f < 10
+    assert ap["J_m_hat_over_J_j"] == pytest.approx(2.0 / 0.29)
+    # independent check of the crossing: |C5/Ĉ5 − 1| = 0.1 at f
+    B2t = 1.4 * math.sqrt(590.0)
+
+    def e(fr):
+        s = 2j * math.pi * fr
+        c5 = (s * s + B2t * s + 590.0) / (0.29 * s * s * (s * s + B2t * s + 590.0) + 1180.0 * (s * s + 4.0 * s))
+        c5h = 1.0 / (2.0 * s * s + 8.0 * s)
+        return abs(c5 / c5h - 1.0)
+
+    assert e(f) == pytest.approx(0.1, abs=1e-7)
+    assert all(e(x) < 0.1 for x in np.geomspace(f / 1e4, f * 0.999, 200))
+    assert design_json["warnings"] == []
+
+
+def test_design_text_has_units():
+    res = run("design", PAPER)
+    assert res.exit_code == 0
+    out = res.stdout
+    for s in ("K2_hat", "N·m/rad", "N·m·s/rad", "torque units", "rad/s", "Hz", "Approximation", "|C5(jω)/Ĉ5(jω) − 1| < 0.1"):
+        assert s in out, s
+
+
+def test_design_plots(tmp_path):
+    d = tmp_path / "plots"
+    res = run("design", PAPER, "--plots", d)
+    assert res.exit_code == 0, res.output
+    names = sorted(os.listdir(d))
+    assert {"bode_C4.png", "bode_C5.png", "bode_C5_hat.png", "bode_C7_nominal.png", "bode_G_v.png"} <= set(names)
+    for n in names:
+        assert (d / n).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_design_warning_when_assumptions_fail(tmp_path):
+    p = bad_design(tmp_path, "felt_inertia: 0.25", "felt_inertia: 0.05", "warn.yaml")  # Ĵ_m/J_j = 1.4
+    res = run("design", p, "--json")
+    assert res.exit_code == 0
+    assert any("J_m_hat/J_j" in w for w in json.loads(res.stdout)["warnings"])
+
+
+# ------------------------------------------------------------------------------ error contract
+@pytest.mark.parametrize(
+    "old,new,field",
+    [
+        ("amplification: 8.0", "amplification: 0.5", "design.amplification"),
+        ("motor_inertia: 0.44", "motor_inertia: -0.44", "plant.motor_inertia"),
+        ("felt_damping: 1.0", "felt_damping: .nan", "design.felt_damping"),
+        ("zeta: 0.7", "zeta: 0.7\n  zeta_tilde: 1.0", "design.zeta_tilde"),
+        ("  joint_inertia: 0.29       # J_j   kg·m²\n", "", "plant.joint_inertia"),
+        ("sample_rate_hz: null", "sample_rate_hz: 150", "implementation.gv_filter.cutoff_hz"),
+        ("inertia: [0.001, 1.0]", "inertia: [1.0, 0.001]", "humans[0].inertia"),
+        ("stiffness: [1.0, 10000.0]", "stiffness: [1.0]", "humans[1].stiffness"),
+    ],
+)
+@pytest.mark.parametrize("command", ["design", "analyze"])
+def test_bad_input_exit_2(tmp_path, old, new, field, command):
+    p = bad_design(tmp_path, old, new)
+    plots = tmp_path / "plots"
+    res = run(command, p, "--json", "--plots", plots)
+    assert_input_error(res, field)
+    assert not plots.exists()
+
+
+@pytest.mark.parametrize("command", ["design", "sea", "analyze"])
+def test_unreadable_file(tmp_path, command):
+    p = tmp_path / "missing.yaml"
+    res = run(command, p)
+    assert_input_error(res, str(p))
+    assert "cannot read file" in res.stderr
+
+
+def test_invalid_yaml(tmp_path):
+    p = tmp_path / "broken.yaml"
+    p.write_text("plant: [1,\n", encoding="utf-8")
+    res = run("design", p)
+    assert_input_error(res, str(p))
+    assert "invalid YAML" in res.stderr
+
+
+def test_sea_bad_input(tmp_path):
+    p = tmp_path / "sea.yaml"
+    p.write_text(SEA.read_text(encoding="utf-8").replace("units: deflection", "units: newtons"), encoding="utf-8")
+    assert_input_error(run("sea", p, "--json"), "gains.units")
+
+
+def test_version():
+    res = run("--version")
+    assert res.exit_code == 0 and __version__ in res.stdout
+
+
+def _exotune_cmd():
+    exe = Path(sys.executable).with_name("exotune")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "exotune.cli"]
+
+
+def test_subprocess_error_contract(tmp_path):
+    p = bad_design(tmp_path, "amplification: 8.0", "amplification: 0.5")
+    plots = tmp_path / "plots"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    for cmd in (_exotune_cmd(), [sys.executable, "-m", "exotune"]):
+        r = subprocess.run(cmd + ["design", str(p), "--json", "--plots", str(plots)],
+                           capture_output=True, text=True, env=env, timeout=60)
+        assert r.returncode == 2, r.stderr
+        assert r.stdout == ""
+        assert r.stderr.strip().splitlines() == ["exotune: error: design.amplification: must be >= 1, got 0.5"]
+        assert not plots.exists()
+
+
+def test_subprocess_design_json():
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run(_exotune_cmd() + ["design", str(PAPER), "--json"], capture_output=True, text=True,
+                       env=env, timeout=60)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["gains"]["K1"] == 0.0 and d["gains"]["K2_hat"] == 7.0
+
+
+# --------------------------------------------------------------------------------- exotune sea
+@pytest.fixture(scope="module")
+def sea_json():
+    res = run("sea", SEA, "--json")
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout)
+
+
+def _sea_shape(K1, B1, K2, B2, J_m=0.44, B_m=17.9, K_s=1180.0):
+    """Paper eq. (hyper_params), deflection units."""
+    return K1 / J_m, (B_m + B1) / J_m, (K_s + K1 + K2) / J_m, (B_m + B1 + B2) / J_m
+
+
+def test_sea_fields(sea_json):
+    K1t, B1t, K2t, B2t = _sea_shape(69480.0, 1387.0, -41690.0, -1183.0)
+    assert sea_json["shape"] == pytest.approx({"K1_tilde": K1t, "B1_tilde": B1t, "K2_tilde": K2t, "B2_tilde": B2t})
+    assert sea_json["low_frequency_stiffness"] == pytest.approx(1180.0 * K1t / K2t)
+    assert sea_json["passivity"]["passive"] is False
+    assert sea_json["passivity"]["failed_conditions"] == ["B2 >= 0"]
+    assert sea_json["c5_stable"] is True
+    for k in ("low_frequency_stiffness", "resonance_hz", "max_phase_deg", "max_phase_hz"):
+        assert k in sea_json["units"]
+    assert sea_json["gains_torque"]["K2"] == pytest.approx(-41690.0 / 1180.0)
+
+    # resonance: brute force over a fine grid of |C5(jω)| (paper eq. total_compliance)
+    w = np.geomspace(1.0, 1e4, 400001)
+    s = 1j * w
+    num = s * s + B2t * s + K2t
+    c5 = np.abs(num / (0.29 * s * s * num + 1180.0 * (s * s + B1t * s + K1t)))
+    i = int(np.argmax(c5))
+    assert 0 < i < len(w) - 1
+    assert sea_json["resonance_hz"] == pytest.approx(w[i] / (2 * np.pi), rel=1e-4)
+    assert sea_json["resonance_peak_compliance"] == pytest.approx(c5[i], rel=1e-8)
+    # max phase of C4: brute force
+    c4 = num / (1180.0 * (s * s + B1t * s + K1t))
+    ph = np.degrees(np.angle(c4))
+    j = int(np.argmax(ph))
+    assert sea_json["max_phase_deg"] == pytest.approx(ph[j], abs=1e-6)
+    assert sea_json["max_phase_deg"] >= ph[j] - 1e-9
+    assert sea_json["max_phase_hz"] == pytest.approx(w[j] / (2 * np.pi), rel=1e-3)
+    assert sea_json["max_phase_deg"] > 0  # not passive at high frequency, consistent with B2 < 0
+
+
+def test_sea_torque_units_equivalent(tmp_path, sea_json):
+    p = tmp_path / "sea_t.yaml"
+    p.write_text(
+        "plant: {motor_inertia: 0.44, motor_damping: 17.9, sea_stiffness: 1180.0, joint_inertia: 0.29}\n"
+        f"gains: {{units: torque, K1: 69480.0, B1: 1387.0, K2: {-41690.0 / 1180.0!r}, B2: {-1183.0 / 1180.0!r}}}\n",
+        encoding="utf-8",
+    )
+    res = run("sea", p, "--json")
+    assert res.exit_code == 0
+    d = json.loads(res.stdout)
+    for k in ("low_frequency_stiffness", "resonance_hz", "max_phase_deg"):
+        assert d[k] == pytest.approx(sea_json[k], rel=1e-9)
+
+
+def test_sea_k1_zero(tmp_path):
+    """A passive SEA with K1 = 0: zero static stiffness, phase within [−180°, 0°]."""
+    p = tmp_path / "sea0.yaml"
+    # shape: K̃1 = 0, B̃1 = 20, K̃2 = 2000, B̃2 = 80 (B̃2 > B̃1: passive)
+    J_m, B_m, K_s = 0.44, 17.9, 1180.0
+    g = dict(K1=0.0, B1=J_m * 20 - B_m, K2=J_m * 2000 - K_s, B2=J_m * (80 - 20))
+    p.write_text(
+        "plant: {motor_inertia: 0.44, motor_damping: 17.9, sea_stiffness: 1180.0, joint_inertia: 0.29}\n"
+        "gains: {units: deflection, " + ", ".join(f"{k}: {v!r}" for k, v in g.items()) + "}\n",
+        encoding="utf-8",
+    )
+    res = run("sea", p, "--json")
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)
+    assert d["low_frequency_stiffness"] == 0.0
+    assert d["c5_rigid_body_mode"] is True and d["c5_stable"] is True
+    assert d["passivity"]["passive"] is True
+    assert d["max_phase_deg"] <= 1e-9
+    assert d["min_phase_deg"] >= -180.0
+    text = run("sea", p).stdout
+    assert "K1 = 0" in text and "N·m/rad" in text
+
+
+def test_sea_text():
+    res = run("sea", SEA)
+    assert res.exit_code == 0
+    for s in ("N·m/rad", "Hz", "deg", "B2 >= 0", "NOT passive"):
+        assert s in res.stdout, s
+
+
+# -------------------------------------------------------------------------------- wrappers
+def test_analyze_json_if_available():
+    pytest.importorskip("exotune.analysis")
+    try:
+        from exotune.analysis import analyze_design, format_report  # noqa: F401
+    except ImportError:
+        pytest.skip("exotune.analysis.analyze_design not available yet")
+    res = run("analyze", PAPER, "--json")
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)
+    for k in ("gains", "units", "free_stable", "humans", "passivity", "dob", "amplification"):
+        assert k in d
+
+
+def test_sweep_and_report_registered():
+    res = run("--help")
+    for c in ("design", "analyze", "sea", "sweep", "report"):
+        assert c in res.stdout
+    res = run("sweep", "--help")
+    for opt in ("--workers", "--dask", "--sample", "--seed", "--chunk-size", "-o"):
+        assert opt in res.stdout
+
+
+def test_readme_quickstart_and_ci_agree():
+    """README starts with the two commands; .ci/run runs exactly the README's test command."""
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    assert lines[0] == "```"
+    install, test_cmd = lines[1], lines[2]
+    assert "pip install -e '.[test]'" in install and install.startswith("python3 -m venv .venv")
+    assert test_cmd == "python -m pytest -n auto tests"
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    assert "set -euo pipefail" in ci
+    assert "pip install -e '.[test]'" in ci
+    assert test_cmd in ci
+    assert os.access(ROOT / ".ci" / "run", os.X_OK)

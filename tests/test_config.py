@@ -1,0 +1,505 @@
+"""Design-file and SEA-file validation (SPEC §8 "bad input", §9 format) and the JSON helpers.
+
+Every error path must raise ConfigError naming the field as a dotted path and a reason.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings, strategies as st
+
+from exotune.config import (
+    OVERRIDABLE,
+    DesignConfig,
+    batch_config,
+    design_from_mapping,
+    hash_mapping,
+    load_design,
+    load_sea,
+    sea_from_mapping,
+)
+from exotune.errors import ConfigError
+from exotune.humans import EnvModel, HumanFamily
+from exotune.jsonio import to_jsonable, write_atomic
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER = ROOT / "examples" / "paper.yaml"
+SEA = ROOT / "examples" / "sea.yaml"
+
+
+@pytest.fixture()
+def base() -> dict:
+    with open(PAPER, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+@pytest.fixture(scope="module")
+def cfg() -> DesignConfig:
+    return load_design(PAPER)
+
+
+def err(mapping) -> ConfigError:
+    with pytest.raises(ConfigError) as ei:
+        design_from_mapping(mapping)
+    e = ei.value
+    assert str(e) == f"{e.field}: {e.reason}"
+    assert "\n" not in str(e)
+    return e
+
+
+# ------------------------------------------------------------------------------------------ ok
+def test_paper_example_loads(cfg):
+    p, d, i = cfg.plant, cfg.design, cfg.implementation
+    assert (p.motor_inertia, p.motor_damping, p.sea_stiffness, p.joint_inertia, p.cuff_stiffness) == (
+        0.44, 17.9, 1180.0, 0.29, 300.0)
+    assert (d.amplification, d.felt_inertia, d.felt_damping, d.zeta, d.zeta_hat) == (8.0, 0.25, 1.0, 0.7, 0.7)
+    assert i.delay_s == 0.001 and i.sample_rate_hz is None and i.structure == "default"
+    assert (i.gv_filter.cutoff_hz, i.gv_filter.damping) == (80.0, 0.7)
+    assert i.derivative_filter.cutoff_hz == 100.0
+    assert (i.dob.cutoff_hz, i.dob.damping) == (60.0, 0.7)
+    assert i.velocity_filter is None
+    assert cfg.humans == (
+        HumanFamily("mass", "inertia", 0.001, 1.0, damping=0.0),
+        HumanFamily("spring", "stiffness", 1.0, 10000.0, damping=0.0),
+        HumanFamily("complex_stiffness", "stiffness", 10.0, 1000.0, eta=0.2),
+    )
+    assert cfg.environment == (EnvModel("locked"),)
+    assert cfg.source == str(PAPER)
+    json.dumps(cfg.raw)  # JSON-serializable
+    assert cfg.raw["humans"][0] == {"kind": "mass", "inertia": [0.001, 1.0], "damping": 0.0}
+
+
+def test_defaults_and_normalization(base):
+    m = {"plant": base["plant"], "design": base["design"]}
+    c = design_from_mapping(m)
+    assert c.humans == () and c.environment == ()
+    i = c.implementation
+    assert i.delay_s == 0.0 and i.sample_rate_hz is None
+    assert i.gv_filter is None and i.derivative_filter is None and i.dob is None and i.velocity_filter is None
+    assert c.raw["implementation"]["structure"] == "default"
+    # null sections are the defaults too
+    c2 = design_from_mapping({**m, "implementation": None, "humans": None, "environment": None})
+    assert c2.implementation == i and c2.humans == ()
+
+
+def test_scalar_range_and_kinds(base):
+    base["humans"] = [
+        {"kind": "mass", "inertia": 0.1},  # a scalar is [v, v]
+        {"kind": "msd", "inertia": 0.1, "stiffness": [10, 200], "damping": 0.5},
+        {"kind": "msd", "inertia": [0.05, 0.2]},
+        {"kind": "spring", "stiffness": [3, 3]},
+    ]
+    base["environment"] = [
+        {"kind": "free"},
+        {"kind": "spring", "stiffness": [100, 1000], "damping": 1.0},
+        {"kind": "mass", "inertia": [0.1, 2.0]},
+    ]
+    base["implementation"]["velocity_filter"] = {"cutoff_hz": 200}
+    base["implementation"]["structure"] = "full_filter"
+    c = design_from_mapping(base)
+    h = c.humans
+    assert h[0] == HumanFamily("mass", "inertia", 0.1, 0.1)
+    assert h[1] == HumanFamily("msd", "stiffness", 10.0, 200.0, inertia=0.1, damping=0.5, stiffness=0.0)
+    assert h[2] == HumanFamily("msd", "inertia", 0.05, 0.2)
+    assert h[3].range == (3.0, 3.0)
+    assert c.raw["humans"][1] == {"kind": "msd", "inertia": 0.1, "damping": 0.5, "stiffness": [10.0, 200.0]}
+    assert c.environment == (
+        EnvModel("free"),
+        EnvModel("spring", "stiffness", 100.0, 1000.0, 1.0),
+        EnvModel("mass", "inertia", 0.1, 2.0, 0.0),
+    )
+    assert c.implementation.velocity_filter.cutoff_hz == 200.0
+    assert c.implementation.structure == "full_filter"
+
+
+def test_sample_rate_below_nyquist_ok(base):
+    base["implementation"]["sample_rate_hz"] = 1000
+    c = design_from_mapping(base)
+    assert c.implementation.sample_rate_hz == 1000.0
+
+
+# ------------------------------------------------------------------------- field error paths
+def _set(path, value):
+    def mod(m):
+        cur = m
+        keys = path.split(".")
+        for k in keys[:-1]:
+            cur = cur[int(k)] if isinstance(cur, list) else cur[k]
+        last = keys[-1]
+        if isinstance(cur, list):
+            cur[int(last)] = value
+        else:
+            cur[last] = value
+    return mod
+
+
+def _del(path):
+    def mod(m):
+        cur = m
+        keys = path.split(".")
+        for k in keys[:-1]:
+            cur = cur[int(k)] if isinstance(cur, list) else cur[k]
+        del cur[keys[-1]]
+    return mod
+
+
+def _append(section, item):
+    def mod(m):
+        m.setdefault(section, []).append(item)
+    return mod
+
+
+CASES = [
+    # unknown key at each level
+    ("top-level unknown", _set("extra", 1), "extra", "unknown key"),
+    ("plant unknown", _set("plant.motor_mass", 1.0), "plant.motor_mass", "unknown key"),
+    ("design unknown", _set("design.alpha", 2.0), "design.alpha", "unknown key"),
+    ("implementation unknown", _set("implementation.latency", 0.0), "implementation.latency", "unknown key"),
+    ("filter unknown", _set("implementation.gv_filter.order", 2), "implementation.gv_filter.order", "unknown key"),
+    ("dob unknown", _set("implementation.dob.q", 2), "implementation.dob.q", "unknown key"),
+    ("derivative unknown", _set("implementation.derivative_filter.damping", 0.7),
+     "implementation.derivative_filter.damping", "unknown key"),
+    ("human unknown", _set("humans.0.mass", 1.0), "humans[0].mass", "unknown key"),
+    ("complex unknown", _set("humans.2.damping", 1.0), "humans[2].damping", "unknown key"),
+    ("env unknown", _set("environment.0.stiffness", [1, 2]), "environment[0].stiffness", "unknown key"),
+    # missing required parameter
+    ("missing plant key", _del("plant.sea_stiffness"), "plant.sea_stiffness", "missing"),
+    ("missing cuff stiffness", _del("plant.cuff_stiffness"), "plant.cuff_stiffness", "missing"),
+    ("missing design key", _del("design.zeta_hat"), "design.zeta_hat", "missing"),
+    ("missing section", _del("design"), "design", "missing"),
+    ("missing filter cutoff", _del("implementation.gv_filter.cutoff_hz"), "implementation.gv_filter.cutoff_hz", "missing"),
+    ("missing filter damping", _del("implementation.dob.damping"), "implementation.dob.damping", "missing"),
+    ("missing human range", _del("humans.0.inertia"), "humans[0].inertia", "missing"),
+    ("missing eta", _del("humans.2.eta"), "humans[2].eta", "missing"),
+    ("missing kind", _del("humans.1.kind"), "humans[1].kind", "missing"),
+    ("missing env range", _append("environment", {"kind": "spring"}), "environment[1].stiffness", "missing"),
+    # signs and bounds
+    ("negative inertia", _set("plant.motor_inertia", -0.44), "plant.motor_inertia", "> 0"),
+    ("zero joint inertia", _set("plant.joint_inertia", 0), "plant.joint_inertia", "> 0"),
+    ("negative damping", _set("plant.motor_damping", -1), "plant.motor_damping", ">= 0"),
+    ("zero sea stiffness", _set("plant.sea_stiffness", 0.0), "plant.sea_stiffness", "> 0"),
+    ("zero cuff stiffness", _set("plant.cuff_stiffness", 0.0), "plant.cuff_stiffness", "> 0"),
+    ("alpha < 1", _set("design.amplification", 0.5), "design.amplification", ">= 1"),
+    ("felt inertia 0", _set("design.felt_inertia", 0.0), "design.felt_inertia", "> 0"),
+    ("felt damping 0", _set("design.felt_damping", 0.0), "design.felt_damping", "integrator"),
+    ("zeta 0", _set("design.zeta", 0.0), "design.zeta", "> 0"),
+    ("zeta_hat negative", _set("design.zeta_hat", -0.7), "design.zeta_hat", "> 0"),
+    ("negative delay", _set("implementation.delay_s", -0.001), "implementation.delay_s", ">= 0"),
+    ("zero sample rate", _set("implementation.sample_rate_hz", 0), "implementation.sample_rate_hz", "> 0"),
+    ("zero cutoff", _set("implementation.gv_filter.cutoff_hz", 0.0), "implementation.gv_filter.cutoff_hz", "> 0"),
+    ("zero filter damping", _set("implementation.dob.damping", 0.0), "implementation.dob.damping", "> 0"),
+    ("negative human damping", _set("humans.0.damping", -1.0), "humans[0].damping", ">= 0"),
+    ("eta too big", _set("humans.2.eta", 10.0), "humans[2].eta", "< 10"),
+    ("eta negative", _set("humans.2.eta", -0.1), "humans[2].eta", ">= 0"),
+    ("bad structure", _set("implementation.structure", "fancy"), "implementation.structure", "default, full_filter"),
+    # NaN / inf / non-numbers
+    ("nan", _set("design.amplification", float("nan")), "design.amplification", "finite"),
+    ("inf", _set("plant.sea_stiffness", float("inf")), "plant.sea_stiffness", "finite"),
+    ("-inf", _set("implementation.delay_s", float("-inf")), "implementation.delay_s", "finite"),
+    ("nan in range", _set("humans.1.stiffness", [1.0, float("nan")]), "humans[1].stiffness", "finite"),
+    ("string number", _set("design.zeta", "0.7"), "design.zeta", "string"),
+    ("yaml 1e3 string", _set("plant.sea_stiffness", "1e3"), "plant.sea_stiffness", "1.0e3"),
+    ("bool", _set("design.zeta", True), "design.zeta", "expected a number"),
+    ("null value", _set("design.zeta", None), "design.zeta", "null"),
+    ("list for number", _set("design.zeta", [0.7]), "design.zeta", "expected a number"),
+    # Nyquist
+    ("gv above nyquist", _set("implementation.sample_rate_hz", 150.0), "implementation.gv_filter.cutoff_hz", "Nyquist"),
+    # malformed ranges
+    ("range lo > hi", _set("humans.0.inertia", [1.0, 0.001]), "humans[0].inertia", "lo = 1 > hi = 0.001"),
+    ("range length 3", _set("humans.1.stiffness", [1, 2, 3]), "humans[1].stiffness", "two numbers"),
+    ("range length 1", _set("humans.1.stiffness", [1]), "humans[1].stiffness", "two numbers"),
+    ("range strings", _set("humans.1.stiffness", ["a", "b"]), "humans[1].stiffness", "string"),
+    ("range string", _set("humans.1.stiffness", "1..10"), "humans[1].stiffness", "range"),
+    ("range zero lo", _set("humans.0.inertia", [0.0, 1.0]), "humans[0].inertia", "lo must be > 0"),
+    ("scalar range negative", _set("humans.0.inertia", -1.0), "humans[0].inertia", "> 0"),
+    ("range mapping", _set("humans.0.inertia", {"lo": 1, "hi": 2}), "humans[0].inertia", "mapping"),
+    ("env range bad", _append("environment", {"kind": "mass", "inertia": [2, 1]}), "environment[1].inertia", "lo = 2 > hi = 1"),
+    # msd
+    ("msd two ranges", _append("humans", {"kind": "msd", "inertia": [0.1, 0.2], "stiffness": [1, 2]}),
+     "humans[3]", "exactly one of inertia/damping/stiffness must be a range"),
+    ("msd zero ranges", _append("humans", {"kind": "msd", "inertia": 0.1, "stiffness": 2}),
+     "humans[3]", "exactly one of inertia/damping/stiffness must be a range"),
+    ("msd three ranges", _append("humans", {"kind": "msd", "inertia": [0.1, 0.2], "stiffness": [1, 2], "damping": [1, 2]}),
+     "humans[3]", "got 3"),
+    ("msd missing inertia", _append("humans", {"kind": "msd", "stiffness": [1, 2]}), "humans[3].inertia", "inertia > 0"),
+    ("msd zero inertia", _append("humans", {"kind": "msd", "inertia": 0, "stiffness": [1, 2]}), "humans[3].inertia", "got 0"),
+    ("msd negative stiffness", _append("humans", {"kind": "msd", "inertia": 0.1, "stiffness": -1, "damping": [1, 2]}),
+     "humans[3].stiffness", ">= 0"),
+    # kinds and shapes of sections
+    ("unknown human kind", _set("humans.0.kind", "robot"), "humans[0].kind", "unknown human model"),
+    ("unknown env kind", _set("environment.0.kind", "wall"), "environment[0].kind", "unknown environment model"),
+    ("human not a mapping", _append("humans", 3), "humans[3]", "expected a mapping"),
+    ("humans not a list", _set("humans", {"kind": "mass"}), "humans", "expected a list"),
+    ("plant not a mapping", _set("plant", [0.44]), "plant", "expected a mapping"),
+    ("filter not a mapping", _set("implementation.gv_filter", 80.0), "implementation.gv_filter", "expected a mapping"),
+    ("locked extra", _set("environment.0", {"kind": "locked", "stiffness": 1}), "environment[0].stiffness", "unknown key"),
+]
+
+
+@pytest.mark.parametrize("name,mod,field,reason", CASES, ids=[c[0] for c in CASES])
+def test_config_errors(base, name, mod, field, reason):
+    m = copy.deepcopy(base)
+    mod(m)
+    e = err(m)
+    assert e.field == field, str(e)
+    assert reason in e.reason, str(e)
+
+
+def test_unknown_key_lists_allowed(base):
+    base["design"]["alpha"] = 3
+    e = err(base)
+    assert "amplification" in e.reason and "zeta_hat" in e.reason
+
+
+def test_dob_above_nyquist_named(base):
+    base["implementation"]["gv_filter"] = None
+    base["implementation"]["derivative_filter"] = None
+    base["implementation"]["sample_rate_hz"] = 100.0  # dob cutoff 60 Hz > 50 Hz
+    e = err(base)
+    assert e.field == "implementation.dob.cutoff_hz" and "50 Hz" in e.reason
+
+
+def test_cutoff_exactly_at_nyquist_rejected(base):
+    base["implementation"]["sample_rate_hz"] = 200.0  # derivative filter at 100 Hz == Nyquist
+    e = err(base)
+    assert e.field == "implementation.derivative_filter.cutoff_hz"
+
+
+def test_top_level_not_mapping():
+    e = err([1, 2])
+    assert "mapping" in e.reason
+
+
+# ------------------------------------------------------------------------- file-level errors
+def test_unreadable_file(tmp_path):
+    p = tmp_path / "nope.yaml"
+    with pytest.raises(ConfigError) as ei:
+        load_design(p)
+    assert ei.value.field == str(p) and "cannot read file" in ei.value.reason
+
+
+def test_directory_is_unreadable(tmp_path):
+    with pytest.raises(ConfigError) as ei:
+        load_design(tmp_path)
+    assert "cannot read file" in ei.value.reason
+
+
+def test_invalid_yaml(tmp_path):
+    p = tmp_path / "bad.yaml"
+    p.write_text("plant: {motor_inertia: 0.44\ndesign: [\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as ei:
+        load_design(p)
+    assert ei.value.field == str(p) and "invalid YAML" in ei.value.reason and "line" in ei.value.reason
+
+
+def test_yaml_python_tags_rejected(tmp_path):
+    p = tmp_path / "evil.yaml"
+    p.write_text("plant: !!python/object/apply:os.system ['true']\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as ei:
+        load_design(p)
+    assert "invalid YAML" in ei.value.reason
+
+
+@pytest.mark.parametrize("text,what", [("- 1\n- 2\n", "a list"), ("", "null"), ("42\n", "number"), ("hello\n", "string")])
+def test_not_a_mapping(tmp_path, text, what):
+    p = tmp_path / "x.yaml"
+    p.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError) as ei:
+        load_design(p)
+    assert ei.value.field == str(p) and "mapping" in ei.value.reason and what in ei.value.reason
+
+
+def test_duplicate_key(tmp_path):
+    text = PAPER.read_text(encoding="utf-8").replace("  zeta: 0.7 ", "  zeta: 0.7\n  zeta: 0.9 ", 1)
+    p = tmp_path / "dup.yaml"
+    p.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError) as ei:
+        load_design(p)
+    assert ei.value.field == "design.zeta" and "duplicate key" in ei.value.reason
+
+
+def test_not_utf8(tmp_path):
+    p = tmp_path / "latin1.yaml"
+    p.write_bytes("plant: {motor_inertia: 0.44}  # J\xe9\n".encode("latin-1"))
+    with pytest.raises(ConfigError) as ei:
+        load_design(p)
+    assert "UTF-8" in ei.value.reason
+
+
+def test_yaml_nan_and_inf_literals(tmp_path):
+    text = PAPER.read_text(encoding="utf-8")
+    for lit, field in ((".nan", "design.amplification"), (".inf", "design.amplification")):
+        p = tmp_path / "n.yaml"
+        p.write_text(text.replace("amplification: 8.0", f"amplification: {lit}"), encoding="utf-8")
+        with pytest.raises(ConfigError) as ei:
+            load_design(p)
+        assert ei.value.field == field and "finite" in ei.value.reason
+
+
+# ------------------------------------------------------------------------------------- batches
+def test_batch_config_shapes(cfg):
+    a = np.array([2.0, 4.0, 8.0, 16.0])
+    b = batch_config(cfg, {"design.amplification": a, "implementation.gv_filter.cutoff_hz": [50, 60, 70, 80],
+                           "plant.cuff_stiffness": np.full(4, 500.0)})
+    assert isinstance(b, DesignConfig)
+    for x in (b.plant.motor_inertia, b.plant.cuff_stiffness, b.design.amplification, b.design.zeta,
+              b.implementation.delay_s, b.implementation.gv_filter.cutoff_hz, b.implementation.gv_filter.damping,
+              b.implementation.derivative_filter.cutoff_hz, b.implementation.dob.damping):
+        assert isinstance(x, np.ndarray) and x.shape == (4,) and x.dtype == float
+    np.testing.assert_array_equal(b.design.amplification, a)
+    np.testing.assert_array_equal(b.plant.cuff_stiffness, 500.0)
+    np.testing.assert_array_equal(b.design.zeta, 0.7)
+    assert b.implementation.velocity_filter is None and b.implementation.sample_rate_hz is None
+    assert b.humans == cfg.humans and b.raw == cfg.raw
+    # the batch works with the vectorized shaping code
+    from exotune.shaping import double_compliance_shaping
+
+    ds = double_compliance_shaping(b.plant, b.design)
+    np.testing.assert_allclose(ds.gains.K2_hat, a - 1.0)
+
+
+def test_batch_config_no_overrides(cfg):
+    b = batch_config(cfg, {})
+    assert b.design.amplification.shape == (1,)
+
+
+def test_every_overridable_path_accepts_valid_values(cfg):
+    for path in OVERRIDABLE:
+        if path.startswith("implementation.velocity_filter"):
+            continue
+        b = batch_config(cfg, {path: np.array([0.5, 1.5]) + (1.0 if path == "design.amplification" else 0.0)})
+        assert b.design.zeta.shape == (2,), path
+
+
+@pytest.mark.parametrize(
+    "overrides,field,reason",
+    [
+        ({"design.alpha": [1.0]}, "design.alpha", "unknown"),
+        ({"plant.motor_mass": [1.0]}, "plant.motor_mass", "unknown"),
+        ({"humans[0].inertia": [1.0]}, "humans[0].inertia", "not overridable"),
+        ({"environment[0].stiffness": [1.0]}, "environment[0].stiffness", "not overridable"),
+        ({"implementation.sample_rate_hz": [1000.0]}, "implementation.sample_rate_hz", "not overridable"),
+        ({"design.amplification": np.array([2.0, 3.0, 4.0, 0.5])}, "design.amplification", "value 0.5 at index 3 is < 1"),
+        ({"plant.motor_inertia": [1.0, -1.0]}, "plant.motor_inertia", "value -1 at index 1 is <= 0"),
+        ({"design.zeta": [0.5, np.nan]}, "design.zeta", "value nan at index 1 is not a finite number"),
+        ({"implementation.delay_s": [np.inf]}, "implementation.delay_s", "not a finite number"),
+        ({"implementation.delay_s": [[0.0, 0.001]]}, "implementation.delay_s", "1-D"),
+        ({"implementation.delay_s": []}, "implementation.delay_s", "non-empty"),
+        ({"design.zeta": ["a", "b"]}, "design.zeta", "real numbers"),
+        ({"design.zeta": [0.5, 0.7], "design.zeta_hat": [0.5, 0.6, 0.7]}, "design.zeta_hat", "same length"),
+        ({"implementation.velocity_filter.cutoff_hz": [100.0]}, "implementation.velocity_filter.cutoff_hz", "null"),
+    ],
+)
+def test_batch_config_errors(cfg, overrides, field, reason):
+    with pytest.raises(ConfigError) as ei:
+        batch_config(cfg, overrides)
+    assert ei.value.field == field, str(ei.value)
+    assert reason in ei.value.reason, str(ei.value)
+
+
+def test_batch_config_nyquist(base):
+    base["implementation"]["sample_rate_hz"] = 1000.0
+    c = design_from_mapping(base)
+    with pytest.raises(ConfigError) as ei:
+        batch_config(c, {"implementation.dob.cutoff_hz": [100.0, 499.0, 500.0]})
+    assert ei.value.field == "implementation.dob.cutoff_hz" and "index 2" in ei.value.reason
+
+
+# ------------------------------------------------------------------------------------------- SEA
+def test_load_sea_example():
+    s = load_sea(SEA)
+    assert s.gains.units == "deflection" and s.gains.K1 == 69480.0 and s.gains.B2 == -1183.0
+    assert s.plant.cuff_stiffness == 300.0  # default
+
+
+@pytest.mark.parametrize(
+    "mod,field,reason",
+    [
+        (lambda m: m["gains"].pop("units"), "gains.units", "missing"),
+        (lambda m: m["gains"].update(units="newton"), "gains.units", "deflection"),
+        (lambda m: m["gains"].update(K3=1.0), "gains.K3", "unknown key"),
+        (lambda m: m["gains"].update(B1=float("nan")), "gains.B1", "finite"),
+        (lambda m: m["plant"].update(joint_inertia=-1), "plant.joint_inertia", "> 0"),
+        (lambda m: m.pop("gains"), "gains", "missing"),
+        (lambda m: m.update(design={}), "design", "unknown key"),
+    ],
+)
+def test_sea_errors(mod, field, reason):
+    m = yaml.safe_load(SEA.read_text(encoding="utf-8"))
+    mod(m)
+    with pytest.raises(ConfigError) as ei:
+        sea_from_mapping(m)
+    assert ei.value.field == field and reason in ei.value.reason, str(ei.value)
+
+
+# ------------------------------------------------------------------------------ hashing, JSON
+def test_hash_mapping_canonical(cfg):
+    h = hash_mapping(cfg.raw)
+    assert len(h) == 64 and h == hash_mapping(copy.deepcopy(cfg.raw))
+    reordered = {k: cfg.raw[k] for k in reversed(list(cfg.raw))}
+    assert hash_mapping(reordered) == h
+    other = copy.deepcopy(cfg.raw)
+    other["design"]["amplification"] = 8.000001
+    assert hash_mapping(other) != h
+    assert hash_mapping({"x": np.float64(1.5)}) == hash_mapping({"x": 1.5})
+
+
+def test_to_jsonable():
+    from dataclasses import dataclass
+
+    @dataclass
+    class D:
+        a: float
+        b: tuple
+
+    out = to_jsonable({"inf": math.inf, "ninf": -np.inf, "nan": np.nan, "arr": np.array([1.0, np.inf]),
+                       "i": np.int64(3), "b": np.bool_(True), "t": (1, 2), "d": D(0.5, (np.float32(2.0),)),
+                       "c": 1 + 2j, "p": Path("a/b")})
+    assert out == {"inf": "inf", "ninf": "-inf", "nan": None, "arr": [1.0, "inf"], "i": 3, "b": True,
+                   "t": [1, 2], "d": {"a": 0.5, "b": [2.0]}, "c": {"re": 1.0, "im": 2.0}, "p": "a/b"}
+    json.dumps(out, allow_nan=False)
+    with pytest.raises(TypeError):
+        to_jsonable(object())
+
+
+def test_write_atomic(tmp_path):
+    p = tmp_path / "sub" / "out.json"
+    write_atomic(p, "hello")
+    write_atomic(p, b"bytes")
+    assert p.read_bytes() == b"bytes"
+    assert os.listdir(p.parent) == ["out.json"]  # no temp files left behind
+    umask = os.umask(0)
+    os.umask(umask)
+    assert p.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+def test_write_atomic_failure_leaves_nothing(tmp_path):
+    p = tmp_path / "out.txt"
+    with pytest.raises(TypeError):
+        write_atomic(p, 123)  # not text or bytes
+    assert os.listdir(tmp_path) == []
+
+
+# ------------------------------------------------------------------------------- properties
+finite_pos = st.floats(min_value=1e-6, max_value=1e6, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(lo=finite_pos, hi=finite_pos)
+def test_range_property(lo, hi):
+    m = yaml.safe_load(PAPER.read_text(encoding="utf-8"))
+    m["humans"] = [{"kind": "spring", "stiffness": [lo, hi]}]
+    if lo <= hi:
+        c = design_from_mapping(m)
+        assert c.humans[0].range == (lo, hi)
+    else:
+        e = err(m)
+        assert e.field == "humans[0].stiffness" and "lo" in e.reason

@@ -1,0 +1,96 @@
+"""Stable intervals (critical values by root-finding + one RHP count per sub-interval) agree with
+direct RHP counts at many sampled parameter values, for every family kind and the environment."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from exotune.analysis import analyze_batch, char_terms, coupled_stable
+from exotune.config import batch_config, load_design
+from exotune.controller import build_controller
+from exotune.humans import EnvModel, HumanFamily
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+
+
+def _cfg(n, seed):
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    rng = np.random.default_rng(seed)
+    ov = {
+        "design.amplification": np.exp(rng.uniform(np.log(1.5), np.log(25.0), n)),
+        "design.zeta": rng.uniform(0.3, 1.2, n),
+        "design.zeta_hat": rng.uniform(0.3, 1.2, n),
+        "implementation.delay_s": rng.uniform(0.0, 0.004, n),
+        "plant.cuff_stiffness": np.exp(rng.uniform(np.log(50.0), np.log(3000.0), n)),
+    }
+    cfg = batch_config(base, ov)
+    humans = (
+        HumanFamily("mass", "inertia", 1e-4, 2.0, damping=0.0),
+        HumanFamily("spring", "stiffness", 0.5, 1e5, damping=0.0),
+        HumanFamily("mass", "inertia", 1e-3, 1.0, damping=0.8),
+        HumanFamily("spring", "stiffness", 1.0, 1e4, damping=3.0),
+        HumanFamily("msd", "damping", 0.0, 20.0, inertia=0.05, stiffness=40.0),
+    )
+    env = (EnvModel("spring", "stiffness", 10.0, 1e6, damping=1.0), EnvModel("mass", "inertia", 1e-3, 10.0))
+    return dataclasses.replace(cfg, humans=humans, environment=env)
+
+
+def _inside(iv, p):
+    return any(a <= p <= b for a, b in iv)
+
+
+def _near(iv_list, p, lo, hi, rel=0.005):
+    edges = [x for iv in iv_list for x in iv if lo < x < hi]
+    return any(abs(p - e) <= rel * max(abs(e), 1e-12) for e in edges)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_intervals_match_pointwise_counts(seed):
+    n = 60
+    cfg = _cfg(n, seed)
+    cols = analyze_batch(cfg)
+    cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    rng = np.random.default_rng(seed + 50)
+    checked = 0
+    unstable_seen = stable_seen = 0
+    for i, fam in enumerate(cfg.humans):
+        ivs = cols[f"human{i}_{fam.kind}_stable_intervals"]
+        lo, hi = fam.lo, fam.hi
+        for _ in range(4):
+            if lo > 0:
+                p = np.exp(rng.uniform(np.log(lo), np.log(hi), n))
+            else:
+                p = rng.uniform(lo, hi, n)
+            human = {**fam.fixed(), fam.param: p}
+            res = coupled_stable(cfg.plant, cs, n, human=human)
+            for k in range(n):
+                if _near(ivs[k], p[k], lo, hi) or not res["conclusive"][k]:
+                    continue
+                assert bool(res["stable"][k]) == _inside(ivs[k], p[k]), (fam, k, p[k], ivs[k])
+                checked += 1
+                stable_seen += bool(res["stable"][k])
+                unstable_seen += not bool(res["stable"][k])
+    for j, env in enumerate(cfg.environment):
+        ivs = cols[f"env{j}_{env.kind}_stable_intervals"]
+        for _ in range(3):
+            p = np.exp(rng.uniform(np.log(env.lo), np.log(env.hi), n))
+            e = {"damping": env.damping, env.param: p}
+            res = coupled_stable(cfg.plant, cs, n, human=None, env=e)
+            for k in range(n):
+                if _near(ivs[k], p[k], env.lo, env.hi) or not res["conclusive"][k]:
+                    continue
+                assert bool(res["stable"][k]) == _inside(ivs[k], p[k]), (env, k, p[k], ivs[k])
+                checked += 1
+    assert checked > 1500
+    assert stable_seen > 100 and unstable_seen > 100
+
+
+def test_robust_flag_is_whole_range():
+    cfg = _cfg(40, 3)
+    cols = analyze_batch(cfg)
+    for i, fam in enumerate(cfg.humans):
+        for iv, rob in zip(cols[f"human{i}_{fam.kind}_stable_intervals"], cols[f"human{i}_{fam.kind}_robust"]):
+            assert bool(rob) == (len(iv) == 1 and iv[0] == [fam.lo, fam.hi])
