@@ -710,8 +710,24 @@ def _amp_dc_bandwidth(num: QP, den: QP, per_decade: int = 2):
     wmax = np.maximum(omega_max(num.p0, num.p1), omega_max(den.p0, den.p1)) * 1e3
     valid = np.isfinite(wmax)
     grid = log_grid(np.where(valid, wmax, 1.0), decades=10, per_decade=per_decade)
-    lv = adaptive_leaves(lambda i, w: [num.eval(i, w), den.eval(i, w)], N, grid, valid)
     half = 0.5 * dc**2
+    lthr = 0.5 * np.log(np.maximum(half, 1e-300))  # log of dc/√2
+
+    def magnitude_ok(task, a, b, va, vb, da, db):
+        # f(ω) = log|C6/C5(jω)|, f' = −Im(L_num − L_den). Between the ends f stays above the
+        # −3 dB level if the margin exceeds a slope-and-curvature bound; shallower approaches
+        # (< 0.01 neper ≈ 0.09 dB) and ends already below are accepted.
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            fa = np.log(np.abs(va[0] / va[1]))
+            fb = np.log(np.abs(vb[0] / vb[1]))
+            La = da[0] / va[0] - da[1] / va[1]
+            Lb = db[0] / vb[0] - db[1] / vb[1]
+            h = b - a
+            margin = np.minimum(fa, fb) - lthr[task]
+            dip = 0.5 * h * np.maximum(np.abs(La.imag), np.abs(Lb.imag)) + 0.125 * h * np.abs(Lb - La)
+        return ~np.isfinite(margin) | (margin <= 0.01) | (margin > dip)
+
+    lv = adaptive_leaves(lambda i, w: [num.eval(i, w), den.eval(i, w)], N, grid, valid, extra_ok=magnitude_ok)
     with np.errstate(divide="ignore", invalid="ignore"):
         ha = np.abs(lv["va"][0] / lv["va"][1]) ** 2 - half[lv["task"]]
         hb = np.abs(lv["vb"][0] / lv["vb"][1]) ** 2 - half[lv["task"]]

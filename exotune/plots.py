@@ -41,8 +41,9 @@ F_MIN_HZ = 0.1
 F_MAX_HZ = 2000.0
 N_GRID = 2400
 DPI = 110
-NYQ_XLIM = (-5.0, 3.0)  # linear Nyquist window around −1 (equal aspect)
-NYQ_YLIM = (-4.0, 4.0)
+NYQ_XLIM = (-5.0, 3.0)  # linear Nyquist window around −1
+NYQ_YMAX = 4.0  # |Im L| of the window at most; less when the curves near −1 are flat (see _nyq_ylim)
+NYQ_YMIN = 0.5
 PASSIVE_COLOR = "tab:green"
 NONPASSIVE_COLOR = "tab:red"
 
@@ -247,6 +248,13 @@ def _neg_real_crossings(L: np.ndarray) -> np.ndarray:
     return x[x < 0]
 
 
+def _nyq_extent(L: np.ndarray) -> float:
+    """Largest |Im L| of the curve where it lies left of the origin inside the window (where
+    the encirclements of −1 are decided); used to zoom the imaginary axis of flat curves."""
+    m = (L.real > NYQ_XLIM[0]) & (L.real < -0.1) & (np.abs(L.imag) <= NYQ_YMAX)
+    return float(np.max(np.abs(L.imag[m]))) if m.any() else 0.0
+
+
 def _fig_nyquist_humans(cfg, result: dict) -> bytes:
     from matplotlib import colormaps
 
@@ -281,6 +289,7 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
         ax.plot([-1], [0], marker="+", color="red", ms=14, mew=2, ls="none", label="−1 (critical point)", zorder=5)
         sym = _SYMBOL.get(param, param)
         crossing_labelled = False
+        ymax = 0.0
         for j, (v, role) in enumerate(vals):
             L = (z0v + v * phiv) * C7
             col = cmap(0.1 + 0.8 * j / max(len(vals) - 1, 1))
@@ -289,7 +298,10 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
             else:
                 state = "stable" if _is_stable(v, h) else "UNSTABLE"
             ls = "-" if state != "UNSTABLE" else "--"
-            ax.plot(L.real, L.imag, color=col, ls=ls, lw=1.3, label=f"{sym} = {v:.4g} {h['unit']} ({state})")
+            ymax = max(ymax, _nyq_extent(L))
+            inview = np.any((L.real > NYQ_XLIM[0]) & (L.real < NYQ_XLIM[1]) & (np.abs(L.imag) < NYQ_YMAX))
+            ax.plot(L.real, L.imag, color=col, ls=ls, lw=1.3,
+                    label=f"{sym} = {v:.4g} {h['unit']} ({state})" + ("" if inview else " — outside the view"))
             ax.plot(L.real, -L.imag, color=col, ls=ls, lw=0.7, alpha=0.35)  # ω < 0 (mirror image)
             x = _neg_real_crossings(L)
             x = x[(x > NYQ_XLIM[0]) & (x < NYQ_XLIM[1])]
@@ -308,9 +320,9 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
             ax.plot([Lc.real], [Lc.imag], marker="x", color="red", ms=9, mew=1.8, ls="none")
             ax.annotate(f"{sym} = {c['value']:.4g}: L = −1 at {c['frequency_hz']:.4g} Hz", (Lc.real, Lc.imag),
                         xytext=(8, 12), textcoords="offset points", fontsize=7.5, color="red")
+        yh = min(max(1.3 * ymax, NYQ_YMIN), NYQ_YMAX)
         ax.set_xlim(*NYQ_XLIM)
-        ax.set_ylim(*NYQ_YLIM)
-        ax.set_aspect("equal", adjustable="box")
+        ax.set_ylim(-yh, yh)
         ax.grid(True, alpha=0.25)
         ax.set_xlabel("Re L(jω) [1]")
         ax.set_ylabel("Im L(jω) [1]")
@@ -329,9 +341,10 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
         ax.set_visible(False)
     fig.suptitle("Coupled loop L(jω) = Z_h(jω)·C7(jω), Δ = Δ00·(1 + L) — " + _design_label(cfg, result), fontsize=10)
     fig.text(0.5, 0.005,
-             f"Linear view limited to Re L ∈ [{NYQ_XLIM[0]:g}, {NYQ_XLIM[1]:g}], Im L ∈ [{NYQ_YLIM[0]:g}, {NYQ_YLIM[1]:g}] "
-             "around −1 (curves continue outside). Bold: ω > 0 (0.01 Hz – 10 kHz); faint: ω < 0 (mirror). "
-             "Dashed curves: unstable values. Verdicts from the exact stable intervals.",
+             f"Linear view limited to Re L ∈ [{NYQ_XLIM[0]:g}, {NYQ_XLIM[1]:g}] and |Im L| ≤ {NYQ_YMAX:g} around −1, "
+             "the imaginary axis zoomed further where the curves left of the origin are flat (axes not to equal scale); "
+             "curves continue outside the view.\nBold: ω > 0 (0.01 Hz – 10 kHz); faint: ω < 0 (mirror image). "
+             "Dashed: unstable values; verdicts from the exact stable intervals; ○ crossings of the negative real axis, × L = −1.",
              ha="center", va="bottom", fontsize=7.5, wrap=True)
     fig.subplots_adjust(left=0.08, right=0.98, top=0.9, bottom=0.08, wspace=0.2, hspace=0.3)
     return _png(fig)
@@ -354,7 +367,7 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
 
     fig = _new_figure((8.5, 8.0))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    ax1.semilogx(f, _db(L), color="tab:blue", label="L_dob = Q e^{−jωT}/(1 − Q) (open loop)")
+    ax1.semilogx(f, _db(L), color="tab:blue", label="L_dob = Q·e^(−jωT)/(1 − Q) (open loop)")
     ax1.semilogx(f, _db(CL), color="tab:red", label="L/(1 + L) (Q distorted by the delay)")
     ax1.semilogx(f, _db(Q), color="0.4", ls="--", label="Q (original)")
     ax1.axhline(0, color="k", lw=0.7)
@@ -382,7 +395,7 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
         target = -180.0 + 360.0 * np.round((phc + 180.0) / 360.0)
         ax2.annotate("", xy=(fc, phc), xytext=(fc, target), arrowprops=dict(arrowstyle="<->", color="tab:green"))
         if _finite(pm):
-            ax2.text(fc * 1.08, 0.5 * (phc + target), f"PM = {pm:.3g}°", color="tab:green", fontsize=8, va="center")
+            ax2.text(fc / 1.08, 0.5 * (phc + target), f"PM = {pm:.3g}° ", color="tab:green", fontsize=8, va="center", ha="right")
     k = np.floor((phL + 180.0) / 360.0)
     idx = np.nonzero(k[1:] != k[:-1])[0]
     if idx.size:
@@ -394,6 +407,7 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
         ax1.annotate("", xy=(f180, mag180), xytext=(f180, 0.0), arrowprops=dict(arrowstyle="<->", color="tab:orange"))
         gm = dob.get("gain_margin_db")
         ax1.plot([f180], [mag180], "s", color="tab:orange", label=f"phase crossover ≈ {f180:.4g} Hz")
+        ax2.plot([f180], [phL[j]], "s", color="tab:orange")
         if _finite(gm):
             ax1.text(f180 * 1.08, 0.5 * mag180, f"GM = {gm:.3g} dB", color="tab:orange", fontsize=8, va="center")
     lines = [f"modelled delay T = {_fmt_s(T)}"]

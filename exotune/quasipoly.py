@@ -119,10 +119,12 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
     return np.where(ok, w * 1.0000001, np.inf)
 
 
-def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None):
+def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None, extra_ok=None):
     """Adaptive refinement of per-task frequency grids.
 
     ``evalfn(idx, w) -> list[(val, der)]`` evaluates the tracked functions at s = jω.
+    ``extra_ok(task, a, b, va, vb, da, db) -> bool array`` optionally adds an acceptance test
+    (e.g. a magnitude criterion); intervals failing it are split but never marked unresolved.
     ``grid`` has shape (T, K), increasing along axis 1. Returns a dict of flat arrays describing
     the accepted leaf intervals: ``task, a, b`` and per tracked function ``va[i], vb[i]``; plus a
     per-task boolean ``resolved`` (False where refinement hit the resolution floor or a value was
@@ -179,6 +181,10 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
             bad |= ~fin & ~skip
             ok &= skip | (fin & small_arg & (crit <= DER_STEP))
         floor = h <= 1e-13 * np.maximum(np.abs(b), 1e-300)
+        if extra_ok is not None:
+            ok_phase = ok.copy()
+            ok &= extra_ok(ti, a, b, va, vb, da, db) | bad
+            floor = floor | (ok_phase & (h <= 1e-9 * np.maximum(np.abs(b), 1e-300)))
         if level == MAX_LEVELS:
             floor[:] = True
         stop = ok | floor | bad
@@ -284,7 +290,7 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     N = (n * np.pi / 2 + psi - total) / np.pi
     Nr = np.rint(N)
     conclusive = valid & lv["resolved"] & (np.abs(N - Nr) < 0.05) & (base != 0) & np.isfinite(N)
-    return Nr.astype(int), conclusive
+    return np.where(np.isfinite(Nr), Nr, -1).astype(int), conclusive
 
 
 def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.ndarray, iters: int = 80, fb=None):

@@ -14,11 +14,11 @@
 ``robust_<a>__<b>.png``
     heatmap over axes a × b of the fraction of robust designs, the other axes aggregated (all
     pairs when there are at most 4 axes, else the pairs of the first 4).
-``<metric>_<a>__<b>.png``
-    heatmaps of key metrics, worst case over the other axes: DOB delay margin (min), phase and gain
-    margins (min), max phase excess of C7 (max), amplification bandwidth (min), the lightest stable
-    inertia of each mass family (max) and the stiffest stable spring of each spring-like family
-    (min, only when some design is not robust for that family).
+``metrics_<a>__<b>.png``
+    one panel per key metric over the same pair, worst case over the other axes: DOB delay margin
+    (min), phase and gain margins (min), max phase excess of C7 (max), amplification bandwidth
+    (min), the lightest stable inertia of each mass family (max) and the stiffest stable spring of
+    each spring-like family (min, only when some design is not robust for that family).
 ``profile_<path>.png``
     with a single axis: robustness and the key metrics against the axis.
 
@@ -219,6 +219,12 @@ def _safe(path: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", path)
 
 
+def _wrap(text: str, width: int = 48) -> str:
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width))
+
+
 def _axis_label(path: str) -> str:
     return f"{path} [{AXIS_UNITS.get(path, '?')}]"
 
@@ -251,13 +257,13 @@ def _png(fig) -> bytes:
     return buf.getvalue()
 
 
-def _heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *, vmin=None, vmax=None,
-             cmap="viridis", log=False, annotate=False, fmt="{:.2f}") -> bytes:
-    """grid[iy, ix]; +inf cells get the colormap's "over" colour."""
+def _draw_heatmap(fig, ax, grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *, vmin=None,
+                  vmax=None, cmap="viridis", log=False, annotate=False, fmt="{:.2f}", fontsize=10) -> None:
+    """Draw grid[iy, ix] into ``ax`` with a colour bar; +inf cells get the colormap's "over" colour,
+    NaN cells are grey."""
     from matplotlib import colors
 
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.2, 5.4))
     data = np.array(grid, dtype=float)
     finite = data[np.isfinite(data)]
     has_over = bool(np.any(np.isposinf(data)))
@@ -272,10 +278,8 @@ def _heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, 
         vmax = finite.max() if finite.size else 1.0
     if vmax <= vmin:
         vmax = vmin + (abs(vmin) * 0.01 or 1.0)
-    cm = plt.get_cmap(cmap).copy()
-    cm.set_bad("#d0d0d0")
-    cm.set_over("#ffffff" if cmap.endswith("_r") else "#ff00ff")
-    cm.set_under("#000000")
+    cm = plt.get_cmap(cmap).with_extremes(bad="#d0d0d0", over="#ffffff" if cmap.endswith("_r") else "#ff00ff",
+                                          under="#000000")
     if log:
         data = np.where((data <= 0) & np.isfinite(data), np.nan, data)
         norm = colors.LogNorm(vmin=vmin, vmax=vmax)
@@ -287,21 +291,53 @@ def _heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, 
                    interpolation="nearest")
     extend = "both" if has_over and has_under else "max" if has_over else "min" if has_under else "neither"
     cb = fig.colorbar(im, ax=ax, extend=extend)
-    cb.set_label(cbar_label + ("  (arrow: ∞)" if has_over else ""))
+    cb.set_label(cbar_label + ("  (arrow: ∞)" if has_over else ""), fontsize=fontsize - 1)
     xi, xl = _ticks(np.asarray(xvals))
     yi, yl = _ticks(np.asarray(yvals))
     ax.set_xticks(xi, xl, rotation=45, ha="right")
     ax.set_yticks(yi, yl)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title, fontsize=10)
-    if annotate and grid.size <= 144:
+    ax.set_xlabel(xlabel, fontsize=fontsize - 1)
+    ax.set_ylabel(ylabel, fontsize=fontsize - 1)
+    ax.set_title(title, fontsize=fontsize)
+    if annotate:
         for iy in range(grid.shape[0]):
             for ix in range(grid.shape[1]):
                 v = grid[iy, ix]
                 if not np.isnan(v):
-                    ax.text(ix, iy, "∞" if np.isinf(v) else fmt.format(v), ha="center", va="center", fontsize=7)
-    fig.tight_layout()
+                    pv = plot[iy, ix]
+                    rgba = cm(norm(pv)) if np.isfinite(pv) and not (log and pv <= 0) else (1, 1, 1, 1)
+                    lum = 0.299 * rgba[0] + 0.587 * rgba[1] + 0.114 * rgba[2]
+                    ax.text(ix, iy, "∞" if np.isinf(v) else fmt.format(v), ha="center", va="center", fontsize=7,
+                            color="white" if lum < 0.5 else "black")
+
+
+def _heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw) -> bytes:
+    """One heatmap figure as PNG bytes (see :func:`_draw_heatmap`)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.2, 5.4))
+    kw.setdefault("annotate", grid.size <= 144)
+    _draw_heatmap(fig, ax, grid, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw)
+    fig.subplots_adjust(left=0.15, right=0.98, bottom=0.17, top=0.92)
+    return _png(fig)
+
+
+def _heatmap_panels(panels: list[dict], xvals, yvals, xlabel, ylabel, suptitle) -> bytes:
+    """Several heatmaps over the same pair of axes in one figure (one panel per metric)."""
+    plt = _plt()
+    n = len(panels)
+    ncols = 1 if n == 1 else 2 if n <= 4 else 3
+    nrows = -(-n // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.6 * ncols, 4.3 * nrows + 0.5), squeeze=False)
+    for ax, p in zip(axes.ravel(), panels):
+        grid = p.pop("grid")
+        _draw_heatmap(fig, ax, grid, xvals, yvals, xlabel, ylabel, fontsize=9,
+                      annotate=grid.size <= 36, **p)
+    for ax in axes.ravel()[n:]:
+        ax.set_visible(False)
+    fig.suptitle(suptitle, fontsize=11)
+    H = 4.3 * nrows + 0.5
+    fig.subplots_adjust(left=0.25 / ncols, right=0.97, bottom=0.75 / H, top=1 - 0.95 / H, wspace=0.45,
+                        hspace=0.6)
     return _png(fig)
 
 
@@ -389,20 +425,24 @@ def make_report(sweep_dir, out_dir=None) -> Path:
         name = f"robust_{_safe(paths[a])}__{_safe(paths[b])}.png"
         title = ("fraction of robust designs" if others else "robust designs (1 = robust)") + agg_note
         files[name] = _heatmap(frac, values[a], values[b], _axis_label(paths[a]), _axis_label(paths[b]),
-                               title, "fraction robust", vmin=0.0, vmax=1.0, cmap="RdYlGn",
-                               annotate=True, fmt="{:.2f}")
+                               title, "fraction robust", vmin=0.0, vmax=1.0, cmap="RdYlGn", fmt="{:.2f}")
         figures.append((name, f"{title} ({paths[a]} × {paths[b]})"))
+        panels = []
         for mk, (v, info) in metrics.items():
             grid = _aggregate(cells, nx * ny, v * info["factor"], info["worst"]).reshape(nx, ny).T
             if np.all(np.isnan(grid)):
                 continue
-            wc = f" — worst case ({info['worst']}) over {', '.join(others)}" if others else ""
-            t = f"{info['title']}{wc}"
-            name = f"{_safe(mk)}_{_safe(paths[a])}__{_safe(paths[b])}.png"
-            files[name] = _heatmap(grid, values[a], values[b], _axis_label(paths[a]), _axis_label(paths[b]),
-                                   t, f"{mk} [{info['unit']}]", cmap=info["cmap"], log=info.get("log", False),
-                                   annotate=(nx * ny <= 64), fmt="{:.3g}")
-            figures.append((name, f"{t} ({paths[a]} × {paths[b]})"))
+            wc = f"worst case ({info['worst']})" if others else ""
+            panels.append({"grid": grid, "title": _wrap(info["title"] + (f" — {wc}" if wc else "")),
+                           "cbar_label": f"{mk} [{info['unit']}]", "cmap": info["cmap"],
+                           "log": info.get("log", False), "fmt": "{:.3g}"})
+        if panels:
+            name = f"metrics_{_safe(paths[a])}__{_safe(paths[b])}.png"
+            sup = f"key metrics over {paths[a]} × {paths[b]}" + (
+                f" (worst case over {', '.join(others)})" if others else "")
+            files[name] = _heatmap_panels(panels, values[a], values[b], _axis_label(paths[a]),
+                                          _axis_label(paths[b]), sup)
+            figures.append((name, sup + ": " + ", ".join(metrics)))
 
     # ---- 1-D profiles --------------------------------------------------------------------------
     if k == 1:
@@ -416,7 +456,7 @@ def make_report(sweep_dir, out_dir=None) -> Path:
         figures.append((name, f"robustness and key metrics against {paths[0]}"))
 
     # ---- tables ----------------------------------------------------------------------------------
-    table_metrics = [c for c in _TABLE_METRICS if c in metrics] + [c for c in metrics if c in derived]
+    table_metrics = [c for c in _TABLE_METRICS if c in metrics] + [c for c in metrics if c.endswith("_lightest_stable_inertia")]
     md = _summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx, robust, used,
                      simple, metrics, table_metrics, figures, files)
     files["summary.md"] = md.encode("utf-8")

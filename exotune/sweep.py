@@ -468,8 +468,17 @@ def _table_bytes(table) -> bytes:
     return sink.getvalue().to_pybytes()
 
 
+def _type_str(t) -> str:
+    """Arrow type as text, independent of list child-field names ("item" vs Parquet's "element")."""
+    import pyarrow as pa
+
+    if pa.types.is_list(t) or pa.types.is_large_list(t):
+        return f"list<{_type_str(t.value_type)}>"
+    return str(t)
+
+
 def _schema_list(schema) -> list[list[str]]:
-    return [[f.name, str(f.type)] for f in schema]
+    return [[f.name, _type_str(f.type)] for f in schema]
 
 
 def _chunk_file(out_dir: str, index: int) -> str:
@@ -867,6 +876,12 @@ def _execute(plan: SweepPlan, out_dir: str, manifest: dict, workers, dask_addres
     _write_manifest(out_dir, manifest)
 
     done_points = sum(e["rows"] for e in entries if e["status"] == "done")
+    if progress:
+        where = f"Dask at {dask_address}" if backend == "dask" else (
+            "in-process" if backend == "in-process" else f"{n_workers} local processes")
+        resumed = f"; resuming: {n_skip} of {plan.n_chunks} chunks already done" if n_skip else ""
+        print(f"exotune sweep: {plan.n_points} designs in {plan.n_chunks} chunks of {plan.chunk_size} "
+              f"({where}){resumed}", file=sys.stderr)
     bar = tqdm(total=plan.n_points, initial=done_points, unit="design", file=sys.stderr,
                disable=not progress, dynamic_ncols=True, smoothing=0.05, desc="sweep")
     t0 = time.perf_counter()
@@ -925,6 +940,10 @@ def _execute(plan: SweepPlan, out_dir: str, manifest: dict, workers, dask_addres
     manifest["status"] = "failed" if failures else "complete"
     _finish_timings(manifest, run, t0, final=True)
     _write_manifest(out_dir, manifest)
+    if progress and not failures:
+        rate = run["designs_per_s"]
+        print(f"exotune sweep: complete — {run['points_computed']} designs computed in {run['wall_s']:.1f} s"
+              + (f" ({rate:.0f} designs/s)" if rate else "") + f"; results in {out_dir}", file=sys.stderr)
     if failures:
         first_i, first_err = failures[0]
         idx = ", ".join(str(i) for i, _ in failures[:10]) + (" …" if len(failures) > 10 else "")

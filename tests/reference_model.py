@@ -51,7 +51,6 @@ delay/DOB-modified actuator).
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import control
 import numpy as np

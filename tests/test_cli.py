@@ -126,7 +126,8 @@ def test_design_approximation(design_json):
 
     assert e(f) == pytest.approx(0.1, abs=1e-7)
     assert all(e(x) < 0.1 for x in np.geomspace(f / 1e4, f * 0.999, 200))
-    assert design_json["warnings"] == []
+    # J_j/(Ĵ_m + J_j) = 12.7 % > 10 %: the approximation warning must be raised (SPEC §4)
+    assert any("J_m_hat/J_j" in w and "12.7" in w for w in design_json["warnings"])
 
 
 def test_design_text_has_units():

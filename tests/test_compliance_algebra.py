@@ -252,10 +252,10 @@ def test_seven_systems_H1_uses_exact_delay():
 
 
 def test_seven_systems_accepts_batched_plant():
-    """BUG (exotune.model): seven_systems fails for a batched Plant (array fields), although the
-    module promises that one Plant can hold a million designs. ``plant.J_m * s`` with
-    ``plant.J_m`` an ndarray and ``s = Tf.s()`` is dispatched to numpy, which builds an object
-    array of Tf's; ``M.inv()`` then raises AttributeError. Fix: ``__array_ufunc__ = None`` on Tf."""
+    """Regression (found while writing these tests): seven_systems failed for a batched Plant
+    (array fields) because ``ndarray * Tf`` was dispatched to numpy, which built an object array of
+    Tf's (``M.inv()`` -> AttributeError). Fixed by ``Tf.__array_ufunc__ = None``. The batched
+    result must equal the per-plant scalar evaluation."""
     Jm = np.array([0.44, 0.5, 1.0])
     plant = Plant(Jm[:, None], np.array([[17.9], [10.0], [5.0]]), np.array([[1180.0], [900.0], [2000.0]]), np.array([[0.29], [0.2], [0.4]]), 300.0)
     s = 1j * np.array([[1.0, 10.0], [2.0, 20.0], [3.0, 30.0]])

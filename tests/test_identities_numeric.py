@@ -2,14 +2,15 @@
 exotune.shaping, exotune.controller), plus sanity tests of the independent reference model
 (tests/reference_model.py).
 
-Random plants: every physical and design parameter log-uniform over (at least) six decades,
+Random plants: J_m, B_m, K_s, J_j, K_c, felt inertia and felt damping log-uniform over six decades
+each (α over three, ζ and ζ̂ over two),
 evaluated at random complex s (|s| log-uniform over six decades around sqrt(K_s/Ĵ_m), random
 phase; s = 0 avoided). Hypothesis draws the seeds; each example evaluates a whole batch in one
 vectorized call.
 
 Tolerance policy. An identity a(s) = b(s) passes at a point when
     |a − b| <= 1e-8 (|a| + |b|)                                       (strict), or
-    |a − b| <= 1e3 · eps · (κ_a + κ_b) (|a| + |b|)                   (rounding-limited),
+    |a − b| <= 1e2 · eps · (κ_a + κ_b) (|a| + |b|)                   (rounding-limited),
 where κ is the componentwise relative condition number of the *formulation* (sum over every input
 parameter / coefficient and s of |∂f/∂p · p|/|f|, by forward differences). Table II in float64 has
 genuine cancellations (e.g. B_m + B1 = J_m B̃1 ≪ B_m when the design removes almost all motor
@@ -19,7 +20,6 @@ second clause, and the κ-bound is only computed for them.
 
 from __future__ import annotations
 
-import contextlib
 import math
 
 import numpy as np
@@ -61,22 +61,6 @@ BATCH_SETTINGS = settings(
 # ----------------------------------------------------------------------------------------------
 # helpers
 # ----------------------------------------------------------------------------------------------
-@contextlib.contextmanager
-def batched_tf():
-    """Work-around for the exotune bug reported in tests/test_compliance_algebra.py
-    (``test_seven_systems_accepts_batched_plant``): ``ndarray * Tf`` builds an object array
-    because ``Tf`` does not opt out of numpy's ufunc dispatch. ``Tf.__array_ufunc__ = None`` (the
-    one-line fix) makes numpy defer to ``Tf.__rmul__``. A no-op once exotune has the fix."""
-    if "__array_ufunc__" in Tf.__dict__:
-        yield
-        return
-    Tf.__array_ufunc__ = None
-    try:
-        yield
-    finally:
-        del Tf.__array_ufunc__
-
-
 def col(x):
     return np.asarray(x, dtype=float)[:, None]
 
@@ -114,8 +98,13 @@ def _take(P: dict, rows) -> dict:
     return {k: np.asarray(v)[rows] for k, v in P.items()}
 
 
-def condition(fn, P: dict, s: np.ndarray, delta: float = 1e-7) -> np.ndarray:
-    """Componentwise relative condition number of fn(P, s) by forward differences."""
+def condition(fn, P: dict, s: np.ndarray) -> np.ndarray:
+    """Componentwise relative condition number of fn(P, s) by forward differences; the max over
+    steps 1e-6, 1e-9, 1e-12 (a single step saturates once step·κ ≳ 1, underestimating κ)."""
+    return np.maximum.reduce([_condition(fn, P, s, d) for d in (1e-6, 1e-9, 1e-12)])
+
+
+def _condition(fn, P: dict, s: np.ndarray, delta: float) -> np.ndarray:
     f0 = fn(P, s)
     acc = np.zeros(s.shape)
     for key, v in P.items():
@@ -144,7 +133,7 @@ def assert_identity(lhs, rhs, P: dict, s: np.ndarray, what: str, rtol: float = 1
         Ps, ss = _take(P, bad_rows), s[bad_rows]
         kappa = condition(lhs, Ps, ss) + condition(rhs, Ps, ss)
         e = err[bad_rows]
-        ok = (e <= rtol) | (e <= 1e3 * EPS * kappa)
+        ok = (e <= rtol) | (e <= 1e2 * EPS * kappa)
         worst = np.argmax(np.where(ok, 0, e / (EPS * kappa)))
         i, j = np.unravel_index(worst, e.shape)
         assert ok.all(), (
@@ -159,7 +148,14 @@ def params_of(P, ds, nt):
     out = dict(P)
     out.update({k: np.asarray(v, float) for k, v in g.as_dict().items()})
     out.update(Jh=ds.J_m_hat, Bh=ds.B_m_hat, Gv_num=nt["G_v"].num, Gv_den=nt["G_v"].den)
+    for name, r in nt.items():  # every nominal rational, so row subsets stay consistent
+        out[name + "_num"], out[name + "_den"] = np.asarray(r.num, float), np.asarray(r.den, float)
     return out
+
+
+def nominal(name):
+    """fn(Q, s) evaluating exotune's nominal rational ``name`` from the parameter dict."""
+    return lambda Q, x: Rational(Q[name + "_num"], Q[name + "_den"])(x)
 
 
 def table2(Q, s, with_cuff=True):
@@ -280,14 +276,13 @@ def test_H5_Gv_is_virtual_motor(seed):
     _, P, _, plant, design, ds, s = draw_batch(seed)
     nt = nominal_transfer_functions(plant, design, ds)
     Q0 = params_of(P, ds, nt)
-    with batched_tf():
-        assert_identity(
-            lambda Q, x: table2(Q, x, with_cuff=False)["S5"].H(x) * Rational(Q["Gv_num"], Q["Gv_den"])(x),
-            lambda Q, x: 1.0 / (col(Q["Jh"]) * x * x + col(Q["Bh"]) * x),
-            Q0,
-            s,
-            "H5·G_v = 1/(Ĵ_m s² + B̂_m s)",
-        )
+    assert_identity(
+        lambda Q, x: table2(Q, x, with_cuff=False)["S5"].H(x) * Rational(Q["Gv_num"], Q["Gv_den"])(x),
+        lambda Q, x: 1.0 / (col(Q["Jh"]) * x * x + col(Q["Bh"]) * x),
+        Q0,
+        s,
+        "H5·G_v = 1/(Ĵ_m s² + B̂_m s)",
+    )
     # exotune's own Ĉ5 rational is the same virtual motor
     c5h = nt["C5_hat"](s)
     assert np.allclose(c5h, 1.0 / (col(ds.J_m_hat) * s * s + col(ds.B_m_hat) * s), rtol=1e-12, atol=0)
@@ -308,11 +303,10 @@ def test_C4_and_C5_match_compliance_shape(seed):
         N = x * x + col(Q["B2t"]) * x + col(Q["K2t"])
         return N / (col(Q["J_j"]) * x * x * N + col(Q["K_s"]) * (x * x + col(Q["B1t"]) * x))
 
-    with batched_tf():
-        assert_identity(lambda Q, x: table2(Q, x, False)["S4"].C(x), target_C4, Q0, s, "C4 = target")
-        assert_identity(lambda Q, x: table2(Q, x, False)["S5"].C(x), total_C5, Q0, s, "C5 = eq. total_compliance")
-    assert_identity(lambda Q, x: nt["C4"](x), target_C4, Q0, s, "nominal C4")
-    assert_identity(lambda Q, x: nt["C5"](x), total_C5, Q0, s, "nominal C5")
+    assert_identity(lambda Q, x: table2(Q, x, False)["S4"].C(x), target_C4, Q0, s, "C4 = target")
+    assert_identity(lambda Q, x: table2(Q, x, False)["S5"].C(x), total_C5, Q0, s, "C5 = eq. total_compliance")
+    assert_identity(nominal("C4"), target_C4, Q0, s, "nominal C4")
+    assert_identity(nominal("C5"), total_C5, Q0, s, "nominal C5")
 
 
 @BATCH_SETTINGS
@@ -323,19 +317,19 @@ def test_C6_over_C5_tends_to_alpha(seed):
     Q0 = params_of(P, ds, nt)
     sh, g = ds.shape, ds.gains
     a = D["amplification"]
+    Q0["alpha"] = a
     # r(s) = C6/C5 = α + c s + O(s²), c = (α−1)[J_j/(Ĵ_m B̃1) − B̃2/K̃2] + B̂2 (derived by hand);
     # pick s so that the O(s) term is ~1e-10 relative.
     c = (a - 1) * (P["J_j"] / (ds.J_m_hat * sh.B1_tilde) - sh.B2_tilde / sh.K2_tilde) + g.B2_hat
     w_min = np.minimum.reduce([sh.B1_tilde, np.sqrt(sh.K2_tilde), sh.K2_tilde / sh.B2_tilde, a / (np.abs(c) + 1e-300)])
     s0 = (1e-10 * w_min)[:, None] * np.exp(1j * np.array([[0.3, 1.2, -2.0]]))
-    with batched_tf():
-        ratio = lambda Q, x: (lambda S: S["S6"].C(x) / S["S5"].C(x))(table2(Q, x))  # noqa: E731
-        assert_identity(ratio, lambda Q, x: col(a) + 0 * x, Q0, s0, "C6/C5 -> α (s -> 0)")
-        # the first-order term is right too (a non-trivial check that the limit is approached)
-        s1 = (1e-4 * w_min)[:, None] * np.exp(1j * np.array([[0.7]]))
-        slope = (ratio(Q0, s1) - col(a)) / s1
-        rel = np.abs(slope - col(c)) / (np.abs(slope) + np.abs(col(c)) + np.abs(col(a) / s1) * 1e-9)
-        assert np.median(rel) < 1e-4 and np.quantile(rel, 0.99) < 1e-2
+    ratio = lambda Q, x: (lambda S: S["S6"].C(x) / S["S5"].C(x))(table2(Q, x))  # noqa: E731
+    assert_identity(ratio, lambda Q, x: col(Q["alpha"]) + 0 * x, Q0, s0, "C6/C5 -> α (s -> 0)")
+    # the first-order term is right too (a non-trivial check that the limit is approached)
+    s1 = (1e-4 * w_min)[:, None] * np.exp(1j * np.array([[0.7]]))
+    slope = (ratio(Q0, s1) - col(a)) / s1
+    rel = np.abs(slope - col(c)) / (np.abs(slope) + np.abs(col(c)) + np.abs(col(a) / s1) * 1e-9)
+    assert np.median(rel) < 1e-4 and np.quantile(rel, 0.99) < 1e-2
 
 
 @BATCH_SETTINGS
@@ -354,9 +348,8 @@ def test_nominal_C7_is_C6_plus_cuff_with_C5_hat(seed):
         S = table2(Q, x)
         return S["S7"].C(x) - S["S5"].C(x) + 1.0 / (col(Q["Jh"]) * x * x + col(Q["Bh"]) * x)
 
-    with batched_tf():
-        assert_identity(replaced, corrected, Q0, s, "C7_nom = C6 + 1/K_c with C5 -> Ĉ5")
-    assert_identity(lambda Q, x: nt["C7_nominal"](x), corrected, Q0, s, "exotune C7_nominal")
+    assert_identity(replaced, corrected, Q0, s, "C7_nom = C6 + 1/K_c with C5 -> Ĉ5")
+    assert_identity(nominal("C7_nominal"), corrected, Q0, s, "exotune C7_nominal")
     # the paper's printed form (middle term without s) is a different function
     w2 = col(D["amplification"] * P["K_c"] / ds.J_m_hat)
     printed = (s * s + 2 * col(D["zeta_hat"]) * np.sqrt(w2) + w2) / (col(P["K_c"]) * (s * s + col(ds.B_m_hat / ds.J_m_hat) * s))

@@ -113,14 +113,14 @@ def physical_solution(G_theta, G_s, G_c, act=E, dob_Q=None):
         sp.Eq(dhat, 0 if dob_Q is None else dob_Q * (M * th_m - tau_s - tau_cmd)),
     ]
     unknowns = [th_m, th_j, th_h, tau_m, tau_cmd, dhat]
-    A, b = sp.linear_eq_to_matrix([e.lhs - e.rhs for e in eqs], unknowns)
-    sol = dict(zip(unknowns, A.LUsolve(b)))
+    (values,) = sp.linsolve(eqs, unknowns)
+    sol = dict(zip(unknowns, values))
     out = {}
     for name, var in (("th_h", th_h), ("th_j", th_j)):
-        expr = sp.expand(sol[var])
-        out[name + "/tau"] = sp.cancel(expr.coeff(tau))
-        out[name + "/tau_e"] = sp.cancel(expr.coeff(tau_e))
-        out[name + "/tau6"] = sp.cancel(expr.coeff(tau6))
+        expr = sol[var]  # linear in the inputs: the derivative is the transfer function
+        out[name + "/tau"] = sp.cancel(sp.diff(expr, tau))
+        out[name + "/tau_e"] = sp.cancel(sp.diff(expr, tau_e))
+        out[name + "/tau6"] = sp.cancel(sp.diff(expr, tau6))
     return out
 
 
