@@ -104,6 +104,22 @@ def batch_size(*objs) -> int:
     return n
 
 
+def _controller_polys(cs: ControllerStructure, N: int):
+    """Common-denominator form of the controller: d = Π d_x, w_x = n_x · d/d_x for the blocks on
+    θ_m, τ_s, τ_c, and the DOB filter Q = n_q/d_q (n_q = 0, d_q = 1 without a DOB)."""
+    (nth, dth), (nts, dts), (ntc, dtc) = _blocks(cs, N)
+    d_all = pmul(pmul(dth, dts), dtc)
+    w_th = pmul(nth, pmul(dts, dtc))
+    w_ts = pmul(nts, pmul(dth, dtc))
+    w_tc = pmul(ntc, pmul(dth, dts))
+    if cs.dob_q is not None:
+        nq = np.broadcast_to(cs.dob_q.num, (N,) + cs.dob_q.num.shape[-1:]).astype(float)
+        dq = np.broadcast_to(cs.dob_q.den, (N,) + cs.dob_q.den.shape[-1:]).astype(float)
+    else:
+        nq, dq = np.zeros((N, 1)), np.ones((N, 1))
+    return d_all, w_th, w_ts, w_tc, nq, dq
+
+
 def char_terms(plant: Plant, cs: ControllerStructure, N: int) -> CharTerms:
     """Build Δ00, Δ10, Δ01, Δ11 for N designs (see module docstring).
 
@@ -143,16 +159,7 @@ def char_terms(plant: Plant, cs: ControllerStructure, N: int) -> CharTerms:
         "11": (-Ks)[:, None],
     }
     Ntc = {"00": zero[:, None], "10": (-Ks * Kc)[:, None], "01": zero[:, None], "11": zero[:, None]}
-    (nth, dth), (nts, dts), (ntc, dtc) = _blocks(cs, N)
-    d_all = pmul(pmul(dth, dts), dtc)
-    w_th = pmul(nth, pmul(dts, dtc))
-    w_ts = pmul(nts, pmul(dth, dtc))
-    w_tc = pmul(ntc, pmul(dth, dts))
-    if cs.dob_q is not None:
-        nq = np.broadcast_to(cs.dob_q.num, (N,) + cs.dob_q.num.shape[-1:]).astype(float)
-        dq = np.broadcast_to(cs.dob_q.den, (N,) + cs.dob_q.den.shape[-1:]).astype(float)
-    else:
-        nq, dq = np.zeros((N, 1)), np.ones((N, 1))
+    d_all, w_th, w_ts, w_tc, nq, dq = _controller_polys(cs, N)
     dmn = psub(dq, nq)
     T = _bc(cs.delay_s, N)
     terms = {}
@@ -179,16 +186,7 @@ def amplification_qps(plant: Plant, cs: ControllerStructure, N: int) -> tuple[QP
     """
     Ks, Jm, Bm = (_bc(v, N) for v in (plant.K_s, plant.J_m, plant.B_m))
     A = as_poly(Ks, Bm, Jm)
-    (nth, dth), (nts, dts), (ntc, dtc) = _blocks(cs, N)
-    d_all = pmul(pmul(dth, dts), dtc)
-    w_th = pmul(nth, pmul(dts, dtc))
-    w_ts = pmul(nts, pmul(dth, dtc))
-    w_tc = pmul(ntc, pmul(dth, dts))
-    if cs.dob_q is not None:
-        nq = np.broadcast_to(cs.dob_q.num, (N,) + cs.dob_q.num.shape[-1:]).astype(float)
-        dq = np.broadcast_to(cs.dob_q.den, (N,) + cs.dob_q.den.shape[-1:]).astype(float)
-    else:
-        nq, dq = np.zeros((N, 1)), np.ones((N, 1))
+    d_all, w_th, w_ts, w_tc, nq, dq = _controller_polys(cs, N)
     T = _bc(cs.delay_s, N)
     Ad = pmul(A, d_all)
     P0 = pmul(Ad, psub(dq, nq))
