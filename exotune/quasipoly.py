@@ -51,6 +51,9 @@ class QP:
 
     def __post_init__(self):
         object.__setattr__(self, "T", np.broadcast_to(np.asarray(self.T, dtype=float), self.p0.shape[:1]).copy())
+        # contiguous coefficient columns for fast row gathers in Horner's rule
+        object.__setattr__(self, "_c0", np.ascontiguousarray(np.asarray(self.p0).T))
+        object.__setattr__(self, "_c1", np.ascontiguousarray(np.asarray(self.p1).T))
 
     @property
     def n(self) -> int:
@@ -63,23 +66,24 @@ class QP:
         """Δ(jω) and dΔ/ds at s = jω for rows ``idx`` (flat arrays of equal length)."""
         s = 1j * w
         e = np.exp(-s * self.T[idx])
-        v0, d0 = _horner_vd(self.p0, idx, s, deriv)
-        v1, d1 = _horner_vd(self.p1, idx, s, deriv)
+        v0, d0 = _horner_vd(self._c0, idx, s, deriv)
+        v1, d1 = _horner_vd(self._c1, idx, s, deriv)
         val = v0 + v1 * e
         if not deriv:
             return val, None
         return val, d0 + (d1 - self.T[idx] * v1) * e
 
 
-def _horner_vd(c: np.ndarray, idx: np.ndarray, s: np.ndarray, deriv: bool):
-    """Value and derivative of rows ``idx`` of ``c`` at ``s`` in one Horner pass (column gathers)."""
-    m = c.shape[-1]
-    v = np.take(c[:, m - 1], idx).astype(complex)
+def _horner_vd(cT: np.ndarray, idx: np.ndarray, s: np.ndarray, deriv: bool):
+    """Value and derivative of rows ``idx`` at ``s`` in one Horner pass; ``cT`` holds the
+    coefficients transposed (power-major, contiguous) so each gather is a 1-D take."""
+    m = cT.shape[0]
+    v = np.take(cT[m - 1], idx).astype(complex)
     d = np.zeros_like(v) if deriv else None
     for k in range(m - 2, -1, -1):
         if deriv:
             d = d * s + v
-        v = v * s + np.take(c[:, k], idx)
+        v = v * s + np.take(cT[k], idx)
     return v, d
 
 
