@@ -276,3 +276,25 @@ def sea_passivity_conditions(plant: Plant, gains: SeaGains) -> dict[str, bool]:
         "B2 >= 0": bool(np.all(g.B2 >= 0)),
         "K2 >= -K_s + B2*K1/(B_m + B1)": bool(np.all(g.K2 >= k2_bound)),
     }
+
+
+def table_ii(plant: Plant, design: DesignParams, delay_s: float = 0.0) -> dict:
+    """Paper Table II (S1…S7 and Ŝ5) for a double-compliance-shaping design with the *nominal*
+    (unfiltered) cuff path G_c = G_v (K̂2 + B̂2 s) and the exact delay e^{−sT} in H1.
+
+    Returns the :class:`~exotune.model.CompliancePair` of each system, evaluable at any array of
+    complex s. (The implemented, filtered controller is analysed by :mod:`exotune.analysis`.)
+    """
+    from .model import Tf, seven_systems
+
+    ds = double_compliance_shaping(plant, design)
+    g = ds.gains
+    s = Tf.s()
+    G_theta = -(Tf.const(g.K1) + g.B1 * s)
+    G_s = Tf.const(g.K2) + g.B2 * s
+    sh = ds.shape
+    G_v = (plant.J_m / ds.J_m_hat) * (
+        1.0 + (plant.J_j / plant.K_s) * s * s * (s * s + sh.B2_tilde * s + sh.K2_tilde) / (s * s + sh.B1_tilde * s + sh.K1_tilde)
+    )
+    G_c = G_v * (Tf.const(g.K2_hat) + g.B2_hat * s)
+    return seven_systems(plant, G_theta, G_s, G_c, delay_s=delay_s, J_m_hat=ds.J_m_hat, B_m_hat=ds.B_m_hat)
