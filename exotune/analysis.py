@@ -588,7 +588,8 @@ def _first_by_task(task, Nd):
 
 
 def dob_margins(cs: ControllerStructure, N: int):
-    """Gain [dB], phase [deg] and delay [s] margins of L_dob = Q e^{−sT}/(1 − Q) (SPEC §5).
+    """Gain [dB], phase [deg] and delay [s] margins of L_dob = Q e^{−sT}/(1 − Q) (SPEC §5), and
+    whether the closed DOB loop is stable (delay margin 0 when it is not).
 
     Gain crossovers are the positive real roots of |n_q(jω)|² − |(d_q − n_q)(jω)|² (a polynomial
     in ω); delay margin = min_k PM_k/ω_k with PM_k ∈ [0, 2π). Phase crossovers (arg L = −180° mod
@@ -676,7 +677,13 @@ def _dob_margins_rows(nq, dq, T):
     gm = np.full(N, np.inf)
     if rr.size:
         np.minimum.at(gm, rr, -20 * np.log10(mag(rr, 0.5 * (a + b))))
-    return {"gain_margin_db": gm, "phase_margin_deg": pm, "delay_margin_s": dm, "crossover_hz": fc}
+    # closed DOB loop 1 + L_dob ∝ (d_q − n_q) + n_q e^{−sT}: if it is already unstable the loop
+    # tolerates no extra delay — the wrapped PM_k/ω_k of SPEC §5 would read as a (misleading)
+    # positive margin, so the delay margin is 0 then
+    Nd, rd, okd = rhp_count(QP(_trim(m), _trim(nq), T))
+    stable = okd & (Nd == 0) & (rd == 0)
+    dm = np.where(stable, dm, 0.0)
+    return {"gain_margin_db": gm, "phase_margin_deg": pm, "delay_margin_s": dm, "crossover_hz": fc, "stable": stable}
 
 
 def _batched_roots(c: np.ndarray) -> np.ndarray:
@@ -861,6 +868,7 @@ def analyze_batch(cfg, max_chunk: int = 2048) -> dict:
     out["dob_gain_margin_db"] = dob["gain_margin_db"] if dob else nanv
     out["dob_delay_margin_s"] = dob["delay_margin_s"] if dob else nanv
     out["dob_crossover_hz"] = dob["crossover_hz"] if dob else nanv
+    out["dob_stable"] = dob["stable"] if dob else np.ones(N, bool)
     dc, bw = _amp_dc_bandwidth(num, den)
     out["amplification_dc"] = dc
     out["amplification_bandwidth_hz"] = bw
@@ -992,6 +1000,7 @@ def analyze_design(cfg) -> dict:
             "phase_margin_deg": g("dob_phase_margin_deg"),
             "delay_margin_s": g("dob_delay_margin_s"),
             "crossover_hz": g("dob_crossover_hz"),
+            "stable": bool(cols["dob_stable"][0]),
         }
     ratio = float(ds.J_m_hat / cfg.plant.J_j)
     warnings = list(ds.warnings)
@@ -1076,6 +1085,8 @@ def format_report(r: dict) -> str:
             f"DOB loop L_dob = Q e^(-sT)/(1-Q): gain margin {d['gain_margin_db']:.4g} dB, phase margin {d['phase_margin_deg']:.4g} deg, "
             f"delay margin {d['delay_margin_s'] * 1e3:.4g} ms (extra delay), crossover {d['crossover_hz']:.4g} Hz"
         )
+        if not d["stable"]:
+            L.append("  the closed DOB loop is UNSTABLE with the modelled delay (delay margin reported as 0)")
     else:
         L.append("DOB: none")
     a = r["amplification"]

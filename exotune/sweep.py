@@ -86,14 +86,11 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import io
 import math
 import os
 import sys
 import time
 import traceback
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import click
@@ -583,6 +580,23 @@ def _spec_diff(a: dict, b: dict) -> list[str]:
     return [k for k in keys if hash_mapping(a.get(k)) != hash_mapping(b.get(k))]
 
 
+_ENGINE_MODULES = ("poly", "model", "shaping", "controller", "humans", "quasipoly", "analysis", "config")
+
+
+def engine_hash() -> str:
+    """SHA-256 of the source of the modules that compute the results: a resumed sweep refuses to
+    mix chunks computed by different analysis code (the version string alone is not enough)."""
+    import hashlib
+    import importlib
+
+    h = hashlib.sha256()
+    for name in _ENGINE_MODULES:
+        mod = importlib.import_module(f"exotune.{name}")
+        with open(mod.__file__, "rb") as f:
+            h.update(name.encode() + b"\0" + f.read())
+    return h.hexdigest()
+
+
 def _new_manifest(plan: SweepPlan) -> dict:
     axes = []
     for p, v in zip(plan.paths, plan.values):
@@ -593,6 +607,7 @@ def _new_manifest(plan: SweepPlan) -> dict:
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "exotune_version": __version__,
+        "engine_hash": engine_hash(),
         "spec_hash": plan.hash,
         "spec": plan.spec,
         "spec_source": plan.source,
@@ -824,6 +839,13 @@ def _check_compatible(out_dir: str, old: dict, plan: SweepPlan) -> None:
             f"{out_dir} holds a sweep of a different spec (hash {str(old.get('spec_hash'))[:12]}…, this spec "
             f"{plan.hash[:12]}…{what}); use a new directory",
         )
+    if old.get("engine_hash") not in (None, engine_hash()):
+        raise ConfigError(
+            out_dir,
+            f"{out_dir} holds a sweep made by different analysis code (engine hash "
+            f"{str(old.get('engine_hash'))[:12]}…, this is {engine_hash()[:12]}…); results must not be mixed: "
+            "use a new directory",
+        )
     if old.get("exotune_version") != __version__:
         raise ConfigError(
             out_dir,
@@ -857,6 +879,13 @@ def _execute(plan: SweepPlan, out_dir: str, manifest: dict, workers, dask_addres
         entries.append(e)
     manifest["chunks"] = entries
     manifest["status"] = "running"
+    if schema is None:  # killed before the manifest recorded the schema: take it from a finished chunk
+        import pyarrow.parquet as pq
+
+        for e in entries:
+            if e["status"] == "done":
+                manifest["columns"] = _schema_list(pq.read_schema(os.path.join(out_dir, e["file"])))
+                break
     n_skip = plan.n_chunks - len(todo)
 
     if dask_address is not None:

@@ -229,7 +229,10 @@ def test_dob_margins_closed_form(cutoff, zeta, T):
     assert r["crossover_hz"] == pytest.approx(wc / (2 * math.pi), rel=1e-9)
     # exotune reports the phase margin wrapped into (−180°, 180°]
     assert abs(_wrap180(r["phase_margin_deg"] - pm)) <= 1e-7
-    assert r["delay_margin_s"] == pytest.approx(dm, rel=1e-8, abs=1e-15)
+    # this L_dob (type 1, monotone gain and phase) closes stably iff its unwrapped PM > 0; an
+    # unstable DOB loop tolerates no extra delay (0 s) instead of the wrapped PM/ω_c
+    assert bool(r["stable"]) == (pm > 0)
+    assert r["delay_margin_s"] == pytest.approx(dm if pm > 0 else 0.0, rel=1e-8, abs=1e-15)
     if T == 0:
         assert r["gain_margin_db"] == math.inf
     else:
@@ -590,3 +593,19 @@ def test_paper_minimum_phase(T, expected):
             assert rhp[1].real == pytest.approx(650.0, rel=0.01) and abs(rhp[1].imag) == pytest.approx(1469.0, rel=0.01)
     if T == 0.001:  # the §9 file itself (same design) through the single-design report
         assert analyze_design(load_design(PAPER))["amplification"]["minimum_phase"] is False
+
+
+def test_dob_unstable_loop_has_zero_delay_margin():
+    """Past the DOB's delay limit the closed DOB loop is unstable: the wrapped PM_k/ω_k of SPEC §5
+    would read as a positive margin, exotune reports dob.stable = False and a 0 s margin. The
+    limit itself is T + DM at 1 ms (3.654 ms extra): stable just below, unstable just above."""
+    import dataclasses
+
+    cfg = load_design(PAPER)
+    lim = 0.001 + analyze_design(cfg)["dob"]["delay_margin_s"]
+    for T, stable in ((lim * 0.999, True), (lim * 1.001, False), (0.006, False)):
+        c = dataclasses.replace(cfg, implementation=dataclasses.replace(cfg.implementation, delay_s=T))
+        d = analyze_design(c)["dob"]
+        assert d["stable"] is stable
+        assert (d["delay_margin_s"] > 0) is stable
+        assert (d["phase_margin_deg"] > 0) is stable

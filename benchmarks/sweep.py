@@ -1,0 +1,134 @@
+"""Benchmark: a 10^5-design sweep through ``run_sweep`` (local worker processes), timed, with peak
+memory, next to the per-design python-control workflow (benchmarks/_percontrol.py).
+
+    python benchmarks/sweep.py [--points 100000] [--workers 2] [--chunk-size 10000]
+                               [--control-designs 10] [--dir DIR] [--keep]
+
+The sweep: 4 axes around examples/paper.yaml (α, ζ̂, delay, DOB cutoff), n values each with n^4 ≥
+points, and a seeded uniform sample of exactly ``points`` grid points (so the sampling path is
+exercised too). Memory: peak RSS of this process and of the largest worker
+(``resource.getrusage`` RUSAGE_SELF / RUSAGE_CHILDREN, ru_maxrss) and the peak of Python
+allocations in the parent (``tracemalloc``). The python-control rate is measured in this process
+on ``--control-designs`` designs of the same sweep and extrapolated, per core, to the same number
+of workers.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_k, "1")
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import resource  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import tracemalloc  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+
+def fmt_s(s: float) -> str:
+    if s < 120:
+        return f"{s:.1f} s"
+    if s < 7200:
+        return f"{s / 60:.1f} min"
+    if s < 48 * 3600:
+        return f"{s / 3600:.1f} h"
+    return f"{s / 86400:.1f} days"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=int, default=100_000)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--chunk-size", type=int, default=10_000)
+    ap.add_argument("--control-designs", type=int, default=10)
+    ap.add_argument("--dir", default=None, help="sweep directory (default: a temporary directory, removed)")
+    ap.add_argument("--keep", action="store_true", help="keep the sweep directory")
+    args = ap.parse_args()
+
+    import numpy as np
+    import yaml
+
+    from _percontrol import design_dicts, per_design
+    from exotune.config import batch_config
+    from exotune.sweep import chunk_points, load_results, load_spec, run_sweep
+
+    n = max(2, math.ceil(args.points ** 0.25))
+    spec = {
+        "base": str(HERE.parent / "examples" / "paper.yaml"),
+        "axes": {
+            "design.amplification": {"start": 1.5, "stop": 20.0, "num": n, "scale": "log"},
+            "design.zeta_hat": {"start": 0.4, "stop": 1.2, "num": n},
+            "implementation.delay_s": {"start": 0.0, "stop": 0.004, "num": n},
+            "implementation.dob.cutoff_hz": {"start": 20.0, "stop": 150.0, "num": n, "scale": "log"},
+        },
+        "chunk_size": args.chunk_size,
+    }
+    tmp = Path(args.dir) if args.dir else Path(tempfile.mkdtemp(prefix="exotune-bench-"))
+    tmp.mkdir(parents=True, exist_ok=True)
+    spec_path = tmp / "bench_spec.yaml"
+    spec_path.write_text(yaml.safe_dump(spec))
+    out = tmp / "sweep"
+    sample = args.points if n ** 4 != args.points else None
+    seed = 0 if sample else None
+
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    manifest = run_sweep(spec_path, out, workers=args.workers, sample=sample, seed=seed, progress=sys.stderr.isatty())
+    wall = time.perf_counter() - t0
+    _, py_peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    self_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB -> MiB (Linux)
+    child_rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    run = manifest["runs"][-1]
+    computed = run["points_computed"]
+    rate = computed / wall if wall > 0 else float("nan")
+    size = sum(f.stat().st_size for f in (out / "chunks").iterdir())
+    chunk_s = [c["seconds"] for c in manifest["chunks"] if c.get("seconds")]
+
+    # python-control workflow on designs of this sweep (one core, this process)
+    plan = load_spec(spec_path, sample=sample, seed=seed)
+    g, vals = chunk_points(plan, 0)
+    m = min(args.control_designs, g.size)
+    cfg = batch_config(plan.cfg, {k: v[:m] for k, v in vals.items()})
+    per_design(*design_dicts(cfg, 0))
+    tc = time.perf_counter()
+    for i in range(m):
+        per_design(*design_dicts(cfg, i))
+    rate_c1 = m / (time.perf_counter() - tc)
+    rate_c = rate_c1 * args.workers  # perfectly parallel, same number of workers
+
+    df = load_results(out, columns=["point_index", "free_stable"])
+    assert len(df) == manifest["n_points"] == args.points
+
+    print(f"exotune sweep benchmark: {args.points} designs (grid {n}^4 = {n ** 4}"
+          f"{', seeded sample' if sample else ''}), chunk size {args.chunk_size}, {args.workers} worker processes, "
+          f"{os.cpu_count()} CPUs")
+    print(f"  wall time                : {wall:.1f} s  ({computed} designs computed)")
+    print(f"  throughput               : {rate:.0f} designs/s ({rate / args.workers:.0f} per worker); "
+          f"chunk compute {np.mean(chunk_s):.1f} s mean, {np.max(chunk_s):.1f} s max")
+    print(f"  output                   : {manifest['n_chunks']} Parquet chunks, {size / 2**20:.1f} MiB")
+    print(f"  peak memory              : parent RSS {self_rss:.0f} MiB (Python allocations {py_peak / 2**20:.1f} MiB), "
+          f"largest worker RSS {child_rss:.0f} MiB")
+    print(f"  python-control workflow  : {rate_c1:.2f} designs/s per core (measured on {m} designs of this sweep), "
+          f"{rate_c:.2f} designs/s on {args.workers} cores")
+    print(f"  ratio                    : exotune sweep is {rate / rate_c:.0f}× faster")
+    print(f"  projected, 10^6 designs  : exotune {fmt_s(1e6 / rate)} on {args.workers} workers; "
+          f"python-control {fmt_s(1e6 / rate_c)} on {args.workers} cores")
+    if not args.keep and not args.dir:
+        shutil.rmtree(tmp, ignore_errors=True)
+    elif args.keep:
+        print(f"  sweep kept in {out}")
+
+
+if __name__ == "__main__":
+    main()

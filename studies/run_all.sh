@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Regenerate every study in results/ (figures + Markdown/CSV summaries only; the Parquet sweep data
+# go to ${EXOTUNE_STUDY_DATA:-${TMPDIR:-/tmp}/exotune-studies}, outside the repository).
+#
+#   studies/run_all.sh [--workers N] [--resume]      (default: 2 workers, fresh sweeps)
+#
+# Studies: (a) alpha_delay  — α × delay (× ζ̂) robust-stability map
+#          (b) dob_delay    — DOB cutoff × delay → DOB delay margin
+#          (c) cuff_inertia — cuff stiffness K_c × lightest stable human inertia
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+PYTHON="${PYTHON:-python}"
+for study in alpha_delay dob_delay cuff_inertia; do
+    echo "== studies/${study}.py" >&2
+    "$PYTHON" "studies/${study}.py" "$@"
+done
+echo "results written to results/{alpha_delay,dob_delay,cuff_inertia}/" >&2
