@@ -41,7 +41,7 @@ from .controller import ControllerStructure, build_controller
 from .humans import EnvModel, HumanFamily, family_split
 from .model import Plant
 from .poly import as_poly, degree, leading, padd, pmul, pscale, psub, pval, pval_flat, strip_common_low_zeros
-from .quasipoly import QP, adaptive_leaves, bisect_roots, count_rhp, log_grid, omega_max
+from .quasipoly import QP, adaptive_leaves, bisect_roots, count_rhp, leaves_pair, log_grid, omega_max
 
 __all__ = [
     "CharTerms",
@@ -309,7 +309,7 @@ class _Side:
             wmax = np.maximum(wmax, _family_wmax(D0, D1, phi, factor, fam.lo, fam.hi))
         valid = np.isfinite(wmax) & (wmax > 0)
         grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=self.per_decade)
-        lv = adaptive_leaves(lambda i, w: [D0.eval(i, w), D1.eval(i, w)], Nd, grid, valid)
+        lv = leaves_pair(D0, D1, grid, valid)
         lv["valid"] = valid
         self.leaves[tuple(z0)] = (D0, D1, lv)
         return self.leaves[tuple(z0)]
@@ -732,7 +732,7 @@ def _amp_dc_bandwidth(num: QP, den: QP, per_decade: int = 2):
             dip = 0.5 * h * np.maximum(np.abs(La.imag), np.abs(Lb.imag)) + 0.125 * h * np.abs(Lb - La)
         return ~np.isfinite(margin) | (margin <= 0.01) | (margin > dip)
 
-    lv = adaptive_leaves(lambda i, w: [num.eval(i, w), den.eval(i, w)], N, grid, valid, extra_ok=magnitude_ok)
+    lv = leaves_pair(num, den, grid, valid, magnitude_ok=magnitude_ok, lthr=lthr)
     with np.errstate(divide="ignore", invalid="ignore"):
         ha = np.abs(lv["va"][0] / lv["va"][1]) ** 2 - half[lv["task"]]
         hb = np.abs(lv["vb"][0] / lv["vb"][1]) ** 2 - half[lv["task"]]

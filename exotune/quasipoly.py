@@ -185,14 +185,14 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
             bad |= ~fin & ~skip
             ok &= skip | (fin & small_arg & (crit <= DER_STEP))
         floor = h <= 1e-13 * np.maximum(np.abs(b), 1e-300)
+        ok_phase = ok.copy()
         if extra_ok is not None:
-            ok_phase = ok.copy()
             ok &= extra_ok(ti, a, b, va, vb, da, db) | bad
             floor = floor | (ok_phase & (h <= 1e-9 * np.maximum(np.abs(b), 1e-300)))
         if level == MAX_LEVELS:
             floor[:] = True
         stop = ok | floor | bad
-        unres = (floor & ~ok) | bad
+        unres = (floor & ~ok_phase) | bad
         if unres.any():
             resolved[np.unique(ti[unres])] = False
         if stop.any():
@@ -243,6 +243,43 @@ def log_grid(wmax: np.ndarray, decades: float = 9.0, per_decade: int = 8) -> np.
     return np.concatenate([np.zeros((len(wmax), 1)), g], axis=1)
 
 
+def _engine(engine: str | None) -> str:
+    import os
+
+    from . import _fastphase
+
+    if engine is None:
+        engine = "numba" if (_fastphase.AVAILABLE and not os.environ.get("EXOTUNE_NUMPY_ONLY")) else "numpy"
+    return engine
+
+
+def leaves_pair(qa: QP, qb: QP, grid: np.ndarray, valid: np.ndarray, magnitude_ok=None, lthr=None, engine: str | None = None):
+    """Adaptive leaves tracking two quasi-polynomials with equal delays (compiled when possible).
+
+    ``magnitude_ok``/``lthr``: the amplification-bandwidth magnitude criterion (numpy callback /
+    per-task log −3 dB level for the compiled kernel)."""
+    from . import _fastphase
+
+    if _engine(engine) == "numba":
+        return _fastphase.leaves2(qa, qb, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS, lthr=lthr)
+    return adaptive_leaves(lambda i, w: [qa.eval(i, w), qb.eval(i, w)], qa.n, grid, valid, extra_ok=magnitude_ok)
+
+
+def _phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None):
+    """Σ of the accepted principal phase steps of Δ(jω) over each task's grid, and whether every
+    interval was resolved. ``engine``: "numba" (compiled kernel, default when numba is
+    installed and EXOTUNE_NUMPY_ONLY is unset) or "numpy" (the reference implementation)."""
+    from . import _fastphase
+
+    if _engine(engine) == "numba":
+        total, resolved, _ = _fastphase.phase_sums(q.p0, q.p1, q.T, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS)
+        return total, resolved
+    lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        steps = np.angle(lv["vb"][0] / lv["va"][0])
+    return np.bincount(lv["task"], weights=steps, minlength=q.n), lv["resolved"]
+
+
 def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     """Number of zeros of Δ in the open RHP, by the argument principle (module docstring).
 
@@ -270,12 +307,7 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     wmax = omega_max(p0, p1)
     valid = np.isfinite(wmax)
     grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=per_decade)
-    evalfn = lambda idx, w: [q.eval(idx, w)]
-    lv = adaptive_leaves(evalfn, ntask, grid, valid)
-    # Δ(0+) is the first leaf value; v0 is the regularized value at 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        steps = np.angle(lv["vb"][0] / lv["va"][0])
-    total = np.bincount(lv["task"], weights=steps, minlength=ntask)
+    total, resolved = _phase_sums(q, grid, valid)
     idx = np.arange(ntask)
     vmax, _ = q.eval(idx, np.where(valid, wmax, 1.0), deriv=False)
     n = degree(p0)
@@ -293,14 +325,15 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     psi = np.arctan(np.imag(cn) / np.real(cn)) if np.iscomplexobj(cn) else np.zeros(ntask)
     N = (n * np.pi / 2 + psi - total) / np.pi
     Nr = np.rint(N)
-    conclusive = valid & lv["resolved"] & (np.abs(N - Nr) < 0.05) & (base != 0) & np.isfinite(N)
+    conclusive = valid & resolved & (np.abs(N - Nr) < 0.05) & (base != 0) & np.isfinite(N)
     return np.where(np.isfinite(Nr), Nr, -1).astype(int), conclusive
 
 
-def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.ndarray, iters: int = 80, fb=None):
+def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.ndarray, iters: int = 100, fb=None):
     """Vectorized Illinois (modified regula falsi) on sign changes of real ``fun(task, w)``.
 
-    Brackets are kept, so convergence is guaranteed; stops at a relative width of 1e-14.
+    Brackets are kept (the Illinois modification makes both ends move), so convergence is
+    guaranteed; every bracket is shrunk to a relative width of 1e-14 (or ``iters`` steps).
     """
     a = a.astype(float).copy()
     b = b.astype(float).copy()
@@ -313,7 +346,6 @@ def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.nda
         act &= np.abs(b - a) > 1e-14 * np.maximum(np.abs(b), 1e-300)
         if not act.any():
             break
-        x_old = x
         with np.errstate(divide="ignore", invalid="ignore"):
             x = (a * fb - b * fa) / (fb - fa)
         bad = ~np.isfinite(x) | (x <= np.minimum(a, b)) | (x >= np.maximum(a, b))
@@ -333,6 +365,4 @@ def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.nda
         hit = (fx == 0) & act
         a = np.where(hit, x, a)
         b = np.where(hit, x, b)
-        # converged once the iterate stops moving (the bracket may stay one-sided)
-        act &= np.abs(x - x_old) > 1e-15 * np.maximum(np.abs(x), 1e-300)
-    return np.where(act | (a == b), 0.5 * (a + b), x)
+    return 0.5 * (a + b)

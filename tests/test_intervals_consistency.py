@@ -94,3 +94,31 @@ def test_robust_flag_is_whole_range():
     for i, fam in enumerate(cfg.humans):
         for iv, rob in zip(cols[f"human{i}_{fam.kind}_stable_intervals"], cols[f"human{i}_{fam.kind}_robust"]):
             assert bool(rob) == (len(iv) == 1 and iv[0] == [fam.lo, fam.hi])
+
+
+def test_critical_values_solve_the_crossing_equation():
+    """Each reported critical value p* at f* is a root on the axis to ≤ 1e-9 relative: the
+    crossing function κ(jω*) = −Δ_0/(φΔ1) is real there and equals p* (SPEC §5 asks ≤ 1e-6)."""
+    cfg = _cfg(60, 4)
+    cols = analyze_batch(cfg)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ct = char_terms(cfg.plant, cs, 60)
+    from exotune.humans import family_split
+
+    seen = 0
+    for i, fam in enumerate(cfg.humans):
+        z0, phi, factor = family_split(fam.kind, fam.param, fam.fixed(), fam.eta)
+        D0, D1 = ct.combine("00", "10", z0)
+        for t, crit in enumerate(cols[f"human{i}_{fam.kind}_critical"]):
+            for p, f in crit:
+                if f == 0:
+                    continue
+                w = 2 * np.pi * f
+                a, _ = D0.eval(np.array([t]), np.array([w]), deriv=False)
+                b, _ = D1.eval(np.array([t]), np.array([w]), deriv=False)
+                k = int(np.nonzero(phi)[0][0])
+                kap = -a[0] / (factor * (1j * w) ** k * b[0])
+                assert abs(kap.imag) <= 1e-9 * abs(kap), (fam, t, p, f, kap)
+                assert kap.real == pytest.approx(p, rel=1e-9)
+                seen += 1
+    assert seen >= 20
