@@ -612,9 +612,43 @@ def dob_margins(cs: ControllerStructure, N: int):
     return _dob_margins_rows(nq, dq, T)
 
 
+def _dob_margins_standard(nq, dq, T):
+    """Closed forms for the standard Q = ω_q²/(s² + 2ζω_q s + ω_q²) (SPEC §3):
+    L_dob = ω_q² e^{−sT}/(s (s + a)), a = 2ζω_q, has monotone gain and phase, one gain crossover
+    ω_c = ω_q √(√(4ζ⁴ + 1) − 2ζ²), unwrapped PM = π/2 − atan(ω_c/a) − ω_c T, and the smallest gain
+    margin at the first −180° crossing, π/2 − atan(ω/a) − ωT = 0 (bisected on [0, π/(2T)])."""
+    wq2 = nq[:, 0]
+    a = dq[:, 1]
+    wq = np.sqrt(wq2)
+    zeta = a / (2 * wq)
+    wc = wq * np.sqrt(np.sqrt(4 * zeta**4 + 1) - 2 * zeta**2)
+    pm_unwrapped = np.pi / 2 - np.arctan(wc / a) - wc * T
+    pm_k = np.mod(pm_unwrapped, 2 * np.pi)
+    pm = np.degrees(np.where(pm_k > np.pi, pm_k - 2 * np.pi, pm_k))
+    dm = pm_k / wc
+    lo = np.zeros_like(T)
+    hi = np.where(T > 0, np.pi / (2 * np.maximum(T, 1e-300)), 1.0)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        f = np.pi / 2 - np.arctan(mid / a) - mid * T
+        lo = np.where(f > 0, mid, lo)
+        hi = np.where(f > 0, hi, mid)
+    wp = 0.5 * (lo + hi)
+    gm = np.where(T > 0, -20 * np.log10(wq2 / (wp * np.hypot(wp, a))), np.inf)
+    return {"gain_margin_db": gm, "phase_margin_deg": pm, "delay_margin_s": dm, "crossover_hz": wc / (2 * np.pi)}
+
+
 def _dob_margins_rows(nq, dq, T):
     N = len(T)
     m = psub(dq, nq)
+    standard = (nq.shape[1] == 1) and (dq.shape[1] == 3) and np.all(dq[:, 2] == 1) and np.all(dq[:, 0] == nq[:, 0])
+    if standard:
+        out = _dob_margins_standard(nq, dq, T)
+        Nd, rd, okd = rhp_count(QP(_trim(m), _trim(nq), T))
+        stable = okd & (Nd == 0) & (rd == 0)
+        out["delay_margin_s"] = np.where(stable, out["delay_margin_s"], 0.0)
+        out["stable"] = stable
+        return out
     # |p(jω)|² as a polynomial in ω
     def sq(c):
         k = np.arange(c.shape[-1])

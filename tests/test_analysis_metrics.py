@@ -609,3 +609,22 @@ def test_dob_unstable_loop_has_zero_delay_margin():
         assert d["stable"] is stable
         assert (d["delay_margin_s"] > 0) is stable
         assert (d["phase_margin_deg"] > 0) is stable
+
+
+def test_dob_generic_path_equals_closed_form_path():
+    """The general L_dob margin code (any rational Q; here the standard Q written with both
+    polynomials scaled by 2, which disables the closed-form fast path) gives the same margins."""
+    from exotune.analysis import _dob_margins_rows
+
+    rng = np.random.default_rng(3)
+    n = 40
+    wq = 2 * np.pi * rng.uniform(10.0, 200.0, n)
+    z = rng.uniform(0.4, 1.2, n)
+    T = rng.uniform(0.0, 0.006, n)
+    nq = (wq**2)[:, None]
+    dq = np.stack([wq**2, 2 * z * wq, np.ones(n)], axis=1)
+    fast = _dob_margins_rows(nq, dq, T)
+    slow = _dob_margins_rows(2 * nq, 2 * dq, T)
+    assert np.array_equal(fast["stable"], slow["stable"])
+    for k in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "crossover_hz"):
+        assert np.allclose(fast[k], slow[k], rtol=1e-7, atol=1e-9), k
