@@ -41,9 +41,9 @@ def extra(df, manifest, out: Path) -> None:
     dm = df["dob_delay_margin_s"].to_numpy(float) * 1e3
     pm = df["dob_phase_margin_deg"].to_numpy(float)
     gm = df["dob_gain_margin_db"].to_numpy(float)
-    # a loop that is already unstable (negative phase or gain margin) has no delay margin; the
-    # reported value would be the wrapped phase (PM + 360°)/ω_c
-    dob_unstable = (pm <= 0) | (gm <= 0)
+    # a DOB loop that is already unstable has no delay margin: exotune reports dob_stable = False
+    # and a 0 s margin for it (shown masked here)
+    dob_unstable = ~df["dob_stable"].to_numpy(bool)
     dm_valid = np.where(dob_unstable, np.nan, dm)
     robust = robust_of(df)
 
@@ -112,9 +112,9 @@ def extra(df, manifest, out: Path) -> None:
              "L_dob(s) = Q(s) e^{−sT}/(1 − Q(s)) (SPEC §3, §5); the delay margin is the extra delay on top of T "
              "(minimum over all gain crossovers).")
     L.append("")
-    L.append(f"{int(dob_unstable.sum())} designs have an unstable DOB loop (phase or gain margin ≤ 0); their "
-             "reported `dob_delay_margin_s` is not a margin (it is the wrapped phase (PM + 360°)/ω_c) and is masked "
-             f"here. {int(robust.sum())} of {len(df)} designs are robustly stable for every human family.")
+    L.append(f"{int(dob_unstable.sum())} designs have an unstable closed DOB loop with their delay "
+             "(`dob_stable` false; exotune reports a 0 s delay margin for them; masked in the map). "
+             f"{int(robust.sum())} of {len(df)} designs are robustly stable for every human family.")
     L.append("")
     L.append("| T [ms] | " + " | ".join(f"max f_q [Hz] with margin ≥ {lv:g} ms" for lv in LEVELS_MS)
              + " | robust f_q range [Hz] |")
