@@ -343,8 +343,35 @@ class _Side:
                 kmax = np.maximum(np.abs(ka), np.abs(kb))
                 plausible = ((ka.real > 0) | (kb.real > 0)) & ~(kmax * 1e3 < fam.lo) & ~(kmin > fam.hi * 1e3)
                 br &= plausible | ~np.isfinite(kmax)
-                tk = lv["task"][br]
-                ws = bisect_roots(g, tk, lv["a"][br], lv["b"][br], ga[br], fb=gb[br])
+                # a leaf can hold several crossings (an even number without a sign change at its
+                # ends, or three with one) when κ hugs the positive real axis — a nearly decoupled
+                # light mass on the cuff spring at high frequency, where the delay makes Im κ
+                # ripple with period 2π/T: such leaves are sub-sampled (≥ 24 points, ≥ 8 per
+                # ripple period) and their brackets come from the sub-samples
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    near_real = (np.abs(ka.imag) <= 0.02 * np.abs(ka)) | (np.abs(kb.imag) <= 0.02 * np.abs(kb))
+                sus = ((lv["a"] > 0) & plausible & near_real & ~(kmax * 4.0 < fam.lo) & ~(kmin > fam.hi * 4.0))
+                br &= ~sus
+                tk, ba, bb, bga, bgb = lv["task"][br], lv["a"][br], lv["b"][br], ga[br], gb[br]
+                if sus.any():
+                    st, sa_, sb_ = lv["task"][sus], lv["a"][sus], lv["b"][sus]
+                    Tt = D0.T[st]
+                    per = np.where(Tt > 0, 2 * np.pi / np.maximum(Tt, 1e-300), np.inf)
+                    M = np.clip(np.ceil(8.0 * (sb_ - sa_) / per), 24, 512).astype(int)
+                    rep = np.repeat(np.arange(len(st)), M)
+                    # M points per leaf, both ends included (a sign change at the ends is kept)
+                    frac = (np.arange(rep.size) - np.repeat(np.cumsum(M) - M, M)) / np.repeat(M - 1, M)
+                    wsub = sa_[rep] + frac * (sb_ - sa_)[rep]
+                    gsub = g(st[rep], wsub)
+                    nxt = np.r_[rep[1:] == rep[:-1], False]
+                    j = np.nonzero(nxt & (np.sign(gsub) * np.sign(np.r_[gsub[1:], 0.0]) < 0))[0]
+                    if j.size:
+                        tk = np.concatenate([tk, st[rep[j]]])
+                        ba = np.concatenate([ba, wsub[j]])
+                        bb = np.concatenate([bb, wsub[j + 1]])
+                        bga = np.concatenate([bga, gsub[j]])
+                        bgb = np.concatenate([bgb, gsub[j + 1]])
+                ws = bisect_roots(g, tk, ba, bb, bga, fb=bgb)
                 a_, _ = D0.eval(tk, ws, deriv=False)
                 b_ = fl(D1.eval(tk, ws, deriv=False)[0], ws)
                 with np.errstate(divide="ignore", invalid="ignore"):

@@ -122,3 +122,38 @@ def test_critical_values_solve_the_crossing_equation():
                 assert kap.real == pytest.approx(p, rel=1e-9)
                 seen += 1
     assert seen >= 20
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_very_light_inertias_down_to_1e6(seed):
+    """Masses down to 10⁻⁶ kg·m² on the cuff: resonances at kHz, where κ hugs the real axis and
+    Im κ ripples with the delay (pairs of crossings inside one frequency interval). Intervals must
+    agree with exact pointwise counts on a dense log grid of inertias."""
+    n = 12
+    cfg = _cfg(n, seed)
+    cfg = dataclasses.replace(cfg, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0, damping=0.0),), environment=())
+    cols = analyze_batch(cfg)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ivs = cols["human0_mass_stable_intervals"]
+    ms = np.geomspace(1e-6, 1.0, 150)
+    checked = 0
+    for m in ms:
+        res = coupled_stable(cfg.plant, cs, n, human={"inertia": np.full(n, m)})
+        for k in range(n):
+            if _near(ivs[k], m, 1e-6, 1.0, rel=1e-3) or not res["conclusive"][k]:
+                continue
+            assert bool(res["stable"][k]) == _inside(ivs[k], m), (k, m, ivs[k])
+            checked += 1
+    assert checked > 0.9 * n * len(ms)
+
+
+def test_paper_design_light_mass_boundary_matches_exact_root():
+    """Regression (found by `exotune analyze --cross-check`): with the §9 design and the mass range
+    extended to 1e-6 kg·m², the boundary at 1.2031e-6 kg·m² (2513 Hz) must be reported; Newton on
+    the exact quasi-polynomial puts the root at Re s = +7.2e-4 for m = 1e-6 (unstable)."""
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    cfg = dataclasses.replace(base, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0, damping=0.0),))
+    iv = analyze_batch(cfg)["human0_mass_stable_intervals"][0]
+    assert not _inside(iv, 1.0e-6) and not _inside(iv, 1.15e-6)
+    assert _inside(iv, 1.25e-6)
+    assert any(abs(a - 1.2030604e-6) < 1e-12 for a, _ in iv)
