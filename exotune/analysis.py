@@ -1153,6 +1153,14 @@ def format_report(r: dict) -> str:
     a = r["amplification"]
     L.append(f"Amplification C6/C5: DC {a['dc']:.6g}, -3 dB bandwidth {a['bandwidth_hz']:.4g} Hz, minimum phase {yn(a['minimum_phase'])}")
     L.append(f"J_m_hat / J_j = {r['J_m_hat_over_J_j']:.4g}")
+    cc = r.get("cross_check")
+    if cc:
+        L.append(
+            f"Padé cross-check (orders {cc['pade_orders']}): {cc['agree']} of {cc['checked']} verdicts agree"
+            + (f"; Padé-unresolved: {len(cc['pade_unresolved'])}" if cc["pade_unresolved"] else "")
+        )
+        for d in cc["disagreements"]:
+            L.append(f"  DISAGREEMENT at {d['case']}: exotune stable={d['exotune_stable']}, Padé stable={d['pade_stable']}")
     for w in r["warnings"]:
         L.append(f"warning: {w}")
     return "\n".join(L)

@@ -645,7 +645,9 @@ def sea_cmd(sea_file, as_json):
 @click.argument("design_file", metavar="DESIGN.yaml")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write the analysis plots to DIR.")
-def analyze_cmd(design_file, as_json, plots_dir):
+@click.option("--cross-check", "cross_check", is_flag=True,
+              help="Also compare the exact verdicts with closed-loop roots of two Padé models (SPEC §5).")
+def analyze_cmd(design_file, as_json, plots_dir, cross_check):
     """Stability, passivity, DOB margins and amplification of a design (SPEC §5, §8)."""
     from .config import load_design
 
@@ -653,6 +655,10 @@ def analyze_cmd(design_file, as_json, plots_dir):
     from .analysis import analyze_design, format_report
 
     result = analyze_design(cfg)
+    if cross_check:
+        from .crosscheck import pade_crosscheck
+
+        result["cross_check"] = pade_crosscheck(cfg)
     text = _dumps(result) if as_json else format_report(result)
     if plots_dir is not None:
         from .plots import write_analysis_plots

@@ -197,3 +197,41 @@ def test_environment_verdicts_match_eigenvalues(env_kind):
         assert bool(res["stable"][i]) == ref, (i, env_kind)
         compared += 1
     assert compared >= 70
+
+
+def test_product_pade_crosscheck_agrees():
+    """`exotune analyze --cross-check` (exotune.crosscheck): no disagreement on the §9 file, on the
+    same file with masses down to 1e-6 kg·m², and on random designs; it reports its counts."""
+    from pathlib import Path
+
+    from exotune.config import load_design
+    from exotune.crosscheck import pade_crosscheck
+    from exotune.humans import HumanFamily
+
+    root = Path(__file__).resolve().parents[1]
+    base = load_design(root / "examples" / "paper.yaml")
+    cfgs = [base, dataclasses.replace(base, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0),))]
+    rng = np.random.default_rng(21)
+    for _ in range(4):
+        d = dataclasses.replace(base.design, amplification=float(rng.uniform(2, 20)), zeta_hat=float(rng.uniform(0.4, 1.1)))
+        im = dataclasses.replace(base.implementation, delay_s=float(rng.uniform(0, 0.003)))
+        cfgs.append(dataclasses.replace(base, design=d, implementation=im))
+    total = 0
+    for cfg in cfgs:
+        cc = pade_crosscheck(cfg)
+        assert cc["disagreements"] == [], cc
+        total += cc["checked"]
+    assert total >= 40
+
+
+def test_cli_cross_check_flag():
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-m", "exotune", "analyze", str(root / "examples" / "paper.yaml"), "--json",
+                          "--cross-check"], capture_output=True, text=True, check=True)
+    cc = json.loads(out.stdout)["cross_check"]
+    assert cc["checked"] >= 5 and cc["agree"] == cc["checked"]
