@@ -1156,11 +1156,12 @@ def format_report(r: dict) -> str:
     cc = r.get("cross_check")
     if cc:
         L.append(
-            f"Padé cross-check (orders {cc['pade_orders']}): {cc['agree']} of {cc['checked']} verdicts agree"
-            + (f"; Padé-unresolved: {len(cc['pade_unresolved'])}" if cc["pade_unresolved"] else "")
+            f"Cross-check (Padé {cc['pade_orders']} roots + Newton on the exact Δ): {cc['agree']} of {cc['checked']} verdicts agree"
+            + (f"; {len(cc['unconfirmed'])} unstable verdicts not confirmed by the root search" if cc["unconfirmed"] else "")
         )
         for d in cc["disagreements"]:
-            L.append(f"  DISAGREEMENT at {d['case']}: exotune stable={d['exotune_stable']}, Padé stable={d['pade_stable']}")
+            L.append(f"  DISAGREEMENT at {d['case']}: exotune says stable, but Δ has a root at "
+                     f"{d['rhp_root']['re']:.6g} + {d['rhp_root']['im']:.6g}j rad/s")
     for w in r["warnings"]:
         L.append(f"warning: {w}")
     return "\n".join(L)

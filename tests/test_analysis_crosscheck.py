@@ -235,3 +235,106 @@ def test_cli_cross_check_flag():
                           "--cross-check"], capture_output=True, text=True, check=True)
     cc = json.loads(out.stdout)["cross_check"]
     assert cc["checked"] >= 5 and cc["agree"] == cc["checked"]
+
+
+def _rhp_radius(ct_w, i, human):
+    """Largest |s| with Σ|p1_k||s|^k + Σ_{k<n}|p0_k||s|^k ≥ |p0_n||s|^n (bisection in log |s|)."""
+    ct, holder = ct_w
+    t = ct.terms
+    z = np.zeros(3) if human is None else np.array([holder["k"][i], 0.0, 0.0])
+    from exotune.poly import padd, pmul
+
+    p0 = padd(t["00"].p0[i], pmul(t["10"].p0[i], z))
+    p1 = padd(t["00"].p1[i], pmul(t["10"].p1[i], z))
+    p0 = np.trim_zeros(np.abs(p0), "b")
+    a1 = np.abs(p1)
+    n = len(p0) - 1
+    f = lambda r: p0[n] * r**n - np.sum(p0[:n] * r ** np.arange(n)) - np.sum(a1 * r ** np.arange(len(a1)))
+    lo, hi = 1e-6, 1e12
+    for _ in range(200):
+        mid = np.sqrt(lo * hi)
+        lo, hi = (mid, hi) if f(mid) <= 0 else (lo, mid)
+    return hi
+
+
+def test_wide_parameter_ranges_free_and_spring_verdicts():
+    """Plants, designs and implementations spanning 3–5 decades each (inertias 1e-3…10 kg·m²,
+    stiffnesses 10…1e5 N·m/rad, α 1…50, ζ 0.05…3, delays 0…20 ms, filters 5…1000 Hz, DOB 1…500 Hz):
+    (compared only where the Padé model provably covers every RHP root: R·T ≤ 6)
+    batch analysis runs without warnings, is conclusive, and agrees with closed-loop eigenvalues."""
+    import warnings
+    from pathlib import Path
+
+    from exotune.analysis import analyze_batch
+    from exotune.config import batch_config, load_design
+
+    base = load_design(Path(__file__).resolve().parents[1] / "examples" / "paper.yaml")
+    rng = np.random.default_rng(11)
+    n = 150
+    lu = lambda a, b: np.exp(rng.uniform(np.log(a), np.log(b), n))
+    ov = {"plant.motor_inertia": lu(1e-3, 10), "plant.motor_damping": lu(0.1, 100), "plant.sea_stiffness": lu(10, 1e5),
+          "plant.joint_inertia": lu(1e-3, 10), "plant.cuff_stiffness": lu(10, 1e4),
+          "design.amplification": lu(1, 50), "design.felt_inertia": lu(1e-3, 10), "design.felt_damping": lu(1e-2, 100),
+          "design.zeta": lu(0.05, 3), "design.zeta_hat": lu(0.05, 3),
+          "implementation.delay_s": rng.choice([0.0, 2e-4, 1e-3, 3e-3, 0.02], n), "implementation.gv_filter.cutoff_hz": lu(5, 1000),
+          "implementation.derivative_filter.cutoff_hz": lu(5, 1000), "implementation.dob.cutoff_hz": lu(1, 500)}
+    cfg = batch_config(base, ov)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cols = analyze_batch(cfg)
+    assert cols["free_conclusive"].all()
+    cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ct_w = (char_terms(cfg.plant, cs, n), k_spring_holder := {})
+    g = ds.gains
+    k_spring = lu(1.0, 1e4)
+    k_spring_holder["k"] = k_spring
+    res_spring = coupled_stable(cfg.plant, cs, n, human={"stiffness": k_spring})
+    compared = 0
+    for i in range(n):
+        P = cfg.plant
+        plant = dict(J_m=P.J_m[i], B_m=P.B_m[i], K_s=P.K_s[i], J_j=P.J_j[i], K_c=P.K_c[i])
+        gains = dict(K1=g.K1[i], B1=g.B1[i], K2=g.K2[i], B2=g.B2[i], Gc=(cs.cuff_torque.num[i], cs.cuff_torque.den[i]))
+        im = cfg.implementation
+        impl = dict(T=im.delay_s[i], dob={"cutoff_hz": im.dob.cutoff_hz[i], "damping": 0.7})
+        for human, exo in ((None, cols["free_stable"][i]), ({"kind": "spring", "stiffness": k_spring[i]}, res_spring["stable"][i])):
+            vs = []
+            for order in (10, 16):
+                p = closed_loop_poles(plant, gains, impl, human, "free", order)
+                if has_rigid_body_mode(gains, human, "free"):
+                    p = np.delete(p, np.argmin(np.abs(p)))
+                lam = p[np.argmax(p.real)]
+                vs.append((bool(lam.real < 0), lam))
+            if vs[0][0] != vs[1][0] or abs(vs[1][1].real) < 1e-6 * abs(vs[1][1]):
+                continue
+            # the Padé model is trusted only where it can be: every RHP root of Δ (and of the Padé
+            # model, |Padé| < 1 in the RHP) has |P0(s)| ≤ |P1(s)|, i.e. |s| ≤ R; require R·T ≤ 6
+            if im.delay_s[i] * _rhp_radius(ct_w, i, human) > 6.0:
+                continue
+            assert vs[0][0] == bool(exo), (i, human, vs)
+            compared += 1
+    assert compared >= 60
+
+
+def test_cross_check_catches_a_wrong_stable_interval(monkeypatch):
+    """The second opinion is not a rubber stamp: if the intervals wrongly claimed the whole light-mass
+    range stable, the Newton search on the exact Δ finds the RHP root and reports a disagreement."""
+    from pathlib import Path
+
+    import exotune.crosscheck as cc_mod
+    from exotune.config import load_design
+    from exotune.humans import HumanFamily
+
+    base = load_design(Path(__file__).resolve().parents[1] / "examples" / "paper.yaml")
+    cfg = dataclasses.replace(base, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0),))
+    real = cc_mod.analyze_batch
+
+    def lying(c):
+        cols = real(c)
+        cols["human0_mass_stable_intervals"] = [[[1e-6, 1.0]]]
+        cols["human0_mass_critical"] = [[]]
+        return cols
+
+    monkeypatch.setattr(cc_mod, "analyze_batch", lying)
+    out = cc_mod.pade_crosscheck(cfg)
+    assert out["disagreements"], out
+    assert all(d["exotune_stable"] and d["rhp_root"]["re"] > 0 for d in out["disagreements"])
