@@ -346,7 +346,7 @@ class _Side:
                 # a leaf can hold several crossings (an even number without a sign change at its
                 # ends, or three with one) when κ hugs the positive real axis — a nearly decoupled
                 # light mass on the cuff spring at high frequency, where the delay makes Im κ
-                # ripple with period 2π/T: such leaves are sub-sampled (≥ 24 points, ≥ 8 per
+                # ripple with period 2π/T: such leaves are sub-sampled (≥ 8 points, ≥ 8 per
                 # ripple period) and their brackets come from the sub-samples
                 with np.errstate(divide="ignore", invalid="ignore"):
                     near_real = (np.abs(ka.imag) <= 0.02 * np.abs(ka)) | (np.abs(kb.imag) <= 0.02 * np.abs(kb))
@@ -357,7 +357,7 @@ class _Side:
                     st, sa_, sb_ = lv["task"][sus], lv["a"][sus], lv["b"][sus]
                     Tt = D0.T[st]
                     per = np.where(Tt > 0, 2 * np.pi / np.maximum(Tt, 1e-300), np.inf)
-                    M = np.clip(np.ceil(8.0 * (sb_ - sa_) / per), 24, 512).astype(int)
+                    M = np.clip(np.ceil(8.0 * (sb_ - sa_) / per), 8, 512).astype(int)
                     rep = np.repeat(np.arange(len(st)), M)
                     # M points per leaf, both ends included (a sign change at the ends is kept)
                     frac = (np.arange(rep.size) - np.repeat(np.cumsum(M) - M, M)) / np.repeat(M - 1, M)
