@@ -95,15 +95,6 @@ def _blocks(cs: ControllerStructure, N: int):
     return out
 
 
-def batch_size(*objs) -> int:
-    n = 1
-    for o in objs:
-        for v in (vars(o).values() if hasattr(o, "__dict__") else o):
-            if isinstance(v, np.ndarray) and v.ndim >= 1:
-                n = max(n, v.shape[0])
-    return n
-
-
 def _controller_polys(cs: ControllerStructure, N: int):
     """Common-denominator form of the controller: d = Π d_x, w_x = n_x · d/d_x for the blocks on
     θ_m, τ_s, τ_c, and the DOB filter Q = n_q/d_q (n_q = 0, d_q = 1 without a DOB)."""
@@ -268,13 +259,6 @@ def free_stability(ct: CharTerms):
     return {"stable": ok & (N == 0) & (r <= 1), "n_rhp": N, "rigid_body_roots": r, "conclusive": ok}
 
 
-_PHI = {"stiffness": 0, "damping": 1, "inertia": 2}
-
-
-def _phi_at(param: str, w: np.ndarray) -> np.ndarray:
-    """φ(jω) for the ranged parameter: 1 (stiffness), jω (damping), −ω² (inertia)."""
-    k = _PHI[param]
-    return (1j * w) ** k
 
 
 class _Side:
