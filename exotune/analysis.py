@@ -645,7 +645,8 @@ def _dob_margins_standard(nq, dq, T):
         lo = np.where(f > 0, mid, lo)
         hi = np.where(f > 0, hi, mid)
     wp = 0.5 * (lo + hi)
-    gm = np.where(T > 0, -20 * np.log10(wq2 / (wp * np.hypot(wp, a))), np.inf)
+    with np.errstate(over="ignore", divide="ignore"):  # T → 0+: the margin → +inf
+        gm = np.where(T > 0, -20 * np.log10(wq2 / (wp * np.hypot(wp, a))), np.inf)
     return {"gain_margin_db": gm, "phase_margin_deg": pm, "delay_margin_s": dm, "crossover_hz": wc / (2 * np.pi)}
 
 
