@@ -544,7 +544,20 @@ def passivity(side: _Side):
         best[ti] = np.maximum(best[ti], f(0.5 * (a_ + b_)))
     # bands = runs of consecutive samples with Im C7 > 0; only runs whose sampled peak excess
     # reaches the threshold get their two edges refined (exact zeros of Im C7)
+    # the sign of Im C7 is only trusted above the float resolution (|Im C7| > 1e-8 |C7|); samples
+    # below it inherit the state of the previous sample of the same design, so rounding noise in
+    # the high-frequency tail (C7 → 1/K_c) neither splits nor ends a band
+    resolved_sign = np.abs(imb) > 1e-8 * np.abs(cb)
     inside = imb > 0
+    if task.size:
+        first_of_task = np.r_[True, task[1:] != task[:-1]]
+        keep = resolved_sign | first_of_task
+        last = np.maximum.accumulate(np.where(keep, np.arange(task.size), 0))
+        inside = inside[last]
+        # the a-end of a leaf is the b-end of the previous leaf of the same design
+        resolved_a = np.r_[False, resolved_sign[:-1]] & ~first_of_task
+    else:
+        resolved_a = np.zeros(0, bool)
     if task.size:
         newrun = np.r_[True, (task[1:] != task[:-1]) | (inside[1:] != inside[:-1])]
     else:
@@ -562,12 +575,16 @@ def passivity(side: _Side):
     je = np.where(has_end, starts[np.minimum(nxt_run, len(starts) - 1)], -1)
     has_end &= task[np.maximum(je, 0)] == task[qs]
     fim = lambda t_, w: np.imag(c7(t_, w))
-    bracket_start = np.sign(ima[qs]) != np.sign(imb[qs])
+    bracket_start = (np.sign(ima[qs]) != np.sign(imb[qs])) & resolved_sign[qs] & resolved_a[qs]
     ws = a_l[qs].copy()
     if bracket_start.any():
         k = qs[bracket_start]
         ws[bracket_start] = bisect_roots(fim, task[k], a_l[k], b_l[k], ima[k], fb=imb[k])
     we = np.full(len(qs), np.inf)
+    jj = np.maximum(je, 0)
+    closes = has_end & (np.sign(ima[jj]) != np.sign(imb[jj])) & resolved_sign[jj] & resolved_a[jj]
+    we[has_end & ~closes] = b_l[np.maximum(je, 0)][has_end & ~closes] if (has_end & ~closes).any() else we[has_end & ~closes]
+    has_end = closes
     if has_end.any():
         k = je[has_end]
         we[has_end] = bisect_roots(fim, task[k], a_l[k], b_l[k], ima[k], fb=imb[k])
