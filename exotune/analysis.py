@@ -269,8 +269,9 @@ class _Side:
     g(ω) = Im[Δ_0 · conj(f φ(jω) Δ{key1})] (f = 1 + jη for the hysteretic human).
     """
 
-    def __init__(self, ct: CharTerms, key0: str, key1: str, families, per_decade: int = 2):
+    def __init__(self, ct: CharTerms, key0: str, key1: str, families, per_decade: int = 2, verify: int = 0):
         self.ct, self.key0, self.key1 = ct, key0, key1
+        self.verify = int(verify)
         self.fams = list(families)
         self.per_decade = per_decade
         self.groups: dict = {}
@@ -374,17 +375,15 @@ class _Side:
                 ct_, cp, cw = ct_[order], cp[order], cw[order]
                 bounds, crit = _bounds(Nd, ct_, cp, cw, fam.lo, fam.hi)
                 rep_t, rep_p = _representatives(bounds)
-                # Δ(s; p) = D0 + p f φ D1 for each representative p (complex when f is)
-                phi_arr = np.asarray(phi, float)
-                D1p0 = pmul(D1.p0, phi_arr[None, :])
-                D1p1 = pmul(D1.p1, phi_arr[None, :])
-                reg = None
-                if factor.imag != 0:
-                    reg = (padd(D0.p0[rep_t], rep_p[:, None] * D1p0[rep_t]), padd(D0.p1[rep_t], rep_p[:, None] * D1p1[rep_t]))
-                P0 = padd(D0.p0[rep_t].astype(complex if reg else float), (factor if reg else 1.0) * rep_p[:, None] * D1p0[rep_t])
-                P1 = padd(D0.p1[rep_t].astype(complex if reg else float), (factor if reg else 1.0) * rep_p[:, None] * D1p1[rep_t])
-                h = counter.add(P0, P1, D0.T[rep_t], reg)
-                self.results[i] = dict(bounds=bounds, crit=crit, rep_t=rep_t, handle=h, leaves_ok=lv["valid"] & lv["resolved"])
+                h = _queue_points(counter, D0, D1, phi, factor, rep_t, rep_p)
+                res = dict(bounds=bounds, crit=crit, rep_t=rep_t, handle=h, leaves_ok=lv["valid"] & lv["resolved"])
+                if self.verify:
+                    # independent check of the interval structure: exact counts at a grid of values
+                    vp = np.geomspace(fam.lo, fam.hi, self.verify) if fam.lo > 0 else np.linspace(fam.lo, fam.hi, self.verify)
+                    ver_t = np.repeat(np.arange(Nd), vp.size)
+                    ver_p = np.tile(vp, Nd)
+                    res.update(ver_t=ver_t, ver_p=ver_p, ver_handle=_queue_points(counter, D0, D1, phi, factor, ver_t, ver_p))
+                self.results[i] = res
 
     def collect(self, counter: _Counter, allowed_rigid: int = 1):
         out = []
@@ -406,14 +405,41 @@ class _Side:
                         else:
                             intervals[t].append([bt[j], bt[j + 1]])
                     kk += 1
+            mismatches = [[] for _ in range(Nd)]
+            if "ver_handle" in R:
+                Nv, rv, okv = counter.result(R["ver_handle"])
+                stv = okv & (Nv == 0) & (rv <= allowed_rigid)
+                for t_, p_, s_, ok_ in zip(R["ver_t"].tolist(), R["ver_p"].tolist(), stv.tolist(), okv.tolist()):
+                    edges = R["bounds"][t_][1:-1]
+                    if not ok_ or any(abs(p_ - e) <= 1e-6 * max(abs(e), 1e-300) for e in edges):
+                        continue
+                    if s_ != any(a <= p_ <= b for a, b in intervals[t_]):
+                        mismatches[t_].append(p_)
+                bad = np.array([bool(m) for m in mismatches])
+                conclusive &= ~bad
             robust = np.array([len(iv) == 1 and iv[0][0] == fam.lo and iv[0][1] == fam.hi for iv in intervals])
             out.append({
+                "verification_mismatches": mismatches,
                 "stable_intervals": intervals,
                 "robust": robust & conclusive,
                 "conclusive": conclusive,
                 "critical": R["crit"],
             })
         return out
+
+
+def _queue_points(counter: _Counter, D0: QP, D1: QP, phi, factor: complex, rows: np.ndarray, p: np.ndarray):
+    """Queue exact RHP counts of Δ(s; p) = D0 + p f φ D1 for the given (design row, p) pairs
+    (complex coefficients with the real regularized twin for the hysteretic human)."""
+    phi_arr = np.asarray(phi, float)
+    D1p0 = pmul(D1.p0, phi_arr[None, :])
+    D1p1 = pmul(D1.p1, phi_arr[None, :])
+    reg = None
+    if factor.imag != 0:
+        reg = (padd(D0.p0[rows], p[:, None] * D1p0[rows]), padd(D0.p1[rows], p[:, None] * D1p1[rows]))
+    P0 = padd(D0.p0[rows].astype(complex if reg else float), (factor if reg else 1.0) * p[:, None] * D1p0[rows])
+    P1 = padd(D0.p1[rows].astype(complex if reg else float), (factor if reg else 1.0) * p[:, None] * D1p1[rows])
+    return counter.add(P0, P1, D0.T[rows], reg)
 
 
 def _bounds(Nd, ct_, cp, cw, lo, hi):
@@ -871,16 +897,21 @@ def _affine(ct: CharTerms, k0: str, k1: str, z: np.ndarray) -> QP:
 GAIN_NAMES = ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat")
 
 
-def analyze_batch(cfg, max_chunk: int = 2048) -> dict:
+def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
     """Every SPEC §5 metric for a batch configuration (fields may be arrays of length N).
 
     Returns a dict of columns named as in SPEC §6: numpy arrays (one entry per design) and, for
     interval-valued metrics, lists of lists of [lo, hi].
+
+    ``verify`` > 0 additionally counts RHP roots exactly at that many log-spaced values of every
+    family's range and checks them against the intervals; a mismatch makes the family
+    inconclusive (hence not robust) and is listed in ``human{i}_{kind}_verification_mismatches``.
+    The single-design report uses 64; sweeps use 0 (the interval method alone).
     """
 
     N = _cfg_size(cfg)
     if N > max_chunk:
-        parts = [analyze_batch(_slice_cfg(cfg, slice(i, min(i + max_chunk, N))), max_chunk) for i in range(0, N, max_chunk)]
+        parts = [analyze_batch(_slice_cfg(cfg, slice(i, min(i + max_chunk, N))), max_chunk, verify) for i in range(0, N, max_chunk)]
         return _concat_columns(parts)
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, N)
@@ -890,7 +921,7 @@ def analyze_batch(cfg, max_chunk: int = 2048) -> dict:
     num, den = amplification_qps(cfg.plant, cs, N)
     h_num = counter.add(num.p0, num.p1, num.T)
     h_den = counter.add(den.p0, den.p1, den.T)
-    human = _Side(ct, "00", "10", cfg.humans)
+    human = _Side(ct, "00", "10", cfg.humans, verify=verify)
     human.compute_leaves((0.0, 0.0, 0.0))  # shared with passivity
     human.submit(counter)
     env_fams = [e for e in cfg.environment if e.kind in ("spring", "mass")]
@@ -908,6 +939,8 @@ def analyze_batch(cfg, max_chunk: int = 2048) -> dict:
         out[f"{key}_stable_intervals"] = res["stable_intervals"]
         out[f"{key}_conclusive"] = res["conclusive"]
         out[f"{key}_critical"] = res["critical"]
+        if verify:
+            out[f"{key}_verification_mismatches"] = res["verification_mismatches"]
     Nn, rn, okn = counter.result(h_num)
     Nd_, rd, okd = counter.result(h_den)
     locked_stable = okd & (Nd_ == 0) & (rd == 0)
@@ -1007,6 +1040,9 @@ METRIC_UNITS = {
 }
 
 
+VERIFY_POINTS = 64
+
+
 def analyze_design(cfg) -> dict:
     """All SPEC §5 metrics for one design, as a JSON-ready dict (SPEC §8 ``analyze --json``)."""
     from .shaping import GAIN_UNITS_TORQUE, double_compliance_shaping
@@ -1018,7 +1054,7 @@ def analyze_design(cfg) -> dict:
             "implementation.gv_filter" if cfg.implementation.gv_filter is None else "implementation.derivative_filter",
             "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (SPEC §3)",
         )
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg, verify=VERIFY_POINTS)
     ds = double_compliance_shaping(cfg.plant, cfg.design)
     g = lambda k: float(np.asarray(cols[k])[0])
     humans = []
@@ -1035,6 +1071,8 @@ def analyze_design(cfg) -> dict:
             "robust": bool(cols[f"{key}_robust"][0]),
             "conclusive": bool(cols[f"{key}_conclusive"][0]),
             "critical": [{"value": p, "frequency_hz": f} for p, f in cols[f"{key}_critical"][0]],
+            "verified_points": VERIFY_POINTS,
+            "verification_mismatches": cols[f"{key}_verification_mismatches"][0],
         }
         if iv:
             # the stable interval reaching the top of the range gives e.g. the lightest stable inertia
@@ -1137,6 +1175,8 @@ def format_report(r: dict) -> str:
         L.append(f"    stable on {_fmt_iv(h['stable_intervals'], h['unit'])}")
         for c in h["critical"]:
             L.append(f"    boundary at {h['parameter']} = {c['value']:.6g} {h['unit']} (crossing at {c['frequency_hz']:.4g} Hz)")
+        if h.get("verification_mismatches"):
+            L.append(f"    VERIFICATION FAILED at {h['parameter']} = {h['verification_mismatches']}: treated as not robust")
         if h.get("lowest_stable_value_below_range_top") is not None and h["kind"] in ("mass", "msd") and h["parameter"] == "inertia":
             L.append(f"    lightest stable inertia: {h['lowest_stable_value_below_range_top']:.6g} kg·m²")
     L.append("")

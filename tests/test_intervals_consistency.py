@@ -157,3 +157,23 @@ def test_paper_design_light_mass_boundary_matches_exact_root():
     assert not _inside(iv, 1.0e-6) and not _inside(iv, 1.15e-6)
     assert _inside(iv, 1.25e-6)
     assert any(abs(a - 1.2030604e-6) < 1e-12 for a, _ in iv)
+
+
+def test_single_design_report_verifies_intervals(monkeypatch):
+    """analyze_design checks the interval structure against exact counts at 64 values per family:
+    with the crossing search sabotaged (no critical values found), the mass family of the §9 file
+    is flagged (mismatches listed, not robust, not conclusive) instead of being reported robust."""
+    import exotune.analysis as an
+
+    cfg = load_design(ROOT / "examples" / "paper.yaml")
+    good = an.analyze_design(cfg)["humans"][0]
+    assert good["verification_mismatches"] == [] and good["verified_points"] == 64
+
+    def no_crossings(Nd, ct_, cp, cw, lo, hi):
+        return [[lo, hi] for _ in range(Nd)], [[] for _ in range(Nd)]
+
+    monkeypatch.setattr(an, "_bounds", no_crossings)
+    bad = an.analyze_design(cfg)["humans"][0]
+    assert bad["kind"] == "mass"
+    assert bad["verification_mismatches"], bad
+    assert bad["robust"] is False and bad["conclusive"] is False
