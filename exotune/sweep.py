@@ -10,6 +10,8 @@ Spec file
       design.zeta_hat: [0.5, 0.7, 0.9]
       implementation.delay_s: {start: 0.0, stop: 0.004, num: 5}     # scale defaults to lin
     chunk_size: 10000                     # optional (default 10000; ``--chunk-size`` overrides)
+    verify_points: 16                     # optional: verify every family's intervals with exact
+                                          # counts at N values (mismatch → not robust; default 0)
 
 The spec is read with :func:`yaml.safe_load` (duplicate keys rejected) and validated strictly:
 unknown keys, an empty ``axes`` mapping, an axis that is neither a list of numbers nor a
@@ -118,7 +120,7 @@ MANIFEST = "manifest.json"
 CHUNK_DIR = "chunks"
 FORMAT = "exotune-sweep"
 FORMAT_VERSION = 1
-_SPEC_KEYS = ("base", "axes", "chunk_size")
+_SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points")
 _AXIS_KEYS = ("start", "stop", "num", "scale")
 _MAX_POINTS = 2**62
 _FEISTEL_ROUNDS = 6
@@ -295,6 +297,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
     elif seed is not None:
         raise ConfigError("seed", "only meaningful together with --sample")
 
+    verify = _int_option("verify_points", mapping.get("verify_points", 0), 0)
     normalized = {
         "base": cfg.raw,
         "axes": axes,
@@ -302,6 +305,8 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
         "sample": sample,
         "seed": seed,
     }
+    if verify:  # only present when used, so existing spec hashes are unchanged
+        normalized["verify_points"] = verify
     return SweepPlan(normalized, cfg=cfg, source=source, base_source=base_source)
 
 
@@ -440,7 +445,9 @@ def _compute_table(plan: SweepPlan, index: int):
     g, vals = chunk_points(plan, index)
     n = g.size
     cfg = batch_config(plan.cfg, vals)
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg, verify=int(plan.spec.get("verify_points", 0)))
+    for k in [k for k in cols if k.endswith("_verification_mismatches")]:
+        cols[k] = np.array([len(m) for m in cols[k]], dtype=np.int64)  # count per design
     names, arrays = ["point_index"], [pa.array(g, type=pa.int64())]
     for p in plan.paths:
         names.append(p)

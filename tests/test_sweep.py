@@ -395,3 +395,23 @@ def test_failing_chunk_reported_and_retried(ref, tmp_path, monkeypatch, capsys):
     m = run_sweep(spec, out, workers=1, progress=False)
     assert m["status"] == "complete" and m["runs"][-1]["chunks_computed"] == 1
     assert_frames_equal(load_results(out), df)
+
+
+def test_verify_points_option(tmp_path):
+    """`verify_points: N` in a sweep spec checks every family's intervals with exact counts and
+    stores the number of mismatches per design (0 for a correct analysis)."""
+    import yaml
+
+    from exotune.sweep import load_results, run_sweep
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({
+        "base": str(Path(__file__).resolve().parents[1] / "examples" / "paper.yaml"),
+        "axes": {"design.amplification": [2.0, 8.0, 16.0]},
+        "verify_points": 12,
+    }))
+    run_sweep(str(spec), str(tmp_path / "out"), workers=1, progress=False)
+    df = load_results(str(tmp_path / "out"))
+    cols = [c for c in df.columns if c.endswith("_verification_mismatches")]
+    assert len(cols) == 3
+    assert (df[cols].to_numpy() == 0).all()
