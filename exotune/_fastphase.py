@@ -43,6 +43,27 @@ if AVAILABLE:
         der = d0 + (d1 - T * v1) * e
         return val, der
 
+    @njit(cache=True, inline="always")
+    def _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step):
+        """(accept, bad) for one tracked function on [a, b] (same rule as quasipoly)."""
+        if a == 0.0 and xa == 0 and xb != 0:
+            return True, False  # structural zero at s = 0: skipped on the first interval
+        if xa == 0 or xb == 0:
+            return False, True
+        if not (np.isfinite(xa.real) and np.isfinite(xa.imag) and np.isfinite(xb.real) and np.isfinite(xb.imag)):
+            return False, True
+        h = b - a
+        r = xb / xa
+        ang = math.atan2(r.imag, r.real)
+        small = (r.real > 0) and (abs(r.imag) <= tan_arg * r.real)
+        crit = h * abs(Lb - La)
+        trap = abs(0.5 * h * (La.real + Lb.real) - ang)
+        if 2.0 * trap > crit:
+            crit = 2.0 * trap
+        if not np.isfinite(crit):
+            return False, True
+        return small and crit <= der_step, False
+
     @njit(cache=True)
     def _kernel(c0T, c1T, Ts, grid, valid, arg_step, der_step, max_levels, out_sum, out_res, out_count):
         tan_arg = math.tan(arg_step)
@@ -93,17 +114,15 @@ if AVAILABLE:
                     La = sla[top]
                     Lb = slb[top]
                     h = b - a
-                    if xa == 0 or xb == 0 or not (np.isfinite(xa.real) and np.isfinite(xa.imag) and np.isfinite(xb.real) and np.isfinite(xb.imag)):
+                    if xa == 0:  # Δ(0) = 0: a root on the axis (the count is inconclusive)
+                        out_res[t] = False
+                        continue
+                    ok, bad = _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step)
+                    if bad:
                         out_res[t] = False
                         continue
                     r = xb / xa
                     ang = math.atan2(r.imag, r.real)
-                    small = (r.real > 0) and (abs(r.imag) <= tan_arg * r.real)
-                    crit = h * abs(Lb - La)
-                    trap = abs(0.5 * h * (La.real + Lb.real) - ang)
-                    if 2.0 * trap > crit:
-                        crit = 2.0 * trap
-                    ok = small and crit <= der_step and np.isfinite(crit)
                     floor = (h <= 1e-13 * max(abs(b), 1e-300)) or dep >= max_levels
                     if ok or floor:
                         if floor and not ok:
@@ -155,27 +174,6 @@ def phase_sums(p0: np.ndarray, p1: np.ndarray, T: np.ndarray, grid: np.ndarray, 
 
 
 if AVAILABLE:
-
-    @njit(cache=True, inline="always")
-    def _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step):
-        """(accept, bad) for one tracked function on [a, b] (same rule as quasipoly)."""
-        if a == 0.0 and xa == 0 and xb != 0:
-            return True, False  # structural zero at s = 0: skipped on the first interval
-        if xa == 0 or xb == 0:
-            return False, True
-        if not (np.isfinite(xa.real) and np.isfinite(xa.imag) and np.isfinite(xb.real) and np.isfinite(xb.imag)):
-            return False, True
-        h = b - a
-        r = xb / xa
-        ang = math.atan2(r.imag, r.real)
-        small = (r.real > 0) and (abs(r.imag) <= tan_arg * r.real)
-        crit = h * abs(Lb - La)
-        trap = abs(0.5 * h * (La.real + Lb.real) - ang)
-        if 2.0 * trap > crit:
-            crit = 2.0 * trap
-        if not np.isfinite(crit):
-            return False, True
-        return small and crit <= der_step, False
 
     @njit(cache=True)
     def _leaves2(cA0, cA1, cB0, cB1, Ts, grid, valid, arg_step, der_step, max_levels, mag_mode, lthr,
