@@ -332,3 +332,68 @@ def leaves2(qa, qb, grid, valid, arg_step, der_step, max_levels, lthr=None):
         "vb": [o_v[1][:n], o_v[3][:n]],
         "resolved": o_res,
     }
+
+
+if AVAILABLE:
+
+    @njit(cache=True)
+    def _g_value(cA0, cA1, cB0, cB1, t, T, w, k, fre, fim):
+        a, _ = _eval(cA0, cA1, t, T, w)
+        b, _ = _eval(cB0, cB1, t, T, w)
+        s = 1j * w
+        phi = 1.0 + 0j
+        for _ in range(k):
+            phi = phi * s
+        fb = complex(fre, fim) * phi * b
+        return (a * fb.conjugate()).imag
+
+    @njit(cache=True)
+    def _illinois_g(cA0, cA1, cB0, cB1, Ts, task, a, b, fa, fb, k, fre, fim, out):
+        for i in range(task.shape[0]):
+            t = task[i]
+            T = Ts[t]
+            x0 = a[i]
+            x1 = b[i]
+            f0 = fa[i]
+            f1 = fb[i]
+            side = 0
+            for _ in range(200):
+                if abs(x1 - x0) <= 1e-14 * max(abs(x1), 1e-300):
+                    break
+                x = (x0 * f1 - x1 * f0) / (f1 - f0) if f1 != f0 else 0.5 * (x0 + x1)
+                if not (x > min(x0, x1) and x < max(x0, x1)):
+                    x = 0.5 * (x0 + x1)
+                fx = _g_value(cA0, cA1, cB0, cB1, t, T, x, k, fre, fim)
+                if fx == 0:
+                    x0 = x
+                    x1 = x
+                    break
+                if (fx > 0) == (f0 > 0):
+                    if side == 1:
+                        f1 = 0.5 * f1
+                    x0 = x
+                    f0 = fx
+                    side = 1
+                else:
+                    if side == -1:
+                        f0 = 0.5 * f0
+                    x1 = x
+                    f1 = fx
+                    side = -1
+            out[i] = 0.5 * (x0 + x1)
+
+
+def refine_crossings(qa, qb, k: int, factor: complex, task, a, b, fa, fb):
+    """Compiled Illinois refinement of the zeros of g(ω) = Im[Δa(jω)·conj(f (jω)^k Δb(jω))] on
+    sign-change brackets (same algorithm as :func:`exotune.quasipoly.bisect_roots`)."""
+    cA0, cA1 = _coeffs(qa)
+    cB0, cB1 = _coeffs(qb)
+    if cA0.dtype != cB0.dtype:
+        cA0, cA1, cB0, cB1 = (x.astype(complex) for x in (cA0, cA1, cB0, cB1))
+    out = np.empty(len(task))
+    if len(task):
+        _illinois_g(cA0, cA1, cB0, cB1, np.ascontiguousarray(qa.T, dtype=float), np.ascontiguousarray(task, dtype=np.int64),
+                    np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
+                    np.ascontiguousarray(fa, dtype=float), np.ascontiguousarray(fb, dtype=float),
+                    int(k), float(factor.real), float(factor.imag), out)
+    return out

@@ -356,7 +356,7 @@ class _Side:
                         bb = np.concatenate([bb, wsub[j + 1]])
                         bga = np.concatenate([bga, gsub[j]])
                         bgb = np.concatenate([bgb, gsub[j + 1]])
-                ws = bisect_roots(g, tk, ba, bb, bga, fb=bgb)
+                ws = _refine_crossings(g, D0, D1, k, factor, tk, ba, bb, bga, bgb)
                 a_, _ = D0.eval(tk, ws, deriv=False)
                 b_ = fl(D1.eval(tk, ws, deriv=False)[0], ws)
                 with np.errstate(divide="ignore", invalid="ignore"):
@@ -426,6 +426,16 @@ class _Side:
                 "critical": R["crit"],
             })
         return out
+
+
+def _refine_crossings(g, D0: QP, D1: QP, k: int, factor: complex, task, a, b, fa, fb):
+    """Zeros of the crossing function g on its brackets (compiled Illinois when available)."""
+    from . import _fastphase
+    from .quasipoly import _engine
+
+    if _engine(None) == "numba":
+        return _fastphase.refine_crossings(D0, D1, k, factor, task, a, b, fa, fb)
+    return bisect_roots(g, task, a, b, fa, fb=fb)
 
 
 def _queue_points(counter: _Counter, D0: QP, D1: QP, phi, factor: complex, rows: np.ndarray, p: np.ndarray):
