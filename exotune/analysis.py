@@ -288,7 +288,11 @@ class _Side:
     def compute_leaves(self, z0, extra_wmax=None):
         D0, D1 = self.group_functions(z0)
         Nd = D0.n
-        wmax = np.zeros(Nd) if extra_wmax is None else extra_wmax.copy()
+        # the functions' own tail bound (always: a group may have no family, e.g. the z0 = 0 group
+        # that passivity uses), then every member family's range envelope
+        wmax = np.maximum(omega_max(D0.p0, D0.p1), omega_max(D1.p0, D1.p1))
+        if extra_wmax is not None:
+            wmax = np.maximum(wmax, extra_wmax)
         for i, phi, factor in self.groups.get(tuple(z0), []):
             fam = self.fams[i]
             wmax = np.maximum(wmax, _family_wmax(D0, D1, phi, factor, fam.lo, fam.hi))
@@ -931,7 +935,13 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
     num, den = amplification_qps(cfg.plant, cs, N)
     h_num = counter.add(num.p0, num.p1, num.T)
     h_den = counter.add(den.p0, den.p1, den.T)
-    human = _Side(ct, "00", "10", cfg.humans, verify=verify)
+    # box families (several ranged msd parameters) are analysed through their edges
+    edge_fams, edge_of = [], []
+    for fam in cfg.humans:
+        es = fam.edges()
+        edge_of.append(list(range(len(edge_fams), len(edge_fams) + len(es))))
+        edge_fams.extend(es)
+    human = _Side(ct, "00", "10", edge_fams, verify=verify)
     human.compute_leaves((0.0, 0.0, 0.0))  # shared with passivity
     human.submit(counter)
     env_fams = [e for e in cfg.environment if e.kind in ("spring", "mass")]
@@ -943,14 +953,30 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
     out["free_stable"] = free_stable
     out["free_rigid_body_roots"] = rf
     out["free_conclusive"] = okf
-    for i, (fam, res) in enumerate(zip(cfg.humans, human.collect(counter))):
+    edge_res = human.collect(counter)
+    for i, fam in enumerate(cfg.humans):
         key = f"human{i}_{fam.kind}"
-        out[f"{key}_robust"] = res["robust"]
-        out[f"{key}_stable_intervals"] = res["stable_intervals"]
-        out[f"{key}_conclusive"] = res["conclusive"]
-        out[f"{key}_critical"] = res["critical"]
+        if not fam.box:
+            res = edge_res[edge_of[i][0]]
+            out[f"{key}_robust"] = res["robust"]
+            out[f"{key}_stable_intervals"] = res["stable_intervals"]
+            out[f"{key}_conclusive"] = res["conclusive"]
+            out[f"{key}_critical"] = res["critical"]
+            if verify:
+                out[f"{key}_verification_mismatches"] = res["verification_mismatches"]
+            continue
+        # Edge Theorem: the box is robustly stable iff every edge is; the stable set of a box is
+        # not one interval, so the interval column holds [[lo, hi]] of the first ranged parameter
+        # when the whole box is stable and [] otherwise (per-edge details: analyze_design)
+        ers = [edge_res[j] for j in edge_of[i]]
+        robust = np.logical_and.reduce([r["robust"] for r in ers])
+        out[f"{key}_robust"] = robust
+        out[f"{key}_stable_intervals"] = [[[fam.lo, fam.hi]] if rb else [] for rb in robust]
+        out[f"{key}_conclusive"] = np.logical_and.reduce([r["conclusive"] for r in ers])
+        out[f"{key}_critical"] = [[c for r in ers for c in r["critical"][t_]] for t_ in range(N)]
+        out[f"{key}_edges"] = [[(edge_fams[j], ers[k]["stable_intervals"][t_]) for k, j in enumerate(edge_of[i])] for t_ in range(N)]
         if verify:
-            out[f"{key}_verification_mismatches"] = res["verification_mismatches"]
+            out[f"{key}_verification_mismatches"] = [[m for r in ers for m in r["verification_mismatches"][t_]] for t_ in range(N)]
     Nn, rn, okn = counter.result(h_num)
     Nd_, rd, okd = counter.result(h_den)
     locked_stable = okd & (Nd_ == 0) & (rd == 0)
@@ -966,6 +992,7 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
             out[f"{key}_robust"] = res["robust"]
             out[f"{key}_stable_intervals"] = res["stable_intervals"]
     ps = passivity(human)
+    out["passivity_conclusive"] = ps["conclusive"]
     out["passivity_max_phase_excess_deg"] = ps["max_phase_excess_deg"]
     out["passivity_nonpassive_band_hz"] = ps["nonpassive_band_hz"]
     dob = dob_margins(cs, N)
@@ -1084,7 +1111,18 @@ def analyze_design(cfg) -> dict:
             "verified_points": VERIFY_POINTS,
             "verification_mismatches": cols[f"{key}_verification_mismatches"][0],
         }
-        if iv:
+        if fam.box:
+            boxed = {fam.param: [fam.lo, fam.hi], **{q: [lo, hi] for q, lo, hi in fam.box}}
+            entry["box"] = boxed
+            entry["fixed"] = {k: v for k, v in fam.fixed().items() if k not in boxed}
+            entry["stable_intervals"] = None  # a box's stable set is not an interval
+            entry["method"] = "Edge Theorem: the box is robustly stable iff each of its edges is (exact intervals per edge)"
+            entry["edges"] = [
+                {"parameter": e.param, "range": [e.lo, e.hi],
+                 "at": {q: getattr(e, q) for q in boxed if q != e.param}, "stable_intervals": ivs}
+                for e, ivs in cols[f"{key}_edges"][0]
+            ]
+        elif iv:
             # the stable interval reaching the top of the range gives e.g. the lightest stable inertia
             top = [x for x in iv if x[1] == fam.hi]
             entry["lowest_stable_value_below_range_top"] = top[0][0] if top else None
@@ -1120,6 +1158,8 @@ def analyze_design(cfg) -> dict:
             "sample_rate_hz is set: this analysis is continuous-time (exact delay); the discrete "
             "controller is checked exactly by `exotune certify` on the exported file"
         )
+    if not bool(cols["passivity_conclusive"][0]):
+        warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis)")
     if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
         warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution): treated as NOT stable")
     return {
@@ -1181,6 +1221,14 @@ def format_report(r: dict) -> str:
     L.append("")
     L.append("Coupled stability with the human models:")
     for h in r["humans"]:
+        if h.get("box"):
+            box = ", ".join(f"{q} in [{a:.6g}, {b:.6g}]" for q, (a, b) in h["box"].items())
+            L.append(f"  {h['kind']:17s} box {box}: robust {yn(h['robust'])} (Edge Theorem, {len(h['edges'])} edges)")
+            for e in h["edges"]:
+                if e["stable_intervals"] != [e["range"]]:
+                    at = ", ".join(f"{q} = {v:.6g}" for q, v in e["at"].items())
+                    L.append(f"    edge {e['parameter']} at {at}: stable on {_fmt_iv(e['stable_intervals'], '')}")
+            continue
         L.append(f"  {h['kind']:17s} {h['parameter']} in [{h['range'][0]:.6g}, {h['range'][1]:.6g}] {h['unit']}: robust {yn(h['robust'])}")
         L.append(f"    stable on {_fmt_iv(h['stable_intervals'], h['unit'])}")
         for c in h["critical"]:

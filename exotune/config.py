@@ -36,7 +36,7 @@ complex_stiffness ``eta`` η             0 ≤ η < 10
 
 Human families (SPEC §2): ``mass`` (``inertia`` range, ``damping``), ``spring`` (``stiffness``
 range, ``damping``), ``msd`` (``inertia``, ``damping``, ``stiffness``: each a number or a range,
-exactly one a range; missing ones are 0, but the inertia must be > 0), ``complex_stiffness``
+at least one a range — several make a box; missing ones are 0, but the inertia must be > 0), ``complex_stiffness``
 (``stiffness`` range, ``eta``). Environments: ``locked``, ``free``, ``spring`` (``stiffness``
 range, ``damping``), ``mass`` (``inertia`` range, ``damping``).
 
@@ -544,14 +544,13 @@ def _parse_human(i: int, item: Any) -> tuple[HumanFamily, dict]:
             HumanFamily("complex_stiffness", "stiffness", lo, hi, eta=m.eta),
             {"kind": kind, "stiffness": [lo, hi], "eta": m.eta},
         )
-    # msd: exactly one of the three is a range
+    # msd: one range (an exact 1-D family) or several (a box, analysed through its edges)
     vals = {p: (0.0 if getattr(m, p) is None else getattr(m, p)) for p in ("inertia", "damping", "stiffness")}
     ranged = [p for p, v in vals.items() if isinstance(v, tuple)]
-    if len(ranged) != 1:
+    if not ranged:
         raise ConfigError(
             where,
-            f"exactly one of inertia/damping/stiffness must be a range [lo, hi] for kind msd, got "
-            f"{len(ranged)} ({', '.join(ranged) if ranged else 'none'})",
+            "at least one of inertia/damping/stiffness must be a range [lo, hi] for kind msd, got none",
         )
     p = ranged[0]
     if p != "inertia" and not vals["inertia"] > 0:
@@ -562,8 +561,9 @@ def _parse_human(i: int, item: Any) -> tuple[HumanFamily, dict]:
             + " (use kind: spring for a massless human)",
         )
     lo, hi = vals[p]
-    fixed = {q: float(v) for q, v in vals.items() if q != p}
-    fam = HumanFamily("msd", p, lo, hi, **fixed)
+    fixed = {q: (float(v) if not isinstance(v, tuple) else float(v[0])) for q, v in vals.items() if q != p}
+    box = tuple((q, float(vals[q][0]), float(vals[q][1])) for q in ranged[1:])
+    fam = HumanFamily("msd", p, lo, hi, **fixed, box=box)
     raw = {"kind": "msd", **{q: ([v[0], v[1]] if isinstance(v, tuple) else float(v)) for q, v in vals.items()}}
     return fam, raw
 

@@ -115,8 +115,8 @@ def pade_crosscheck(cfg, orders=(10, 16)) -> dict:
     cases.append(("free cuff", q00.p0[0], q00.p1[0], 1, bool(cols["free_stable"][0])))
     cases.append(("output locked", q01.p0[0], q01.p1[0], 0, bool(cols["locked_stable"][0])))
     for i, fam in enumerate(cfg.humans):
-        if fam.kind == "complex_stiffness":
-            continue  # not rational: no eigenvalue model exists
+        if fam.kind == "complex_stiffness" or fam.box:
+            continue  # not rational / a box (its edges' verdicts are not listed per point)
         ivs = cols[f"human{i}_{fam.kind}_stable_intervals"][0]
         crit = sorted(p for p, _ in cols[f"human{i}_{fam.kind}_critical"][0])
         edges = [fam.lo] + [p for p in crit if fam.lo < p < fam.hi] + [fam.hi]

@@ -40,6 +40,10 @@ class HumanFamily:
     damping: float = 0.0
     stiffness: float = 0.0
     eta: float = 0.0
+    #: further ranged parameters of an msd *box* family: ((param, lo, hi), ...). A box is stable
+    #: iff every edge is (the Edge Theorem for polytopes of retarded quasi-polynomials, Fu,
+    #: Olbrot & Polis 1989), so exotune analyses the box through its edges.
+    box: tuple = ()
 
     @property
     def range(self) -> tuple[float, float]:
@@ -51,6 +55,23 @@ class HumanFamily:
 
     def fixed(self) -> dict[str, float]:
         return {"inertia": self.inertia, "damping": self.damping, "stiffness": self.stiffness}
+
+    def edges(self) -> list["HumanFamily"]:
+        """The edges of a box family (itself when it has a single ranged parameter): for every
+        ranged parameter, one 1-D family per corner of the other ranged parameters."""
+        if not self.box:
+            return [self]
+        import itertools
+
+        ranges = {self.param: (self.lo, self.hi), **{q: (lo, hi) for q, lo, hi in self.box}}
+        out = []
+        for p, (lo, hi) in ranges.items():
+            others = [q for q in ranges if q != p]
+            for corner in itertools.product(*[ranges[q] for q in others]):
+                fixed = {**self.fixed(), **dict(zip(others, corner))}
+                out.append(HumanFamily(self.kind, p, lo, hi, inertia=fixed["inertia"], damping=fixed["damping"],
+                                       stiffness=fixed["stiffness"], eta=self.eta))
+        return out
 
 
 @dataclass(frozen=True)

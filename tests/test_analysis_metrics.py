@@ -628,3 +628,21 @@ def test_dob_generic_path_equals_closed_form_path():
     assert np.array_equal(fast["stable"], slow["stable"])
     for k in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "crossover_hz"):
         assert np.allclose(fast[k], slow[k], rtol=1e-7, atol=1e-9), k
+
+
+def test_passivity_does_not_depend_on_the_human_families():
+    """C7 is a property of the exoskeleton alone: the same excess and bands whatever families the
+    file lists (regression: with no family of zero fixed impedance the passivity frequency set was
+    empty and the excess read 0)."""
+    import dataclasses
+
+    from exotune.humans import HumanFamily
+
+    cfg = load_design(PAPER)
+    ref = analyze_design(cfg)["passivity"]
+    assert ref["max_phase_excess_deg"] > 1.0
+    for humans in ((), (HumanFamily("msd", "inertia", 0.06, 0.15, damping=1.0, stiffness=20.0),),
+                   (HumanFamily("spring", "stiffness", 1.0, 100.0, damping=3.0),)):
+        r = analyze_design(dataclasses.replace(cfg, humans=humans))["passivity"]
+        assert r["max_phase_excess_deg"] == pytest.approx(ref["max_phase_excess_deg"], rel=1e-6)
+        assert np.allclose(r["nonpassive_band_hz"], ref["nonpassive_band_hz"], rtol=1e-6)

@@ -177,3 +177,33 @@ def test_single_design_report_verifies_intervals(monkeypatch):
     assert bad["kind"] == "mass"
     assert bad["verification_mismatches"], bad
     assert bad["robust"] is False and bad["conclusive"] is False
+
+
+def test_msd_box_edge_theorem_matches_grid_counts():
+    """A box of (inertia, damping, stiffness) is robust iff all 12 edges are (Edge Theorem):
+    compare with exact counts on a 7×5×7 grid inside the box for boxes on both sides of the
+    light-inertia boundary, for several designs."""
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    verdicts = set()
+    for alpha, delay in ((8.0, 0.001), (4.0, 0.002), (12.0, 0.0005)):
+        for m_lo in (0.002, 0.03):
+            box = HumanFamily("msd", "inertia", m_lo, 0.15, damping=0.01, stiffness=2.0,
+                              box=(("damping", 0.01, 2.0), ("stiffness", 2.0, 300.0)))
+            cfg = dataclasses.replace(
+                base, humans=(box,), environment=(),
+                design=dataclasses.replace(base.design, amplification=alpha),
+                implementation=dataclasses.replace(base.implementation, delay_s=delay),
+            )
+            robust = bool(analyze_batch(cfg)["human0_msd_robust"][0])
+            cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+            M, B, K = np.meshgrid(np.geomspace(m_lo, 0.15, 7), np.linspace(0.01, 2.0, 5), np.geomspace(2.0, 300.0, 7))
+            n = M.size
+            res = coupled_stable(cfg.plant, cs, n, human={"inertia": M.ravel(), "damping": B.ravel(), "stiffness": K.ravel()})
+            assert res["conclusive"].all()
+            if robust:
+                assert res["stable"].all(), (alpha, delay, m_lo)
+            else:
+                # the box is unstable somewhere: the grid (which includes the corners) sees it here
+                assert not res["stable"].all(), (alpha, delay, m_lo)
+            verdicts.add(robust)
+    assert verdicts == {True, False}
