@@ -973,7 +973,7 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
         out[f"{key}_robust"] = robust
         out[f"{key}_stable_intervals"] = [[[fam.lo, fam.hi]] if rb else [] for rb in robust]
         out[f"{key}_conclusive"] = np.logical_and.reduce([r["conclusive"] for r in ers])
-        out[f"{key}_critical"] = [[c for r in ers for c in r["critical"][t_]] for t_ in range(N)]
+        out[f"{key}_critical"] = [[] for _ in range(N)]  # per edge (different parameters): see _edges
         out[f"{key}_edges"] = [[(edge_fams[j], ers[k]["stable_intervals"][t_]) for k, j in enumerate(edge_of[i])] for t_ in range(N)]
         if verify:
             out[f"{key}_verification_mismatches"] = [[m for r in ers for m in r["verification_mismatches"][t_]] for t_ in range(N)]

@@ -446,6 +446,8 @@ def _compute_table(plan: SweepPlan, index: int):
     n = g.size
     cfg = batch_config(plan.cfg, vals)
     cols = analyze_batch(cfg, verify=int(plan.spec.get("verify_points", 0)))
+    for k in [k for k in cols if k.endswith("_edges")]:
+        del cols[k]  # per-edge details of box families (objects): single-design reports only
     for k in [k for k in cols if k.endswith("_verification_mismatches")]:
         cols[k] = np.array([len(m) for m in cols[k]], dtype=np.int64)  # count per design
     names, arrays = ["point_index"], [pa.array(g, type=pa.int64())]

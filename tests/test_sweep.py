@@ -415,3 +415,20 @@ def test_verify_points_option(tmp_path):
     cols = [c for c in df.columns if c.endswith("_verification_mismatches")]
     assert len(cols) == 3
     assert (df[cols].to_numpy() == 0).all()
+
+
+def test_sweep_with_a_box_family(tmp_path):
+    """A design with an msd box family sweeps to Parquet (robust flag; per-edge details are only in
+    the single-design report)."""
+    import yaml
+
+    from exotune.sweep import load_results, run_sweep
+
+    base = yaml.safe_load((Path(__file__).resolve().parents[1] / "examples" / "paper.yaml").read_text())
+    base["humans"] = [{"kind": "msd", "inertia": [0.002, 0.15], "damping": [0.01, 2.0], "stiffness": [2.0, 300.0]}]
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({"base": base, "axes": {"design.amplification": [2.0, 8.0]}}))
+    run_sweep(str(spec), str(tmp_path / "out"), workers=1, progress=False)
+    df = load_results(str(tmp_path / "out"))
+    assert "human0_msd_robust" in df.columns and not any(c.endswith("_edges") for c in df.columns)
+    assert not df["human0_msd_robust"].any()  # 2 g·m² on the cuff destabilizes these designs
