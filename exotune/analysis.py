@@ -338,7 +338,7 @@ class _Side:
                 # ripple with period 2π/T: such leaves are sub-sampled (≥ 8 points, ≥ 8 per
                 # ripple period) and their brackets come from the sub-samples
                 with np.errstate(divide="ignore", invalid="ignore"):
-                    near_real = (np.abs(ka.imag) <= 0.02 * np.abs(ka)) | (np.abs(kb.imag) <= 0.02 * np.abs(kb))
+                    near_real = (np.abs(ka.imag) <= 0.1 * np.abs(ka)) | (np.abs(kb.imag) <= 0.1 * np.abs(kb))
                 sus = ((lv["a"] > 0) & plausible & near_real & ~(kmax * 4.0 < fam.lo) & ~(kmin > fam.hi * 4.0))
                 br &= ~sus
                 tk, ba, bb, bga, bgb = lv["task"][br], lv["a"][br], lv["b"][br], ga[br], gb[br]
