@@ -482,15 +482,15 @@ def _axis_table(j, paths, values, axis_idx, robust, metrics, table_metrics):
     return counts, frac, stats
 
 
-def _ranges(vals: np.ndarray, ok: np.ndarray) -> str:
-    """Human-readable runs of consecutive axis values where ok."""
-    runs, i = [], 0
-    while i < vals.size:
+def value_runs(vals, ok, digits: int = 4) -> str:
+    """Human-readable runs of consecutive axis values where ok, e.g. '1.5 … 4.4, 9.4 … 20'."""
+    runs, i, n = [], 0, len(vals)
+    while i < n:
         if ok[i]:
             j = i
-            while j + 1 < vals.size and ok[j + 1]:
+            while j + 1 < n and ok[j + 1]:
                 j += 1
-            runs.append(f"{vals[i]:.4g}" if i == j else f"{vals[i]:.4g} … {vals[j]:.4g}")
+            runs.append(f"{vals[i]:.{digits}g}" if i == j else f"{vals[i]:.{digits}g} … {vals[j]:.{digits}g}")
             i = j + 1
         else:
             i += 1
@@ -576,8 +576,8 @@ def _summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx
         L.append("")
         agg = f" (each row aggregates over {', '.join(f'`{q}`' for q in others)})" if others else ""
         seen = counts > 0
-        L.append(f"Robust designs exist for {p} ∈ {{{_ranges(values[j], seen & (frac > 0))}}}; every design is "
-                 f"robust for {p} ∈ {{{_ranges(values[j], seen & (frac >= 1.0))}}}{agg}.")
+        L.append(f"Robust designs exist for {p} ∈ {{{value_runs(values[j], seen & (frac > 0))}}}; every design is "
+                 f"robust for {p} ∈ {{{value_runs(values[j], seen & (frac >= 1.0))}}}{agg}.")
         L.append("")
         head = ["value", "designs", "fraction robust"]
         csv_head = [f"{p} [{unit}]", "designs", "fraction_robust"]

@@ -29,7 +29,7 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from exotune.jsonio import write_atomic  # noqa: E402
-from exotune.report import make_report  # noqa: E402
+from exotune.report import make_report, value_runs  # noqa: E402
 from exotune.sweep import load_manifest, load_results, run_sweep  # noqa: E402
 
 
@@ -76,17 +76,13 @@ def robust_of(df) -> np.ndarray:
 
 def runs(values, ok) -> str:
     """Consecutive runs of values where ok, e.g. '1.5 … 4.4, 9.4 … 20'."""
-    out, i, n = [], 0, len(values)
-    while i < n:
-        if ok[i]:
-            j = i
-            while j + 1 < n and ok[j + 1]:
-                j += 1
-            out.append(f"{values[i]:.3g}" if i == j else f"{values[i]:.3g} … {values[j]:.3g}")
-            i = j + 1
-        else:
-            i += 1
-    return ", ".join(out) if out else "none"
+    return value_runs(values, ok, digits=3)
+
+
+def write_study_md(out: Path, lines: list, manifest: dict) -> None:
+    """study.md with the provenance footer (spec hash, exotune version), written atomically."""
+    lines = list(lines) + ["", f"Spec hash `{manifest['spec_hash']}`, exotune {manifest['exotune_version']}."]
+    write_atomic(out / "study.md", "\n".join(lines) + "\n")
 
 
 def save_png(fig, path: Path) -> None:

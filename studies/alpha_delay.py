@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import plt, robust_of, run_study, runs, save_png
+from _common import plt, robust_of, run_study, runs, save_png, write_study_md
 
 from exotune.jsonio import write_atomic
 
@@ -149,9 +149,7 @@ def extra(df, manifest, out: Path) -> None:
              "margins and the passivity excess (worst case over ζ̂). Per-(T, ζ̂) robust α ranges are in `robust_alpha_by_delay.csv`; the "
              "generic report (`summary.md`, `robust_*.png`, `metrics_*.png`, `axis_*.csv`) aggregates over the third "
              "axis (fraction robust, worst-case metrics).")
-    L.append("")
-    L.append(f"Spec hash `{manifest['spec_hash']}`, exotune {manifest['exotune_version']}.")
-    write_atomic(out / "study.md", "\n".join(L) + "\n")
+    write_study_md(out, L, manifest)
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import plt, run_study, save_png
+from _common import plt, run_study, save_png, write_study_md
 
 from exotune.jsonio import write_atomic
 
@@ -111,9 +111,7 @@ def extra(df, manifest, out: Path) -> None:
     L.append(f"Units: kg·m². A value equal to {lo:g} means every inertia in the analysed range is stable; ∞ means "
              "even 1 kg·m² is unstable. The full table (all K_c, every stable interval) is in "
              "`lightest_inertia_vs_cuff_stiffness.csv`.")
-    L.append("")
-    L.append(f"Spec hash `{manifest['spec_hash']}`, exotune {manifest['exotune_version']}.")
-    write_atomic(out / "study.md", "\n".join(L) + "\n")
+    write_study_md(out, L, manifest)
 
 
 if __name__ == "__main__":

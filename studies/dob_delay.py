@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import plt, robust_of, run_study, runs, save_png
+from _common import plt, robust_of, run_study, runs, save_png, write_study_md
 
 from exotune.jsonio import write_atomic
 
@@ -123,9 +123,7 @@ def extra(df, manifest, out: Path) -> None:
     L.append("")
     L.append("Figures: `dob_delay_margin_map.png` (this study), the generic report's `robust_*.png`, "
              "`metrics_*.png` and `summary.md`.")
-    L.append("")
-    L.append(f"Spec hash `{manifest['spec_hash']}`, exotune {manifest['exotune_version']}.")
-    write_atomic(out / "study.md", "\n".join(L) + "\n")
+    write_study_md(out, L, manifest)
 
 
 if __name__ == "__main__":
