@@ -24,45 +24,63 @@ AVAILABLE = njit is not None
 if AVAILABLE:
 
     @njit(cache=True, inline="always")
-    def _eval(c0T, c1T, t, T, w):
-        s = 1j * w
-        m0 = c0T.shape[0]
-        v0 = c0T[m0 - 1, t] + 0j
-        d0 = 0j
-        for k in range(m0 - 2, -1, -1):
-            d0 = d0 * s + v0
-            v0 = v0 * s + c0T[k, t]
-        m1 = c1T.shape[0]
-        v1 = c1T[m1 - 1, t] + 0j
-        d1 = 0j
-        for k in range(m1 - 2, -1, -1):
-            d1 = d1 * s + v1
-            v1 = v1 * s + c1T[k, t]
-        e = np.exp(-s * T)
-        val = v0 + v1 * e
-        der = d0 + (d1 - T * v1) * e
+    def _horner(c, t, w):
+        """Value and derivative of row t of c (ascending coefficients) at s = jω, in real
+        arithmetic: multiplying by the pure-imaginary s costs two products, not a complex one."""
+        m = c.shape[1]
+        vr = c[t, m - 1].real
+        vi = c[t, m - 1].imag
+        dr = 0.0
+        di = 0.0
+        for k in range(m - 2, -1, -1):
+            ndr = vr - w * di
+            di = vi + w * dr
+            dr = ndr
+            ck = c[t, k]
+            nvr = ck.real - w * vi
+            vi = ck.imag + w * vr
+            vr = nvr
+        return vr, vi, dr, di
+
+    @njit(cache=True, inline="always")
+    def _eval(c0, c1, t, T, w):
+        """Δ(jω) = P0 + P1 e^{−jωT} and dΔ/ds of row t (coefficients row-major: c[t, k])."""
+        v0r, v0i, d0r, d0i = _horner(c0, t, w)
+        v1r, v1i, d1r, d1i = _horner(c1, t, w)
+        er = math.cos(w * T)
+        ei = -math.sin(w * T)
+        # v1·e and (d1 − T v1)·e
+        pr = v1r * er - v1i * ei
+        pi = v1r * ei + v1i * er
+        qr = d1r - T * v1r
+        qi = d1i - T * v1i
+        val = complex(v0r + pr, v0i + pi)
+        der = complex(d0r + qr * er - qi * ei, d0i + qr * ei + qi * er)
         return val, der
 
     @njit(cache=True, inline="always")
     def _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step):
-        """(accept, bad) for one tracked function on [a, b] (same rule as quasipoly)."""
+        """(accept, bad, phase step) for one tracked function on [a, b] (same rule as quasipoly).
+
+        The phase step is arg(xb/xa), computed as arg(xb·conj(xa)) (no division)."""
         if a == 0.0 and xa == 0 and xb != 0:
-            return True, False  # structural zero at s = 0: skipped on the first interval
+            return True, False, 0.0  # structural zero at s = 0: skipped on the first interval
         if xa == 0 or xb == 0:
-            return False, True
-        if not (np.isfinite(xa.real) and np.isfinite(xa.imag) and np.isfinite(xb.real) and np.isfinite(xb.imag)):
-            return False, True
+            return False, True, 0.0
+        rr = xb.real * xa.real + xb.imag * xa.imag
+        ri = xb.imag * xa.real - xb.real * xa.imag
+        if not (np.isfinite(rr) and np.isfinite(ri)):
+            return False, True, 0.0
         h = b - a
-        r = xb / xa
-        ang = math.atan2(r.imag, r.real)
-        small = (r.real > 0) and (abs(r.imag) <= tan_arg * r.real)
+        ang = math.atan2(ri, rr)
+        small = (rr > 0) and (abs(ri) <= tan_arg * rr)
         crit = h * abs(Lb - La)
         trap = abs(0.5 * h * (La.real + Lb.real) - ang)
         if 2.0 * trap > crit:
             crit = 2.0 * trap
         if not np.isfinite(crit):
-            return False, True
-        return small and crit <= der_step, False
+            return False, True, ang
+        return small and crit <= der_step, False, ang
 
     @njit(cache=True)
     def _kernel(c0T, c1T, Ts, grid, valid, arg_step, der_step, max_levels, out_sum, out_res, out_count):
@@ -117,12 +135,10 @@ if AVAILABLE:
                     if xa == 0:  # Δ(0) = 0: a root on the axis (the count is inconclusive)
                         out_res[t] = False
                         continue
-                    ok, bad = _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step)
+                    ok, bad, ang = _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step)
                     if bad:
                         out_res[t] = False
                         continue
-                    r = xb / xa
-                    ang = math.atan2(r.imag, r.real)
                     floor = (h <= 1e-13 * max(abs(b), 1e-300)) or dep >= max_levels
                     if ok or floor:
                         if floor and not ok:
@@ -161,8 +177,8 @@ def phase_sums(p0: np.ndarray, p1: np.ndarray, T: np.ndarray, grid: np.ndarray, 
                arg_step: float, der_step: float, max_levels: int):
     """(Σ principal phase steps over [grid[:, 0], grid[:, -1]], resolved, evaluations) per task."""
     dt = complex if (np.iscomplexobj(p0) or np.iscomplexobj(p1)) else float
-    c0T = np.ascontiguousarray(np.asarray(p0, dtype=dt).T)
-    c1T = np.ascontiguousarray(np.asarray(p1, dtype=dt).T)
+    c0T = np.ascontiguousarray(np.asarray(p0, dtype=dt))
+    c1T = np.ascontiguousarray(np.asarray(p1, dtype=dt))
     n = grid.shape[0]
     out_sum = np.zeros(n)
     out_res = np.zeros(n, dtype=np.bool_)
@@ -195,6 +211,7 @@ if AVAILABLE:
                 o_res[t] = False
                 continue
             T = Ts[t]
+            done = False
             wa = grid[t, 0]
             a0, d0 = _eval(cA0, cA1, t, T, wa)
             a1, d1 = _eval(cB0, cB1, t, T, wa)
@@ -227,8 +244,8 @@ if AVAILABLE:
                     Lb0 = sl[top, 1]
                     La1 = sl[top, 2]
                     Lb1 = sl[top, 3]
-                    ok0, bad0 = _interval_ok(a, b, xa0, xb0, La0, Lb0, tan_arg, der_step)
-                    ok1, bad1 = _interval_ok(a, b, xa1, xb1, La1, Lb1, tan_arg, der_step)
+                    ok0, bad0, _ = _interval_ok(a, b, xa0, xb0, La0, Lb0, tan_arg, der_step)
+                    ok1, bad1, _ = _interval_ok(a, b, xa1, xb1, La1, Lb1, tan_arg, der_step)
                     ok = ok0 and ok1
                     bad = bad0 or bad1
                     h = b - a
@@ -259,6 +276,14 @@ if AVAILABLE:
                             o_va1[n] = xa1
                             o_vb1[n] = xb1
                         n += 1
+                        if mag_mode and not bad:
+                            # only the first −3 dB down-crossing is wanted: stop this task once a
+                            # leaf clearly brackets it (a 1e-9 relative margin, so the caller's
+                            # own test of the emitted leaves agrees)
+                            lev = math.exp(lthr[t])
+                            if abs(xa0 / xa1) > lev * (1.0 + 1e-9) and abs(xb0 / xb1) < lev * (1.0 - 1e-9):
+                                done = True
+                                top = 0
                         continue
                     m = 0.5 * (a + b)
                     m0, f0 = _eval(cA0, cA1, t, T, m)
@@ -290,6 +315,8 @@ if AVAILABLE:
                     sl[top, 2] = La1
                     sl[top, 3] = Lm1
                     top += 1
+                if done:
+                    break
                 wa = wb
                 a0, d0, a1, d1 = b0, e0, b1, e1
         return n
@@ -297,7 +324,7 @@ if AVAILABLE:
 
 def _coeffs(q):
     dt = complex if (np.iscomplexobj(q.p0) or np.iscomplexobj(q.p1)) else float
-    return np.ascontiguousarray(np.asarray(q.p0, dtype=dt).T), np.ascontiguousarray(np.asarray(q.p1, dtype=dt).T)
+    return np.ascontiguousarray(np.asarray(q.p0, dtype=dt)), np.ascontiguousarray(np.asarray(q.p1, dtype=dt))
 
 
 def leaves2(qa, qb, grid, valid, arg_step, der_step, max_levels, lthr=None):
@@ -336,10 +363,24 @@ def leaves2(qa, qb, grid, valid, arg_step, der_step, max_levels, lthr=None):
 
 if AVAILABLE:
 
-    @njit(cache=True)
-    def _g_value(cA0, cA1, cB0, cB1, t, T, w, k, fre, fim):
+    # scalar functions of the two tracked quasi-polynomials a = Δa(jω), b = Δb(jω):
+    #   MODE_CROSS  g = Im[a · conj(f (jω)^k b)]      (crossings of κ = −a/(f φ b) with the real axis)
+    #   MODE_MAG    g = |a/b|² − c_t                    (the −3 dB level of |C6/C5|)
+    #   MODE_EXCESS g = passivity phase excess [deg] of b/a (C7 = Δ10/Δ00)
+    MODE_CROSS, MODE_MAG, MODE_EXCESS = 0, 1, 2
+
+    @njit(cache=True, inline="always")
+    def _fun(cA0, cA1, cB0, cB1, t, T, w, mode, k, fre, fim, cval):
         a, _ = _eval(cA0, cA1, t, T, w)
         b, _ = _eval(cB0, cB1, t, T, w)
+        if mode == 1:
+            return abs(a / b) ** 2 - cval
+        if mode == 2:
+            c = b / a
+            ph = math.degrees(math.atan2(c.imag, c.real))
+            if not (ph > 0):  # also NaN
+                return 0.0
+            return min(ph, 180.0 - ph)
         s = 1j * w
         phi = 1.0 + 0j
         for _ in range(k):
@@ -348,10 +389,17 @@ if AVAILABLE:
         return (a * fb.conjugate()).imag
 
     @njit(cache=True)
-    def _illinois_g(cA0, cA1, cB0, cB1, Ts, task, a, b, fa, fb, k, fre, fim, out):
+    def _values(cA0, cA1, cB0, cB1, Ts, task, w, mode, k, fre, fim, cvals, out):
+        for i in range(task.shape[0]):
+            t = task[i]
+            out[i] = _fun(cA0, cA1, cB0, cB1, t, Ts[t], w[i], mode, k, fre, fim, cvals[t])
+
+    @njit(cache=True)
+    def _illinois(cA0, cA1, cB0, cB1, Ts, task, a, b, fa, fb, mode, k, fre, fim, cvals, out):
         for i in range(task.shape[0]):
             t = task[i]
             T = Ts[t]
+            cv = cvals[t]
             x0 = a[i]
             x1 = b[i]
             f0 = fa[i]
@@ -363,7 +411,7 @@ if AVAILABLE:
                 x = (x0 * f1 - x1 * f0) / (f1 - f0) if f1 != f0 else 0.5 * (x0 + x1)
                 if not (x > min(x0, x1) and x < max(x0, x1)):
                     x = 0.5 * (x0 + x1)
-                fx = _g_value(cA0, cA1, cB0, cB1, t, T, x, k, fre, fim)
+                fx = _fun(cA0, cA1, cB0, cB1, t, T, x, mode, k, fre, fim, cv)
                 if fx == 0:
                     x0 = x
                     x1 = x
@@ -382,18 +430,73 @@ if AVAILABLE:
                     side = -1
             out[i] = 0.5 * (x0 + x1)
 
+    @njit(cache=True)
+    def _golden_max(cA0, cA1, cB0, cB1, Ts, task, a, b, mode, iters, out):
+        gr = 0.5 * (math.sqrt(5.0) - 1.0)
+        for i in range(task.shape[0]):
+            t = task[i]
+            T = Ts[t]
+            lo = a[i]
+            hi = b[i]
+            for _ in range(iters):
+                c1 = hi - gr * (hi - lo)
+                c2 = lo + gr * (hi - lo)
+                if _fun(cA0, cA1, cB0, cB1, t, T, c1, mode, 0, 1.0, 0.0, 0.0) >= _fun(cA0, cA1, cB0, cB1, t, T, c2, mode, 0, 1.0, 0.0, 0.0):
+                    hi = c2
+                else:
+                    lo = c1
+            out[i] = _fun(cA0, cA1, cB0, cB1, t, T, 0.5 * (lo + hi), mode, 0, 1.0, 0.0, 0.0)
 
-def refine_crossings(qa, qb, k: int, factor: complex, task, a, b, fa, fb):
-    """Compiled Illinois refinement of the zeros of g(ω) = Im[Δa(jω)·conj(f (jω)^k Δb(jω))] on
-    sign-change brackets (same algorithm as :func:`exotune.quasipoly.bisect_roots`)."""
+
+_MODES = {"cross": 0, "mag": 1, "excess": 2}
+
+
+def _pair_args(qa, qb):
     cA0, cA1 = _coeffs(qa)
     cB0, cB1 = _coeffs(qb)
     if cA0.dtype != cB0.dtype:
         cA0, cA1, cB0, cB1 = (x.astype(complex) for x in (cA0, cA1, cB0, cB1))
+    return cA0, cA1, cB0, cB1, np.ascontiguousarray(qa.T, dtype=float)
+
+
+def _cvals(c, n):
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(0.0 if c is None else c, dtype=float), (n,)))
+
+
+def pair_values(qa, qb, mode: str, task, w, k: int = 0, factor: complex = 1.0, c=None):
+    """One of the scalar functions of ``mode`` ("cross", "mag", "excess"; see ``_fun``) at the
+    (task, ω) pairs, compiled."""
+    factor = complex(factor)
     out = np.empty(len(task))
     if len(task):
-        _illinois_g(cA0, cA1, cB0, cB1, np.ascontiguousarray(qa.T, dtype=float), np.ascontiguousarray(task, dtype=np.int64),
-                    np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
-                    np.ascontiguousarray(fa, dtype=float), np.ascontiguousarray(fb, dtype=float),
-                    int(k), float(factor.real), float(factor.imag), out)
+        _values(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), np.ascontiguousarray(w, dtype=float),
+                _MODES[mode], int(k), factor.real, factor.imag, _cvals(c, qa.n), out)
+    return out
+
+
+def pair_roots(qa, qb, mode: str, task, a, b, fa, fb, k: int = 0, factor: complex = 1.0, c=None):
+    """Compiled Illinois (same algorithm as :func:`exotune.quasipoly.bisect_roots`) on sign-change
+    brackets of the ``mode`` function."""
+    factor = complex(factor)
+    out = np.empty(len(task))
+    if len(task):
+        f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
+        _illinois(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), f(fa), f(fb),
+                  _MODES[mode], int(k), factor.real, factor.imag, _cvals(c, qa.n), out)
+    return out
+
+
+def refine_crossings(qa, qb, k: int, factor: complex, task, a, b, fa, fb):
+    """Compiled Illinois refinement of the zeros of g(ω) = Im[Δa(jω)·conj(f (jω)^k Δb(jω))] on
+    sign-change brackets (same algorithm as :func:`exotune.quasipoly.bisect_roots`)."""
+    return pair_roots(qa, qb, "cross", task, a, b, fa, fb, k=k, factor=factor)
+
+
+def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40):
+    """Golden-section maximization of the ``mode`` function on [a, b] per entry; returns the value
+    at the final midpoint (same iteration as the numpy reference in exotune.analysis)."""
+    out = np.empty(len(task))
+    if len(task):
+        f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
+        _golden_max(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), _MODES[mode], int(iters), out)
     return out

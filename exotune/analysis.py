@@ -351,7 +351,7 @@ class _Side:
                     # M points per leaf, both ends included (a sign change at the ends is kept)
                     frac = (np.arange(rep.size) - np.repeat(np.cumsum(M) - M, M)) / np.repeat(M - 1, M)
                     wsub = sa_[rep] + frac * (sb_ - sa_)[rep]
-                    gsub = g(st[rep], wsub)
+                    gsub = _pair_values(g, D0, D1, "cross", st[rep], wsub, k=k, factor=factor)
                     nxt = np.r_[rep[1:] == rep[:-1], False]
                     j = np.nonzero(nxt & (np.sign(gsub) * np.sign(np.r_[gsub[1:], 0.0]) < 0))[0]
                     if j.size:
@@ -378,9 +378,10 @@ class _Side:
                 order = np.lexsort((cp, ct_))
                 ct_, cp, cw = ct_[order], cp[order], cw[order]
                 bounds, crit = _bounds(Nd, ct_, cp, cw, fam.lo, fam.hi)
-                rep_t, rep_p = _representatives(bounds)
+                rep_t, rep_p, rep_ab = _representatives(*bounds)
                 h = _queue_points(counter, D0, D1, phi, factor, rep_t, rep_p)
-                res = dict(bounds=bounds, crit=crit, rep_t=rep_t, handle=h, leaves_ok=lv["valid"] & lv["resolved"])
+                res = dict(bounds=bounds, crit=crit, rep_t=rep_t, rep_ab=rep_ab, handle=h,
+                           leaves_ok=lv["valid"] & lv["resolved"])
                 if self.verify:
                     # independent check of the interval structure: exact counts at a grid of values
                     vp = np.geomspace(fam.lo, fam.hi, self.verify) if fam.lo > 0 else np.linspace(fam.lo, fam.hi, self.verify)
@@ -395,33 +396,37 @@ class _Side:
             R = self.results[i]
             N, r, ok = counter.result(R["handle"])
             st = ok & (N == 0) & (r <= allowed_rigid)
-            Nd = len(R["bounds"])
-            intervals = [[] for _ in range(Nd)]
+            bv, bo = R["bounds"]
+            Nd = len(bo) - 1
             conclusive = R["leaves_ok"].copy()
             conclusive[R["rep_t"][~ok]] = False
-            kk = 0
-            for t in range(Nd):
-                bt = R["bounds"][t]
-                for j in range(len(bt) - 1):
-                    if st[kk]:
-                        if intervals[t] and intervals[t][-1][1] == bt[j]:
-                            intervals[t][-1][1] = bt[j + 1]
-                        else:
-                            intervals[t].append([bt[j], bt[j + 1]])
-                    kk += 1
+            # sub-interval j of design rep_t[j] is [sa[j], sb[j]] (same order as the counts);
+            # runs of consecutive stable sub-intervals of one design are the stable intervals
+            t_ = R["rep_t"]
+            sa, sb = R["rep_ab"]
+            first = np.r_[True, t_[1:] != t_[:-1]] if t_.size else np.zeros(0, bool)
+            starts = st & (first | ~np.r_[False, st[:-1]])
+            ends = st & np.r_[(t_[1:] != t_[:-1]) | ~st[1:], True] if t_.size else np.zeros(0, bool)
+            run_t, run_a, run_b = t_[starts], sa[starts], sb[ends]
+            intervals = [[] for _ in range(Nd)]
+            for t, a, b in zip(run_t.tolist(), run_a.tolist(), run_b.tolist()):
+                intervals[t].append([a, b])
+            nrun = np.bincount(run_t, minlength=Nd)
+            whole = np.zeros(Nd, bool)
+            whole[run_t[(run_a == fam.lo) & (run_b == fam.hi)]] = True
+            robust = (nrun == 1) & whole
             mismatches = [[] for _ in range(Nd)]
             if "ver_handle" in R:
                 Nv, rv, okv = counter.result(R["ver_handle"])
                 stv = okv & (Nv == 0) & (rv <= allowed_rigid)
-                for t_, p_, s_, ok_ in zip(R["ver_t"].tolist(), R["ver_p"].tolist(), stv.tolist(), okv.tolist()):
-                    edges = R["bounds"][t_][1:-1]
+                for t_v, p_, s_, ok_ in zip(R["ver_t"].tolist(), R["ver_p"].tolist(), stv.tolist(), okv.tolist()):
+                    edges = bv[bo[t_v] + 1: bo[t_v + 1] - 1].tolist()
                     if not ok_ or any(abs(p_ - e) <= 1e-6 * max(abs(e), 1e-300) for e in edges):
                         continue
-                    if s_ != any(a <= p_ <= b for a, b in intervals[t_]):
-                        mismatches[t_].append(p_)
-                bad = np.array([bool(m) for m in mismatches])
+                    if s_ != any(a <= p_ <= b for a, b in intervals[t_v]):
+                        mismatches[t_v].append(p_)
+                bad = np.array([bool(m) for m in mismatches], dtype=bool)
                 conclusive &= ~bad
-            robust = np.array([len(iv) == 1 and iv[0][0] == fam.lo and iv[0][1] == fam.hi for iv in intervals])
             out.append({
                 "verification_mismatches": mismatches,
                 "stable_intervals": intervals,
@@ -432,14 +437,34 @@ class _Side:
         return out
 
 
-def _refine_crossings(g, D0: QP, D1: QP, k: int, factor: complex, task, a, b, fa, fb):
-    """Zeros of the crossing function g on its brackets (compiled Illinois when available)."""
-    from . import _fastphase
+def _compiled() -> bool:
     from .quasipoly import _engine
 
-    if _engine(None) == "numba":
-        return _fastphase.refine_crossings(D0, D1, k, factor, task, a, b, fa, fb)
-    return bisect_roots(g, task, a, b, fa, fb=fb)
+    return _engine(None) == "numba"
+
+
+def _refine_crossings(g, D0: QP, D1: QP, k: int, factor: complex, task, a, b, fa, fb):
+    """Zeros of the crossing function g on its brackets (compiled Illinois when available)."""
+    return _pair_roots(g, D0, D1, "cross", task, a, b, fa, fb, k=k, factor=factor)
+
+
+def _pair_roots(fun, qa: QP, qb: QP, mode: str, task, a, b, fa, fb, k: int = 0, factor: complex = 1.0, c=None):
+    """Illinois refinement of sign-change brackets of ``fun`` (numpy reference), or of the same
+    function compiled (:func:`exotune._fastphase.pair_roots`, ``mode``/``k``/``factor``/``c``)."""
+    if _compiled():
+        from . import _fastphase
+
+        return _fastphase.pair_roots(qa, qb, mode, task, a, b, fa, fb, k=k, factor=factor, c=c)
+    return bisect_roots(fun, task, a, b, fa, fb=fb)
+
+
+def _pair_values(fun, qa: QP, qb: QP, mode: str, task, w, k: int = 0, factor: complex = 1.0, c=None):
+    """``fun(task, w)`` (numpy reference) or the same function compiled."""
+    if _compiled():
+        from . import _fastphase
+
+        return _fastphase.pair_values(qa, qb, mode, task, w, k=k, factor=factor, c=c)
+    return fun(task, w)
 
 
 def _queue_points(counter: _Counter, D0: QP, D1: QP, phi, factor: complex, rows: np.ndarray, p: np.ndarray):
@@ -457,25 +482,42 @@ def _queue_points(counter: _Counter, D0: QP, D1: QP, phi, factor: complex, rows:
 
 
 def _bounds(Nd, ct_, cp, cw, lo, hi):
-    bounds = [[lo] for _ in range(Nd)]
+    """Sub-interval bounds of every design, flat: design t owns ``bv[bo[t]:bo[t + 1]]`` = lo, its
+    distinct critical values (ascending), hi; and the list of critical (value, frequency [Hz]) per
+    design. The crossings arrive sorted by (design, value); a value within 1e-12 (relative) of the
+    last kept one of its design is the same critical value."""
     crit = [[] for _ in range(Nd)]
-    for t, p, w in zip(ct_.tolist(), cp.tolist(), cw.tolist()):
+    keep = np.zeros(len(cp), bool)
+    last_t, last_p = -1, lo
+    for j, (t, p, w) in enumerate(zip(ct_.tolist(), cp.tolist(), cw.tolist())):
         crit[t].append((p, w / (2 * np.pi)))
-        if p > bounds[t][-1] * (1 + 1e-12):
-            bounds[t].append(p)
-    for t in range(Nd):
-        bounds[t].append(hi)
-    return bounds, crit
+        if t != last_t:
+            last_t, last_p = t, lo
+        if p > last_p * (1 + 1e-12):
+            keep[j] = True
+            last_p = p
+    tk, pk = ct_[keep], cp[keep]
+    nk = np.bincount(tk, minlength=Nd)
+    bo = np.r_[0, np.cumsum(nk + 2)]
+    bv = np.empty(bo[-1])
+    bv[bo[:-1]] = lo
+    bv[bo[1:] - 1] = hi
+    kstart = np.r_[0, np.cumsum(nk)][:-1]
+    bv[bo[tk] + 1 + np.arange(tk.size) - kstart[tk]] = pk
+    return (bv, bo), crit
 
 
-def _representatives(bounds):
-    rep_t, rep_p = [], []
-    for t, bt in enumerate(bounds):
-        for i in range(len(bt) - 1):
-            a, b = bt[i], bt[i + 1]
-            rep_t.append(t)
-            rep_p.append(np.sqrt(a * b) if a > 0 and b > 0 else 0.5 * (a + b))
-    return np.asarray(rep_t, int), np.asarray(rep_p, float)
+def _representatives(bv, bo):
+    """One value inside each sub-interval (geometric mean when positive): (design, value, (a, b))."""
+    Nd = len(bo) - 1
+    last = np.zeros(len(bv), bool)
+    last[bo[1:] - 1] = True
+    j = np.nonzero(~last)[0]
+    a, b = bv[j], bv[j + 1]
+    rep_t = np.repeat(np.arange(Nd), np.diff(bo) - 1)
+    with np.errstate(invalid="ignore"):
+        rep_p = np.where((a > 0) & (b > 0), np.sqrt(a * b), 0.5 * (a + b))
+    return rep_t, rep_p, (a, b)
 
 
 def _family_wmax(D0: QP, D1: QP, phi, factor, lo, hi):
@@ -573,15 +615,21 @@ def passivity(side: _Side):
         nxt = np.minimum(j + 1, len(b_l) - 1)
         a_ = a_l[j]
         b_ = np.where(task[nxt] == ti, b_l[nxt], b_l[j])
-        f = lambda w: excess(c7(ti, w))
-        gr = 0.5 * (np.sqrt(5) - 1)
-        for _ in range(40):
-            c1 = b_ - gr * (b_ - a_)
-            c2 = a_ + gr * (b_ - a_)
-            left = f(c1) >= f(c2)
-            b_ = np.where(left, c2, b_)
-            a_ = np.where(left, a_, c1)
-        best[ti] = np.maximum(best[ti], f(0.5 * (a_ + b_)))
+        if _compiled():
+            from . import _fastphase
+
+            peak = _fastphase.golden_max(D0, D1, "excess", ti, a_, b_, iters=40)
+        else:
+            f = lambda w: excess(c7(ti, w))
+            gr = 0.5 * (np.sqrt(5) - 1)
+            for _ in range(40):
+                c1 = b_ - gr * (b_ - a_)
+                c2 = a_ + gr * (b_ - a_)
+                left = f(c1) >= f(c2)
+                b_ = np.where(left, c2, b_)
+                a_ = np.where(left, a_, c1)
+            peak = f(0.5 * (a_ + b_))
+        best[ti] = np.maximum(best[ti], peak)
     # bands = runs of consecutive samples with Im C7 > 0; only runs whose sampled peak excess
     # reaches the threshold get their two edges refined (exact zeros of Im C7)
     # the sign of Im C7 is only trusted above the float resolution (|Im C7| > 1e-8 |C7|); samples
@@ -615,11 +663,15 @@ def passivity(side: _Side):
     je = np.where(has_end, starts[np.minimum(nxt_run, len(starts) - 1)], -1)
     has_end &= task[np.maximum(je, 0)] == task[qs]
     fim = lambda t_, w: np.imag(c7(t_, w))
+    # the band edges are the zeros of Im C7 = Im(Δ10/Δ00); the compiled refinement uses the same
+    # zeros of Im(Δ00·conj Δ10) = −|Δ00|² Im C7 (no division): its bracket values change sign
+    gva = np.imag(lv["va"][0][pos] * np.conj(lv["va"][1][pos]))
+    gvb = np.imag(lv["vb"][0][pos] * np.conj(lv["vb"][1][pos]))
     bracket_start = (np.sign(ima[qs]) != np.sign(imb[qs])) & resolved_sign[qs] & resolved_a[qs]
     ws = a_l[qs].copy()
     if bracket_start.any():
         k = qs[bracket_start]
-        ws[bracket_start] = bisect_roots(fim, task[k], a_l[k], b_l[k], ima[k], fb=imb[k])
+        ws[bracket_start] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima[k], imb[k], gva[k], gvb[k])
     we = np.full(len(qs), np.inf)
     jj = np.maximum(je, 0)
     closes = has_end & (np.sign(ima[jj]) != np.sign(imb[jj])) & resolved_sign[jj] & resolved_a[jj]
@@ -627,11 +679,17 @@ def passivity(side: _Side):
     has_end = closes
     if has_end.any():
         k = je[has_end]
-        we[has_end] = bisect_roots(fim, task[k], a_l[k], b_l[k], ima[k], fb=imb[k])
+        we[has_end] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima[k], imb[k], gva[k], gvb[k])
     bands = [[] for _ in range(Nd)]
     for t_, w0, w1 in zip(task[qs].tolist(), ws.tolist(), we.tolist()):
         bands[t_].append([w0 / (2 * np.pi), w1 / (2 * np.pi)])
     return {"max_phase_excess_deg": best, "nonpassive_band_hz": bands, "conclusive": lv["valid"] & lv["resolved"]}
+
+
+def _edge_roots(fim, D0, D1, task, a, b, ima, imb, ga, gb):
+    if _compiled():
+        return _pair_roots(None, D0, D1, "cross", task, a, b, ga, gb)
+    return bisect_roots(fim, task, a, b, ima, fb=imb)
 
 
 def _argmax_by_task(task, vals, Nd):
@@ -852,7 +910,7 @@ def _amp_dc_bandwidth(num: QP, den: QP, per_decade: int = 2):
             b, _ = den.eval(task, w, deriv=False)
             return np.abs(a / b) ** 2 - half[task]
 
-        wb = bisect_roots(h, t, lv["a"][j], lv["b"][j], ha[j], fb=hb[j])
+        wb = _pair_roots(h, num, den, "mag", t, lv["a"][j], lv["b"][j], ha[j], hb[j], c=half)
         bw[t] = wb / (2 * np.pi)
     return dc, bw
 

@@ -99,5 +99,7 @@ def test_analyze_batch_same_with_both_engines(monkeypatch):
         elif isinstance(x, np.ndarray):
             assert np.allclose(x, y, rtol=1e-7, atol=1e-12, equal_nan=True), k
         else:
+            assert len(x) == len(y), k
             for u, v in zip(x, y):
-                assert np.allclose(np.asarray(u, float), np.asarray(v, float), rtol=1e-7), (k, u, v)
+                u, v = np.asarray(u, float), np.asarray(v, float)
+                assert u.shape == v.shape and np.allclose(u, v, rtol=1e-7), (k, u, v)

@@ -170,7 +170,8 @@ def test_single_design_report_verifies_intervals(monkeypatch):
     assert good["verification_mismatches"] == [] and good["verified_points"] == 64
 
     def no_crossings(Nd, ct_, cp, cw, lo, hi):
-        return [[lo, hi] for _ in range(Nd)], [[] for _ in range(Nd)]
+        bv = np.tile([lo, hi], Nd).astype(float)
+        return (bv, np.arange(Nd + 1) * 2), [[] for _ in range(Nd)]
 
     monkeypatch.setattr(an, "_bounds", no_crossings)
     bad = an.analyze_design(cfg)["humans"][0]
