@@ -56,6 +56,22 @@ def design_dicts(cfg, i: int | None = None):
     return plant, design, impl
 
 
+def dob_margins(impl: dict):
+    """``control.stability_margins`` (gm, pm, wcg, wcp) of L_dob = Q/(1 − Q)·Padé(e^{−sT}); None
+    without a DOB."""
+    if impl["dob"] is None:
+        return None
+    wq = 2 * math.pi * impl["dob"]["cutoff_hz"]
+    zq = impl["dob"]["damping"]
+    Q = control.tf([wq * wq], [1.0, 2 * zq * wq, wq * wq])
+    L = control.minreal(Q / (1 - Q), verbose=False)
+    if impl["T"] > 0:
+        L = L * control.tf(*control.pade(impl["T"], PADE_ORDER))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return tuple(control.stability_margins(L)[:4])
+
+
 def per_design(plant: dict, design: dict, impl: dict) -> dict:
     gains = reference_gains(plant, design)
     gains["Gc"] = reference_gc(plant, design, impl["gv"], impl["fd"])
@@ -63,21 +79,22 @@ def per_design(plant: dict, design: dict, impl: dict) -> dict:
     free = closed_loop_poles(plant, gains, ri, None, "free", PADE_ORDER)
     mass = [closed_loop_poles(plant, gains, ri, {"kind": "mass", "inertia": m}, "free", PADE_ORDER) for m in INERTIAS]
     spring = [closed_loop_poles(plant, gains, ri, {"kind": "spring", "stiffness": k}, "free", PADE_ORDER) for k in SPRINGS]
-    margins = None
-    if impl["dob"] is not None:
-        wq = 2 * math.pi * impl["dob"]["cutoff_hz"]
-        zq = impl["dob"]["damping"]
-        Q = control.tf([wq * wq], [1.0, 2 * zq * wq, wq * wq])
-        L = control.minreal(Q / (1 - Q), verbose=False)
-        if impl["T"] > 0:
-            L = L * control.tf(*control.pade(impl["T"], PADE_ORDER))
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            gm, pm, wcg, wcp = control.stability_margins(L)[:4]
-        margins = (gm, pm, wcg, wcp)
+    margins = dob_margins(impl)
     return {
         "free_max_re": float(np.max(np.delete(free, np.argmin(np.abs(free))).real)),
         "mass_stable": [bool(np.max(p.real) < 0) for p in mass],
         "spring_stable": [bool(np.max(p.real) < 0) for p in spring],
         "dob_margins": margins,
     }
+
+
+def measure_rate(fn, cfg, m: int) -> float:
+    """designs/s of ``fn(plant, design, impl)`` over the first ``m`` designs of a batch config (one
+    warm-up call first)."""
+    import time
+
+    fn(*design_dicts(cfg, 0))
+    t0 = time.perf_counter()
+    for i in range(m):
+        fn(*design_dicts(cfg, i))
+    return m / (time.perf_counter() - t0)

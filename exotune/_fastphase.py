@@ -500,3 +500,56 @@ def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
         _golden_max(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), _MODES[mode], int(iters), out)
     return out
+
+
+if AVAILABLE:
+
+    @njit(cache=True)
+    def _omega_max(a0, a1, frac, out):
+        for t in range(a0.shape[0]):
+            n = -1
+            for k in range(a0.shape[1] - 1, -1, -1):
+                if a0[t, k] != 0:
+                    n = k
+                    break
+            d1 = -1
+            for k in range(a1.shape[1] - 1, -1, -1):
+                if a1[t, k] != 0:
+                    d1 = k
+                    break
+            cn = a0[t, n] if n >= 0 else 0.0
+            cnt0 = 0
+            for k in range(max(n, 0)):
+                if a0[t, k] > 0:
+                    cnt0 += 1
+            cnt1 = 0
+            for k in range(a1.shape[1]):
+                if a1[t, k] > 0:
+                    cnt1 += 1
+            cnt0 = max(cnt0, 1)
+            cnt1 = max(cnt1, 1)
+            w = 0.0
+            finite = True
+            if cn > 0:
+                for k in range(n):
+                    if a0[t, k] > 0:
+                        e = math.exp(math.log(cnt0 * a0[t, k] / (frac * cn)) / (n - k))
+                        finite = finite and np.isfinite(e)
+                        w = max(w, e)
+                for k in range(min(n, a1.shape[1])):
+                    if a1[t, k] > 0:
+                        e = math.exp(math.log(cnt1 * a1[t, k] / (frac * (1.0 - frac) * cn)) / (n - k))
+                        finite = finite and np.isfinite(e)
+                        w = max(w, e)
+            if w <= 0:
+                w = 1.0
+            out[t] = w * 1.0000001 if (cn > 0 and d1 < n and finite) else math.inf
+
+
+def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
+    """Compiled :func:`exotune.quasipoly.omega_max` (same bound, row by row)."""
+    a0 = np.ascontiguousarray(np.abs(p0), dtype=float)
+    a1 = np.ascontiguousarray(np.abs(p1), dtype=float)
+    out = np.empty(a0.shape[0])
+    _omega_max(a0, a1, float(frac), out)
+    return out

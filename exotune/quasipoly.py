@@ -92,7 +92,7 @@ def _der(c: np.ndarray) -> np.ndarray:
     return d if d.shape[-1] else np.zeros(c.shape[:-1] + (1,), c.dtype)
 
 
-def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
+def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, engine: str | None = None) -> np.ndarray:
     """A frequency beyond which the tail bounds of the module docstring hold, in closed form.
 
     With n = deg P0 and m_k the number of terms, requiring every term of
@@ -101,7 +101,12 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
     ω ≥ (n0 |c_k| / (frac |c_n|))^{1/(n−k)} and ω ≥ (n1 |p1_k| / (frac (1−frac) |c_n|))^{1/(n−k)};
     both sums are non-increasing in ω, so the bounds hold on the whole tail.
     Returns +inf for rows that are not of retarded type (deg P1 ≥ deg P0) or where P0 ≡ 0.
+    Compiled (:func:`exotune._fastphase.omega_max`) unless the numpy engine is selected.
     """
+    if _engine(engine) == "numba":
+        from . import _fastphase
+
+        return _fastphase.omega_max(p0, p1, frac)
     n = degree(p0)
     cn = np.abs(leading(p0))
     deg1 = degree(p1)

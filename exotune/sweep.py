@@ -434,9 +434,26 @@ def _arrow_column(name: str, v, n: int):
     if isinstance(v, (list, tuple)):
         if len(v) != n:
             raise ValueError(f"column {name!r} has {len(v)} entries, expected {n}")
-        rows = [[[float(x) for x in item] for item in row] for row in v]
-        return pa.array(rows, type=pa.list_(pa.list_(pa.float64())))
+        return _nested_float_lists(v)
     raise TypeError(f"column {name!r}: unsupported type {type(v).__name__}")
+
+
+def _nested_float_lists(rows):
+    """list<list<double>> Arrow array of rows of items (e.g. intervals [lo, hi]), built from flat
+    offsets and values (the same array as ``pa.array(rows, type=list<list<double>>)``, without a
+    Python-level conversion of every number)."""
+    import itertools
+
+    import pyarrow as pa
+
+    items = list(itertools.chain.from_iterable(rows))
+    outer = np.zeros(len(rows) + 1, np.int32)
+    np.cumsum([len(r) for r in rows], out=outer[1:])
+    inner = np.zeros(len(items) + 1, np.int32)
+    np.cumsum([len(it) for it in items], out=inner[1:])
+    values = np.fromiter(itertools.chain.from_iterable(items), dtype=np.float64, count=int(inner[-1]))
+    lists = pa.ListArray.from_arrays(pa.array(inner), pa.array(values, type=pa.float64()))
+    return pa.ListArray.from_arrays(pa.array(outer), lists)
 
 
 def _compute_table(plan: SweepPlan, index: int):
