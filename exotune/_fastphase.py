@@ -102,15 +102,17 @@ if AVAILABLE:
             if not valid[t]:
                 out_res[t] = False
                 continue
+            acc = 0.0
+            res = True
+            cnt = 0
             T = Ts[t]
             wa = grid[t, 0]
             va, da = _eval(c0T, c1T, t, T, wa)
-            out_count[t] += 1
+            cnt += 1
             for j in range(1, K):
                 wb = grid[t, j]
                 vb, db = _eval(c0T, c1T, t, T, wb)
-                out_count[t] += 1
-                top = 0
+                cnt += 1
                 sa[0] = wa
                 sb[0] = wb
                 sd[0] = 0
@@ -118,9 +120,8 @@ if AVAILABLE:
                 svb[0] = vb
                 sla[0] = da / va if va != 0 else 0j
                 slb[0] = db / vb if vb != 0 else 0j
-                bad0 = (va == 0) or (vb == 0)
-                if bad0:
-                    out_res[t] = False
+                if (va == 0) or (vb == 0):
+                    res = False
                 top = 1
                 while top > 0:
                     top -= 1
@@ -133,24 +134,24 @@ if AVAILABLE:
                     Lb = slb[top]
                     h = b - a
                     if xa == 0:  # Δ(0) = 0: a root on the axis (the count is inconclusive)
-                        out_res[t] = False
+                        res = False
                         continue
                     ok, bad, ang = _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step)
                     if bad:
-                        out_res[t] = False
+                        res = False
                         continue
                     floor = (h <= 1e-13 * max(abs(b), 1e-300)) or dep >= max_levels
                     if ok or floor:
                         if floor and not ok:
-                            out_res[t] = False
-                        out_sum[t] += ang
+                            res = False
+                        acc += ang
                         continue
                     m = 0.5 * (a + b)
                     vm, dm = _eval(c0T, c1T, t, T, m)
-                    out_count[t] += 1
+                    cnt += 1
                     Lm = dm / vm if vm != 0 else 0j
                     if vm == 0:
-                        out_res[t] = False
+                        res = False
                     # push right then left (left processed first; order does not matter for a sum)
                     sa[top] = m
                     sb[top] = b
@@ -171,6 +172,9 @@ if AVAILABLE:
                 wa = wb
                 va = vb
                 da = db
+            out_sum[t] = acc
+            out_res[t] = res
+            out_count[t] = cnt
 
 
 def phase_sums(p0: np.ndarray, p1: np.ndarray, T: np.ndarray, grid: np.ndarray, valid: np.ndarray,
@@ -438,13 +442,23 @@ if AVAILABLE:
             T = Ts[t]
             lo = a[i]
             hi = b[i]
+            c1 = hi - gr * (hi - lo)
+            c2 = lo + gr * (hi - lo)
+            f1 = _fun(cA0, cA1, cB0, cB1, t, T, c1, mode, 0, 1.0, 0.0, 0.0)
+            f2 = _fun(cA0, cA1, cB0, cB1, t, T, c2, mode, 0, 1.0, 0.0, 0.0)
             for _ in range(iters):
-                c1 = hi - gr * (hi - lo)
-                c2 = lo + gr * (hi - lo)
-                if _fun(cA0, cA1, cB0, cB1, t, T, c1, mode, 0, 1.0, 0.0, 0.0) >= _fun(cA0, cA1, cB0, cB1, t, T, c2, mode, 0, 1.0, 0.0, 0.0):
+                if f1 >= f2:
                     hi = c2
+                    c2 = c1
+                    f2 = f1
+                    c1 = hi - gr * (hi - lo)
+                    f1 = _fun(cA0, cA1, cB0, cB1, t, T, c1, mode, 0, 1.0, 0.0, 0.0)
                 else:
                     lo = c1
+                    c1 = c2
+                    f1 = f2
+                    c2 = lo + gr * (hi - lo)
+                    f2 = _fun(cA0, cA1, cB0, cB1, t, T, c2, mode, 0, 1.0, 0.0, 0.0)
             out[i] = _fun(cA0, cA1, cB0, cB1, t, T, 0.5 * (lo + hi), mode, 0, 1.0, 0.0, 0.0)
 
 
@@ -493,8 +507,9 @@ def refine_crossings(qa, qb, k: int, factor: complex, task, a, b, fa, fb):
 
 
 def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40):
-    """Golden-section maximization of the ``mode`` function on [a, b] per entry; returns the value
-    at the final midpoint (same iteration as the numpy reference in exotune.analysis)."""
+    """Golden-section maximization of the ``mode`` function on [a, b] per entry (one new
+    evaluation per iteration); returns the value at the final midpoint (same iteration as the numpy
+    reference in exotune.analysis)."""
     out = np.empty(len(task))
     if len(task):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731

@@ -626,12 +626,19 @@ def passivity(side: _Side):
         else:
             f = lambda w: excess(c7(ti, w))
             gr = 0.5 * (np.sqrt(5) - 1)
-            for _ in range(40):
-                c1 = b_ - gr * (b_ - a_)
-                c2 = a_ + gr * (b_ - a_)
-                left = f(c1) >= f(c2)
+            c1 = b_ - gr * (b_ - a_)
+            c2 = a_ + gr * (b_ - a_)
+            f1, f2 = f(c1), f(c2)
+            for _ in range(40):  # golden section, one new evaluation per iteration
+                left = f1 >= f2
                 b_ = np.where(left, c2, b_)
                 a_ = np.where(left, a_, c1)
+                c2n = np.where(left, c1, a_ + gr * (b_ - a_))
+                c1n = np.where(left, b_ - gr * (b_ - a_), c2)
+                new = np.where(left, c1n, c2n)
+                fn = f(new)
+                f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
+                c1, c2 = c1n, c2n
             peak = f(0.5 * (a_ + b_))
         best[ti] = np.maximum(best[ti], peak)
     # bands = runs of consecutive samples with Im C7 > 0; only runs whose sampled peak excess
@@ -697,14 +704,15 @@ def _edge_roots(fim, D0, D1, task, a, b, ima, imb, ga, gb):
 
 
 def _argmax_by_task(task, vals, Nd):
+    """Index of the largest positive value of each task (-1 when none); ties: the last index."""
     out = np.full(Nd, -1)
     if task.size == 0:
         return out
-    order = np.lexsort((vals, task))
-    last = np.r_[task[order][1:] != task[order][:-1], True]
-    sel = order[last]
-    good = vals[sel] > 0
-    out[task[sel][good]] = sel[good]
+    best = np.full(Nd, -np.inf)
+    np.maximum.at(best, task, vals)
+    hit = np.nonzero((vals == best[task]) & (vals > 0))[0]
+    # indices ascending: for repeated tasks the last assignment (largest index) wins
+    out[task[hit]] = hit
     return out
 
 
