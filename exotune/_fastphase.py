@@ -62,7 +62,8 @@ if AVAILABLE:
     def _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step):
         """(accept, bad, phase step) for one tracked function on [a, b] (same rule as quasipoly).
 
-        The phase step is arg(xb/xa), computed as arg(xb·conj(xa)) (no division)."""
+        The phase step is arg(xb/xa), computed as arg(xb·conj(xa)) (no division), and only for
+        intervals that pass the cheaper tests (NaN otherwise; the kernel computes it when needed)."""
         if a == 0.0 and xa == 0 and xb != 0:
             return True, False, 0.0  # structural zero at s = 0: skipped on the first interval
         if xa == 0 or xb == 0:
@@ -72,15 +73,35 @@ if AVAILABLE:
         if not (np.isfinite(rr) and np.isfinite(ri)):
             return False, True, 0.0
         h = b - a
-        ang = math.atan2(ri, rr)
-        small = (rr > 0) and (abs(ri) <= tan_arg * rr)
-        crit = h * abs(Lb - La)
-        trap = abs(0.5 * h * (La.real + Lb.real) - ang)
-        if 2.0 * trap > crit:
-            crit = 2.0 * trap
+        dr = Lb.real - La.real
+        di = Lb.imag - La.imag
+        crit = h * math.sqrt(dr * dr + di * di)
         if not np.isfinite(crit):
+            return False, True, math.nan
+        if crit > der_step or not ((rr > 0) and (abs(ri) <= tan_arg * rr)):
+            return False, False, math.nan
+        ang = math.atan2(ri, rr)
+        trap = 2.0 * abs(0.5 * h * (La.real + Lb.real) - ang)
+        if not np.isfinite(trap):
             return False, True, ang
-        return small and crit <= der_step, False, ang
+        return trap <= der_step, False, ang
+
+    @njit(cache=True, inline="always")
+    def _logd(d, v):
+        """d/v (the log-derivative Δ'/Δ) by one real reciprocal; the scaled complex division only
+        when |v|² over- or underflows."""
+        n = v.real * v.real + v.imag * v.imag
+        if n == 0.0 or not np.isfinite(n) or n < 1e-290:
+            return d / v if v != 0 else 0j
+        r = 1.0 / n
+        return complex((d.real * v.real + d.imag * v.imag) * r, (d.imag * v.real - d.real * v.imag) * r)
+
+    @njit(cache=True, inline="always")
+    def _step(ang, xa, xb):
+        """The phase step arg(xb/xa) when _interval_ok did not compute it."""
+        if ang == ang:
+            return ang
+        return math.atan2(xb.imag * xa.real - xb.real * xa.imag, xb.real * xa.real + xb.imag * xa.imag)
 
     @njit(cache=True)
     def _kernel(c0T, c1T, Ts, grid, valid, arg_step, der_step, max_levels, out_sum, out_res, out_count):
@@ -118,8 +139,8 @@ if AVAILABLE:
                 sd[0] = 0
                 sva[0] = va
                 svb[0] = vb
-                sla[0] = da / va if va != 0 else 0j
-                slb[0] = db / vb if vb != 0 else 0j
+                sla[0] = _logd(da, va)
+                slb[0] = _logd(db, vb)
                 if (va == 0) or (vb == 0):
                     res = False
                 top = 1
@@ -144,12 +165,12 @@ if AVAILABLE:
                     if ok or floor:
                         if floor and not ok:
                             res = False
-                        acc += ang
+                        acc += _step(ang, xa, xb)
                         continue
                     m = 0.5 * (a + b)
                     vm, dm = _eval(c0T, c1T, t, T, m)
                     cnt += 1
-                    Lm = dm / vm if vm != 0 else 0j
+                    Lm = _logd(dm, vm)
                     if vm == 0:
                         res = False
                     # push right then left (left processed first; order does not matter for a sum)
@@ -230,10 +251,10 @@ if AVAILABLE:
                 sv[0, 1] = b0
                 sv[0, 2] = a1
                 sv[0, 3] = b1
-                sl[0, 0] = d0 / a0 if a0 != 0 else 0j
-                sl[0, 1] = e0 / b0 if b0 != 0 else 0j
-                sl[0, 2] = d1 / a1 if a1 != 0 else 0j
-                sl[0, 3] = e1 / b1 if b1 != 0 else 0j
+                sl[0, 0] = _logd(d0, a0)
+                sl[0, 1] = _logd(e0, b0)
+                sl[0, 2] = _logd(d1, a1)
+                sl[0, 3] = _logd(e1, b1)
                 top = 1
                 while top > 0:
                     top -= 1
@@ -292,8 +313,8 @@ if AVAILABLE:
                     m = 0.5 * (a + b)
                     m0, f0 = _eval(cA0, cA1, t, T, m)
                     m1, f1 = _eval(cB0, cB1, t, T, m)
-                    Lm0 = f0 / m0 if m0 != 0 else 0j
-                    Lm1 = f1 / m1 if m1 != 0 else 0j
+                    Lm0 = _logd(f0, m0)
+                    Lm1 = _logd(f1, m1)
                     # right half first on the stack so the left half is processed first (sorted output)
                     sa[top] = m
                     sb[top] = b
