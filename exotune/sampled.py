@@ -1,0 +1,276 @@
+"""Sampled-data closed loop: a discrete controller on the continuous plant (SPEC §3 "Discrete
+implementation", §5 cross-check, the engine of a future ``exotune certify``).
+
+What the runtime does at sample rate f_s = 1/T_s: the sensors are sampled at t = kT_s, the
+controller computes τ_cmd[k], which is applied through a zero-order hold after the total latency
+T = (d + f) T_s (d whole samples, 0 ≤ f < 1: delays need not be whole samples). Over one period
+the motor torque is τ_cmd[k−d−1] for the first f T_s and τ_cmd[k−d] for the rest, so the exact
+discretization of the continuous plant ẋ = A x + B τ_m (Åström & Wittenmark, fractional delay) is
+
+    x[k+1] = Φ x[k] + Γ0 τ_cmd[k−d] + Γ1 τ_cmd[k−d−1]
+    Φ = e^{A T_s},  Γ0 = ∫_0^{(1−f)T_s} e^{Aη} dη B,  Γ1 = e^{A(1−f)T_s} ∫_0^{f T_s} e^{Aη} dη B,
+
+with the past commands as shift states. Closing the loop with the discrete controller gives one
+matrix; the sampled-data loop is stable iff its eigenvalues lie inside the unit circle (a
+rigid-body mode of the free exoskeleton is the eigenvalue z = 1, tolerated like s = 0 in the
+continuous analysis).
+
+The plant is written here from the physical equations (SPEC §2), independently of the transfer
+function algebra of :mod:`exotune.model` / :mod:`exotune.analysis`, so that the continuous analysis
+and this model check each other. The discrete controller comes from a
+:class:`~exotune.controller.ControllerStructure` (:func:`discretize`): every proper block by the
+Tustin (bilinear) transform, optionally prewarped at a frequency per block; the improper parts
+K + B s of the SEA blocks act on the sampled positions and ideal sampled velocities (plant states),
+as in the continuous analysis (SPEC §3); the DOB's algebraic loop through Q's feed-through is
+solved exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.signal
+
+__all__ = ["Measured", "plant_ss", "DiscreteController", "discretize", "closed_loop_matrix", "sampled_stable"]
+
+# sampled signals the controller may use (order of the plant's output vector)
+Measured = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
+
+
+def plant_ss(plant, human: dict | None = None, env: str | dict = "free"):
+    """(A, B, C) of the joint-reflected plant with the human at θ_h and the environment at θ_j.
+
+    Input τ_m [N·m]; outputs :data:`Measured` = θ_m [rad], θ̇_m [rad/s], τ_s [N·m], τ̇_s [N·m/s],
+    τ_c [N·m]. ``human``: None (cuff free, τ_c ≡ 0) or {inertia, damping, stiffness} (any subset;
+    no inertia = a massless spring-damper node). ``env``: "free", "locked" (θ_j ≡ 0) or
+    {inertia, damping, stiffness} acting on θ_j (SPEC §2).
+
+        J_m θ̈_m + B_m θ̇_m = τ_s + τ_m,   τ_s = K_s (θ_j − θ_m)
+        J_j θ̈_j = τ_c − τ_s + τ_env,      τ_c = K_c (θ_h − θ_j)
+        m θ̈_h + b θ̇_h + k θ_h = −τ_c
+    """
+    g = lambda x: float(np.asarray(x).reshape(-1)[0])  # noqa: E731
+    Jm, Bm, Ks, Jj, Kc = g(plant.J_m), g(plant.B_m), g(plant.K_s), g(plant.J_j), g(plant.K_c)
+    locked = env == "locked"
+    me = be = ke = 0.0
+    if isinstance(env, dict):
+        me, be, ke = (float(env.get(k, 0.0)) for k in ("inertia", "damping", "stiffness"))
+    elif env not in ("free", "locked"):
+        raise ValueError(f"unknown environment {env!r}")
+    hm = hb = hk = 0.0
+    if human is not None:
+        hm, hb, hk = (float(human.get(k, 0.0)) for k in ("inertia", "damping", "stiffness"))
+    names = ["theta_m", "omega_m"] + ([] if locked else ["theta_j", "omega_j"])
+    if human is not None and hm > 0:
+        names += ["theta_h", "omega_h"]
+    elif human is not None and hb > 0:
+        names += ["theta_h"]
+    n = len(names)
+    ix = {s: i for i, s in enumerate(names)}
+    A = np.zeros((n, n))
+    B = np.zeros((n, 1))
+    # linear forms (row vectors over the states) of the signals
+    th_m = np.eye(n)[ix["theta_m"]]
+    om_m = np.eye(n)[ix["omega_m"]]
+    th_j = np.zeros(n) if locked else np.eye(n)[ix["theta_j"]]
+    om_j = np.zeros(n) if locked else np.eye(n)[ix["omega_j"]]
+    if human is None:
+        tau_c = np.zeros(n)
+    elif "theta_h" in ix:
+        tau_c = Kc * (np.eye(n)[ix["theta_h"]] - th_j)
+    else:  # massless, undamped: K_c in series with k
+        tau_c = -Kc * hk / (Kc + hk) * th_j if (Kc + hk) > 0 else np.zeros(n)
+    tau_s = Ks * (th_j - th_m)
+    dtau_s = Ks * (om_j - om_m)
+    A[ix["theta_m"]] = om_m
+    A[ix["omega_m"]] = (tau_s - Bm * om_m) / Jm
+    B[ix["omega_m"], 0] = 1.0 / Jm
+    if not locked:
+        A[ix["theta_j"]] = om_j
+        A[ix["omega_j"]] = (tau_c - tau_s - be * om_j - ke * th_j) / (Jj + me)
+    if "omega_h" in ix:
+        A[ix["theta_h"]] = np.eye(n)[ix["omega_h"]]
+        A[ix["omega_h"]] = (-tau_c - hb * np.eye(n)[ix["omega_h"]] - hk * np.eye(n)[ix["theta_h"]]) / hm
+    elif "theta_h" in ix:
+        A[ix["theta_h"]] = (-tau_c - hk * np.eye(n)[ix["theta_h"]]) / hb
+    C = np.vstack([th_m, om_m, tau_s, dtau_s, tau_c])
+    return A, B, C
+
+
+@dataclass(frozen=True)
+class DiscreteController:
+    """z[k+1] = Ac z[k] + Bc y[k],  τ_cmd[k] = Cc z[k] + Dc y[k]  (y = :data:`Measured`), at
+    ``sample_rate_hz``, applied after ``delay_s``."""
+
+    Ac: np.ndarray
+    Bc: np.ndarray
+    Cc: np.ndarray
+    Dc: np.ndarray
+    sample_rate_hz: float
+    delay_s: float
+
+
+def _row(x: np.ndarray) -> np.ndarray:
+    return np.atleast_2d(np.asarray(x, dtype=float))[0]
+
+
+def _tustin(num_asc, den_asc, Ts: float, prewarp_hz: float | None):
+    """Discrete (A, B, C, D) of a proper num/den (ascending coefficients) by the bilinear
+    transform, prewarped at ``prewarp_hz`` when given (s ← K (z−1)/(z+1), K = ω/tan(ωT_s/2))."""
+    num = np.trim_zeros(_row(num_asc), "b")
+    den = np.trim_zeros(_row(den_asc), "b")
+    if num.size == 0:
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.zeros((1, 1))
+    if num.size > den.size:
+        raise ValueError("an improper controller block cannot be discretized (filter it first)")
+    lam = 1.0
+    if prewarp_hz:
+        w = 2 * math.pi * prewarp_hz
+        lam = (w / math.tan(w * Ts / 2)) * Ts / 2  # H(λ s) then the standard bilinear transform
+    num = num * lam ** np.arange(num.size)
+    den = den * lam ** np.arange(den.size)
+    if den.size == 1:
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[0] / den[0]]])
+    A, B, C, D = scipy.signal.tf2ss(num[::-1], den[::-1])
+    Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete((A, B, C, D), Ts, method="bilinear")
+    return Ad, Bd, Cd, Dd
+
+
+def _split_improper(num_asc, den_asc):
+    """num/den = p0 + p1 s + proper remainder (the SEA blocks K + B s with ideal velocity)."""
+    num = np.trim_zeros(_row(num_asc), "b")
+    den = np.trim_zeros(_row(den_asc), "b")
+    if num.size <= den.size:
+        return 0.0, 0.0, num, den
+    if den.size != 1 or num.size > 2:
+        raise ValueError("only K + B s improper parts are implemented with ideal sampled velocities")
+    return num[0] / den[0], num[1] / den[0], np.zeros(1), np.ones(1)
+
+
+def discretize(cs, plant, sample_rate_hz: float, prewarp: dict | None = None) -> DiscreteController:
+    """The discrete controller of a single-design :class:`ControllerStructure` (SPEC §3):
+
+        τ_cmd = G_θ θ_m + G_s τ_s + G_c τ_c − δ̂,   δ̂ = Q (J_m s² + B_m s) θ_m − Q (τ_s + τ_cmd)
+
+    each proper block by Tustin (``prewarp``: {"theta_m"|"tau_s"|"tau_c"|"dob": Hz}), the K + B s
+    parts of G_θ and G_s on θ_m, θ̇_m and τ_s, τ̇_s. The algebraic loop τ_cmd → Q → τ_cmd
+    (Tustin gives Q a feed-through q0) is solved: τ_cmd = (rest)/(1 − q0).
+    """
+    Ts = 1.0 / float(sample_rate_hz)
+    pw = prewarp or {}
+    Jm, Bm = float(np.ravel(plant.J_m)[0]), float(np.ravel(plant.B_m)[0])
+    # blocks: (A, B, C, D, input) with input an index into Measured or "cmd"
+    blocks = []
+    static = np.zeros(len(Measured))
+    for name, blk, pos, vel in (("theta_m", cs.motor_position, 0, 1), ("tau_s", cs.spring_torque, 2, 3)):
+        p0, p1, rn, rd = _split_improper(blk.num, blk.den)
+        static[pos] += p0
+        static[vel] += p1
+        blocks.append(_tustin(rn, rd, Ts, pw.get(name)) + (pos,))
+    blocks.append(_tustin(cs.cuff_torque.num, cs.cuff_torque.den, Ts, pw.get("tau_c")) + (4,))
+    if cs.dob_q is not None:
+        qn, qd = _row(cs.dob_q.num), _row(cs.dob_q.den)
+        q2n = np.convolve(qn, np.array([0.0, Bm, Jm]))  # ascending: Q (B_m s + J_m s²)
+        A_, B_, C_, D_ = _tustin(q2n, qd, Ts, pw.get("dob"))
+        blocks.append((A_, B_, -C_, -D_, 0))  # −Q(J_m s² + B_m s) θ_m
+        A_, B_, C_, D_ = _tustin(qn, qd, Ts, pw.get("dob"))
+        blocks.append((A_, B_, C_, D_, 2))  # + Q τ_s
+        blocks.append((A_, B_, C_, D_, "cmd"))  # + Q τ_cmd
+    nz = sum(b[0].shape[0] for b in blocks)
+    ny = len(Measured)
+    # τ_cmd = Σ_i (C_i z_i + D_i u_i) + static·y, with u_i = y[input] or τ_cmd
+    Cz = np.zeros(nz)
+    Dy = static.copy()
+    q0 = 0.0
+    off = 0
+    for A_, B_, C_, D_, inp in blocks:
+        k = A_.shape[0]
+        Cz[off:off + k] = C_.reshape(-1)[:k]
+        if inp == "cmd":
+            q0 += float(D_.reshape(-1)[0])
+        else:
+            Dy[inp] += float(D_.reshape(-1)[0])
+        off += k
+    if abs(1.0 - q0) < 1e-12:
+        raise ValueError("the DOB's algebraic loop is singular (Q feed-through = 1)")
+    Cc = Cz / (1.0 - q0)
+    Dc = Dy / (1.0 - q0)
+    # states: z_i[k+1] = A_i z_i + B_i u_i, u_i = y[input] or τ_cmd = Cc z + Dc y
+    Ac = np.zeros((nz, nz))
+    Bc = np.zeros((nz, ny))
+    off = 0
+    for A_, B_, C_, D_, inp in blocks:
+        k = A_.shape[0]
+        Ac[off:off + k, off:off + k] = A_
+        b = B_.reshape(-1)[:k]
+        if inp == "cmd":
+            Ac[off:off + k, :] += np.outer(b, Cc)
+            Bc[off:off + k, :] += np.outer(b, Dc)
+        else:
+            Bc[off:off + k, inp] += b
+        off += k
+    return DiscreteController(Ac, Bc, Cc[None, :], Dc[None, :], float(sample_rate_hz), float(np.ravel(cs.delay_s)[0]))
+
+
+def zoh_fractional(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
+    """(Φ, Γ0, Γ1) of the module docstring (exact, by block matrix exponentials)."""
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n] = A
+    M[:n, n:] = B
+    E0 = scipy.linalg.expm(M * (1.0 - f) * Ts)
+    E1 = scipy.linalg.expm(M * f * Ts)
+    Phi0, G0 = E0[:n, :n], E0[:n, n:]
+    Phi = Phi0 @ E1[:n, :n]
+    G1 = Phi0 @ E1[:n, n:]
+    return Phi, G0, G1
+
+
+def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
+    """State matrix of the sampled-data loop on [x; z; τ_cmd[k−1], …, τ_cmd[k−d−1]]."""
+    Ts = 1.0 / ctrl.sample_rate_hz
+    q = ctrl.delay_s / Ts
+    d = int(math.floor(q + 1e-9))
+    f = q - d
+    if f < 1e-9:
+        f = 0.0
+    Phi, G0, G1 = zoh_fractional(A, B, Ts, f)
+    n, nz, ns = A.shape[0], ctrl.Ac.shape[0], d + 1
+    N = n + nz + ns
+    M = np.zeros((N, N))
+    # τ_cmd[k] = Cc z + Dc C x
+    u = np.zeros(N)
+    u[:n] = (ctrl.Dc @ C).reshape(-1)
+    u[n:n + nz] = ctrl.Cc.reshape(-1)
+    s0 = n + nz  # shift state j (0-based) holds τ_cmd[k−1−j]
+    cur = u if d == 0 else np.eye(N)[s0 + d - 1]  # τ_cmd[k−d]
+    old = np.eye(N)[s0 + d]  # τ_cmd[k−d−1]
+    M[:n] = np.hstack([Phi, np.zeros((n, nz + ns))]) + np.outer(G0[:, 0], cur) + np.outer(G1[:, 0], old)
+    M[n:n + nz, :n] = ctrl.Bc @ C
+    M[n:n + nz, n:n + nz] = ctrl.Ac
+    M[s0] = u
+    for j in range(1, ns):
+        M[s0 + j, s0 + j - 1] = 1.0
+    return M
+
+
+def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, env: str | dict = "free",
+                   prewarp: dict | None = None, rigid_tol: float = 1e-7) -> tuple[bool, float]:
+    """(stable, spectral radius) of the sampled-data loop; one eigenvalue at z = 1 (the rigid-body
+    mode, |λ − 1| ≤ rigid_tol) is removed when nothing grounds the structure (K1 = 0, no human or
+    environment stiffness, not locked), as in the continuous analysis."""
+    A, B, C = plant_ss(plant, human, env)
+    ctrl = discretize(cs, plant, sample_rate_hz, prewarp)
+    lam = np.linalg.eigvals(closed_loop_matrix(A, B, C, ctrl))
+    K1 = -float(np.ravel(cs.motor_position.num)[0]) / float(np.ravel(cs.motor_position.den)[0])
+    grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
+                or (human is not None and human.get("stiffness", 0.0) > 0) or K1 != 0.0)
+    if not grounded and lam.size:
+        i = int(np.argmin(np.abs(lam - 1.0)))
+        if abs(lam[i] - 1.0) <= rigid_tol:
+            lam = np.delete(lam, i)
+    rho = float(np.max(np.abs(lam))) if lam.size else 0.0
+    return rho < 1.0, rho
