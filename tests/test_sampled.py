@@ -207,3 +207,30 @@ def test_closed_loop_matrix_shift_register_and_plant_shapes():
     ctrl = discretize(cs, cfg.plant, 1000.0)
     M = closed_loop_matrix(A, B, C, ctrl)
     assert M.shape[0] == A.shape[0] + ctrl.Ac.shape[0] + 4  # d = 3, f = 0.5
+
+
+def test_analyze_with_sample_rate_reports_the_sampled_data_check():
+    """`analyze` with sample_rate_hz: the §9 design at 1 kHz keeps its free/locked/spring verdicts,
+    but sampling raises the lightest stable inertia by > 5 % — reported as a boundary move and as
+    a warning (the continuous analysis alone would call those inertias stable); at 20 kHz the
+    move is < 1 %. Without a sample rate there is no sampled-data section."""
+    assert analyze_design(BASE)["sampled_data"] is None
+    cfg = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=1000.0))
+    r = analyze_design(cfg)
+    sd = r["sampled_data"]
+    assert sd["sample_rate_hz"] == 1000.0 and sd["free_stable"] and sd["locked_stable"]
+    mass, spring, cplx = sd["humans"]
+    assert spring["stable_points"] == spring["points"] and spring["disagreements"] == []
+    assert "skipped" in cplx
+    (b,) = mass["boundaries"]
+    assert b["sampled"] > 1.05 * b["continuous"]
+    lo, hi = b["sampled_unstable_where_continuous_stable"]
+    assert lo == b["continuous"] and hi == b["sampled"]
+    # the sampled boundary really separates sampled-data verdicts
+    _, cs = _cfg()
+    assert not sampled_stable(cfg.plant, cs, 1000.0, {"inertia": 0.99 * b["sampled"]}, prewarp={"tau_c": 80.0, "dob": 60.0})[0]
+    assert sampled_stable(cfg.plant, cs, 1000.0, {"inertia": 1.01 * b["sampled"]}, prewarp={"tau_c": 80.0, "dob": 60.0})[0]
+    assert any("UNSTABLE for mass inertia" in w for w in r["warnings"])
+    cfg20 = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=20000.0))
+    b20 = analyze_design(cfg20)["sampled_data"]["humans"][0]["boundaries"][0]
+    assert abs(b20["sampled"] / b20["continuous"] - 1) < 0.01
