@@ -7,6 +7,7 @@
 # Studies: (a) alpha_delay  — α × delay (× ζ̂) robust-stability map
 #          (b) dob_delay    — DOB cutoff × delay → DOB delay margin
 #          (c) cuff_inertia — cuff stiffness K_c × lightest stable human inertia
+#          (d) sample_rate  — controller sample rate × lightest stable inertia (sampled-data model)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PYTHON="${PYTHON:-python}"
@@ -14,4 +15,6 @@ for study in alpha_delay dob_delay cuff_inertia; do
     echo "== studies/${study}.py" >&2
     "$PYTHON" "studies/${study}.py" "$@"
 done
-echo "results written to results/{alpha_delay,dob_delay,cuff_inertia}/" >&2
+echo "== studies/sample_rate.py" >&2
+"$PYTHON" studies/sample_rate.py   # no sweep: sampled-data verdicts by bisection (seconds)
+echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate}/" >&2

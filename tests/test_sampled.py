@@ -234,3 +234,26 @@ def test_analyze_with_sample_rate_reports_the_sampled_data_check():
     cfg20 = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=20000.0))
     b20 = analyze_design(cfg20)["sampled_data"]["humans"][0]["boundaries"][0]
     assert abs(b20["sampled"] / b20["continuous"] - 1) < 0.01
+
+
+def test_zero_order_hold_acts_like_half_a_sample_of_extra_delay():
+    """Classic sampled-data consistency: at 2 kHz the sampled light-inertia boundary (T = 1 ms)
+    matches the exact continuous boundary with the delay T + T_s/2 within 2 %, while the
+    continuous boundary at T itself is > 3 % lower (so the check can fail)."""
+    fs = 2000.0
+    cfg, cs = _cfg(delay=0.001)
+    pw = {"tau_c": 80.0, "dob": 60.0}
+
+    def bis(stable, lo=2e-3, hi=2e-2):
+        assert not stable(lo) and stable(hi)
+        for _ in range(40):
+            m = math.sqrt(lo * hi)
+            lo, hi = (lo, m) if stable(m) else (m, hi)
+        return hi
+
+    m_s = bis(lambda m: sampled_stable(cfg.plant, cs, fs, {"inertia": m}, prewarp=pw)[0])
+    cfg_h, cs_h = _cfg(delay=0.001 + 0.5 / fs)
+    m_c_half = bis(lambda m: bool(coupled_stable(cfg_h.plant, cs_h, 1, human={"inertia": m})["stable"][0]))
+    m_c = bis(lambda m: bool(coupled_stable(cfg.plant, cs, 1, human={"inertia": m})["stable"][0]))
+    assert abs(m_s / m_c_half - 1) < 0.02, (m_s, m_c_half)
+    assert m_s / m_c > 1.03, (m_s, m_c)
