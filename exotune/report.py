@@ -514,6 +514,8 @@ def _summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx
         L.append(f"- **partial sweep**: {len(missing)} chunk(s) missing; the tables cover the finished chunks only")
     if m.get("base_source"):
         L.append(f"- base design: `{m['base_source']}`")
+    if m.get("model"):
+        L.append(f"- model: {m['model']}")
     L.append("- gains in torque units (SPEC §4); frequencies in Hz; ∞ = unbounded (no crossover, never reached); "
              "— = undefined or no data")
     L.append("")

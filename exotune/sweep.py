@@ -623,6 +623,17 @@ def engine_hash() -> str:
     return h.hexdigest()
 
 
+def _model_note(plan: SweepPlan) -> str:
+    note = ("continuous-time analysis with the exact delay e^{-sT} (SPEC §5): every column is the "
+            "exact continuous verdict or metric")
+    fs = plan.cfg.implementation.sample_rate_hz
+    if fs:
+        note += (f"; the base design sets sample_rate_hz = {fs:g} Hz, used here only to validate the "
+                 "cutoffs against Nyquist — run `exotune analyze` with it on a chosen design for the "
+                 "sampled-data check (the zero-order hold costs about half a sample of extra delay)")
+    return note
+
+
 def _new_manifest(plan: SweepPlan) -> dict:
     axes = []
     for p, v in zip(plan.paths, plan.values):
@@ -648,6 +659,7 @@ def _new_manifest(plan: SweepPlan) -> dict:
                             "π a seeded Feistel permutation of the grid index space",
                   "sample": plan.sample, "seed": plan.seed}
         ),
+        "model": _model_note(plan),
         "n_points": plan.n_points,
         "chunk_size": plan.chunk_size,
         "n_chunks": plan.n_chunks,

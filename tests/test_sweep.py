@@ -99,6 +99,7 @@ def test_layout_columns_and_manifest(ref):
     assert mm["spec"]["base"]["plant"]["sea_stiffness"] == 1180.0
     assert mm["spec"]["axes"]["implementation.delay_s"]["values"] == [0.0, 0.002, 0.004]
     assert mm["created"] and mm["updated"]
+    assert mm["model"].startswith("continuous-time") and "sample_rate_hz" not in mm["model"]
     # Arrow types are fixed (not inferred per chunk)
     types = dict(map(tuple, mm["columns"]))
     assert types["human0_mass_stable_intervals"] == "list<list<double>>"
@@ -447,3 +448,20 @@ def test_nested_list_column_equals_pyarrow_conversion(rows):
 
     ref = pa.array(rows, type=pa.list_(pa.list_(pa.float64())))
     assert _nested_float_lists(rows).equals(ref)
+
+
+
+def test_manifest_says_a_sample_rate_is_not_simulated(tmp_path):
+    """A base design with sample_rate_hz: the sweep is still the continuous analysis and says so
+    (manifest ``model`` and the report's summary)."""
+    from exotune.report import make_report
+
+    base = yaml.safe_load(PAPER.read_text())
+    base["implementation"]["sample_rate_hz"] = 1000.0
+    spec = write_spec(tmp_path, axes={"design.amplification": [4.0, 8.0]}, base=base)
+    out = tmp_path / "out"
+    run_sweep(spec, out, workers=1, progress=False)
+    m = load_manifest(out)
+    assert "sample_rate_hz = 1000 Hz" in m["model"] and "exotune analyze" in m["model"]
+    make_report(out, tmp_path / "rep")
+    assert "sample_rate_hz = 1000 Hz" in (tmp_path / "rep" / "summary.md").read_text()
