@@ -103,96 +103,95 @@ if AVAILABLE:
             return ang
         return math.atan2(xb.imag * xa.real - xb.real * xa.imag, xb.real * xa.real + xb.imag * xa.imag)
 
+    @njit(cache=True, inline="always")
+    def _push(sa, sb, sd, sva, svb, sla, slb, top, a, b, dep, xa, xb, La, Lb):
+        sa[top] = a
+        sb[top] = b
+        sd[top] = dep
+        sva[top] = xa
+        svb[top] = xb
+        sla[top] = La
+        slb[top] = Lb
+        return top + 1
+
+    @njit(cache=True)
+    def _task_sum(c0T, c1T, t, T, grid, gi, K, tan_arg, der_step, max_levels, sa, sb, sd, sva, svb, sla, slb):
+        """(Σ accepted phase steps, resolved, evaluations) of row t over grid[gi, :K]."""
+        acc = 0.0
+        res = True
+        cnt = 0
+        wa = grid[gi, 0]
+        va, da = _eval(c0T, c1T, t, T, wa)
+        cnt += 1
+        for j in range(1, K):
+            wb = grid[gi, j]
+            vb, db = _eval(c0T, c1T, t, T, wb)
+            cnt += 1
+            sa[0] = wa
+            sb[0] = wb
+            sd[0] = 0
+            sva[0] = va
+            svb[0] = vb
+            sla[0] = _logd(da, va)
+            slb[0] = _logd(db, vb)
+            if (va == 0) or (vb == 0):
+                res = False
+            top = 1
+            while top > 0:
+                top -= 1
+                a = sa[top]
+                b = sb[top]
+                dep = sd[top]
+                xa = sva[top]
+                xb = svb[top]
+                La = sla[top]
+                Lb = slb[top]
+                h = b - a
+                if xa == 0:  # Δ(0) = 0: a root on the axis (the count is inconclusive)
+                    res = False
+                    continue
+                ok, bad, ang = _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step)
+                if bad:
+                    res = False
+                    continue
+                floor = (h <= 1e-13 * max(abs(b), 1e-300)) or dep >= max_levels
+                if ok or floor:
+                    if floor and not ok:
+                        res = False
+                    acc += _step(ang, xa, xb)
+                    continue
+                m = 0.5 * (a + b)
+                vm, dm = _eval(c0T, c1T, t, T, m)
+                cnt += 1
+                Lm = _logd(dm, vm)
+                if vm == 0:
+                    res = False
+                # push right then left (left processed first; order does not matter for a sum)
+                top = _push(sa, sb, sd, sva, svb, sla, slb, top, m, b, dep + 1, vm, xb, Lm, Lb)
+                top = _push(sa, sb, sd, sva, svb, sla, slb, top, a, m, dep + 1, xa, vm, La, Lm)
+            wa = wb
+            va = vb
+            da = db
+        return acc, res, cnt
+
+    @njit(cache=True)
+    def _stacks(max_levels):
+        S = 4 * max_levels + 8
+        return (np.empty(S), np.empty(S), np.empty(S, np.int64), np.empty(S, np.complex128),
+                np.empty(S, np.complex128), np.empty(S, np.complex128), np.empty(S, np.complex128))
+
     @njit(cache=True)
     def _kernel(c0T, c1T, Ts, grid, valid, arg_step, der_step, max_levels, out_sum, out_res, out_count):
         tan_arg = math.tan(arg_step)
-        ntask = grid.shape[0]
-        K = grid.shape[1]
-        # explicit stack of intervals: a, b, depth and complex values/log-derivatives
-        sa = np.empty(4 * max_levels + 8)
-        sb = np.empty(4 * max_levels + 8)
-        sd = np.empty(4 * max_levels + 8, np.int64)
-        sva = np.empty(4 * max_levels + 8, np.complex128)
-        svb = np.empty(4 * max_levels + 8, np.complex128)
-        sla = np.empty(4 * max_levels + 8, np.complex128)
-        slb = np.empty(4 * max_levels + 8, np.complex128)
-        for t in range(ntask):
+        sa, sb, sd, sva, svb, sla, slb = _stacks(max_levels)
+        for t in range(grid.shape[0]):
             out_sum[t] = 0.0
-            out_res[t] = True
+            out_res[t] = False
             out_count[t] = 0
             if not valid[t]:
-                out_res[t] = False
                 continue
-            acc = 0.0
-            res = True
-            cnt = 0
-            T = Ts[t]
-            wa = grid[t, 0]
-            va, da = _eval(c0T, c1T, t, T, wa)
-            cnt += 1
-            for j in range(1, K):
-                wb = grid[t, j]
-                vb, db = _eval(c0T, c1T, t, T, wb)
-                cnt += 1
-                sa[0] = wa
-                sb[0] = wb
-                sd[0] = 0
-                sva[0] = va
-                svb[0] = vb
-                sla[0] = _logd(da, va)
-                slb[0] = _logd(db, vb)
-                if (va == 0) or (vb == 0):
-                    res = False
-                top = 1
-                while top > 0:
-                    top -= 1
-                    a = sa[top]
-                    b = sb[top]
-                    dep = sd[top]
-                    xa = sva[top]
-                    xb = svb[top]
-                    La = sla[top]
-                    Lb = slb[top]
-                    h = b - a
-                    if xa == 0:  # Δ(0) = 0: a root on the axis (the count is inconclusive)
-                        res = False
-                        continue
-                    ok, bad, ang = _interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step)
-                    if bad:
-                        res = False
-                        continue
-                    floor = (h <= 1e-13 * max(abs(b), 1e-300)) or dep >= max_levels
-                    if ok or floor:
-                        if floor and not ok:
-                            res = False
-                        acc += _step(ang, xa, xb)
-                        continue
-                    m = 0.5 * (a + b)
-                    vm, dm = _eval(c0T, c1T, t, T, m)
-                    cnt += 1
-                    Lm = _logd(dm, vm)
-                    if vm == 0:
-                        res = False
-                    # push right then left (left processed first; order does not matter for a sum)
-                    sa[top] = m
-                    sb[top] = b
-                    sd[top] = dep + 1
-                    sva[top] = vm
-                    svb[top] = xb
-                    sla[top] = Lm
-                    slb[top] = Lb
-                    top += 1
-                    sa[top] = a
-                    sb[top] = m
-                    sd[top] = dep + 1
-                    sva[top] = xa
-                    svb[top] = vm
-                    sla[top] = La
-                    slb[top] = Lm
-                    top += 1
-                wa = wb
-                va = vb
-                da = db
+            acc, res, cnt = _task_sum(c0T, c1T, t, Ts[t], grid, t, grid.shape[1], tan_arg, der_step, max_levels,
+                                      sa, sb, sd, sva, svb, sla, slb)
             out_sum[t] = acc
             out_res[t] = res
             out_count[t] = cnt
@@ -293,13 +292,7 @@ if AVAILABLE:
                         if (floor and not ok) or bad:
                             o_res[t] = False
                         if n < cap:
-                            o_t[n] = t
-                            o_a[n] = a
-                            o_b[n] = b
-                            o_va0[n] = xa0
-                            o_vb0[n] = xb0
-                            o_va1[n] = xa1
-                            o_vb1[n] = xb1
+                            _push(o_a, o_b, o_t, o_va0, o_vb0, o_va1, o_vb1, n, a, b, t, xa0, xb0, xa1, xb1)
                         n += 1
                         if mag_mode and not bad:
                             # only the first −3 dB down-crossing is wanted: stop this task once a
@@ -589,3 +582,100 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
     out = np.empty(a0.shape[0])
     _omega_max(a0, a1, float(frac), out)
     return out
+
+
+if AVAILABLE:
+
+    @njit(cache=True, inline="always")
+    def _first_nonzero(P, t, default):
+        for k in range(P.shape[1]):
+            if P[t, k] != 0:
+                return k
+        return default
+
+    @njit(cache=True)
+    def _count_tasks(P0, P1, Ts, R0, R1, has_reg, arg_step, der_step, max_levels, decades, per_decade,
+                     outN, outR, outOK):
+        tan_arg = math.tan(arg_step)
+        stk = _stacks(max_levels)
+        ntask, m0 = P0.shape
+        m1 = P1.shape[1]
+        m = max(m0, m1)
+        c0 = np.zeros((1, m), np.complex128)
+        c1 = np.zeros((1, m), np.complex128)
+        a0 = np.zeros((1, m))
+        a1 = np.zeros((1, m))
+        K = int(decades * per_decade) + 1
+        grid = np.zeros((1, K + 1))
+        for t in range(ntask):
+            # exact common zero low-order coefficients of the task and its regularized twin
+            r = min(_first_nonzero(P0, t, m), _first_nonzero(P1, t, m), _first_nonzero(R0, t, m),
+                    _first_nonzero(R1, t, m))
+            if r >= m:
+                r = 0
+            outR[t] = r
+            T = Ts[t]
+            for k in range(m):
+                c0[0, k] = P0[t, k + r] if k + r < m0 else 0j
+                c1[0, k] = P1[t, k + r] if k + r < m1 else 0j
+            v0r = math.nan
+            if has_reg[t]:
+                v0r = (R0[t, r] if r < m0 else 0.0) + (R1[t, r] if r < m1 else 0.0)
+            if T == 0.0:  # no delay: Δ is the polynomial P0 + P1
+                for k in range(m):
+                    c0[0, k] += c1[0, k]
+                    c1[0, k] = 0j
+            for k in range(m):
+                a0[0, k] = abs(c0[0, k])
+                a1[0, k] = abs(c1[0, k])
+            wm = np.empty(1)
+            _omega_max(a0, a1, 0.25, wm)
+            wmax = wm[0]
+            n = -1
+            for k in range(m - 1, -1, -1):
+                if c0[0, k] != 0:
+                    n = k
+                    break
+            valid = np.isfinite(wmax)
+            wg = wmax if valid else 1.0
+            grid[0, 0] = 0.0
+            for j in range(K):
+                grid[0, j + 1] = wg * 10.0 ** (-decades + decades * j / (K - 1))
+            total = 0.0
+            resolved = False
+            if valid:
+                total, resolved, _ = _task_sum(c0, c1, 0, T, grid, 0, K + 1, tan_arg, der_step, max_levels,
+                                               stk[0], stk[1], stk[2], stk[3], stk[4], stk[5], stk[6])
+            vmax, _ = _eval(c0, c1, 0, T, wg)
+            cn = c0[0, max(n, 0)]
+            lead = cn * (1j ** max(n, 0)) if n >= 0 else 0j
+            q = lead / vmax
+            total += math.atan2(q.imag, q.real)
+            base = c0[0, 0] + c1[0, 0]
+            if has_reg[t] and np.isfinite(v0r):
+                q = base / v0r
+                total += math.atan2(q.imag, q.real)
+                base = complex(v0r, 0.0)
+            psi = math.atan(cn.imag / cn.real) if cn.real != 0 else (math.nan if cn.imag == 0 else math.copysign(math.pi / 2, cn.imag))
+            N = (n * math.pi / 2 + psi - total) / math.pi
+            Nr = round(N)
+            ok = valid and resolved and abs(N - Nr) < 0.05 and base != 0 and np.isfinite(N)
+            outN[t] = int(Nr) if np.isfinite(N) else -1
+            outOK[t] = ok
+
+
+def count_tasks(P0, P1, T, R0, R1, has_reg, arg_step: float, der_step: float, max_levels: int,
+                decades: float = 6.0, per_decade: int = 2):
+    """Compiled :meth:`exotune.analysis._Counter.run` pipeline: per task, the exact common s = 0
+    roots stripped (with the regularized twin), the zero-delay fold, the tail bound, the adaptive
+    phase sum, the tail and ω = 0 terms and the count (same formulas as quasipoly.count_rhp).
+    Returns (N, rigid_body_roots, conclusive)."""
+    n = P0.shape[0]
+    outN = np.empty(n, np.int64)
+    outR = np.empty(n, np.int64)
+    outOK = np.empty(n, np.bool_)
+    c = lambda x: np.ascontiguousarray(x, dtype=complex)  # noqa: E731
+    f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
+    _count_tasks(c(P0), c(P1), f(T), f(R0), f(R1), np.ascontiguousarray(has_reg, dtype=np.bool_), float(arg_step),
+                 float(der_step), int(max_levels), float(decades), int(per_decade), outN, outR, outOK)
+    return outN, outR, outOK

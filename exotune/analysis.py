@@ -227,7 +227,9 @@ class _Counter:
         self.n += p0.shape[0]
         return h
 
-    def run(self):
+    def run(self, engine: str | None = None):
+        """Count every queued task (compiled pipeline :func:`exotune._fastphase.count_tasks` by
+        default; ``engine="numpy"``: the reference path strip → count_rhp)."""
         if self.n == 0:
             self.N = np.zeros(0, int)
             self.r = np.zeros(0, int)
@@ -244,6 +246,12 @@ class _Counter:
         R0 = np.concatenate([pad(i[3][0] if i[3] is not None else i[0], w0) for i in self.items]).real
         R1 = np.concatenate([pad(i[3][1] if i[3] is not None else i[1], w1) for i in self.items]).real
         has_reg = np.concatenate([np.full(i[0].shape[0], i[3] is not None) for i in self.items])
+        if (engine is None and _compiled()) or engine == "numba":
+            from . import _fastphase
+            from .quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
+
+            self.N, self.r, self.ok = _fastphase.count_tasks(P0, P1, T, R0, R1, has_reg, ARG_STEP, DER_STEP, MAX_LEVELS)
+            return
         r, (P0s, P1s, R0s, R1s) = strip_common_low_zeros(P0, P1, R0, R1)
         v0 = np.where(has_reg, R0s[:, 0] + R1s[:, 0], np.nan)
         if not cplx:
