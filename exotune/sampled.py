@@ -314,7 +314,8 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
         "method": ("plant (+ human) discretized exactly with a zero-order hold, delay as "
                    f"{q:.4g} samples (shift states, fractional part exact); controller blocks by "
                    "Tustin prewarped at " + ", ".join(f"{k}: {v:g} Hz" for k, v in pw.items())
-                   + "; ideal sampled velocities; DOB algebraic loop solved"),
+                   + ("; velocities by the discretized velocity filter" if cfg.implementation.velocity_filter is not None
+                      else "; ideal sampled velocities") + "; DOB algebraic loop solved"),
         "free_stable": bool(free),
         "free_spectral_radius": rho_free,
         "locked_stable": bool(locked),
