@@ -8,9 +8,9 @@ The sweep: 4 axes around examples/paper.yaml (α, ζ̂, delay, DOB cutoff), n va
 points, and a seeded uniform sample of exactly ``points`` grid points (so the sampling path is
 exercised too). Memory: peak RSS of this process and of the largest worker
 (``resource.getrusage`` RUSAGE_SELF / RUSAGE_CHILDREN, ru_maxrss) and the peak of Python
-allocations in the parent (``tracemalloc``). The python-control rate is measured in this process
-on ``--control-designs`` designs of the same sweep and extrapolated, per core, to the same number
-of workers.
+allocations in the parent (``tracemalloc``). The python-control rates are measured in this
+process on ``--control-designs`` designs of the same sweep, before and after the sweep (the faster
+run counts), and extrapolated, per core, to the same number of workers.
 """
 
 from __future__ import annotations
@@ -82,6 +82,14 @@ def main() -> None:
     sample = args.points if n ** 4 != args.points else None
     seed = 0 if sample else None
 
+    # python-control workflows on designs of this sweep (one core, this process), first run
+    plan = load_spec(spec_path, sample=sample, seed=seed)
+    g, vals = chunk_points(plan, 0)
+    m = min(args.control_designs, g.size)
+    cfg = batch_config(plan.cfg, {k: v[:m] for k, v in vals.items()})
+    rate_c1 = measure_rate(per_design, cfg, m)
+    rate_f1 = measure_rate(per_design_full, cfg, m)
+
     tracemalloc.start()
     t0 = time.perf_counter()
     manifest = run_sweep(spec_path, out, workers=args.workers, sample=sample, seed=seed, progress=sys.stderr.isatty())
@@ -96,13 +104,10 @@ def main() -> None:
     size = sum(f.stat().st_size for f in (out / "chunks").iterdir())
     chunk_s = [c["seconds"] for c in manifest["chunks"] if c.get("seconds")]
 
-    # python-control workflows on designs of this sweep (one core, this process)
-    plan = load_spec(spec_path, sample=sample, seed=seed)
-    g, vals = chunk_points(plan, 0)
-    m = min(args.control_designs, g.size)
-    cfg = batch_config(plan.cfg, {k: v[:m] for k, v in vals.items()})
-    rate_c1 = measure_rate(per_design, cfg, m)
-    rate_f1 = measure_rate(per_design_full, cfg, m)
+    # python-control workflows, measured before and after the sweep: the faster of the two runs
+    # is used (this shared machine's speed drifts; the choice only ever lowers exotune's ratio)
+    rate_c1 = max(rate_c1, measure_rate(per_design, cfg, m))
+    rate_f1 = max(rate_f1, measure_rate(per_design_full, cfg, m))
     rate_c, rate_f = rate_c1 * args.workers, rate_f1 * args.workers  # perfectly parallel, same workers
 
     df = load_results(out, columns=["point_index", "free_stable"])
