@@ -497,12 +497,25 @@ def value_runs(vals, ok, digits: int = 4) -> str:
     return ", ".join(runs) if runs else "none"
 
 
+def _display_path(p) -> str:
+    """A path as shown in reports: relative to the working directory when it lies below it,
+    otherwise only its last two components (reports get committed and shared: no machine paths)."""
+    import os
+
+    p = os.path.abspath(str(p))
+    rel = os.path.relpath(p, os.getcwd())
+    if not rel.startswith(".."):
+        return rel
+    parts = p.rstrip(os.sep).split(os.sep)
+    return os.path.join("…", *parts[-2:])
+
+
 def _summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx, robust, used, simple,
                 metrics, table_metrics, figures, files) -> str:
     L = []
     L.append("# exotune sweep report")
     L.append("")
-    L.append(f"- sweep directory: `{sweep_dir}`")
+    L.append(f"- sweep directory: `{_display_path(sweep_dir)}`")
     L.append(f"- spec hash: `{m.get('spec_hash')}`; exotune {m.get('exotune_version')}; status: {m.get('status')}")
     samp = m.get("sampling", {})
     if samp.get("sample") is not None:
@@ -513,7 +526,7 @@ def _summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx
     if missing:
         L.append(f"- **partial sweep**: {len(missing)} chunk(s) missing; the tables cover the finished chunks only")
     if m.get("base_source"):
-        L.append(f"- base design: `{m['base_source']}`")
+        L.append(f"- base design: `{_display_path(m['base_source'])}`")
     if m.get("model"):
         L.append(f"- model: {m['model']}")
     L.append("- gains in torque units (SPEC §4); frequencies in Hz; ∞ = unbounded (no crossover, never reached); "

@@ -142,3 +142,17 @@ def test_report_errors(tmp_path):
         make_report(tmp_path)
     res = CliRunner().invoke(cli, ["report", str(tmp_path)])
     assert res.exit_code == 2 and res.stderr.startswith("exotune: error: ")
+
+
+def test_report_paths_are_not_machine_paths(tmp_path, monkeypatch):
+    """Reports get committed: paths below the working directory are shown relative to it, others
+    by their last two components only."""
+    from exotune.report import _display_path
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "studies").mkdir()
+    assert _display_path(tmp_path / "studies" / "arm.yaml") == "studies/arm.yaml"
+    assert _display_path("studies/arm.yaml") == "studies/arm.yaml"
+    other = tmp_path.parent / "elsewhere" / "data" / "sweep"
+    assert _display_path(other) == "…/data/sweep"
+    assert str(tmp_path.parent) not in _display_path(other)
