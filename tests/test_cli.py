@@ -354,3 +354,19 @@ def test_readme_quickstart_and_ci_agree():
     assert "pip install -e '.[test]'" in ci
     assert test_cmd in ci
     assert os.access(ROOT / ".ci" / "run", os.X_OK)
+
+
+def test_analyze_with_sample_rate_text_and_json(tmp_path):
+    """`exotune analyze` on a design with sample_rate_hz: the text report has the sampled-data
+    section and the destabilization warning; --json is strict JSON with a `sampled_data` object."""
+    p = bad_design(tmp_path, "sample_rate_hz: null", "sample_rate_hz: 1000", name="fs.yaml")
+    res = run("analyze", p)
+    assert res.exit_code == 0, res.output
+    assert "Sampled-data check at 1000 Hz" in res.stdout
+    assert "UNSTABLE for mass inertia" in res.stdout
+    res = run("analyze", p, "--json")
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+    sd = d["sampled_data"]
+    assert sd["sample_rate_hz"] == 1000.0 and sd["free_stable"] is True
+    assert [h["kind"] for h in sd["humans"]] == ["mass", "spring", "complex_stiffness"]
