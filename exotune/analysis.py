@@ -345,12 +345,15 @@ class _Side:
                 plausible = ((ka.real > 0) | (kb.real > 0)) & ~(kmax * 1e3 < fam.lo) & ~(kmin > fam.hi * 1e3)
                 br &= plausible | ~np.isfinite(kmax)
                 # a leaf can hold several crossings (an even number without a sign change at its
-                # ends, or three with one) when κ hugs the positive real axis — a nearly decoupled
-                # light mass on the cuff spring at high frequency, where the delay makes Im κ
-                # ripple with period 2π/T: such leaves are sub-sampled (≥ 8 points, ≥ 8 per
-                # ripple period) and their brackets come from the sub-samples
+                # ends, or three with one) when κ comes near the positive real axis — e.g. a nearly
+                # decoupled light mass on the cuff spring at high frequency, where the delay makes
+                # Im κ ripple with period 2π/T. The leaf criteria bound each function's phase step
+                # (< 0.8 rad) and its departure from the trapezoid estimate (≤ 0.5 rad), so arg κ
+                # cannot swing by ≳ 1 rad inside a leaf and back: every plausible leaf with κ within
+                # NEAR_REAL_RAD of the real axis at an end is sub-sampled (≥ 8 points, ≥ 8 per
+                # ripple period) and its brackets come from the sub-samples
                 with np.errstate(divide="ignore", invalid="ignore"):
-                    near_real = (np.abs(ka.imag) <= 0.1 * np.abs(ka)) | (np.abs(kb.imag) <= 0.1 * np.abs(kb))
+                    near_real = (np.abs(ka.imag) <= _SIN_NEAR * np.abs(ka)) | (np.abs(kb.imag) <= _SIN_NEAR * np.abs(kb))
                 sus = ((lv["a"] > 0) & plausible & near_real & ~(kmax * 4.0 < fam.lo) & ~(kmin > fam.hi * 4.0))
                 br &= ~sus
                 tk, ba, bb, bga, bgb = lv["task"][br], lv["a"][br], lv["b"][br], ga[br], gb[br]
@@ -447,6 +450,10 @@ class _Side:
                 "critical": R["crit"],
             })
         return out
+
+
+NEAR_REAL_RAD = 1.0  # leaves with κ this close (in angle) to the real axis at an end are sub-sampled
+_SIN_NEAR = float(np.sin(NEAR_REAL_RAD))
 
 
 def _compiled() -> bool:
