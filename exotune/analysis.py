@@ -1262,22 +1262,23 @@ def analyze_design(cfg) -> dict:
     if cfg.implementation.sample_rate_hz:
         from .sampled import check_design
 
-        sampled = check_design(cfg, {"humans": humans})
+        sampled = check_design(cfg, {"humans": humans, "environment": env})
         fs = sampled["sample_rate_hz"]
         for name in ("free", "locked"):
             if sampled[f"{name}_stable"] != bool(cols[f"{name}_stable"][0]):
                 warnings.append(f"at {fs:g} Hz the sampled-data loop is {'stable' if sampled[f'{name}_stable'] else 'UNSTABLE'} "
                                 f"{'with the cuff free' if name == 'free' else 'with the output locked'}, unlike the continuous analysis")
-        for h in sampled["humans"]:
-            for b in h.get("boundaries", []):
-                if b["sampled_unstable_where_continuous_stable"]:
-                    lo_, hi_ = b["sampled_unstable_where_continuous_stable"]
-                    warnings.append(f"at {fs:g} Hz the sampled-data loop is UNSTABLE for {h['kind']} {h['parameter']} in "
-                                    f"[{lo_:.5g}, {hi_:.5g}], where the continuous analysis says stable")
-            if h.get("disagreements"):
-                vals = ", ".join(f"{d['value']:.4g}" for d in h["disagreements"][:6])
-                warnings.append(f"at {fs:g} Hz the sampled-data loop disagrees with the continuous {h['kind']} "
-                                f"intervals at {h['parameter']} = {vals}" + (" …" if len(h["disagreements"]) > 6 else ""))
+        for side, fams in (("human", sampled["humans"]), ("environment", sampled["environment"])):
+            for h in fams:
+                for b in h.get("boundaries", []):
+                    if b["sampled_unstable_where_continuous_stable"]:
+                        lo_, hi_ = b["sampled_unstable_where_continuous_stable"]
+                        warnings.append(f"at {fs:g} Hz the sampled-data loop is UNSTABLE for {side} {h['kind']} "
+                                        f"{h['parameter']} in [{lo_:.5g}, {hi_:.5g}], where the continuous analysis says stable")
+                if h.get("disagreements"):
+                    vals = ", ".join(f"{d['value']:.4g}" for d in h["disagreements"][:6])
+                    warnings.append(f"at {fs:g} Hz the sampled-data loop disagrees with the continuous {side} {h['kind']} "
+                                    f"intervals at {h['parameter']} = {vals}" + (" …" if len(h["disagreements"]) > 6 else ""))
     if not bool(cols["passivity_conclusive"][0]):
         warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis)")
     if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
@@ -1378,15 +1379,16 @@ def format_report(r: dict) -> str:
     if sd:
         L.append(f"Sampled-data check at {sd['sample_rate_hz']:g} Hz ({sd['method']}):")
         L.append(f"  cuff free stable: {yn(sd['free_stable'])}; output locked stable: {yn(sd['locked_stable'])}")
-        for h in sd["humans"]:
-            if "skipped" in h:
-                L.append(f"  {h['kind']}: skipped ({h['skipped']})")
-                continue
-            L.append(f"  {h['kind']}: {h['stable_points']} of {h['points']} grid values stable, "
-                     f"{len(h['disagreements'])} disagreement(s) with the continuous intervals")
-            for b in h["boundaries"]:
-                moved = "not found within a factor 2" if b["sampled"] is None else f"{b['sampled']:.5g}"
-                L.append(f"    boundary {h['parameter']} = {b['continuous']:.5g} (continuous) -> {moved} (sampled)")
+        for side, fams in (("human", sd["humans"]), ("environment", sd.get("environment", []))):
+            for h in fams:
+                if "skipped" in h:
+                    L.append(f"  {side} {h['kind']}: skipped ({h['skipped']})")
+                    continue
+                L.append(f"  {side} {h['kind']}: {h['stable_points']} of {h['points']} grid values stable, "
+                         f"{len(h['disagreements'])} disagreement(s) with the continuous intervals")
+                for b in h["boundaries"]:
+                    moved = "not found within a factor 2" if b["sampled"] is None else f"{b['sampled']:.5g}"
+                    L.append(f"    boundary {h['parameter']} = {b['continuous']:.5g} (continuous) -> {moved} (sampled)")
     cc = r.get("cross_check")
     if cc:
         L.append(

@@ -294,6 +294,41 @@ def default_prewarp(impl) -> dict:
 CHECK_POINTS = 24
 
 
+def _compare(stable_at, lo: float, hi: float, ivs: list, points: int) -> dict:
+    """Sampled verdicts of one family against its continuous stable intervals ``ivs``: at
+    ``points`` log-spaced values, and near every interior interval end (the sampled boundary,
+    bisected in [e/2, 2e] ∩ [lo, hi], 40 steps)."""
+    vals = np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points)
+    mism = []
+    n_stable = 0
+    for v in vals.tolist():
+        s = stable_at(v)
+        c = any(a <= v <= b for a, b in ivs)
+        n_stable += bool(s)
+        if s != c:
+            mism.append({"value": v, "continuous_stable": c, "sampled_stable": bool(s)})
+    ends = []
+    for e in sorted({x for iv in ivs for x in iv if lo < x < hi}):
+        a, b = max(lo, e / 2), min(hi, 2 * e)
+        sa, sb = stable_at(a), stable_at(b)
+        found = None
+        if sa != sb and a > 0:
+            for _ in range(40):
+                m = math.sqrt(a * b)
+                if stable_at(m) == sa:
+                    a = m
+                else:
+                    b = m
+            found = math.sqrt(a * b)
+        unsafe = None
+        if found is not None and abs(found / e - 1.0) > 1e-6:
+            mid = math.sqrt(e * found)
+            if any(a_ <= mid <= b_ for a_, b_ in ivs):  # continuous stable there, sampled not
+                unsafe = sorted([e, found])
+        ends.append({"continuous": e, "sampled": found, "sampled_unstable_where_continuous_stable": unsafe})
+    return {"points": int(vals.size), "stable_points": n_stable, "disagreements": mism, "boundaries": ends}
+
+
 def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
     """Sampled-data check of one design at ``implementation.sample_rate_hz`` against its continuous
     report (:func:`exotune.analysis.analyze_design`): the free and locked verdicts, and for each
@@ -328,41 +363,16 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
                                 else "box family: see the per-edge continuous intervals")
             out["humans"].append(entry)
             continue
-        vals = np.geomspace(fam.lo, fam.hi, points) if fam.lo > 0 else np.linspace(fam.lo, fam.hi, points)
-        ivs = rep["stable_intervals"] or []
-        mism = []
-        n_stable = 0
-        for v in vals.tolist():
-            h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
-            h[fam.param] = v
-            s, _ = run(human=h)
-            c = any(a <= v <= b for a, b in ivs)
-            n_stable += bool(s)
-            if s != c:
-                mism.append({"value": v, "continuous_stable": c, "sampled_stable": bool(s)})
-        # where the continuous stable set has an end inside the range, the sampled-data boundary
-        # near it (bisection in [e/2, 2e] ∩ range, 40 steps): how far sampling moves it
-        ends = []
-        for e in sorted({x for iv in ivs for x in iv if fam.lo < x < fam.hi}):
-            a, b = max(fam.lo, e / 2), min(fam.hi, 2 * e)
-            h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
-            sa = run(human={**h, fam.param: a})[0]
-            sb = run(human={**h, fam.param: b})[0]
-            found = None
-            if sa != sb and a > 0:
-                for _ in range(40):
-                    m = math.sqrt(a * b)
-                    if run(human={**h, fam.param: m})[0] == sa:
-                        a = m
-                    else:
-                        b = m
-                found = math.sqrt(a * b)
-            unsafe = None
-            if found is not None and abs(found / e - 1.0) > 1e-6:
-                mid = math.sqrt(e * found)
-                if any(a_ <= mid <= b_ for a_, b_ in ivs):  # continuous stable there, sampled not
-                    unsafe = sorted([e, found])
-            ends.append({"continuous": e, "sampled": found, "sampled_unstable_where_continuous_stable": unsafe})
-        entry.update(points=int(vals.size), stable_points=n_stable, disagreements=mism, boundaries=ends)
+        h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
+        entry.update(_compare(lambda v, h=h, q=fam.param: run(human={**h, q: v})[0], fam.lo, fam.hi,
+                              rep["stable_intervals"] or [], points))
         out["humans"].append(entry)
+    out["environment"] = []
+    for e, rep in zip(cfg.environment, continuous.get("environment", [])):
+        if e.kind not in ("spring", "mass"):
+            continue
+        entry = {"kind": e.kind, "parameter": e.param, "note": "cuff free, environment at the joint"}
+        entry.update(_compare(lambda v, e=e: run(env={e.param: v, "damping": e.damping})[0], e.lo, e.hi,
+                              rep["stable_intervals"] or [], points))
+        out["environment"].append(entry)
     return out

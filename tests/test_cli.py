@@ -363,7 +363,7 @@ def test_analyze_with_sample_rate_text_and_json(tmp_path):
     res = run("analyze", p)
     assert res.exit_code == 0, res.output
     assert "Sampled-data check at 1000 Hz" in res.stdout
-    assert "UNSTABLE for mass inertia" in res.stdout
+    assert "UNSTABLE for human mass inertia" in res.stdout
     res = run("analyze", p, "--json")
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))

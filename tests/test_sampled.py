@@ -230,7 +230,7 @@ def test_analyze_with_sample_rate_reports_the_sampled_data_check():
     _, cs = _cfg()
     assert not sampled_stable(cfg.plant, cs, 1000.0, {"inertia": 0.99 * b["sampled"]}, prewarp={"tau_c": 80.0, "dob": 60.0})[0]
     assert sampled_stable(cfg.plant, cs, 1000.0, {"inertia": 1.01 * b["sampled"]}, prewarp={"tau_c": 80.0, "dob": 60.0})[0]
-    assert any("UNSTABLE for mass inertia" in w for w in r["warnings"])
+    assert any("UNSTABLE for human mass inertia" in w for w in r["warnings"])
     cfg20 = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=20000.0))
     b20 = analyze_design(cfg20)["sampled_data"]["humans"][0]["boundaries"][0]
     assert abs(b20["sampled"] / b20["continuous"] - 1) < 0.01
@@ -257,3 +257,29 @@ def test_zero_order_hold_acts_like_half_a_sample_of_extra_delay():
     m_c = bis(lambda m: bool(coupled_stable(cfg.plant, cs, 1, human={"inertia": m})["stable"][0]))
     assert abs(m_s / m_c_half - 1) < 0.02, (m_s, m_c_half)
     assert m_s / m_c > 1.03, (m_s, m_c)
+
+
+def test_sampled_check_covers_environment_ranges():
+    """Environment spring/mass ranges at the joint (cuff free) are checked like the human
+    families: the §9 design with a joint spring range 10–10⁴ N·m/rad and a joint mass range
+    0.01–10 kg·m² at 1 kHz, sampled verdicts against the continuous environment intervals."""
+    from exotune.humans import EnvModel
+
+    env = (EnvModel("locked"), EnvModel("spring", "stiffness", 10.0, 1e4), EnvModel("mass", "inertia", 0.01, 10.0))
+    cfg = dataclasses.replace(BASE, environment=env,
+                              implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=1000.0))
+    r = analyze_design(cfg)
+    sd = r["sampled_data"]["environment"]
+    assert [e["kind"] for e in sd] == ["spring", "mass"]
+    cont = {e["kind"]: e for e in r["environment"] if e["kind"] != "locked"}
+    _, cs = _cfg()
+    for e in sd:
+        assert e["points"] == 24 and 0 <= e["stable_points"] <= 24
+        # every reported disagreement is a real sampled-vs-continuous difference
+        for d in e["disagreements"]:
+            assert d["continuous_stable"] == any(a <= d["value"] <= b for a, b in cont[e["kind"]]["stable_intervals"])
+            s, _ = sampled_stable(cfg.plant, cs, 1000.0, env={e["parameter"]: d["value"]},
+                                  prewarp={"tau_c": 80.0, "dob": 60.0})
+            assert s == d["sampled_stable"]
+        for b in e["boundaries"]:
+            assert b["sampled"] is None or 0.5 * b["continuous"] <= b["sampled"] <= 2 * b["continuous"]
