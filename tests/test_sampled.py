@@ -283,3 +283,31 @@ def test_sampled_check_covers_environment_ranges():
             assert s == d["sampled_stable"]
         for b in e["boundaries"]:
             assert b["sampled"] is None or 0.5 * b["continuous"] <= b["sampled"] <= 2 * b["continuous"]
+
+
+def test_zoh_and_prewarped_tustin_match_python_control():
+    """exotune's discretizations against python-control on small cases: the zero-order hold of the
+    plant without fractional delay (``control.sample_system(..., 'zoh')``) and each prewarped
+    Tustin controller block (``method='tustin', prewarp_frequency=ω``), compared as frequency
+    responses on the unit circle."""
+    import control
+
+    from exotune.sampled import _tustin
+
+    A, B, C = plant_ss(BASE.plant, {"inertia": 0.1, "damping": 2.0, "stiffness": 30.0}, "free")
+    Ts = 1e-3
+    Phi, G0, G1 = zoh_fractional(A, B, Ts, 0.0)
+    ref = control.sample_system(control.ss(A, B, np.eye(A.shape[0]), 0), Ts, "zoh")
+    np.testing.assert_allclose(Phi, ref.A, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(G0, ref.B, rtol=1e-9, atol=1e-12)
+    assert np.all(G1 == 0)
+
+    cfg, cs = _cfg()
+    z = np.exp(1j * 2 * np.pi * np.array([1.0, 10.0, 60.0, 200.0]) * Ts)
+    for blk, fp in ((cs.cuff_torque, 80.0), (cs.dob_q, 60.0)):
+        Ad, Bd, Cd, Dd = _tustin(blk.num, blk.den, Ts, fp)
+        mine = np.array([(Cd @ np.linalg.solve(zz * np.eye(Ad.shape[0]) - Ad, Bd) + Dd).item() for zz in z])
+        tf = control.tf(np.ravel(blk.num)[::-1], np.ravel(blk.den)[::-1])
+        d = control.sample_system(tf, Ts, "tustin", prewarp_frequency=2 * np.pi * fp)
+        theirs = np.array([complex(d(zz)) for zz in z])
+        np.testing.assert_allclose(mine, theirs, rtol=1e-8)
