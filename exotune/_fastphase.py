@@ -127,16 +127,9 @@ if AVAILABLE:
             wb = grid[gi, j]
             vb, db = _eval(c0T, c1T, t, T, wb)
             cnt += 1
-            sa[0] = wa
-            sb[0] = wb
-            sd[0] = 0
-            sva[0] = va
-            svb[0] = vb
-            sla[0] = _logd(da, va)
-            slb[0] = _logd(db, vb)
+            top = _push(sa, sb, sd, sva, svb, sla, slb, 0, wa, wb, 0, va, vb, _logd(da, va), _logd(db, vb))
             if (va == 0) or (vb == 0):
                 res = False
-            top = 1
             while top > 0:
                 top -= 1
                 a = sa[top]
@@ -215,6 +208,22 @@ def phase_sums(p0: np.ndarray, p1: np.ndarray, T: np.ndarray, grid: np.ndarray, 
 
 if AVAILABLE:
 
+    @njit(cache=True, inline="always")
+    def _push2(sa, sb, sd, sv, sl, top, a, b, dep, va0, vb0, va1, vb1, La0, Lb0, La1, Lb1):
+        """Push an interval tracking two functions (values and log-derivatives at both ends)."""
+        sa[top] = a
+        sb[top] = b
+        sd[top] = dep
+        sv[top, 0] = va0
+        sv[top, 1] = vb0
+        sv[top, 2] = va1
+        sv[top, 3] = vb1
+        sl[top, 0] = La0
+        sl[top, 1] = Lb0
+        sl[top, 2] = La1
+        sl[top, 3] = Lb1
+        return top + 1
+
     @njit(cache=True)
     def _leaves2(cA0, cA1, cB0, cB1, Ts, grid, valid, arg_step, der_step, max_levels, mag_mode, lthr,
                  o_t, o_a, o_b, o_va0, o_vb0, o_va1, o_vb1, o_res):
@@ -243,18 +252,8 @@ if AVAILABLE:
                 wb = grid[t, j]
                 b0, e0 = _eval(cA0, cA1, t, T, wb)
                 b1, e1 = _eval(cB0, cB1, t, T, wb)
-                sa[0] = wa
-                sb[0] = wb
-                sd[0] = 0
-                sv[0, 0] = a0
-                sv[0, 1] = b0
-                sv[0, 2] = a1
-                sv[0, 3] = b1
-                sl[0, 0] = _logd(d0, a0)
-                sl[0, 1] = _logd(e0, b0)
-                sl[0, 2] = _logd(d1, a1)
-                sl[0, 3] = _logd(e1, b1)
-                top = 1
+                top = _push2(sa, sb, sd, sv, sl, 0, wa, wb, 0, a0, b0, a1, b1,
+                             _logd(d0, a0), _logd(e0, b0), _logd(d1, a1), _logd(e1, b1))
                 while top > 0:
                     top -= 1
                     a = sa[top]
@@ -309,30 +308,8 @@ if AVAILABLE:
                     Lm0 = _logd(f0, m0)
                     Lm1 = _logd(f1, m1)
                     # right half first on the stack so the left half is processed first (sorted output)
-                    sa[top] = m
-                    sb[top] = b
-                    sd[top] = dep + 1
-                    sv[top, 0] = m0
-                    sv[top, 1] = xb0
-                    sv[top, 2] = m1
-                    sv[top, 3] = xb1
-                    sl[top, 0] = Lm0
-                    sl[top, 1] = Lb0
-                    sl[top, 2] = Lm1
-                    sl[top, 3] = Lb1
-                    top += 1
-                    sa[top] = a
-                    sb[top] = m
-                    sd[top] = dep + 1
-                    sv[top, 0] = xa0
-                    sv[top, 1] = m0
-                    sv[top, 2] = xa1
-                    sv[top, 3] = m1
-                    sl[top, 0] = La0
-                    sl[top, 1] = Lm0
-                    sl[top, 2] = La1
-                    sl[top, 3] = Lm1
-                    top += 1
+                    top = _push2(sa, sb, sd, sv, sl, top, m, b, dep + 1, m0, xb0, m1, xb1, Lm0, Lb0, Lm1, Lb1)
+                    top = _push2(sa, sb, sd, sv, sl, top, a, m, dep + 1, xa0, m0, xa1, m1, La0, Lm0, La1, Lm1)
                 if done:
                     break
                 wa = wb
