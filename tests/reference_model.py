@@ -420,3 +420,17 @@ def coupled_verdict(
     lam = p[i]
     margin = abs(lam.real) / abs(lam) if abs(lam) > 0 else 0.0
     return bool(lam.real < 0), float(margin)
+
+
+def pade_qp_roots(p0, p1, T: float, order: int) -> np.ndarray:
+    """Roots of P0·d + P1·n with n/d the Padé approximant of e^{−sT} (``control.pade``), built in
+    normalized time p = sT (ascending coefficients p0, p1; the rational stand-in for the exact
+    quasi-polynomial P0 + P1 e^{−sT})."""
+    P = np.polynomial.polynomial
+    num, den = control.pade(1.0, order)
+    n = np.asarray(num, float)[::-1]
+    d = np.asarray(den, float)[::-1]
+    q0 = np.asarray(p0, float) / T ** np.arange(len(p0))
+    q1 = np.asarray(p1, float) / T ** np.arange(len(p1))
+    a = P.polyadd(P.polymul(q0, d), P.polymul(q1, n))
+    return P.polyroots(a / np.max(np.abs(a))) / T

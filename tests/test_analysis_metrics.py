@@ -42,7 +42,7 @@ from exotune.controller import FirstOrderFilter, Implementation, SecondOrderFilt
 from exotune.model import Plant, Tf, seven_systems
 from exotune.shaping import DesignParams
 
-from reference_model import closed_loop_poles, closed_loop_system, coupled_verdict, has_rigid_body_mode, reference_gains, reference_gc
+from reference_model import pade_qp_roots, closed_loop_poles, closed_loop_system, coupled_verdict, has_rigid_body_mode, reference_gains, reference_gc
 
 PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper.yaml"
 PAPER_MAP = read_yaml(PAPER)
@@ -113,17 +113,6 @@ def _actuator(cs, T) -> Tf | None:
     e = Tf.delay(T)
     N, D = Tf.rational(nq, [1.0]), Tf.rational(dq, [1.0])
     return e * D / (D - N + N * e)
-
-
-def _pade_roots(p0, p1, T, order):
-    """Roots of P0·d + P1·n with n/d the Padé approximant of e^{−sT} (built in p = sT)."""
-    num, den = control.pade(1.0, order)
-    n = np.asarray(num, float)[::-1]
-    d = np.asarray(den, float)[::-1]
-    q0 = np.asarray(p0, float) / T ** np.arange(len(p0))
-    q1 = np.asarray(p1, float) / T ** np.arange(len(p1))
-    a = P.polyadd(P.polymul(q0, d), P.polymul(q1, n))
-    return P.polyroots(a / np.max(np.abs(a))) / T
 
 
 def _rhp_radius(p0, p1) -> float:
@@ -520,7 +509,7 @@ def test_amplification_dc_bandwidth_value_minimum_phase(alpha, fi, fd, z, zh, T,
         assert bool(r["minimum_phase"]) == (not np.any(roots.real > 0))
     else:
         assume(_rhp_radius(p0, p1) * T <= 12.0)  # every RHP zero lies where Padé 12 is accurate
-        ra, rb = _pade_roots(p0, p1, T, 12), _pade_roots(p0, p1, T, 16)
+        ra, rb = pade_qp_roots(p0, p1, T, 12), pade_qp_roots(p0, p1, T, 16)
         assume(np.sum(ra.real > 0) == np.sum(rb.real > 0))
         assume(min(np.min(np.abs(ra.real) / np.abs(ra)), np.min(np.abs(rb.real) / np.abs(rb))) > 1e-6)
         assert bool(r["minimum_phase"]) == (not np.any(ra.real > 0))
@@ -587,7 +576,7 @@ def test_paper_minimum_phase(T, expected):
         assert np.all(roots.real < -1.0)
     else:
         for order in (12, 16):
-            rr = _pade_roots(num.p0[0], num.p1[0], T, order)
+            rr = pade_qp_roots(num.p0[0], num.p1[0], T, order)
             rhp = np.sort_complex(rr[rr.real > 0])
             assert rhp.size == 2
             assert rhp[1].real == pytest.approx(650.0, rel=0.01) and abs(rhp[1].imag) == pytest.approx(1469.0, rel=0.01)

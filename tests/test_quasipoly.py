@@ -30,6 +30,8 @@ from numpy.polynomial import polynomial as P
 
 from exotune.quasipoly import QP, count_rhp
 
+from reference_model import pade_qp_roots
+
 SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 
 
@@ -124,16 +126,6 @@ def test_polynomial_batch_with_mixed_degrees():
 # ---------------------------------------------------------------------------------------------
 # (b) retarded quasi-polynomials against Padé
 # ---------------------------------------------------------------------------------------------
-def _pade_roots(p0, p1, T, order):
-    """Roots of P0·d + P1·n, (n/d) the Padé approximant of e^{−sT}, built in p = sT."""
-    num, den = control.pade(1.0, order)
-    n = np.asarray(num, float)[::-1]
-    d = np.asarray(den, float)[::-1]
-    q0 = np.asarray(p0, float) / T ** np.arange(len(p0))
-    q1 = np.asarray(p1, float) / T ** np.arange(len(p1))
-    return P.polyroots(P.polyadd(P.polymul(q0, d), P.polymul(q1, n))) / T
-
-
 def _rhp_radius(p0, p1) -> float:
     """R with |P0(s)| > |P1(s)| for every |s| ≥ R (|c_n| r^n − Σ_{k<n}|c_k| r^k − Σ|d_k| r^k > 0;
     divided by r^n the left side increases with r, so the positive root is the threshold)."""
@@ -164,7 +156,7 @@ def test_quasipolynomial_count_matches_pade(g0, g1, gain_exp, sign, t_frac):
     p1 = _ascending(r1, sign * 10.0**gain_exp * typ ** (n - r1.size))
     R = _rhp_radius(p0, p1)
     T = t_frac * 10.0 / R
-    ra, rb = _pade_roots(p0, p1, T, 12), _pade_roots(p0, p1, T, 16)
+    ra, rb = pade_qp_roots(p0, p1, T, 12), pade_qp_roots(p0, p1, T, 16)
     na, nb = int(np.sum(ra.real > 0)), int(np.sum(rb.real > 0))
     with np.errstate(divide="ignore", invalid="ignore"):
         near = min(np.min(np.abs(ra.real) / np.abs(ra)), np.min(np.abs(rb.real) / np.abs(rb)))
@@ -198,7 +190,7 @@ def test_delay_dominated_first_order(p0, p1, T, expected):
     f = lambda s: P.polyval(s, p0) + P.polyval(s, p1) * np.exp(-s * T)
     fp = lambda s: P.polyval(s, P.polyder(p0)) + (P.polyval(s, P.polyder(p1)) - T * P.polyval(s, p1)) * np.exp(-s * T)
     for order in (16, 24):
-        r = _pade_roots(p0, p1, T, order)
+        r = pade_qp_roots(p0, p1, T, order)
         rhp = r[r.real > 0]
         assert rhp.size == expected
         for z in rhp:
