@@ -701,6 +701,38 @@ def report_cmd(sweep_dir, out):
     make_report(sweep_dir, out)
 
 
+@cli.command("export")
+@click.argument("design_file", metavar="DESIGN.yaml")
+@click.option("--sample-rate-hz", "sample_rate_hz", required=True, metavar="F", help="Runtime sample rate [Hz].")
+@click.option("-o", "--out", "out", required=True, metavar="CONTROLLER.yaml", help="Controller file to write.")
+def export_cmd(design_file, sample_rate_hz, out):
+    """Export the discrete-time runtime controller as YAML (SPEC §7)."""
+    from .export import export_design
+
+    doc = export_design(design_file, sample_rate_hz, out)
+    sa = doc["predicted"]["sampled"]
+    n = len(doc["controller"]["filters"])
+    click.echo(f"wrote {out}: {doc['sample_rate_hz']['value']:g} Hz, {n} sos filters, "
+               f"sampled-data loop free {'stable' if sa['free_stable'] else 'UNSTABLE'}, "
+               f"locked {'stable' if sa['locked_stable'] else 'UNSTABLE'}; run `exotune certify {out}`")
+
+
+@cli.command("certify")
+@click.argument("controller_file", metavar="CONTROLLER.yaml")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+@click.pass_context
+def certify_cmd(ctx, controller_file, as_json):
+    """Exact sampled-data analysis of an exported controller file (SPEC §7). Exit code 0: certified,
+    1: analysed but not certified (the reasons are listed), 2: invalid file."""
+    from .certify import certify, format_certify
+    from .export import load_controller
+
+    rep = certify(load_controller(controller_file))
+    click.echo(_dumps(rep) if as_json else format_certify(rep))
+    if not rep["certified"]:
+        ctx.exit(1)
+
+
 def main(argv=None) -> None:
     """Console entry point (``exotune = exotune.cli:main``)."""
     cli.main(args=argv, prog_name="exotune")

@@ -34,7 +34,8 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-__all__ = ["Measured", "plant_ss", "DiscreteController", "discretize", "closed_loop_matrix", "sampled_stable"]
+__all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
+           "closed_loop_matrix", "sampled_stable"]
 
 # sampled signals the controller may use (order of the plant's output vector)
 Measured = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
@@ -117,6 +118,16 @@ def _row(x: np.ndarray) -> np.ndarray:
     return np.atleast_2d(np.asarray(x, dtype=float))[0]
 
 
+def prewarped(num: np.ndarray, den: np.ndarray, Ts: float, prewarp_hz: float | None):
+    """Coefficients (ascending) of H(λ s), λ = (ω T_s/2)/tan(ω T_s/2): the standard bilinear
+    transform of H(λ s) is the Tustin transform of H prewarped at ω = 2π·prewarp_hz."""
+    lam = 1.0
+    if prewarp_hz:
+        w = 2 * math.pi * float(prewarp_hz)
+        lam = (w / math.tan(w * Ts / 2)) * Ts / 2
+    return num * lam ** np.arange(num.size), den * lam ** np.arange(den.size)
+
+
 def _tustin(num_asc, den_asc, Ts: float, prewarp_hz: float | None):
     """Discrete (A, B, C, D) of a proper num/den (ascending coefficients) by the bilinear
     transform, prewarped at ``prewarp_hz`` when given (s ← K (z−1)/(z+1), K = ω/tan(ωT_s/2))."""
@@ -126,12 +137,7 @@ def _tustin(num_asc, den_asc, Ts: float, prewarp_hz: float | None):
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.zeros((1, 1))
     if num.size > den.size:
         raise ValueError("an improper controller block cannot be discretized (filter it first)")
-    lam = 1.0
-    if prewarp_hz:
-        w = 2 * math.pi * prewarp_hz
-        lam = (w / math.tan(w * Ts / 2)) * Ts / 2  # H(λ s) then the standard bilinear transform
-    num = num * lam ** np.arange(num.size)
-    den = den * lam ** np.arange(den.size)
+    num, den = prewarped(num, den, Ts, prewarp_hz)
     if den.size == 1:
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[0] / den[0]]])
     A, B, C, D = scipy.signal.tf2ss(num[::-1], den[::-1])
@@ -150,49 +156,74 @@ def _split_improper(num_asc, den_asc):
     return num[0] / den[0], num[1] / den[0], np.zeros(1), np.ones(1)
 
 
-def discretize(cs, plant, sample_rate_hz: float, prewarp: dict | None = None) -> DiscreteController:
-    """The discrete controller of a single-design :class:`ControllerStructure` (SPEC §3):
+@dataclass(frozen=True)
+class Block:
+    """One proper controller block num/den (ascending coefficients in s) acting on ``input`` (a
+    name in :data:`Measured` or ``"tau_cmd"``, the command itself: the DOB's algebraic loop),
+    discretized by Tustin prewarped at the frequency of ``prewarp`` (a key of the prewarp map)."""
+
+    name: str
+    input: str
+    num: np.ndarray
+    den: np.ndarray
+    prewarp: str
+
+
+def controller_blocks(cs, plant) -> tuple[np.ndarray, list[Block]]:
+    """The runtime form of a single-design :class:`ControllerStructure` (SPEC §3):
 
         τ_cmd = G_θ θ_m + G_s τ_s + G_c τ_c − δ̂,   δ̂ = Q (J_m s² + B_m s) θ_m − Q (τ_s + τ_cmd)
 
-    each proper block by Tustin (``prewarp``: {"theta_m"|"tau_s"|"tau_c"|"dob": Hz}), the K + B s
-    parts of G_θ and G_s on θ_m, θ̇_m and τ_s, τ̇_s. The algebraic loop τ_cmd → Q → τ_cmd
-    (Tustin gives Q a feed-through q0) is solved: τ_cmd = (rest)/(1 − q0).
-    """
-    Ts = 1.0 / float(sample_rate_hz)
-    pw = prewarp or {}
+    as static gains on the sampled signals (the K + B s parts of G_θ and G_s on θ_m, θ̇_m and τ_s,
+    τ̇_s; one gain per :data:`Measured` signal) plus proper blocks."""
     Jm, Bm = float(np.ravel(plant.J_m)[0]), float(np.ravel(plant.B_m)[0])
-    # blocks: (A, B, C, D, input) with input an index into Measured or "cmd"
-    blocks = []
     static = np.zeros(len(Measured))
-    for name, blk, pos, vel in (("theta_m", cs.motor_position, 0, 1), ("tau_s", cs.spring_torque, 2, 3)):
+    blocks = []
+    for name, blk, pos, vel in (("motor_position", cs.motor_position, 0, 1), ("spring_torque", cs.spring_torque, 2, 3)):
         p0, p1, rn, rd = _split_improper(blk.num, blk.den)
         static[pos] += p0
         static[vel] += p1
-        blocks.append(_tustin(rn, rd, Ts, pw.get(name)) + (pos,))
-    blocks.append(_tustin(cs.cuff_torque.num, cs.cuff_torque.den, Ts, pw.get("tau_c")) + (4,))
+        if np.any(np.trim_zeros(_row(rn), "b")):
+            blocks.append(Block(name, Measured[pos], _row(rn), _row(rd), "theta_m" if pos == 0 else "tau_s"))
+    blocks.append(Block("cuff_path", "tau_c", _row(cs.cuff_torque.num), _row(cs.cuff_torque.den), "tau_c"))
     if cs.dob_q is not None:
         qn, qd = _row(cs.dob_q.num), _row(cs.dob_q.den)
         q2n = np.convolve(qn, np.array([0.0, Bm, Jm]))  # ascending: Q (B_m s + J_m s²)
-        A_, B_, C_, D_ = _tustin(q2n, qd, Ts, pw.get("dob"))
-        blocks.append((A_, B_, -C_, -D_, 0))  # −Q(J_m s² + B_m s) θ_m
-        A_, B_, C_, D_ = _tustin(qn, qd, Ts, pw.get("dob"))
-        blocks.append((A_, B_, C_, D_, 2))  # + Q τ_s
-        blocks.append((A_, B_, C_, D_, "cmd"))  # + Q τ_cmd
-    nz = sum(b[0].shape[0] for b in blocks)
+        blocks.append(Block("dob_motor", "theta_m", -q2n, qd, "dob"))  # −Q(J_m s² + B_m s) θ_m
+        blocks.append(Block("dob_spring", "tau_s", qn, qd, "dob"))  # + Q τ_s
+        blocks.append(Block("dob_command", "tau_cmd", qn, qd, "dob"))  # + Q τ_cmd
+    return static, blocks
+
+
+def discretize(cs, plant, sample_rate_hz: float, prewarp: dict | None = None) -> DiscreteController:
+    """The discrete controller of a single-design :class:`ControllerStructure`
+    (:func:`controller_blocks`), each proper block by Tustin (``prewarp``: {"theta_m"|"tau_s"|
+    "tau_c"|"dob": Hz})."""
+    Ts = 1.0 / float(sample_rate_hz)
+    pw = prewarp or {}
+    static, blocks = controller_blocks(cs, plant)
+    ss = [(_tustin(b.num, b.den, Ts, pw.get(b.prewarp)), b.input) for b in blocks]
+    return assemble(static, ss, sample_rate_hz, float(np.ravel(cs.delay_s)[0]))
+
+
+def assemble(static, blocks, sample_rate_hz: float, delay_s: float) -> DiscreteController:
+    """One state-space controller from static gains on :data:`Measured` and discrete blocks
+    ``[((A, B, C, D), input), …]``; the algebraic loop τ_cmd → Q → τ_cmd (a block whose input is
+    ``"tau_cmd"`` has the feed-through q0) is solved: τ_cmd = (rest)/(1 − q0)."""
+    nz = sum(b[0][0].shape[0] for b in blocks)
     ny = len(Measured)
     # τ_cmd = Σ_i (C_i z_i + D_i u_i) + static·y, with u_i = y[input] or τ_cmd
     Cz = np.zeros(nz)
-    Dy = static.copy()
+    Dy = np.array(static, dtype=float).copy()
     q0 = 0.0
     off = 0
-    for A_, B_, C_, D_, inp in blocks:
+    for (A_, B_, C_, D_), inp in blocks:
         k = A_.shape[0]
-        Cz[off:off + k] = C_.reshape(-1)[:k]
-        if inp == "cmd":
-            q0 += float(D_.reshape(-1)[0])
+        Cz[off:off + k] = np.asarray(C_).reshape(-1)[:k]
+        if inp == "tau_cmd":
+            q0 += float(np.asarray(D_).reshape(-1)[0])
         else:
-            Dy[inp] += float(D_.reshape(-1)[0])
+            Dy[Measured.index(inp)] += float(np.asarray(D_).reshape(-1)[0])
         off += k
     if abs(1.0 - q0) < 1e-12:
         raise ValueError("the DOB's algebraic loop is singular (Q feed-through = 1)")
@@ -202,17 +233,17 @@ def discretize(cs, plant, sample_rate_hz: float, prewarp: dict | None = None) ->
     Ac = np.zeros((nz, nz))
     Bc = np.zeros((nz, ny))
     off = 0
-    for A_, B_, C_, D_, inp in blocks:
+    for (A_, B_, C_, D_), inp in blocks:
         k = A_.shape[0]
         Ac[off:off + k, off:off + k] = A_
-        b = B_.reshape(-1)[:k]
-        if inp == "cmd":
+        b = np.asarray(B_).reshape(-1)[:k]
+        if inp == "tau_cmd":
             Ac[off:off + k, :] += np.outer(b, Cc)
             Bc[off:off + k, :] += np.outer(b, Dc)
         else:
-            Bc[off:off + k, inp] += b
+            Bc[off:off + k, Measured.index(inp)] += b
         off += k
-    return DiscreteController(Ac, Bc, Cc[None, :], Dc[None, :], float(sample_rate_hz), float(np.ravel(cs.delay_s)[0]))
+    return DiscreteController(Ac, Bc, Cc[None, :], Dc[None, :], float(sample_rate_hz), float(delay_s))
 
 
 def zoh_fractional(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
@@ -259,15 +290,22 @@ def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
 
 def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, env: str | dict = "free",
                    prewarp: dict | None = None, rigid_tol: float = 1e-7) -> tuple[bool, float]:
-    """(stable, spectral radius) of the sampled-data loop; one eigenvalue at z = 1 (the rigid-body
-    mode, |λ − 1| ≤ rigid_tol) is removed when nothing grounds the structure (K1 = 0, no human or
-    environment stiffness, not locked), as in the continuous analysis."""
-    A, B, C = plant_ss(plant, human, env)
-    ctrl = discretize(cs, plant, sample_rate_hz, prewarp)
-    lam = np.linalg.eigvals(closed_loop_matrix(A, B, C, ctrl))
+    """(stable, spectral radius) of the sampled-data loop of a :class:`ControllerStructure`
+    (:func:`loop_stable` on :func:`discretize`)."""
     K1 = -float(np.ravel(cs.motor_position.num)[0]) / float(np.ravel(cs.motor_position.den)[0])
+    return loop_stable(plant, discretize(cs, plant, sample_rate_hz, prewarp), K1 != 0.0, human, env, rigid_tol)
+
+
+def loop_stable(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,
+                env: str | dict = "free", rigid_tol: float = 1e-7) -> tuple[bool, float]:
+    """(stable, spectral radius) of the discrete controller ``ctrl`` on the plant (+ human,
+    + environment); one eigenvalue at z = 1 (the rigid-body mode, |λ − 1| ≤ rigid_tol) is removed
+    when nothing grounds the structure (no position feedback K1, no human or environment
+    stiffness, not locked), as in the continuous analysis."""
+    A, B, C = plant_ss(plant, human, env)
+    lam = np.linalg.eigvals(closed_loop_matrix(A, B, C, ctrl))
     grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
-                or (human is not None and human.get("stiffness", 0.0) > 0) or K1 != 0.0)
+                or (human is not None and human.get("stiffness", 0.0) > 0) or position_feedback)
     if not grounded and lam.size:
         i = int(np.argmin(np.abs(lam - 1.0)))
         if abs(lam[i] - 1.0) <= rigid_tol:

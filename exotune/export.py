@@ -1,0 +1,442 @@
+"""Export of the runtime controller file (SPEC §7 ``exotune export``).
+
+The file is what a real-time runtime loads: at ``sample_rate_hz`` it reads the sampled signals
+θ_m [rad], θ̇_m [rad/s], τ_s [N·m], τ̇_s [N·m/s], τ_c [N·m] and computes (SPEC §3)
+
+    τ_cmd[k] = Σ_signals gain · signal[k] + Σ_filters filter(input)[k]
+
+with every filter a cascade of second-order sections in scipy's ``sos`` convention (rows
+[b0, b1, b2, a0, a1, a2], a0 = 1, direct form II transposed). One filter, ``dob_command``, acts on
+τ_cmd[k] itself: the DOB's algebraic loop (Tustin gives Q a feed-through). A cascade's output is
+affine in its input, y = g·x + h (g = Π b0 of its sections, h its output for x = 0), so the runtime
+solves τ_cmd = (rest + h)/(1 − g) and then advances the cascade with x = τ_cmd
+(:mod:`exotune.runtime`). The blocks are those of :func:`exotune.sampled.controller_blocks`, each
+discretized by the bilinear transform prewarped at its cutoff (:func:`exotune.sampled.default_prewarp`),
+here through zeros/poles (``scipy.signal.bilinear_zpk`` → ``zpk2sos``); the analysis side
+(:func:`exotune.sampled.discretize`) goes through state space, and the tests check that both agree.
+
+Every number carries its unit ({value, unit}, or a ``unit`` next to a list). The file also holds
+the plant, the design, the delay it was designed for, the predicted metrics (continuous SPEC §5
+analysis and the sampled-data intervals that ``exotune certify`` recomputes from this file), the
+human/environment families to certify against, golden input/output vectors of the reference
+runtime, and provenance. Its JSON Schema ships as ``exotune/schemas/controller.schema.json``
+(generated from :class:`ControllerFile`; a test keeps them equal).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import scipy.signal
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from .errors import ConfigError
+from .sampled import Measured, assemble, controller_blocks, default_prewarp, prewarped
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "SIGNAL_UNITS",
+    "tustin_sos",
+    "sos_ss",
+    "build_export",
+    "ControllerFile",
+    "validate_controller",
+    "load_controller",
+    "discrete_from_file",
+    "plant_from_file",
+    "schema_path",
+]
+
+SCHEMA_VERSION = "exotune.controller/1"
+
+SIGNAL_UNITS = {"theta_m": "rad", "omega_m": "rad/s", "tau_s": "N·m", "dtau_s": "N·m/s", "tau_c": "N·m",
+                "tau_cmd": "N·m"}
+_GAIN_UNITS = {"theta_m": "N·m/rad", "omega_m": "N·m·s/rad", "tau_s": "1 (N·m/N·m)", "dtau_s": "s",
+               "tau_c": "1 (N·m/N·m)", "tau_cmd": "1 (N·m/N·m)"}
+_PLANT_UNITS = {"motor_inertia": "kg·m²", "motor_damping": "N·m·s/rad", "sea_stiffness": "N·m/rad",
+                "joint_inertia": "kg·m²", "cuff_stiffness": "N·m/rad"}
+_DESIGN_UNITS = {"amplification": "1", "felt_inertia": "kg·m²", "felt_damping": "N·m·s/rad", "zeta": "1",
+                 "zeta_hat": "1"}
+_FILTER_DOC = {
+    "motor_position": "proper part of G_θ (velocity filter)",
+    "spring_torque": "proper part of G_s (velocity filter)",
+    "cuff_path": "G_c: the filtered cuff compensator G_v (K̂2 + B̂2 s) (SPEC §3)",
+    "dob_motor": "−Q(s)(J_m s² + B_m s): the DOB's inverse motor model on θ_m",
+    "dob_spring": "+Q(s) on τ_s",
+    "dob_command": "+Q(s) on τ_cmd itself (the DOB's algebraic loop, see runtime)",
+}
+
+
+def _q(value: float, unit: str) -> dict:
+    return {"value": float(value), "unit": unit}
+
+
+# --------------------------------------------------------------------------------------------
+# discretization to second-order sections
+# --------------------------------------------------------------------------------------------
+def tustin_sos(num_asc, den_asc, sample_rate_hz: float, prewarp_hz: float | None = None) -> np.ndarray:
+    """Second-order sections (scipy ``sos``) of the proper num/den (ascending powers of s) by the
+    bilinear transform, prewarped at ``prewarp_hz`` (exact response there): s ← ω/tan(ωT_s/2)·(z−1)/(z+1)."""
+    num = np.trim_zeros(np.atleast_1d(np.asarray(num_asc, dtype=float)), "b")
+    den = np.trim_zeros(np.atleast_1d(np.asarray(den_asc, dtype=float)), "b")
+    if num.size > den.size:
+        raise ValueError("an improper block cannot be discretized")
+    num, den = prewarped(num, den, 1.0 / float(sample_rate_hz), prewarp_hz)
+    z, p, k = scipy.signal.tf2zpk(num[::-1], den[::-1])
+    zd, pd, kd = scipy.signal.bilinear_zpk(z, p, k, float(sample_rate_hz))
+    return scipy.signal.zpk2sos(zd, pd, kd)
+
+
+def sos_ss(sos) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Discrete state space (A, B, C, D) of a cascade of second-order sections (sections chained
+    in order; the states of each section are those of ``scipy.signal.tf2ss``)."""
+    A = np.zeros((0, 0))
+    B = np.zeros((0, 1))
+    C = np.zeros((1, 0))
+    D = np.ones((1, 1))
+    for row in np.atleast_2d(np.asarray(sos, dtype=float)):
+        b, a = row[:3] / row[3], row[3:] / row[3]
+        a2, b2 = np.trim_zeros(a, "b"), b[: max(np.trim_zeros(a, "b").size, 1)]
+        if np.any(b[a2.size:] != 0):
+            raise ValueError("improper section")
+        As, Bs, Cs, Ds = scipy.signal.tf2ss(b2, a2)
+        As = np.atleast_2d(As).reshape(a2.size - 1, a2.size - 1)
+        Bs = np.asarray(Bs).reshape(a2.size - 1, 1)
+        Cs = np.asarray(Cs).reshape(1, a2.size - 1)
+        Ds = np.asarray(Ds).reshape(1, 1)
+        # series: section input = previous output y = C x + D u
+        n0, n1 = A.shape[0], As.shape[0]
+        An = np.zeros((n0 + n1, n0 + n1))
+        An[:n0, :n0] = A
+        An[n0:, :n0] = Bs @ C
+        An[n0:, n0:] = As
+        Bn = np.vstack([B, Bs @ D])
+        Cn = np.hstack([Ds @ C, Cs])
+        A, B, C, D = An, Bn, Cn, Ds @ D
+    return A, B, C, D
+
+
+# --------------------------------------------------------------------------------------------
+# the file's contents
+# --------------------------------------------------------------------------------------------
+def _golden_inputs(n: int = 200, fs: float = 1000.0, seed: int = 20251122) -> dict[str, np.ndarray]:
+    """Deterministic, broadband test signals in realistic ranges (steps, sines, noise)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fs
+    step = (np.arange(n) >= n // 10).astype(float)
+    sig = {
+        "theta_m": 0.1 * step + 0.05 * np.sin(2 * np.pi * 3.0 * t) + 0.002 * rng.standard_normal(n),
+        "omega_m": 0.5 * np.cos(2 * np.pi * 3.0 * t) + 0.05 * rng.standard_normal(n),
+        "tau_s": 5.0 * step + 2.0 * np.sin(2 * np.pi * 7.0 * t) + 0.1 * rng.standard_normal(n),
+        "dtau_s": 80.0 * np.cos(2 * np.pi * 7.0 * t) + 5.0 * rng.standard_normal(n),
+        "tau_c": 2.0 * step + 1.0 * np.sin(2 * np.pi * 11.0 * t) + 0.05 * rng.standard_normal(n),
+    }
+    return sig
+
+
+def _controller_section(cfg, fs: float) -> tuple[dict, list[dict]]:
+    from .controller import build_controller
+
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    static, blocks = controller_blocks(cs, cfg.plant)
+    pw = default_prewarp(cfg.implementation)
+    gains = {sig: {"gain": float(static[i]), "unit": _GAIN_UNITS[sig]} for i, sig in enumerate(Measured) if static[i] != 0}
+    filters = []
+    for b in blocks:
+        sos = tustin_sos(b.num, b.den, fs, pw.get(b.prewarp))
+        filters.append({
+            "name": b.name,
+            "input": b.input,
+            "input_unit": SIGNAL_UNITS[b.input],
+            "output_unit": "N·m",
+            "unit": _GAIN_UNITS[b.input],
+            "description": _FILTER_DOC.get(b.name, b.name),
+            "discretization": "tustin",
+            "prewarp_hz": None if pw.get(b.prewarp) is None else float(pw[b.prewarp]),
+            "continuous": {"num": [float(x) for x in np.asarray(b.num, float)],
+                           "den": [float(x) for x in np.asarray(b.den, float)],
+                           "order": "ascending powers of s"},
+            "sos": [[float(x) for x in row] for row in sos],
+        })
+    return gains, filters
+
+
+def _predicted(cfg) -> dict:
+    """The continuous SPEC §5 metrics of the design (exotune.analysis), with units."""
+    from .analysis import analyze_design
+
+    r = analyze_design(cfg)
+    humans = [{"kind": h["kind"], "parameter": h["parameter"], "unit": h["unit"], "range": h["range"],
+               "stable_intervals": h["stable_intervals"], "robust": bool(h["robust"])} for h in r["humans"]]
+    dob = r["dob"]
+    return {
+        "model": "continuous time, exact delay (exotune analyze)",
+        "free_stable": bool(r["free_stable"]),
+        "locked_stable": bool(r["locked_stable"]),
+        "humans": humans,
+        "passivity": {"max_phase_excess_deg": _q(r["passivity"]["max_phase_excess_deg"], "deg"),
+                      "nonpassive_band_hz": {"value": r["passivity"]["nonpassive_band_hz"], "unit": "Hz"}},
+        "dob": None if dob is None else {
+            "gain_margin_db": _q(dob["gain_margin_db"], "dB"),
+            "phase_margin_deg": _q(dob["phase_margin_deg"], "deg"),
+            "delay_margin_s": _q(dob["delay_margin_s"], "s"),
+        },
+        "amplification": {"dc": _q(r["amplification"]["dc"], "1"),
+                          "bandwidth_hz": _q(r["amplification"]["bandwidth_hz"], "Hz")},
+    }
+
+
+def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_hash: str | None = None,
+                 now: _dt.datetime | None = None) -> dict:
+    """The controller file of a validated single design ``cfg`` at ``sample_rate_hz``
+    (the configuration must already carry that sample rate: see :func:`exotune.cli` export)."""
+    from . import __version__
+    from .certify import sampled_analysis
+    from .runtime import Runtime
+
+    fs = float(sample_rate_hz)
+    g = lambda x: float(np.ravel(x)[0])  # noqa: E731
+    raw = cfg.raw
+    delay = g(cfg.implementation.delay_s)
+    gains_sig, filters = _controller_section(cfg, fs)
+    from .controller import build_controller
+
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    units = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)", "B2_hat": "s"}
+    gains = {k: _q(g(getattr(cs.gains, k)), u) for k, u in units.items()}
+    doc: dict[str, Any] = {
+        "schema": SCHEMA_VERSION,
+        "sample_rate_hz": _q(fs, "Hz"),
+        "delay_s": {"value": delay, "unit": "s", "samples": delay * fs,
+                    "note": "total measured-to-applied latency the controller was designed and certified for"},
+        "plant": {k: _q(v, _PLANT_UNITS[k]) for k, v in raw["plant"].items()},
+        "design": {k: _q(v, _DESIGN_UNITS[k]) for k, v in raw["design"].items()},
+        "gains": {**gains, "convention": "torque units (SPEC §4): K2, B2 act on τ_s, K2_hat, B2_hat on τ_c"},
+        "signals": {"inputs": {s: SIGNAL_UNITS[s] for s in Measured}, "output": {"tau_cmd": "N·m"}},
+        "controller": {
+            "equation": "tau_cmd[k] = sum(gain * signal[k]) + sum(filter(input)[k]); sos rows [b0, b1, b2, a0, a1, a2] "
+                        "(scipy convention, a0 = 1), direct form II transposed; the filter on tau_cmd closes an "
+                        "algebraic loop: tau_cmd = (rest + h)/(1 - g) with g = prod(b0), h = its output for input 0",
+            "gains": gains_sig,
+            "filters": filters,
+        },
+        "dob": None if cfg.implementation.dob is None else {
+            "q_cutoff_hz": _q(g(cfg.implementation.dob.cutoff_hz), "Hz"),
+            "q_damping": _q(g(cfg.implementation.dob.damping), "1"),
+            "filters": [f["name"] for f in filters if f["name"].startswith("dob_")],
+        },
+        "gain_schedule": None,
+        "gain_schedule_note": ("no transmission model in the design file: the gains are constant over the joint "
+                               "angle"),
+        "certify": {"humans": raw["humans"], "environment": raw["environment"]},
+    }
+    doc["predicted"] = {"continuous": _predicted(cfg)}
+    doc["predicted"]["sampled"] = sampled_analysis(doc)
+    ins = _golden_inputs(fs=fs)
+    out = Runtime(doc).run(ins)
+    doc["golden"] = {"note": "reference-runtime outputs (exotune.runtime) for these inputs from the zero state",
+                     "inputs": {s: {"unit": SIGNAL_UNITS[s], "values": [float(x) for x in v]} for s, v in ins.items()},
+                     "tau_cmd": {"unit": "N·m", "values": [float(x) for x in out]}}
+    doc["provenance"] = {
+        "exotune_version": __version__,
+        "source": None if source is None else Path(source).name,
+        "input_sha256": input_hash,
+        "created_utc": (now or _dt.datetime.now(_dt.timezone.utc)).replace(microsecond=0).isoformat(),
+    }
+    validate_controller(doc)
+    return doc
+
+
+# --------------------------------------------------------------------------------------------
+# validation (pydantic model; its JSON Schema ships with the package)
+# --------------------------------------------------------------------------------------------
+class _S(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class _Open(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+
+class Quantity(_S):
+    value: float
+    unit: str
+
+
+class Gain(_S):
+    gain: float
+    unit: str
+
+
+class Filter(_S):
+    name: str
+    input: Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c", "tau_cmd"]
+    input_unit: str
+    output_unit: str
+    unit: str
+    description: str | None = None
+    discretization: str
+    prewarp_hz: float | None = None
+    continuous: dict | None = None
+    sos: list[list[float]] = Field(min_length=1)
+
+    @field_validator("sos")
+    @classmethod
+    def _sos(cls, v):
+        for i, row in enumerate(v):
+            if len(row) != 6:
+                raise ValueError(f"section {i} has {len(row)} coefficients, expected 6 [b0, b1, b2, a0, a1, a2]")
+            if not all(math.isfinite(x) for x in row):
+                raise ValueError(f"section {i} has a non-finite coefficient")
+            if row[3] != 1.0:
+                raise ValueError(f"section {i}: a0 = {row[3]!r}, expected 1 (scipy sos convention)")
+        return v
+
+
+class ControllerSection(_S):
+    equation: str
+    gains: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], Gain]
+    filters: list[Filter]
+
+
+class SignalValues(_S):
+    unit: str
+    values: list[float]
+
+
+class Golden(_S):
+    note: str | None = None
+    inputs: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], SignalValues]
+    tau_cmd: SignalValues
+
+
+class Delay(_S):
+    value: float = Field(ge=0.0)
+    unit: Literal["s"]
+    samples: float | None = None
+    note: str | None = None
+
+
+class SampleRate(_S):
+    value: float = Field(gt=0.0)
+    unit: Literal["Hz"]
+
+
+class ControllerFile(_S):
+    """The controller file (SPEC §7). Extra keys are refused; numbers are finite."""
+
+    schema_: Literal["exotune.controller/1"] = Field(alias="schema")
+    sample_rate_hz: SampleRate
+    delay_s: Delay
+    plant: dict[Literal["motor_inertia", "motor_damping", "sea_stiffness", "joint_inertia", "cuff_stiffness"], Quantity]
+    design: dict[str, Quantity]
+    gains: dict[str, Quantity | str]
+    signals: dict[str, dict[str, str]]
+    controller: ControllerSection
+    dob: _Open | None = None
+    gain_schedule: list | dict | None = None
+    gain_schedule_note: str | None = None
+    certify: _Open
+    predicted: _Open
+    golden: Golden
+    provenance: _Open
+
+
+def schema_path() -> Path:
+    return Path(__file__).resolve().parent / "schemas" / "controller.schema.json"
+
+
+def json_schema() -> dict:
+    s = ControllerFile.model_json_schema(by_alias=True)
+    s["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    s["$id"] = "https://exotune.invalid/schemas/controller/1"
+    s["title"] = "exotune runtime controller file (schema exotune.controller/1)"
+    return s
+
+
+def write_schema(path: Path | None = None) -> None:
+    from .jsonio import write_atomic
+
+    write_atomic(path or schema_path(), json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n")
+
+
+def validate_controller(doc: Any, source: str = "") -> ControllerFile:
+    """Validate a controller mapping; problems raise :class:`ConfigError` naming the field."""
+    if not isinstance(doc, dict):
+        raise ConfigError(source or "<controller>", "expected a mapping at the top level")
+    try:
+        return ControllerFile.model_validate(doc)
+    except ValidationError as e:
+        err = e.errors()[0]
+        loc = ".".join(str(x) for x in err["loc"]) or (source or "<controller>")
+        msg = err["msg"]
+        if err["type"] == "missing":
+            msg = "missing field"
+        elif err["type"] == "extra_forbidden":
+            msg = "unknown field"
+        raise ConfigError(loc, msg) from None
+
+
+def load_controller(path) -> dict:
+    """Read (safe YAML loader) and validate a controller file; returns the mapping."""
+    from .config import read_yaml
+
+    doc = read_yaml(path)
+    validate_controller(doc, str(path))
+    dob_cmd = [f for f in doc["controller"]["filters"] if f["input"] == "tau_cmd"]
+    for f in dob_cmd:
+        g = float(np.prod([row[0] for row in f["sos"]]))
+        if abs(1.0 - g) < 1e-12:
+            raise ConfigError(f"controller.filters.{f['name']}.sos", "the algebraic loop is singular (Π b0 = 1)")
+    return doc
+
+
+def discrete_from_file(doc: dict):
+    """The file's controller as one state space (:class:`exotune.sampled.DiscreteController`),
+    built from its gains and sos filters only."""
+    c = doc["controller"]
+    static = np.array([c["gains"].get(s, {"gain": 0.0})["gain"] for s in Measured], dtype=float)
+    blocks = [(sos_ss(f["sos"]), f["input"]) for f in c["filters"]]
+    return assemble(static, blocks, doc["sample_rate_hz"]["value"], doc["delay_s"]["value"])
+
+
+def plant_from_file(doc: dict):
+    from .model import Plant
+
+    p = {k: v["value"] for k, v in doc["plant"].items()}
+    return Plant(p["motor_inertia"], p["motor_damping"], p["sea_stiffness"], p["joint_inertia"], p["cuff_stiffness"])
+
+
+def export_design(design_file, sample_rate_hz: float, out) -> dict:
+    """``exotune export``: validate the design at ``sample_rate_hz`` (cutoffs below Nyquist), build
+    the controller file and write it atomically as YAML. Returns the document."""
+    import hashlib
+
+    import yaml
+
+    from .config import design_from_mapping, read_yaml
+    from .jsonio import write_atomic
+
+    try:
+        fs = float(sample_rate_hz)
+    except (TypeError, ValueError):
+        raise ConfigError("--sample-rate-hz", f"expected a number of Hz, got {sample_rate_hz!r}") from None
+    if not (math.isfinite(fs) and fs > 0):
+        raise ConfigError("--sample-rate-hz", f"must be a positive, finite number of Hz, got {fs:g}")
+    raw = read_yaml(design_file)
+    if isinstance(raw, dict):
+        impl = raw.get("implementation")
+        raw = {**raw, "implementation": {**(impl if isinstance(impl, dict) else {}), "sample_rate_hz": fs}} \
+            if impl is None or isinstance(impl, dict) else raw
+    cfg = design_from_mapping(raw, source=str(design_file))
+    digest = hashlib.sha256(Path(design_file).read_bytes()).hexdigest()
+    doc = build_export(cfg, fs, source=str(design_file), input_hash=digest)
+    text = ("# exotune runtime controller file (schema exotune.controller/1, see exotune/schemas/controller.schema.json)\n"
+            + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120))
+    write_atomic(out, text)
+    return doc
