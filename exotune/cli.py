@@ -701,6 +701,25 @@ def report_cmd(sweep_dir, out):
     make_report(sweep_dir, out)
 
 
+@cli.command("optimize")
+@click.argument("spec_file", metavar="SPEC.yaml")
+@click.option("-o", "--out", "out", required=True, metavar="DESIGN.yaml", help="Optimized design file to write.")
+@click.option("--seed", type=click.IntRange(min=0), default=None, metavar="S", help="Seed (deterministic per seed).")
+@click.option("--pareto", "pareto_csv", default=None, metavar="FILE.csv",
+              help="Also write the Pareto front (objective vs robust fraction) as CSV.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+@click.pass_context
+def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
+    """Maximize α (or another objective) under robust-stability, passivity, DOB-margin and
+    bandwidth constraints (SPEC §7). Exit code 1 when no feasible design exists in the bounds."""
+    from .optimize import format_optimize, run_optimize
+
+    r = run_optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv)
+    click.echo(_dumps(r) if as_json else format_optimize(r))
+    if not r["feasible"]:
+        ctx.exit(1)
+
+
 @cli.command("export")
 @click.argument("design_file", metavar="DESIGN.yaml")
 @click.option("--sample-rate-hz", "sample_rate_hz", required=True, metavar="F", help="Runtime sample rate [Hz].")

@@ -217,6 +217,28 @@ def _int_option(field: str, v: Any, minimum: int) -> int:
     return int(v)
 
 
+def load_base(base, root: str):
+    """The ``base`` of a sweep or optimization spec: a design file path (relative to ``root``) or
+    an inline design mapping → (validated DesignConfig, source path or None). Errors name
+    ``base``."""
+    if isinstance(base, str):
+        base_path = base if os.path.isabs(base) else os.path.join(root, base)
+        try:
+            base_map = read_yaml(base_path)
+        except ConfigError as e:
+            raise ConfigError(f"base ({e.field})", e.reason) from None
+        try:
+            return design_from_mapping(base_map, source=base_path), base_path
+        except ConfigError as e:
+            raise ConfigError(f"base ({base}): {e.field}", e.reason) from None
+    if isinstance(base, dict):
+        try:
+            return design_from_mapping(base, source="<inline base>"), None
+        except ConfigError as e:
+            raise ConfigError(f"base.{e.field}", e.reason) from None
+    raise ConfigError("base", f"expected a design file path or a mapping, got {'null' if base is None else type(base).__name__}")
+
+
 def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_size: int | None = None) -> "SweepPlan":
     """Read and validate a sweep spec (a file path or a mapping) into a :class:`SweepPlan`.
 
@@ -238,26 +260,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
         raise ConfigError(str(unknown[0]), f"unknown key in a sweep spec (allowed: {', '.join(_SPEC_KEYS)})")
     if "base" not in mapping:
         raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
-    base = mapping["base"]
-    if isinstance(base, str):
-        base_path = base if os.path.isabs(base) else os.path.join(root, base)
-        try:
-            base_map = read_yaml(base_path)
-        except ConfigError as e:
-            raise ConfigError(f"base ({e.field})", e.reason) from None
-        try:
-            cfg = design_from_mapping(base_map, source=base_path)
-        except ConfigError as e:
-            raise ConfigError(f"base ({base}): {e.field}", e.reason) from None
-        base_source = base_path
-    elif isinstance(base, dict):
-        try:
-            cfg = design_from_mapping(base, source="<inline base>")
-        except ConfigError as e:
-            raise ConfigError(f"base.{e.field}", e.reason) from None
-        base_source = None
-    else:
-        raise ConfigError("base", f"expected a design file path or a mapping, got {'null' if base is None else type(base).__name__}")
+    cfg, base_source = load_base(mapping["base"], root)
 
     if "axes" not in mapping:
         raise ConfigError("axes", "required key is missing (a mapping of dotted parameter paths to values)")
