@@ -752,6 +752,30 @@ def certify_cmd(ctx, controller_file, as_json):
         ctx.exit(1)
 
 
+@cli.command("simulate")
+@click.argument("input_file", metavar="DESIGN.yaml|CONTROLLER.yaml")
+@click.option("--scenario", required=True, type=click.Choice(["locked-output", "dob-friction", "light-mass", "saturation"]),
+              help="What to run (see README).")
+@click.option("--sample-rate-hz", "sample_rate_hz", default=None, metavar="F",
+              help="Sample rate for a design file (default: its implementation.sample_rate_hz).")
+@click.option("--human-inertia", "human_inertia", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="KGM2", help="Human inertia [kg·m²] instead of the scenario's.")
+@click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write time-series plots (PNG) to DIR.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object (summary, no time series).")
+def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, plots_dir, as_json):
+    """Nonlinear time-domain run of the runtime controller on the plant (friction, backlash,
+    saturation; SPEC §8)."""
+    from .simulate import format_simulation, load_for_simulation, plot_simulation, run_scenario
+
+    doc = load_for_simulation(input_file, sample_rate_hz)
+    rep = run_scenario(doc, scenario, human_inertia=human_inertia)
+    if plots_dir is not None:
+        files = plot_simulation(rep)
+        _write_files(plots_dir, files)
+    summary = {k: v for k, v in rep.items() if k != "runs"}
+    click.echo(_dumps(summary) if as_json else format_simulation(rep))
+
+
 def main(argv=None) -> None:
     """Console entry point (``exotune = exotune.cli:main``)."""
     cli.main(args=argv, prog_name="exotune")

@@ -7,7 +7,8 @@ a port is checked against. Per sample k, with the sampled signals y[k]:
 1. every filter on a sensed signal runs one step (its state advances);
 2. the filter on τ_cmd (the DOB's algebraic loop) is affine in its input, y = g·x + h with
    g = Π b0 over its sections and h its output for x = 0 (read from the current states);
-3. τ_cmd = (Σ gain·y + Σ outputs of step 1 + h) / (1 − g);
+3. τ_cmd = (Σ gain·y + Σ outputs of step 1 + h) / (1 − g) (clamped to ±``limit_nm`` when the
+   runtime is given the driver's torque limit, so that the DOB sees the command really applied);
 4. the τ_cmd filter advances with x = τ_cmd.
 
 The output τ_cmd[k] is applied by the hardware after the file's ``delay_s`` (not modelled here).
@@ -54,8 +55,9 @@ class SosFilter:
 class Runtime:
     """Steps the controller of a validated controller-file mapping (see the module docstring)."""
 
-    def __init__(self, doc: dict):
+    def __init__(self, doc: dict, limit_nm: float | None = None):
         c = doc["controller"]
+        self.limit_nm = limit_nm  # optional torque limit: the command is clamped before the DOB sees it
         self.sample_rate_hz = float(doc["sample_rate_hz"]["value"])
         self.delay_s = float(doc["delay_s"]["value"])
         self.gains = {s: float(v["gain"]) for s, v in c["gains"].items()}
@@ -82,6 +84,8 @@ class Runtime:
         g = sum(f.feedthrough for f in self.loop)
         h = sum(f.peek(0.0) for f in self.loop)
         u = (rest + h) / (1.0 - g)
+        if self.limit_nm is not None:  # anti-windup: the DOB is fed the command actually applied
+            u = min(self.limit_nm, max(-self.limit_nm, u))
         for f in self.loop:
             f.step(u)
         return u
