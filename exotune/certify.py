@@ -66,6 +66,16 @@ def _human_dict(fam, v: float) -> dict:
     return h
 
 
+def _in_certify(parse, i, item):
+    """A family of the file's ``certify`` section, errors naming ``certify.…``."""
+    from .errors import ConfigError
+
+    try:
+        return parse(i, item)
+    except ConfigError as e:
+        raise ConfigError(f"certify.{e.field}", e.reason) from None
+
+
 def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     """Free/locked verdicts and the stable intervals of every rational human family and every
     environment spring/mass range of the file's ``certify`` section, for the file's controller."""
@@ -89,7 +99,7 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
         "environment": [],
     }
     for i, item in enumerate(doc["certify"].get("humans") or []):
-        fam, _ = _parse_human(i, item)
+        fam, _ = _in_certify(_parse_human, i, item)
         entry = {"kind": fam.kind, "parameter": fam.param, "unit": fam.unit, "range": [fam.lo, fam.hi]}
         if fam.kind == "complex_stiffness" or fam.box:
             entry["skipped"] = ("hysteretic damping is not rational: it has no finite-dimensional sampled-data model"
@@ -100,7 +110,7 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
-        env, _ = _parse_env(i, item)
+        env, _ = _in_certify(_parse_env, i, item)
         if env.kind not in ("spring", "mass"):
             continue
         ivs, info = _intervals(lambda v, e=env: run(env={e.param: v, "damping": e.damping})[0], env.lo, env.hi, points)
@@ -153,11 +163,17 @@ def certify(doc: dict) -> dict:
                             f"stable only in {_fmt_ivs(h['stable_intervals'])}")
     pred = (doc.get("predicted") or {}).get("sampled")
     mism = []
+    if not [h for h in sa["humans"] if "skipped" not in h]:
+        problems.append("the file names no rational human family to certify against (certify.humans)")
     if isinstance(pred, dict):
         for key in ("free_stable", "locked_stable"):
             if pred.get(key) != sa[key]:
                 mism.append(key)
         for grp in ("humans", "environment"):
+            if len(pred.get(grp) or []) != len(sa[grp]):
+                mism.append(f"{grp} (the file predicts {len(pred.get(grp) or [])} families, certify.{grp} has "
+                            f"{len(sa[grp])})")
+                continue
             for j, (p, h) in enumerate(zip(pred.get(grp) or [], sa[grp])):
                 if "stable_intervals" in h and not _same_intervals(p.get("stable_intervals") or [], h["stable_intervals"]):
                     mism.append(f"{grp}[{j}].stable_intervals")

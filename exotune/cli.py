@@ -605,6 +605,9 @@ class _Group(click.Group):
             raise InputError(str(e)) from None
         except ValueError as e:
             raise InputError(" ".join(str(e).split()) or type(e).__name__) from None
+        except OSError as e:  # an unwritable output (a directory, a missing parent, no permission)
+            where = e.filename2 if e.filename2 is not None else (e.filename if e.filename is not None else "<file>")
+            raise InputError(f"{where}: {e.strerror or e}") from None
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})

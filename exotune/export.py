@@ -29,11 +29,11 @@ import datetime as _dt
 import json
 import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 import scipy.signal
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from .errors import ConfigError
 from .sampled import Measured, assemble, controller_blocks, default_prewarp, prewarped
@@ -93,25 +93,23 @@ def tustin_sos(num_asc, den_asc, sample_rate_hz: float, prewarp_hz: float | None
 
 
 def sos_ss(sos) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Discrete state space (A, B, C, D) of a cascade of second-order sections (sections chained
-    in order; the states of each section are those of ``scipy.signal.tf2ss``)."""
+    """Discrete state space (A, B, C, D) of a cascade of second-order sections, each section in
+    the direct form II transposed states the runtime uses (y = b0 x + s1, s1⁺ = b1 x − a1 y + s2,
+    s2⁺ = b2 x − a2 y; rows normalized by a0), chained in order."""
     A = np.zeros((0, 0))
     B = np.zeros((0, 1))
     C = np.zeros((1, 0))
     D = np.ones((1, 1))
     for row in np.atleast_2d(np.asarray(sos, dtype=float)):
-        b, a = row[:3] / row[3], row[3:] / row[3]
-        a2, b2 = np.trim_zeros(a, "b"), b[: max(np.trim_zeros(a, "b").size, 1)]
-        if np.any(b[a2.size:] != 0):
-            raise ValueError("improper section")
-        As, Bs, Cs, Ds = scipy.signal.tf2ss(b2, a2)
-        As = np.atleast_2d(As).reshape(a2.size - 1, a2.size - 1)
-        Bs = np.asarray(Bs).reshape(a2.size - 1, 1)
-        Cs = np.asarray(Cs).reshape(1, a2.size - 1)
-        Ds = np.asarray(Ds).reshape(1, 1)
+        b0, b1, b2, a0, a1, a2 = row
+        b0, b1, b2, a1, a2 = b0 / a0, b1 / a0, b2 / a0, a1 / a0, a2 / a0
+        As = np.array([[-a1, 1.0], [-a2, 0.0]])
+        Bs = np.array([[b1 - a1 * b0], [b2 - a2 * b0]])
+        Cs = np.array([[1.0, 0.0]])
+        Ds = np.array([[b0]])
         # series: section input = previous output y = C x + D u
-        n0, n1 = A.shape[0], As.shape[0]
-        An = np.zeros((n0 + n1, n0 + n1))
+        n0 = A.shape[0]
+        An = np.zeros((n0 + 2, n0 + 2))
         An[:n0, :n0] = A
         An[n0:, :n0] = Bs @ C
         An[n0:, n0:] = As
@@ -273,6 +271,10 @@ class Gain(_S):
     unit: str
 
 
+_A0 = Annotated[float, Field(ge=1.0, le=1.0, description="a0 = 1 (scipy sos convention)")]
+SosRow = tuple[float, float, float, _A0, float, float]
+
+
 class Filter(_S):
     name: str
     input: Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c", "tau_cmd"]
@@ -283,19 +285,7 @@ class Filter(_S):
     discretization: str
     prewarp_hz: float | None = None
     continuous: dict | None = None
-    sos: list[list[float]] = Field(min_length=1)
-
-    @field_validator("sos")
-    @classmethod
-    def _sos(cls, v):
-        for i, row in enumerate(v):
-            if len(row) != 6:
-                raise ValueError(f"section {i} has {len(row)} coefficients, expected 6 [b0, b1, b2, a0, a1, a2]")
-            if not all(math.isfinite(x) for x in row):
-                raise ValueError(f"section {i} has a non-finite coefficient")
-            if row[3] != 1.0:
-                raise ValueError(f"section {i}: a0 = {row[3]!r}, expected 1 (scipy sos convention)")
-        return v
+    sos: list[SosRow] = Field(min_length=1, description="rows [b0, b1, b2, a0, a1, a2], a0 = 1, DF-II transposed")
 
 
 class ControllerSection(_S):
@@ -309,9 +299,17 @@ class SignalValues(_S):
     values: list[float]
 
 
+class GoldenInputs(_S):
+    theta_m: SignalValues
+    omega_m: SignalValues
+    tau_s: SignalValues
+    dtau_s: SignalValues
+    tau_c: SignalValues
+
+
 class Golden(_S):
     note: str | None = None
-    inputs: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], SignalValues]
+    inputs: GoldenInputs
     tau_cmd: SignalValues
 
 
@@ -327,21 +325,60 @@ class SampleRate(_S):
     unit: Literal["Hz"]
 
 
+class Positive(Quantity):
+    value: float = Field(gt=0.0)
+
+
+class NonNegative(Quantity):
+    value: float = Field(ge=0.0)
+
+
+class PlantSection(_S):
+    motor_inertia: Positive
+    motor_damping: NonNegative
+    sea_stiffness: Positive
+    joint_inertia: Positive
+    cuff_stiffness: Positive
+
+
+class DesignSection(_S):
+    amplification: Quantity
+    felt_inertia: Quantity
+    felt_damping: Quantity
+    zeta: Quantity
+    zeta_hat: Quantity
+
+
+class GainsSection(_S):
+    K1: Quantity
+    B1: Quantity
+    K2: Quantity
+    B2: Quantity
+    K2_hat: Quantity
+    B2_hat: Quantity
+    convention: str | None = None
+
+
+class CertifySection(_S):
+    humans: list[dict] = Field(default_factory=list)
+    environment: list[dict] = Field(default_factory=list)
+
+
 class ControllerFile(_S):
     """The controller file (SPEC §7). Extra keys are refused; numbers are finite."""
 
     schema_: Literal["exotune.controller/1"] = Field(alias="schema")
     sample_rate_hz: SampleRate
     delay_s: Delay
-    plant: dict[Literal["motor_inertia", "motor_damping", "sea_stiffness", "joint_inertia", "cuff_stiffness"], Quantity]
-    design: dict[str, Quantity]
-    gains: dict[str, Quantity | str]
+    plant: PlantSection
+    design: DesignSection
+    gains: GainsSection
     signals: dict[str, dict[str, str]]
     controller: ControllerSection
     dob: _Open | None = None
     gain_schedule: list | dict | None = None
     gain_schedule_note: str | None = None
-    certify: _Open
+    certify: CertifySection
     predicted: _Open
     golden: Golden
     provenance: _Open
@@ -419,24 +456,37 @@ def export_design(design_file, sample_rate_hz: float, out) -> dict:
 
     import yaml
 
-    from .config import design_from_mapping, read_yaml
+    from .config import read_yaml
     from .jsonio import write_atomic
 
-    try:
-        fs = float(sample_rate_hz)
-    except (TypeError, ValueError):
-        raise ConfigError("--sample-rate-hz", f"expected a number of Hz, got {sample_rate_hz!r}") from None
-    if not (math.isfinite(fs) and fs > 0):
-        raise ConfigError("--sample-rate-hz", f"must be a positive, finite number of Hz, got {fs:g}")
     raw = read_yaml(design_file)
-    if isinstance(raw, dict):
-        impl = raw.get("implementation")
-        raw = {**raw, "implementation": {**(impl if isinstance(impl, dict) else {}), "sample_rate_hz": fs}} \
-            if impl is None or isinstance(impl, dict) else raw
-    cfg = design_from_mapping(raw, source=str(design_file))
+    cfg = design_at_rate(raw, sample_rate_hz, str(design_file))
+    fs = float(cfg.implementation.sample_rate_hz)
     digest = hashlib.sha256(Path(design_file).read_bytes()).hexdigest()
     doc = build_export(cfg, fs, source=str(design_file), input_hash=digest)
     text = ("# exotune runtime controller file (schema exotune.controller/1, see exotune/schemas/controller.schema.json)\n"
             + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120))
     write_atomic(out, text)
     return doc
+
+
+def check_sample_rate(value, field: str = "--sample-rate-hz") -> float:
+    """A sample rate [Hz] from the command line: a positive, finite number (else ConfigError)."""
+    try:
+        fs = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(field, f"expected a number of Hz, got {value!r}") from None
+    if not (math.isfinite(fs) and fs > 0):
+        raise ConfigError(field, f"must be a positive, finite number of Hz, got {fs:g}")
+    return fs
+
+
+def design_at_rate(raw, sample_rate_hz, source: str | None = None):
+    """Validate a design mapping with ``implementation.sample_rate_hz`` set to ``sample_rate_hz``
+    (so every filter cutoff is checked against that Nyquist frequency)."""
+    from .config import design_from_mapping
+
+    fs = check_sample_rate(sample_rate_hz)
+    if isinstance(raw, dict) and (raw.get("implementation") is None or isinstance(raw.get("implementation"), dict)):
+        raw = {**raw, "implementation": {**(raw.get("implementation") or {}), "sample_rate_hz": fs}}
+    return design_from_mapping(raw, source=source)

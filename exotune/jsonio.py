@@ -90,9 +90,12 @@ def write_atomic(path, data: str | bytes) -> None:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(e, OSError) and e.errno is not None:
+            # name the destination, not the temporary file
+            raise type(e)(e.errno, e.strerror, path) from None
         raise

@@ -286,9 +286,9 @@ def plot_simulation(rep: dict) -> dict[str, bytes]:
 def load_for_simulation(path, sample_rate_hz: float | None = None) -> dict:
     """A controller file as is, or a design file exported in memory at ``sample_rate_hz`` (or at
     its own ``implementation.sample_rate_hz``)."""
-    from .config import design_from_mapping, read_yaml
+    from .config import read_yaml
     from .errors import ConfigError
-    from .export import build_export, load_controller
+    from .export import build_export, design_at_rate, load_controller
 
     raw = read_yaml(path)
     if isinstance(raw, dict) and "schema" in raw:
@@ -299,13 +299,6 @@ def load_for_simulation(path, sample_rate_hz: float | None = None) -> dict:
     if fs is None:
         raise ConfigError("--sample-rate-hz", "a design file needs a sample rate to be simulated (give "
                           "--sample-rate-hz or implementation.sample_rate_hz, or simulate an exported controller file)")
-    try:
-        fs = float(fs)
-    except (TypeError, ValueError):
-        raise ConfigError("--sample-rate-hz", f"expected a number of Hz, got {fs!r}") from None
-    if not (math.isfinite(fs) and fs > 0):
-        raise ConfigError("--sample-rate-hz", f"must be a positive, finite number of Hz, got {fs:g}")
-    if isinstance(raw, dict) and (raw.get("implementation") is None or isinstance(raw.get("implementation"), dict)):
-        raw = {**raw, "implementation": {**(raw.get("implementation") or {}), "sample_rate_hz": fs}}
-    cfg = design_from_mapping(raw, source=str(path))
+    cfg = design_at_rate(raw, fs, str(path))
+    fs = float(cfg.implementation.sample_rate_hz)
     return build_export(cfg, fs, source=str(path))
