@@ -8,6 +8,7 @@
 #          (b) dob_delay    — DOB cutoff × delay → DOB delay margin
 #          (c) cuff_inertia — cuff stiffness K_c × lightest stable human inertia
 #          (d) sample_rate  — controller sample rate × lightest stable inertia (sampled-data model)
+#          (e) pipeline     — optimize → export → certify → simulate on one design
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PYTHON="${PYTHON:-python}"
@@ -17,4 +18,6 @@ for study in alpha_delay dob_delay cuff_inertia; do
 done
 echo "== studies/sample_rate.py" >&2
 "$PYTHON" studies/sample_rate.py   # no sweep: sampled-data verdicts by bisection (seconds)
-echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate}/" >&2
+echo "== studies/pipeline.py" >&2
+"$PYTHON" studies/pipeline.py
+echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate,pipeline}/" >&2
