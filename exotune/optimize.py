@@ -343,6 +343,14 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
     }
     if not active:
         out["note"] = "no constraint is binding along the objective (metric objective): local optimum of the search"
+    if spec.cfg.implementation.sample_rate_hz is not None:
+        # the search is continuous-time (exact delay); with a sample rate, check the optimum's
+        # sampled-data loop too and say where sampling breaks what the search accepted
+        from .analysis import analyze_design
+        from .config import design_from_mapping
+
+        rep = analyze_design(design_from_mapping(optimized_design_mapping(spec, out)))
+        out["sampled_data_warnings"] = [w for w in rep.get("warnings", []) if "sampled-data" in w]
     if pareto:
         out["pareto"] = _pareto(spec, seen)
     return out
@@ -413,6 +421,9 @@ def format_optimize(r: dict) -> str:
                 lines.append(f"  {fk}: {iv}")
         else:
             lines.append(f"  {k}: {m['value']:.6g} {m['unit']}")
+    for w in r.get("sampled_data_warnings", []):
+        lines.append("  WARNING: " + w + " (the search itself is continuous-time: tighten the human ranges or the "
+                     "delay, then export and certify)")
     if "pareto" in r:
         lines.append(f"  Pareto front (objective vs robust fraction): {len(r['pareto'])} designs")
     return "\n".join(lines)

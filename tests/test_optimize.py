@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from exotune.analysis import analyze_batch, analyze_design
 from exotune.cli import cli
 from exotune.config import batch_config, design_from_mapping, load_design
-from exotune.optimize import load_optimize_spec, optimize, optimized_design_mapping
+from exotune.optimize import format_optimize, load_optimize_spec, optimize, optimized_design_mapping
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -138,3 +138,19 @@ def test_infeasible_problem_exits_1_and_writes_nothing(tmp_path):
     res = CliRunner().invoke(cli, ["optimize", str(p), "-o", str(o)])
     assert res.exit_code == 1, res.output
     assert "NO FEASIBLE DESIGN" in res.output and not o.exists()
+
+
+def test_optimum_is_checked_in_the_sampled_data_loop_when_a_rate_is_given():
+    """At 1 kHz the zero-order hold costs phase: masses just above 0.005 kg·m², robust in the
+    continuous search, are unstable in the sampled-data loop (its boundary is ≈ 0.0055 for the
+    §9 design). The result must carry the sampled-data warning of the single-design analysis."""
+    raw = _base(mass_lo=0.005, delay=0.001)
+    raw["implementation"].update(sample_rate_hz=1000.0)
+    spec = load_optimize_spec(_spec(base=raw, free={"design.amplification": [1.5, 60.0]},
+                                    constraints={}, budget=100))
+    r = optimize(spec)
+    assert r["feasible"]
+    rep = analyze_design(design_from_mapping(optimized_design_mapping(spec, r)))
+    expected = [w for w in rep["warnings"] if "sampled-data" in w]
+    assert expected and r["sampled_data_warnings"] == expected
+    assert "WARNING" in format_optimize(r)
