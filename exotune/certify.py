@@ -8,9 +8,11 @@ fractional) delay (:mod:`exotune.sampled`); a verdict at one parameter value is 
 of the sampled-data loop, |λ| < 1, the rigid-body z = 1 of an ungrounded structure excluded).
 
 Intervals of stable human parameters: verdicts at ``POINTS`` log-spaced values of each family's
-range, and every change of verdict between neighbours bisected (geometric) to 1e-10 relative. A
-stable or unstable window narrower than the grid spacing that lies strictly between two grid
-values would be missed; the report says so.
+range; between two grid values with the same verdict whose oscillatory eigenvalues come within
+``NEAR`` of the unit circle (where a narrow window of the other verdict could hide), three
+halvings add up to 7 values; every change of verdict is bisected (geometric) to 1e-10 relative. A
+window narrower than the refined spacing that lies strictly between two values would still be
+missed; the report says so.
 
 The file is **certified** when the free and the locked loops are stable, every rational human
 family is stable over its whole range, the golden vectors are reproduced by the reference runtime
@@ -23,26 +25,62 @@ import math
 
 import numpy as np
 
-from .sampled import loop_stable
+from .sampled import loop_eigenvalues, loop_stable
 
 __all__ = ["POINTS", "sampled_analysis", "certify", "format_certify"]
 
 POINTS = 96
+NEAR = 0.02  # oscillatory eigenvalues this close to |z| = 1 trigger refinement between grid values
 _BISECT = 48
 
 
-def _intervals(stable_at, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
-    vals = np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points)
-    st = [bool(stable_at(float(v))) for v in vals]
+def _margin(lam: np.ndarray) -> float:
+    """Distance to the unit circle of the oscillatory eigenvalues (|arg λ| ≥ 0.01 rad): where it
+    is small, a narrow window of the other verdict may hide between two grid values."""
+    osc = lam[np.abs(np.angle(lam)) >= 0.01]
+    return float(np.min(np.abs(np.abs(osc) - 1.0))) if osc.size else math.inf
+
+
+def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
+    """Stable intervals of one family: verdicts on a log grid, refined (3 halvings) between grid
+    values whose oscillatory eigenvalues come within ``NEAR`` of the unit circle, every change of
+    verdict bisected. ``spectrum(v)`` → loop eigenvalues at parameter value v."""
+    cache = {}
+
+    def at(v):
+        if v not in cache:
+            lam = spectrum(v)
+            rho = float(np.max(np.abs(lam))) if lam.size else 0.0
+            cache[v] = (rho < 1.0, _margin(lam))
+        return cache[v]
+
+    mid = (lambda a, b: math.sqrt(a * b)) if lo > 0 else (lambda a, b: 0.5 * (a + b))
+    vals = [float(v) for v in (np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points))]
+    grid = [vals[0]]
+    refined = 0
+    for a, b in zip(vals[:-1], vals[1:]):
+        stack = [(a, b, 3)]
+        pts = []
+        while stack:
+            x, y, depth = stack.pop()
+            (sx, mx), (sy, my) = at(x), at(y)
+            if depth and sx == sy and min(mx, my) < NEAR:
+                m = mid(x, y)
+                at(m)
+                refined += 1
+                pts.append(m)
+                stack += [(x, m, depth - 1), (m, y, depth - 1)]
+        grid += sorted(pts) + [b]
+    st = [at(v)[0] for v in grid]
     edges = []  # (position, stable after)
-    for i in range(points - 1):
+    for i in range(len(grid) - 1):
         if st[i] != st[i + 1]:
-            a, b = float(vals[i]), float(vals[i + 1])
+            a, b = grid[i], grid[i + 1]
             for _ in range(_BISECT):
                 if b - a <= 1e-10 * b:
                     break
-                m = math.sqrt(a * b) if a > 0 else 0.5 * (a + b)
-                if stable_at(m) == st[i]:
+                m = mid(a, b)
+                if at(m)[0] == st[i]:
                     a = m
                 else:
                     b = m
@@ -57,7 +95,8 @@ def _intervals(stable_at, lo: float, hi: float, points: int = POINTS) -> tuple[l
             start = None
     if start is not None:
         ivs.append([start, hi])
-    return ivs, {"points": points, "stable_points": int(sum(st))}
+    return ivs, {"points": points, "refined_points": refined,
+                 "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in set(vals)))}
 
 
 def _human_dict(fam, v: float) -> dict:
@@ -86,6 +125,7 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     ctrl = discrete_from_file(doc)
     K1 = float(doc["gains"]["K1"]["value"])
     run = lambda human=None, env="free": loop_stable(plant, ctrl, K1 != 0.0, human, env)  # noqa: E731
+    spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, K1 != 0.0, human, env)  # noqa: E731
     free, rho = run()
     locked, rho_l = run(env="locked")
     out = {
@@ -106,14 +146,14 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
                                 if fam.kind == "complex_stiffness" else "box family: certify each edge as its own family")
             out["humans"].append(entry)
             continue
-        ivs, info = _intervals(lambda v, fam=fam: run(human=_human_dict(fam, v))[0], fam.lo, fam.hi, points)
+        ivs, info = _intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points)
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
         env, _ = _in_certify(_parse_env, i, item)
         if env.kind not in ("spring", "mass"):
             continue
-        ivs, info = _intervals(lambda v, e=env: run(env={e.param: v, "damping": e.damping})[0], env.lo, env.hi, points)
+        ivs, info = _intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points)
         out["environment"].append({"kind": env.kind, "parameter": env.param,
                                    "unit": "kg·m²" if env.param == "inertia" else "N·m/rad",
                                    "range": [env.lo, env.hi], **info, "stable_intervals": ivs,
@@ -184,9 +224,10 @@ def certify(doc: dict) -> dict:
     rep["prediction_mismatches"] = mism
     rep["problems"] = problems
     rep["certified"] = not problems
-    rep["method"] = (f"exact sampled-data eigenvalues at {POINTS} log-spaced values per family, every verdict change "
-                     "bisected to 1e-10 relative (a window narrower than the grid spacing between two grid values "
-                     "would be missed); hysteretic humans are not rational and are skipped")
+    rep["method"] = (f"exact sampled-data eigenvalues at {POINTS} log-spaced values per family, refined 8× between "
+                     f"values whose oscillatory eigenvalues are within {NEAR} of the unit circle, every verdict "
+                     "change bisected to 1e-10 relative (a window narrower than the refined spacing between two "
+                     "values would be missed); hysteretic humans are not rational and are skipped")
     return rep
 
 

@@ -35,7 +35,7 @@ import scipy.linalg
 import scipy.signal
 
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
-           "closed_loop_matrix", "sampled_stable"]
+           "closed_loop_matrix", "sampled_stable", "loop_stable", "loop_eigenvalues"]
 
 # sampled signals the controller may use (order of the plant's output vector)
 Measured = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
@@ -299,9 +299,17 @@ def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, 
 def loop_stable(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,
                 env: str | dict = "free", rigid_tol: float = 1e-7) -> tuple[bool, float]:
     """(stable, spectral radius) of the discrete controller ``ctrl`` on the plant (+ human,
-    + environment); one eigenvalue at z = 1 (the rigid-body mode, |λ − 1| ≤ rigid_tol) is removed
-    when nothing grounds the structure (no position feedback K1, no human or environment
-    stiffness, not locked), as in the continuous analysis."""
+    + environment); see :func:`loop_eigenvalues`."""
+    lam = loop_eigenvalues(plant, ctrl, position_feedback, human, env, rigid_tol)
+    rho = float(np.max(np.abs(lam))) if lam.size else 0.0
+    return rho < 1.0, rho
+
+
+def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,
+                     env: str | dict = "free", rigid_tol: float = 1e-7) -> np.ndarray:
+    """Eigenvalues of the sampled-data loop; one eigenvalue at z = 1 (the rigid-body mode,
+    |λ − 1| ≤ rigid_tol) is removed when nothing grounds the structure (no position feedback K1,
+    no human or environment stiffness, not locked), as in the continuous analysis."""
     A, B, C = plant_ss(plant, human, env)
     lam = np.linalg.eigvals(closed_loop_matrix(A, B, C, ctrl))
     grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
@@ -310,8 +318,7 @@ def loop_stable(plant, ctrl: DiscreteController, position_feedback: bool, human:
         i = int(np.argmin(np.abs(lam - 1.0)))
         if abs(lam[i] - 1.0) <= rigid_tol:
             lam = np.delete(lam, i)
-    rho = float(np.max(np.abs(lam))) if lam.size else 0.0
-    return rho < 1.0, rho
+    return lam
 
 
 def default_prewarp(impl) -> dict:

@@ -233,3 +233,27 @@ def test_sampled_analysis_is_deterministic_and_uses_the_file_only(paper_doc):
     a = sampled_analysis(doc)
     b = sampled_analysis(yaml.safe_load(yaml.safe_dump(doc, allow_unicode=True)))
     assert a == b
+
+
+def test_certify_refinement_finds_a_narrow_window_between_grid_values(monkeypatch):
+    """A synthetic loop whose oscillatory pair leaves the unit circle only in a window ~2 % wide,
+    centred between two grid values (grid spacing ≈ 7.5 %): the plain grid misses it, the
+    near-circle refinement finds it and the bisection pins its ends."""
+    from exotune import certify as C
+
+    lo, hi = 1e-3, 1.0
+    grid = np.geomspace(lo, hi, C.POINTS)
+    w0 = math.sqrt(grid[40] * grid[41])
+
+    def spectrum(v):
+        r = 1.005 - 0.5 * abs(math.log(v / w0))
+        return np.array([r * np.exp(0.5j), r * np.exp(-0.5j), 0.3])
+
+    ivs, info = C._intervals(spectrum, lo, hi)
+    e = 0.01  # |log(v/w0)| where r = 1
+    assert len(ivs) == 2 and info["refined_points"] > 0
+    assert ivs[0][1] == pytest.approx(w0 * math.exp(-e), rel=1e-8)
+    assert ivs[1][0] == pytest.approx(w0 * math.exp(e), rel=1e-8)
+    monkeypatch.setattr(C, "NEAR", 0.0)
+    ivs0, _ = C._intervals(spectrum, lo, hi)
+    assert ivs0 == [[lo, hi]]  # without the refinement the window is missed
