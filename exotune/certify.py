@@ -161,6 +161,12 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     return out
 
 
+def _golden_ok(out: np.ndarray, ref: np.ndarray) -> bool:
+    """True when runtime outputs reproduce golden outputs (1e-9 of their scale)."""
+    scale = float(np.max(np.abs(ref))) if ref.size else 1.0
+    return bool(np.max(np.abs(out - ref)) <= 1e-9 * max(scale, 1.0)) if ref.size else True
+
+
 def _same_intervals(a: list, b: list, rtol: float = 1e-6) -> bool:
     if len(a) != len(b):
         return False
@@ -185,9 +191,15 @@ def certify(doc: dict) -> dict:
     else:
         out = Runtime(doc).run(ins)
         err = float(np.max(np.abs(out - ref))) if ref.size else 0.0
-        scale = float(np.max(np.abs(ref))) if ref.size else 1.0
-        if not err <= 1e-9 * max(scale, 1.0):
+        if not _golden_ok(out, ref):
             problems.append(f"the reference runtime does not reproduce the golden vectors (max error {err:.3g} N·m)")
+        for e in (doc.get("gain_schedule") or {}).get("entries", []):
+            from .export import schedule_entry_doc
+
+            ref_e = np.asarray(e["golden_tau_cmd"]["values"], float)
+            if ref_e.size != ref.size or not _golden_ok(Runtime(schedule_entry_doc(doc, e)).run(ins), ref_e):
+                problems.append("the reference runtime does not reproduce the golden vectors of the gain schedule "
+                                f"entry at {e['joint_angle_rad']:g} rad")
     rep["golden"] = {"samples": int(ref.size), "max_abs_error": {"value": err, "unit": "N·m"}}
     sa = sampled_analysis(doc)
     rep["sampled"] = sa
@@ -201,8 +213,27 @@ def certify(doc: dict) -> dict:
         if not h["robust"]:
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
                             f"stable only in {_fmt_ivs(h['stable_intervals'])}")
-    pred = (doc.get("predicted") or {}).get("sampled")
     mism = []
+    sched = doc.get("gain_schedule")
+    if sched:
+        from .export import schedule_entry_doc
+
+        rep["gain_schedule"] = []
+        for e in sched["entries"]:
+            sa_e = sampled_analysis(schedule_entry_doc(doc, e))
+            bad = [f"{h['kind']} {h['parameter']}" for h in sa_e["humans"] + sa_e["environment"]
+                   if "skipped" not in h and not h["robust"]]
+            bad += [k for k in ("free_stable", "locked_stable") if not sa_e[k]]
+            rep["gain_schedule"].append({"joint_angle_rad": e["joint_angle_rad"], "ratio": e["ratio"],
+                                         "robust": not bad, "not_robust": bad, "sampled": sa_e})
+            if bad:
+                problems.append(f"gain schedule at joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
+                                f"not stable for {', '.join(bad)}")
+            p_e = e.get("predicted_sampled") or {}
+            for j, (p, h) in enumerate(zip(p_e.get("humans") or [], sa_e["humans"])):
+                if "stable_intervals" in h and not _same_intervals(p.get("stable_intervals") or [], h["stable_intervals"]):
+                    mism.append(f"gain_schedule[{e['joint_angle_rad']:g} rad].humans[{j}].stable_intervals")
+    pred = (doc.get("predicted") or {}).get("sampled")
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the file names no rational human family to certify against (certify.humans)")
     if isinstance(pred, dict):
@@ -245,6 +276,9 @@ def format_certify(rep: dict) -> str:
              f"{sa['free_spectral_radius']:.9f})",
              f"  locked joint:     {'stable' if sa['locked_stable'] else 'UNSTABLE'} (spectral radius "
              f"{sa['locked_spectral_radius']:.9f})"]
+    for e in rep.get("gain_schedule", []):
+        lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
+                     + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
     for h in sa["humans"] + sa["environment"]:
         head = f"  {h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
         if "skipped" in h:

@@ -288,12 +288,39 @@ class ImplementationIn(_Strict):
         return v
 
 
+class TransmissionIn(_Strict):
+    """Joint-angle dependent transmission (paper §VI gain scheduling): at ``joint_angle_rad[i]``
+    the transmission Jacobian is ``ratio[i]`` times the one the plant section is reflected with,
+    so the joint-reflected motor inertia, motor damping and SEA stiffness scale with ratio²."""
+
+    joint_angle_rad: list[Real]
+    ratio: list[Pos]
+
+    @field_validator("joint_angle_rad")
+    @classmethod
+    def _angles(cls, v):
+        if len(v) < 2:
+            raise ValueError(f"at least two joint angles are needed for a schedule, got {len(v)}")
+        if any(b <= a for a, b in zip(v, v[1:])):
+            raise ValueError("joint angles must be strictly increasing")
+        return v
+
+    @field_validator("ratio")
+    @classmethod
+    def _ratios(cls, v, info):
+        n = len(info.data.get("joint_angle_rad") or [])
+        if n and len(v) != n:
+            raise ValueError(f"one ratio per joint angle: {n} angle(s), {len(v)} ratio(s)")
+        return v
+
+
 class DesignFileIn(_Strict):
     plant: PlantIn
     design: DesignIn
     implementation: Optional[ImplementationIn] = None
     humans: Optional[list[Any]] = None
     environment: Optional[list[Any]] = None
+    transmission: Optional[TransmissionIn] = None
 
 
 class HumanMassIn(_Strict):
@@ -649,6 +676,8 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
         "humans": humans_raw,
         "environment": envs_raw,
     }
+    if top.transmission is not None:  # only when given, so that existing spec hashes are unchanged
+        raw["transmission"] = top.transmission.model_dump()
     return DesignConfig(plant, design, _implementation(impl_in), tuple(humans), tuple(envs), raw, source)
 
 

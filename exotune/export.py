@@ -164,6 +164,49 @@ def _controller_section(cfg, fs: float) -> tuple[dict, list[dict]]:
     return gains, filters
 
 
+def reflected_mapping(raw: dict, ratio: float) -> dict:
+    """The design mapping at transmission ratio ``ratio`` (J_m, B_m, K_s × ratio²), without the
+    transmission section."""
+    import copy
+
+    r = copy.deepcopy(raw)
+    r.pop("transmission", None)
+    for k in ("motor_inertia", "motor_damping", "sea_stiffness"):
+        r["plant"][k] = float(r["plant"][k]) * ratio * ratio
+    return r
+
+
+def _gain_schedule(cfg, fs: float, doc: dict) -> dict:
+    from .certify import sampled_analysis
+    from .config import design_from_mapping
+    from .controller import build_controller
+
+    tr = cfg.raw["transmission"]
+    units = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)", "B2_hat": "s"}
+    entries = []
+    for angle, ratio in zip(tr["joint_angle_rad"], tr["ratio"]):
+        cfg_i = design_from_mapping(reflected_mapping(cfg.raw, ratio))
+        cs, _ = build_controller(cfg_i.plant, cfg_i.design, cfg_i.implementation)
+        gains_sig, filters = _controller_section(cfg_i, fs)
+        g = lambda x: float(np.ravel(x)[0])  # noqa: E731
+        entry = {
+            "joint_angle_rad": float(angle),
+            "ratio": float(ratio),
+            "plant": {k: _q(v, _PLANT_UNITS[k]) for k, v in cfg_i.raw["plant"].items()},
+            "gains": {k: _q(g(getattr(cs.gains, k)), u) for k, u in units.items()},
+            "controller": {"gains": gains_sig, "filters": filters},
+        }
+        entry["predicted_sampled"] = sampled_analysis(schedule_entry_doc(doc, entry))
+        entries.append(entry)
+    return {"variable": "joint_angle_rad", "unit": "rad", "entries": entries}
+
+
+def schedule_entry_doc(doc: dict, entry: dict) -> dict:
+    """The controller-file view of one gain-schedule entry (its plant, gains and controller)."""
+    return {**doc, "plant": entry["plant"], "gains": entry["gains"],
+            "controller": {**doc["controller"], **entry["controller"]}}
+
+
 def _predicted(cfg) -> dict:
     """The continuous SPEC §5 metrics of the design (exotune.analysis), with units."""
     from .analysis import analyze_design
@@ -231,12 +274,22 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         "gain_schedule": None,
         "gain_schedule_note": ("no transmission model in the design file: the gains are constant over the joint "
                                "angle"),
+        "transmission": raw.get("transmission"),
         "certify": {"humans": raw["humans"], "environment": raw["environment"]},
     }
     doc["predicted"] = {"continuous": _predicted(cfg)}
     doc["predicted"]["sampled"] = sampled_analysis(doc)
+    if raw.get("transmission"):
+        doc["gain_schedule"] = _gain_schedule(cfg, fs, doc)
+        doc["gain_schedule_note"] = (
+            "paper §VI: the gains are recomputed from the joint-reflected J_m, B_m, K_s at each scheduled joint angle "
+            "(transmission ratio r: J_m, B_m, K_s scale with r²), so the compliance the human feels stays the "
+            "same; each entry is a complete controller, certified frozen at its angle (LTI) — the time-varying "
+            "schedule itself has no stability guarantee (paper); the reference runtime uses the nearest entry")
     ins = _golden_inputs(fs=fs)
     out = Runtime(doc).run(ins)
+    for e in (doc["gain_schedule"] or {}).get("entries", []):
+        e["golden_tau_cmd"] = {"unit": "N·m", "values": [float(x) for x in Runtime(schedule_entry_doc(doc, e)).run(ins)]}
     doc["golden"] = {"note": "reference-runtime outputs (exotune.runtime) for these inputs from the zero state",
                      "inputs": {s: {"unit": SIGNAL_UNITS[s], "values": [float(x) for x in v]} for s, v in ins.items()},
                      "tau_cmd": {"unit": "N·m", "values": [float(x) for x in out]}}
@@ -364,6 +417,32 @@ class CertifySection(_S):
     environment: list[dict] = Field(default_factory=list)
 
 
+class ScheduleController(_S):
+    gains: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], Gain]
+    filters: list[Filter]
+
+
+class ScheduleEntry(_S):
+    joint_angle_rad: float
+    ratio: float = Field(gt=0.0)
+    plant: PlantSection
+    gains: GainsSection
+    controller: ScheduleController
+    predicted_sampled: _Open
+    golden_tau_cmd: SignalValues
+
+
+class GainSchedule(_S):
+    variable: Literal["joint_angle_rad"]
+    unit: Literal["rad"]
+    entries: list[ScheduleEntry] = Field(min_length=1)
+
+
+class Transmission(_S):
+    joint_angle_rad: list[float]
+    ratio: list[float]
+
+
 class ControllerFile(_S):
     """The controller file (SPEC §7). Extra keys are refused; numbers are finite."""
 
@@ -376,8 +455,9 @@ class ControllerFile(_S):
     signals: dict[str, dict[str, str]]
     controller: ControllerSection
     dob: _Open | None = None
-    gain_schedule: list | dict | None = None
+    gain_schedule: GainSchedule | None = None
     gain_schedule_note: str | None = None
+    transmission: Transmission | None = None
     certify: CertifySection
     predicted: _Open
     golden: Golden

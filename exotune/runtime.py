@@ -55,8 +55,13 @@ class SosFilter:
 class Runtime:
     """Steps the controller of a validated controller-file mapping (see the module docstring)."""
 
-    def __init__(self, doc: dict, limit_nm: float | None = None):
+    def __init__(self, doc: dict, limit_nm: float | None = None, joint_angle_rad: float | None = None):
         c = doc["controller"]
+        sched = doc.get("gain_schedule")
+        if joint_angle_rad is not None and sched:
+            # the scheduled controller of the nearest joint angle (entries are complete controllers)
+            e = min(sched["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle_rad))
+            c = {**c, **e["controller"]}
         self.limit_nm = limit_nm  # optional torque limit: the command is clamped before the DOB sees it
         self.sample_rate_hz = float(doc["sample_rate_hz"]["value"])
         self.delay_s = float(doc["delay_s"]["value"])

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from pathlib import Path
 
@@ -257,3 +258,88 @@ def test_certify_refinement_finds_a_narrow_window_between_grid_values(monkeypatc
     monkeypatch.setattr(C, "NEAR", 0.0)
     ivs0, _ = C._intervals(spectrum, lo, hi)
     assert ivs0 == [[lo, hi]]  # without the refinement the window is missed
+
+
+def _scheduled(ratios=(0.8, 1.0, 1.3), mass_lo=0.01):
+    raw = copy.deepcopy(load_design(PAPER).raw)
+    raw["implementation"]["sample_rate_hz"] = 1000.0
+    raw["humans"] = [{"kind": "mass", "inertia": [mass_lo, 1.0], "damping": 0.0}]
+    raw["transmission"] = {"joint_angle_rad": [0.4 * i for i in range(len(ratios))], "ratio": list(ratios)}
+    return raw, build_export(design_from_mapping(raw), 1000.0)
+
+
+def test_gain_schedule_recomputes_gains_from_the_reflected_plant():
+    from exotune.shaping import double_compliance_shaping
+
+    raw, doc = _scheduled()
+    cfg = design_from_mapping({k: v for k, v in raw.items() if k != "transmission"})
+    for e in doc["gain_schedule"]["entries"]:
+        r2 = e["ratio"] ** 2
+        plant = dataclasses.replace(cfg.plant, motor_inertia=cfg.plant.J_m * r2, motor_damping=cfg.plant.B_m * r2,
+                                    sea_stiffness=cfg.plant.K_s * r2)
+        g = double_compliance_shaping(plant, cfg.design).gains
+        for k in ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat"):
+            assert e["gains"][k]["value"] == pytest.approx(float(np.ravel(getattr(g, k))[0]), rel=1e-12, abs=1e-15)
+        assert e["plant"]["sea_stiffness"]["value"] == pytest.approx(cfg.plant.K_s * r2)
+    nominal = next(e for e in doc["gain_schedule"]["entries"] if e["ratio"] == 1.0)
+    assert nominal["controller"]["filters"] == doc["controller"]["filters"]
+    assert nominal["controller"]["gains"] == doc["controller"]["gains"]
+
+
+def test_runtime_follows_the_schedule_and_certify_checks_every_entry():
+    from exotune.export import schedule_entry_doc
+
+    raw, doc = _scheduled(ratios=(1.0, 2.0), mass_lo=0.006)
+    ins = {s: np.asarray(v["values"]) for s, v in doc["golden"]["inputs"].items()}
+    e2 = doc["gain_schedule"]["entries"][1]
+    a = Runtime(doc, joint_angle_rad=0.35).run(ins)  # nearest entry: 0.4 rad, ratio 2
+    b = Runtime(schedule_entry_doc(doc, e2)).run(ins)
+    np.testing.assert_array_equal(a, b)
+    assert np.max(np.abs(a - Runtime(doc).run(ins))) > 1e-3 * np.max(np.abs(a))
+    rep = certify(doc)
+    # nominal robust, the ratio-2 entry not: the schedule entry is what fails certification
+    assert rep["sampled"]["humans"][0]["robust"]
+    assert [e["robust"] for e in rep["gain_schedule"]] == [True, False]
+    assert not rep["certified"] and any("gain schedule at joint angle 0.4" in p for p in rep["problems"])
+    # an entry edited by hand no longer matches its prediction
+    bad = copy.deepcopy(doc)
+    bad["gain_schedule"]["entries"][0]["controller"]["gains"]["tau_s"]["gain"] *= 0.7
+    rep_bad = certify(bad)
+    assert not rep_bad["certified"] and any("gain schedule entry at 0 rad" in p for p in rep_bad["problems"])
+
+
+def test_scheduled_file_validates_against_the_shipped_schema():
+    jsonschema = pytest.importorskip("jsonschema")
+    import json
+
+    from exotune.export import schema_path
+
+    _, doc = _scheduled(ratios=(0.9, 1.1))
+    jsonschema.validate(json.loads(json.dumps(doc)), json.loads(schema_path().read_text()))
+
+
+@pytest.mark.parametrize("tr, field", [
+    ({"joint_angle_rad": [0.0, 1.0, 1.0], "ratio": [1, 1, 1]}, "transmission.joint_angle_rad"),
+    ({"joint_angle_rad": [0.0, 1.0], "ratio": [1.0]}, "transmission.ratio"),
+    ({"joint_angle_rad": [0.0, 1.0], "ratio": [1.0, 0.0]}, "transmission.ratio[1]"),
+    ({"joint_angle_rad": [0.0], "ratio": [1.0]}, "transmission.joint_angle_rad"),
+    ({"joint_angle_rad": [0.0, 1.0], "ratio": [1.0, 1.0], "jacobian": 2}, "transmission.jacobian"),
+])
+def test_transmission_section_is_validated(tr, field):
+    from exotune.errors import ConfigError
+
+    raw = copy.deepcopy(load_design(PAPER).raw)
+    raw["transmission"] = tr
+    with pytest.raises(ConfigError) as e:
+        design_from_mapping(raw)
+    assert e.value.field == field
+
+
+def test_no_transmission_keeps_the_mapping_and_its_hash():
+    from exotune.config import hash_mapping
+
+    cfg = load_design(PAPER)
+    assert "transmission" not in cfg.raw  # sweep spec hashes of existing runs are unchanged
+    raw = copy.deepcopy(cfg.raw)
+    raw["transmission"] = {"joint_angle_rad": [0.0, 1.0], "ratio": [1.0, 1.1]}
+    assert hash_mapping(design_from_mapping(raw).raw) != hash_mapping(cfg.raw)
