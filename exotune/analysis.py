@@ -40,10 +40,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .controller import ControllerStructure, build_controller
-from .humans import EnvModel, HumanFamily, family_split
+from .humans import HumanFamily, family_split
 from .model import Plant
-from .poly import as_poly, degree, leading, padd, pmul, pscale, psub, pval, pval_flat, strip_common_low_zeros
-from .quasipoly import QP, adaptive_leaves, bisect_roots, count_rhp, leaves_pair, log_grid, omega_max
+from .poly import as_poly, degree, leading, padd, pmul, pscale, psub, pval_flat, strip_common_low_zeros
+from .quasipoly import QP, bisect_roots, count_rhp, leaves_pair, log_grid, omega_max
 
 __all__ = [
     "CharTerms",
@@ -297,7 +297,6 @@ class _Side:
 
     def compute_leaves(self, z0, extra_wmax=None):
         D0, D1 = self.group_functions(z0)
-        Nd = D0.n
         # the functions' own tail bound (always: a group may have no family, e.g. the z0 = 0 group
         # that passivity uses), then every member family's range envelope
         wmax = np.maximum(omega_max(D0.p0, D0.p1), omega_max(D1.p0, D1.p1))

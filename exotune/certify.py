@@ -8,9 +8,9 @@ fractional) delay (:mod:`exotune.sampled`); a verdict at one parameter value is 
 of the sampled-data loop, |λ| < 1, the rigid-body z = 1 of an ungrounded structure excluded).
 
 Intervals of stable human parameters: verdicts at ``POINTS`` log-spaced values of each family's
-range; between two grid values with the same verdict whose oscillatory eigenvalues come within
-``NEAR`` of the unit circle (where a narrow window of the other verdict could hide), three
-halvings add up to 7 values; every change of verdict is bisected (geometric) to 1e-10 relative. A
+range; between two grid values with the same verdict where an oscillatory eigenvalue is lightly
+damped (|ζ| < ``NEAR``, ζ = −Re ln λ/|ln λ|: where a narrow window of the other verdict could
+hide), three halvings add up to 7 values; every change of verdict is bisected (geometric) to 1e-10 relative. A
 window narrower than the refined spacing that lies strictly between two values would still be
 missed; the report says so.
 
@@ -30,21 +30,25 @@ from .sampled import loop_eigenvalues, loop_stable
 __all__ = ["POINTS", "sampled_analysis", "certify", "format_certify"]
 
 POINTS = 96
-NEAR = 0.02  # oscillatory eigenvalues this close to |z| = 1 trigger refinement between grid values
+NEAR = 0.05  # |damping ratio| of an oscillatory eigenvalue below which the grid is refined
 _BISECT = 48
 
 
 def _margin(lam: np.ndarray) -> float:
-    """Distance to the unit circle of the oscillatory eigenvalues (|arg λ| ≥ 0.01 rad): where it
-    is small, a narrow window of the other verdict may hide between two grid values."""
-    osc = lam[np.abs(np.angle(lam)) >= 0.01]
-    return float(np.min(np.abs(np.abs(osc) - 1.0))) if osc.size else math.inf
+    """Smallest |damping ratio| ζ = −Re ln λ / |ln λ| of the oscillatory eigenvalues
+    (|arg λ| ≥ 0.01 rad): a lightly damped mode (|ζ| small) can change sign inside a narrow window
+    of the parameter, so the grid is refined around it."""
+    osc = lam[(np.abs(np.angle(lam)) >= 0.01) & (lam != 0)]
+    if not osc.size:
+        return math.inf
+    ln = np.log(osc)
+    return float(np.min(np.abs(ln.real) / np.abs(ln)))
 
 
 def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
     """Stable intervals of one family: verdicts on a log grid, refined (3 halvings) between grid
-    values whose oscillatory eigenvalues come within ``NEAR`` of the unit circle, every change of
-    verdict bisected. ``spectrum(v)`` → loop eigenvalues at parameter value v."""
+    values with a lightly damped oscillatory eigenvalue (:func:`_margin` < ``NEAR``), every change
+    of verdict bisected. ``spectrum(v)`` → loop eigenvalues at parameter value v."""
     cache = {}
 
     def at(v):
@@ -256,7 +260,7 @@ def certify(doc: dict) -> dict:
     rep["problems"] = problems
     rep["certified"] = not problems
     rep["method"] = (f"exact sampled-data eigenvalues at {POINTS} log-spaced values per family, refined 8× between "
-                     f"values whose oscillatory eigenvalues are within {NEAR} of the unit circle, every verdict "
+                     f"values with a lightly damped oscillatory eigenvalue (|ζ| < {NEAR}), every verdict "
                      "change bisected to 1e-10 relative (a window narrower than the refined spacing between two "
                      "values would be missed); hysteretic humans are not rational and are skipped")
     return rep

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .poly import degree, leading, pder, pval_flat
+from .poly import degree, leading, pder
 
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
 

@@ -188,7 +188,7 @@ def double_compliance_shaping(plant: Plant, design: DesignParams) -> DoubleShapi
     B_m_hat = a * np.asarray(design.felt_damping, dtype=float)
     zeta = np.asarray(design.zeta, dtype=float)
     zeta_hat = np.asarray(design.zeta_hat, dtype=float)
-    K_s, J_m, K_c = plant.K_s, plant.J_m, plant.K_c
+    K_s, K_c = plant.K_s, plant.K_c
     K2t = K_s / J_m_hat
     shape = SeaShape(
         K1_tilde=np.zeros(np.broadcast(K2t, B_m_hat).shape),

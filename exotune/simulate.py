@@ -30,7 +30,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .runtime import Runtime
-from .sampled import Measured
 
 __all__ = ["Nonlinearities", "Scenario", "SCENARIOS", "simulate", "run_scenario", "format_simulation"]
 
@@ -175,7 +174,7 @@ def _summary(sim: dict, sc: Scenario, alpha: float) -> dict:
     t = s["t"]
     n = t.size
     out = {"samples": int(n), "duration_s": {"value": float(t[-1]) if n else 0.0, "unit": "s"},
-           "diverged": bool(n < int(round(sc.duration_s * sim["sample_rate_hz"]))) }
+           "diverged": bool(n < int(round(sc.duration_s * sim["sample_rate_hz"])))}
     tail = slice(int(0.8 * n), n)
     if sc.locked and n:
         tc = float(np.mean(s["tau_c"][tail]))
@@ -188,7 +187,6 @@ def _summary(sim: dict, sc: Scenario, alpha: float) -> dict:
                                       "unit": "1 (relative)"}
     w = s["theta_h"] - s["theta_j"]
     a0 = float(np.max(np.abs(w[: max(1, n // 5)]))) if n else 0.0
-    a1 = float(np.max(np.abs(w[tail]) - 0 * w[tail])) if n else 0.0
     if not sc.locked and sc.push_nm == 0 and n:
         w_ac = w[tail] - np.mean(w[tail])
         out["cuff_oscillation_start_rad"] = {"value": a0, "unit": "rad"}
@@ -196,7 +194,6 @@ def _summary(sim: dict, sc: Scenario, alpha: float) -> dict:
         out["oscillation_decays"] = bool(np.max(np.abs(w_ac)) < 0.1 * a0)
     out["peak_motor_torque"] = {"value": float(np.max(np.abs(s["tau_m"]))) if n else 0.0, "unit": "N·m"}
     out["peak_command"] = {"value": float(np.max(np.abs(s["tau_cmd"]))) if n else 0.0, "unit": "N·m"}
-    del a1
     return out
 
 

@@ -40,7 +40,6 @@ def extra(df, manifest, out: Path) -> None:
 
     dm = df["dob_delay_margin_s"].to_numpy(float) * 1e3
     pm = df["dob_phase_margin_deg"].to_numpy(float)
-    gm = df["dob_gain_margin_db"].to_numpy(float)
     # a DOB loop that is already unstable has no delay margin: exotune reports dob_stable = False
     # and a 0 s margin for it (shown masked here)
     dob_unstable = ~df["dob_stable"].to_numpy(bool)

@@ -237,9 +237,9 @@ def test_sampled_analysis_is_deterministic_and_uses_the_file_only(paper_doc):
 
 
 def test_certify_refinement_finds_a_narrow_window_between_grid_values(monkeypatch):
-    """A synthetic loop whose oscillatory pair leaves the unit circle only in a window ~2 % wide,
-    centred between two grid values (grid spacing ≈ 7.5 %): the plain grid misses it, the
-    near-circle refinement finds it and the bisection pins its ends."""
+    """A synthetic loop whose lightly damped oscillatory pair leaves the unit circle only in a
+    window ~2 % wide, centred between two grid values (grid spacing ≈ 7.5 %): the plain grid misses
+    it, the refinement around lightly damped modes finds it and the bisection pins its ends."""
     from exotune import certify as C
 
     lo, hi = 1e-3, 1.0

@@ -10,7 +10,7 @@ from exotune import _fastphase
 from exotune.analysis import _Counter, _Side, amplification_qps, char_terms
 from exotune.config import batch_config, load_design
 from exotune.controller import build_controller
-from exotune.quasipoly import MAX_LEVELS, ARG_STEP, DER_STEP, QP, _phase_sums, count_rhp, log_grid, omega_max
+from exotune.quasipoly import QP, _phase_sums, count_rhp, log_grid, omega_max
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
 

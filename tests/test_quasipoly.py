@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 
-import control
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings

@@ -2,7 +2,6 @@
 identities at zero delay, and the delay enters only through H1 (exactly)."""
 
 import numpy as np
-import pytest
 
 from exotune.model import Plant
 from exotune.shaping import DesignParams, double_compliance_shaping, table_ii
