@@ -1278,6 +1278,11 @@ def analyze_design(cfg) -> dict:
                     vals = ", ".join(f"{d['value']:.4g}" for d in h["disagreements"][:6])
                     warnings.append(f"at {fs:g} Hz the sampled-data loop disagrees with the continuous {side} {h['kind']} "
                                     f"intervals at {h['parameter']} = {vals}" + (" …" if len(h["disagreements"]) > 6 else ""))
+    schedule = _schedule_check(cfg) if cfg.raw.get("transmission") else None
+    for e in schedule or []:
+        if not e["robust"]:
+            warnings.append(f"at joint angle {e['joint_angle_rad']:g} rad (transmission ratio {e['ratio']:g}) the "
+                            f"rescheduled design is not robust: {', '.join(e['not_robust'])}")
     if not bool(cols["passivity_conclusive"][0]):
         warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis)")
     if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
@@ -1310,9 +1315,34 @@ def analyze_design(cfg) -> dict:
         },
         "J_m_hat_over_J_j": ratio,
         "sampled_data": sampled,
+        "gain_schedule": schedule,
         "metric_units": METRIC_UNITS,
         "warnings": warnings,
     }
+
+
+def _schedule_check(cfg) -> list[dict]:
+    """Continuous analysis of the design rescheduled at every joint angle of its ``transmission``
+    section (paper §VI: J_m, B_m, K_s × ratio², gains recomputed; one batch over the angles)."""
+    tr = cfg.raw["transmission"]
+    r2 = np.asarray(tr["ratio"], float) ** 2
+    g = lambda x: float(np.ravel(x)[0])  # noqa: E731
+    from .config import batch_config
+
+    cols = analyze_batch(batch_config(cfg, {"plant.motor_inertia": g(cfg.plant.J_m) * r2,
+                                            "plant.motor_damping": g(cfg.plant.B_m) * r2,
+                                            "plant.sea_stiffness": g(cfg.plant.K_s) * r2}))
+    fams = [k[: -len("_robust")] for k in cols if k.startswith(("human", "env")) and k.endswith("_robust")]
+    out = []
+    for i, (angle, ratio) in enumerate(zip(tr["joint_angle_rad"], tr["ratio"])):
+        bad = [k for k in fams if not bool(cols[f"{k}_robust"][i])]
+        bad += [k for k in ("free_stable", "locked_stable") if not bool(cols[k][i])]
+        bad += [k for k in cols if k.startswith("env") and k.endswith("_stable") and not bool(cols[k][i])]
+        out.append({"joint_angle_rad": float(angle), "ratio": float(ratio), "robust": not bad, "not_robust": bad,
+                    "gains": {k: float(cols[k][i]) for k in GAIN_NAMES},
+                    "human_stable_intervals": {k: cols[f"{k}_stable_intervals"][i] for k in fams
+                                               if f"{k}_stable_intervals" in cols}})
+    return out
 
 
 def _fmt_iv(iv, unit):
@@ -1374,6 +1404,10 @@ def format_report(r: dict) -> str:
     a = r["amplification"]
     L.append(f"Amplification C6/C5: DC {a['dc']:.6g}, -3 dB bandwidth {a['bandwidth_hz']:.4g} Hz, minimum phase {yn(a['minimum_phase'])}")
     L.append(f"J_m_hat / J_j = {r['J_m_hat_over_J_j']:.4g}")
+    for e in r.get("gain_schedule") or []:
+        L.append(f"Gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
+                 + ("robust" if e["robust"] else "NOT robust: " + ", ".join(e["not_robust"]))
+                 + f"; K2 = {e['gains']['K2']:.6g}, B2 = {e['gains']['B2']:.6g} s")
     sd = r.get("sampled_data")
     if sd:
         L.append(f"Sampled-data check at {sd['sample_rate_hz']:g} Hz ({sd['method']}):")

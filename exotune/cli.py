@@ -763,14 +763,23 @@ def certify_cmd(ctx, controller_file, as_json):
               help="Sample rate for a design file (default: its implementation.sample_rate_hz).")
 @click.option("--human-inertia", "human_inertia", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="KGM2", help="Human inertia [kg·m²] instead of the scenario's.")
+@click.option("--joint-angle", "joint_angle", type=float, default=None, metavar="RAD",
+              help="Run the gain-schedule entry (plant and controller) nearest this joint angle [rad].")
 @click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write time-series plots (PNG) to DIR.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (summary, no time series).")
-def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, plots_dir, as_json):
+def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, joint_angle, plots_dir, as_json):
     """Nonlinear time-domain run of the runtime controller on the plant (friction, backlash,
     saturation; SPEC §8)."""
     from .simulate import format_simulation, load_for_simulation, plot_simulation, run_scenario
 
     doc = load_for_simulation(input_file, sample_rate_hz)
+    if joint_angle is not None:
+        from .export import schedule_entry_doc
+
+        if not doc.get("gain_schedule"):
+            raise ConfigError("--joint-angle", "the controller has no gain schedule (no transmission section)")
+        e = min(doc["gain_schedule"]["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle))
+        doc = schedule_entry_doc(doc, e)
     rep = run_scenario(doc, scenario, human_inertia=human_inertia)
     if plots_dir is not None:
         files = plot_simulation(rep)

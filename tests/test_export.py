@@ -343,3 +343,21 @@ def test_no_transmission_keeps_the_mapping_and_its_hash():
     raw = copy.deepcopy(cfg.raw)
     raw["transmission"] = {"joint_angle_rad": [0.0, 1.0], "ratio": [1.0, 1.1]}
     assert hash_mapping(design_from_mapping(raw).raw) != hash_mapping(cfg.raw)
+
+
+def test_analyze_checks_every_scheduled_angle_like_export():
+    """analyze's continuous check of the schedule (one batch over the angles) agrees with the
+    single-design analysis of each reflected design, and its gains with the export's entries."""
+    from exotune.export import reflected_mapping
+
+    raw = copy.deepcopy(load_design(PAPER).raw)
+    raw["humans"] = [{"kind": "mass", "inertia": [0.0048, 1.0], "damping": 0.0}]
+    raw["transmission"] = {"joint_angle_rad": [0.0, 1.0, 2.0], "ratio": [0.5, 1.0, 2.0]}
+    rep = analyze_design(design_from_mapping(raw))
+    assert len(rep["gain_schedule"]) == 3
+    for e in rep["gain_schedule"]:
+        single = analyze_design(design_from_mapping(reflected_mapping(raw, e["ratio"])))
+        assert e["robust"] == (single["humans"][0]["robust"] and single["free_stable"] and single["locked_stable"])
+        for k, v in single["gains"].items():
+            assert e["gains"][k] == pytest.approx(v, rel=1e-12, abs=1e-15)
+    assert any(not e["robust"] for e in rep["gain_schedule"]) == any("joint angle" in w for w in rep["warnings"])

@@ -118,3 +118,29 @@ def test_cli_simulate_errors_and_success(tmp_path):
     assert res.exit_code == 0, res.output
     assert (tmp_path / "p" / "simulate_saturation.png").stat().st_size > 1000
     assert '"peak_motor_torque"' in res.output
+
+
+def test_cli_simulate_at_a_scheduled_joint_angle(tmp_path):
+    import yaml
+
+    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
+    raw["implementation"]["sample_rate_hz"] = 1000.0
+    raw["humans"] = [{"kind": "mass", "inertia": [0.01, 1.0], "damping": 0.0}]
+    raw["transmission"] = {"joint_angle_rad": [0.0, 1.0], "ratio": [1.0, 2.0]}
+    p = tmp_path / "d.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    r = CliRunner()
+    out = {}
+    for angle in ("0.1", "0.9"):
+        res = r.invoke(cli, ["simulate", str(p), "--scenario", "locked-output", "--joint-angle", angle, "--json"])
+        assert res.exit_code == 0, res.output
+        import json
+
+        out[angle] = json.loads(res.output)["summary"]
+    # the rescheduled controller keeps the amplification at both angles, with different peaks
+    for s in out.values():
+        assert s["delivered_amplification"]["value"] == pytest.approx(8.0, rel=0.01)
+    assert out["0.1"]["peak_motor_torque"]["value"] != pytest.approx(out["0.9"]["peak_motor_torque"]["value"], rel=1e-3)
+    res = r.invoke(cli, ["simulate", str(ROOT / "examples" / "paper.yaml"), "--scenario", "locked-output",
+                         "--sample-rate-hz", "1000", "--joint-angle", "0.5"])
+    assert res.exit_code == 2 and "--joint-angle" in res.output
