@@ -361,3 +361,10 @@ def test_analyze_checks_every_scheduled_angle_like_export():
         for k, v in single["gains"].items():
             assert e["gains"][k] == pytest.approx(v, rel=1e-12, abs=1e-15)
     assert any(not e["robust"] for e in rep["gain_schedule"]) == any("joint angle" in w for w in rep["warnings"])
+
+
+def test_shipped_scheduled_example_certifies():
+    cfg = load_design(ROOT / "examples" / "scheduled.yaml")
+    rep = certify(build_export(cfg, 1000.0))
+    assert rep["certified"], rep["problems"]
+    assert len(rep["gain_schedule"]) == 5 and all(e["robust"] for e in rep["gain_schedule"])
