@@ -51,6 +51,9 @@ __all__ = ["OBJECTIVES", "CONSTRAINTS", "OptimizeSpec", "load_optimize_spec", "e
 OBJECTIVES = {
     "amplification": ("design.amplification", "max", "1"),
     "felt_inertia": ("design.felt_inertia", "min", "kg·m²"),
+    # SPEC §7 "felt compliance": the operator feels C7 ≈ 1/(Ĵ_m/α s² + B̂_m/α s) at low frequency, so
+    # the most compliant (lightest-feeling) exoskeleton has the smallest felt inertia
+    "felt_compliance": ("design.felt_inertia", "min", "kg·m² (felt inertia, minimized)"),
     "amplification_bandwidth_hz": ("amplification_bandwidth_hz", "max", "Hz"),
     "dob_delay_margin_s": ("dob_delay_margin_s", "max", "s"),
     "passivity_max_phase_excess_deg": ("passivity_max_phase_excess_deg", "min", "deg"),

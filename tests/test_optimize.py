@@ -154,3 +154,31 @@ def test_optimum_is_checked_in_the_sampled_data_loop_when_a_rate_is_given():
     expected = [w for w in rep["warnings"] if "sampled-data" in w]
     assert expected and r["sampled_data_warnings"] == expected
     assert "WARNING" in format_optimize(r)
+
+
+def test_relaxing_a_constraint_never_lowers_the_optimum():
+    """Allowing lighter humans (a wider mass range) can only lower the largest robust α; a looser
+    bandwidth bound can only raise it (1-D problems: the boundary is bisected)."""
+    def best(mass_lo, bw):
+        s = _spec(base=_base(mass_lo=mass_lo), free={"design.amplification": [1.5, 60.0]},
+                  constraints={"amplification_bandwidth_hz": bw}, budget=100)
+        return optimize(load_optimize_spec(s))["x"]["design.amplification"]
+
+    a_wide, a_narrow = best(0.005, 2.0), best(0.02, 2.0)
+    assert a_wide <= a_narrow * (1 + 1e-6)
+    assert best(0.02, 1.0) >= a_narrow * (1 - 1e-6)
+
+
+def test_felt_compliance_objective_minimizes_felt_inertia():
+    s = _spec(objective="felt_compliance", free={"design.felt_inertia": [0.05, 1.0]},
+              constraints={"amplification_bandwidth_hz": 2.0}, budget=100)
+    r = optimize(load_optimize_spec(s))
+    assert r["feasible"] and r["objective"]["sense"] == "min"
+    assert r["x"]["design.felt_inertia"] == pytest.approx(r["objective"]["value"])
+    # just below the optimum the design breaks a constraint (or it sits on the bound)
+    if r["x"]["design.felt_inertia"] > 0.05 * (1 + 1e-6):
+        raw = optimized_design_mapping(load_optimize_spec(s), r)
+        raw["design"]["felt_inertia"] *= 0.995
+        rep = analyze_design(design_from_mapping(raw))
+        assert (not all(h["robust"] for h in rep["humans"])) or rep["amplification"]["bandwidth_hz"] < 2.0 \
+            or not rep["free_stable"] or not rep["locked_stable"]
