@@ -180,6 +180,7 @@ def _same_intervals(a: list, b: list, rtol: float = 1e-6) -> bool:
 def certify(doc: dict) -> dict:
     """Re-run the sampled-data analysis of a validated controller file and check its golden
     vectors and predictions (see the module docstring)."""
+    from .export import schedule_entry_doc
     from .runtime import Runtime
 
     rep = {"schema": doc["schema"], "sample_rate_hz": doc["sample_rate_hz"], "delay_s": doc["delay_s"]["value"],
@@ -198,8 +199,6 @@ def certify(doc: dict) -> dict:
         if not _golden_ok(out, ref):
             problems.append(f"the reference runtime does not reproduce the golden vectors (max error {err:.3g} N·m)")
         for e in (doc.get("gain_schedule") or {}).get("entries", []):
-            from .export import schedule_entry_doc
-
             ref_e = np.asarray(e["golden_tau_cmd"]["values"], float)
             if ref_e.size != ref.size or not _golden_ok(Runtime(schedule_entry_doc(doc, e)).run(ins), ref_e):
                 problems.append("the reference runtime does not reproduce the golden vectors of the gain schedule "
@@ -220,8 +219,6 @@ def certify(doc: dict) -> dict:
     mism = []
     sched = doc.get("gain_schedule")
     if sched:
-        from .export import schedule_entry_doc
-
         rep["gain_schedule"] = []
         for e in sched["entries"]:
             sa_e = sampled_analysis(schedule_entry_doc(doc, e))

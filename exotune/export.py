@@ -137,10 +137,16 @@ def _golden_inputs(n: int = 200, fs: float = 1000.0, seed: int = 20251122) -> di
     return sig
 
 
-def _controller_section(cfg, fs: float) -> tuple[dict, list[dict]]:
+_SIX_GAIN_UNITS = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)",
+                   "B2_hat": "s"}
+
+
+def _controller_section(cfg, fs: float) -> tuple[dict, list[dict], dict]:
+    """(static gains on the signals, sos filters, the six design gains with units) of one design."""
     from .controller import build_controller
 
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    six = {k: _q(float(np.ravel(getattr(cs.gains, k))[0]), u) for k, u in _SIX_GAIN_UNITS.items()}
     static, blocks = controller_blocks(cs, cfg.plant)
     pw = default_prewarp(cfg.implementation)
     gains = {sig: {"gain": float(static[i]), "unit": _GAIN_UNITS[sig]} for i, sig in enumerate(Measured) if static[i] != 0}
@@ -161,7 +167,7 @@ def _controller_section(cfg, fs: float) -> tuple[dict, list[dict]]:
                            "order": "ascending powers of s"},
             "sos": [[float(x) for x in row] for row in sos],
         })
-    return gains, filters
+    return gains, filters, six
 
 
 def reflected_mapping(raw: dict, ratio: float) -> dict:
@@ -179,21 +185,17 @@ def reflected_mapping(raw: dict, ratio: float) -> dict:
 def _gain_schedule(cfg, fs: float, doc: dict) -> dict:
     from .certify import sampled_analysis
     from .config import design_from_mapping
-    from .controller import build_controller
 
     tr = cfg.raw["transmission"]
-    units = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)", "B2_hat": "s"}
     entries = []
     for angle, ratio in zip(tr["joint_angle_rad"], tr["ratio"]):
         cfg_i = design_from_mapping(reflected_mapping(cfg.raw, ratio))
-        cs, _ = build_controller(cfg_i.plant, cfg_i.design, cfg_i.implementation)
-        gains_sig, filters = _controller_section(cfg_i, fs)
-        g = lambda x: float(np.ravel(x)[0])  # noqa: E731
+        gains_sig, filters, six = _controller_section(cfg_i, fs)
         entry = {
             "joint_angle_rad": float(angle),
             "ratio": float(ratio),
             "plant": {k: _q(v, _PLANT_UNITS[k]) for k, v in cfg_i.raw["plant"].items()},
-            "gains": {k: _q(g(getattr(cs.gains, k)), u) for k, u in units.items()},
+            "gains": six,
             "controller": {"gains": gains_sig, "filters": filters},
         }
         entry["predicted_sampled"] = sampled_analysis(schedule_entry_doc(doc, entry))
@@ -209,9 +211,14 @@ def schedule_entry_doc(doc: dict, entry: dict) -> dict:
 
 def _predicted(cfg) -> dict:
     """The continuous SPEC §5 metrics of the design (exotune.analysis), with units."""
+    import dataclasses
+
     from .analysis import analyze_design
 
-    r = analyze_design(cfg)
+    # continuous metrics only: the sampled-data intervals are computed once, by certify's own
+    # analysis of the file (predicted.sampled), not a second time inside analyze_design
+    cont = dataclasses.replace(cfg, implementation=dataclasses.replace(cfg.implementation, sample_rate_hz=None))
+    r = analyze_design(cont)
     humans = [{"kind": h["kind"], "parameter": h["parameter"], "unit": h["unit"], "range": h["range"],
                "stable_intervals": h["stable_intervals"], "robust": bool(h["robust"])} for h in r["humans"]]
     dob = r["dob"]
@@ -244,12 +251,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
     g = lambda x: float(np.ravel(x)[0])  # noqa: E731
     raw = cfg.raw
     delay = g(cfg.implementation.delay_s)
-    gains_sig, filters = _controller_section(cfg, fs)
-    from .controller import build_controller
-
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    units = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)", "B2_hat": "s"}
-    gains = {k: _q(g(getattr(cs.gains, k)), u) for k, u in units.items()}
+    gains_sig, filters, gains = _controller_section(cfg, fs)
     doc: dict[str, Any] = {
         "schema": SCHEMA_VERSION,
         "sample_rate_hz": _q(fs, "Hz"),
