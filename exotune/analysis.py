@@ -1171,6 +1171,11 @@ def _concat_columns(parts: list[dict]) -> dict:
 METRIC_UNITS = {
     "passivity.max_phase_excess_deg": "deg",
     "passivity.nonpassive_band_hz": "Hz",
+    "passivity.kyp.*.shortage": "rad/(N·m·s) (admittance: −min Re{jω C7(jω)}, 0 when passive)",
+    "passivity.kyp.*.lossless_compliance": "rad/(N·m) (the q1 of the lossless term q1·s of s·C7; 1/K_c)",
+    "passivity.kyp.*.relative_shortage": "1 (shortage / largest Hankel singular value of the strictly proper part)",
+    "passivity.kyp.*.truncation_bound": "rad/(N·m·s)",
+    "passivity.kyp.*.certificate_residual": "1 (largest eigenvalue of the LMI at the solution / its norm)",
     "dob.gain_margin_db": "dB",
     "dob.phase_margin_deg": "deg",
     "dob.delay_margin_s": "s (extra delay on top of the modelled T)",
@@ -1283,6 +1288,7 @@ def analyze_design(cfg) -> dict:
         if not e["robust"]:
             warnings.append(f"at joint angle {e['joint_angle_rad']:g} rad (transmission ratio {e['ratio']:g}) the "
                             f"rescheduled design is not robust: {', '.join(e['not_robust'])}")
+    kyp = _kyp_certificates(cfg)  # a non-passive nominal C7 is the B2_hat < 0 warning of shaping
     if not bool(cols["passivity_conclusive"][0]):
         warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis)")
     if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
@@ -1306,6 +1312,7 @@ def analyze_design(cfg) -> dict:
         "passivity": {
             "max_phase_excess_deg": g("passivity_max_phase_excess_deg"),
             "nonpassive_band_hz": cols["passivity_nonpassive_band_hz"][0],
+            "kyp": kyp,
         },
         "dob": dob,
         "amplification": {
@@ -1319,6 +1326,17 @@ def analyze_design(cfg) -> dict:
         "metric_units": METRIC_UNITS,
         "warnings": warnings,
     }
+
+
+def _kyp_certificates(cfg) -> dict:
+    """KYP passivity certificates of the rational models of C7 (:mod:`exotune.kyp`, cvxpy); a
+    missing or failing SDP solver is reported in the result, not raised."""
+    try:
+        from .kyp import operator_certificates
+
+        return operator_certificates(cfg)
+    except (ImportError, ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+        return {"error": f"KYP certificates not computed: {type(e).__name__}: {e}"}
 
 
 def _schedule_check(cfg) -> list[dict]:
@@ -1391,6 +1409,9 @@ def format_report(r: dict) -> str:
     L.append("")
     p = r["passivity"]
     L.append(f"Passivity of C7: max phase excess {p['max_phase_excess_deg']:.4g} deg outside [-180°, 0°]; non-passive bands: {_fmt_iv(p['nonpassive_band_hz'], 'Hz')}")
+    from .kyp import format_certificates
+
+    L += format_certificates(p.get("kyp"))
     if r["dob"]:
         d = r["dob"]
         L.append(

@@ -15,6 +15,7 @@ Spec (YAML)::
       dob_gain_margin_db: 6.0
       dob_delay_margin_s: 0.001
       amplification_bandwidth_hz: 2.0
+      nominal_passive: true              # the nominal C7 is passive (default false)
     seed: 0                              # (the command line's --seed wins)
     budget: 3000                         # designs evaluated by the global search (default 3000)
 
@@ -66,7 +67,8 @@ CONSTRAINTS = {
     "dob_delay_margin_s": ("dob_delay_margin_s", ">=", "s"),
     "amplification_bandwidth_hz": ("amplification_bandwidth_hz", ">=", "Hz"),
 }
-_BOOL = ("robust", "free_stable", "locked_stable")
+_BOOL = ("robust", "free_stable", "locked_stable", "nominal_passive")
+_BOOL_DEFAULT = {"robust": True, "free_stable": True, "locked_stable": True, "nominal_passive": False}
 _KEYS = ("base", "objective", "free", "constraints", "seed", "budget")
 
 
@@ -150,7 +152,7 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     cons_in = mapping.get("constraints") or {}
     if not isinstance(cons_in, dict):
         raise ConfigError("constraints", "expected a mapping")
-    cons = {k: True for k in _BOOL}
+    cons = dict(_BOOL_DEFAULT)
     for k, v in cons_in.items():
         if k in _BOOL:
             if not isinstance(v, bool):
@@ -226,10 +228,28 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
         v = np.where(np.isfinite(v), v, 10.0)
         viol += v
         broken[name] = gap > 0
+    if spec.constraints["nominal_passive"]:
+        short, b_over_kc = _nominal_shortage(spec, X)
+        v = np.clip(short / b_over_kc, 0.0, 10.0)
+        viol += v
+        broken["nominal_passive"] = short > 0
     what, sense, _ = OBJECTIVES[spec.objective]
     obj = X[:, paths.index(what)] if what in paths else np.asarray(cols[what], float)
     return {"X": X, "columns": cols, "violation": viol, "feasible": viol == 0, "broken": broken,
             "objective": obj, "robust_fraction": frac}
+
+
+def _nominal_shortage(spec, X):
+    """Closed-form nominal passivity shortage of the rows of X (:func:`exotune.kyp.nominal_shortage`)
+    and its normalization B̂_m/(Ĵ_m K_c) (the shortage when ζ̂ = 0)."""
+    from .config import batch_config
+    from .kyp import nominal_shortage
+
+    c = batch_config(spec.cfg, {p: X[:, j] for j, p in enumerate(spec.free)})
+    d, pl = c.design, c.plant
+    short = nominal_shortage(d.amplification, d.felt_inertia, d.felt_damping, pl.K_c, d.zeta_hat)
+    b_over_kc = np.asarray(d.felt_damping, float) / np.asarray(d.felt_inertia, float) / np.asarray(pl.K_c, float)
+    return np.broadcast_to(short, X.shape[:1]), np.broadcast_to(b_over_kc, X.shape[:1])
 
 
 def _to_unit(spec, X):
@@ -346,13 +366,22 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
     }
     if not active:
         out["note"] = "no constraint is binding along the objective (metric objective): local optimum of the search"
+    from .analysis import _kyp_certificates
+    from .config import design_from_mapping
+
+    opt_cfg = design_from_mapping(optimized_design_mapping(spec, out))
+    # the convex sub-problem (SPEC §7): KYP certificates of the optimum's rational C7 models (cvxpy)
+    out["passivity_certificates"] = _kyp_certificates(opt_cfg)
+    nom = out["passivity_certificates"].get("nominal") or {}
+    if spec.constraints["nominal_passive"] and nom.get("passive") is not True:
+        out["certificate_warning"] = ("the KYP certificate does not confirm the closed-form nominal passivity of the "
+                                      f"optimum: {nom.get('reason', out['passivity_certificates'].get('error'))}")
     if spec.cfg.implementation.sample_rate_hz is not None:
         # the search is continuous-time (exact delay); with a sample rate, check the optimum's
         # sampled-data loop too and say where sampling breaks what the search accepted
         from .analysis import analyze_design
-        from .config import design_from_mapping
 
-        rep = analyze_design(design_from_mapping(optimized_design_mapping(spec, out)))
+        rep = analyze_design(opt_cfg)
         out["sampled_data_warnings"] = [w for w in rep.get("warnings", []) if "sampled-data" in w]
     if pareto:
         out["pareto"] = _pareto(spec, seen)
@@ -424,6 +453,11 @@ def format_optimize(r: dict) -> str:
                 lines.append(f"  {fk}: {iv}")
         else:
             lines.append(f"  {k}: {m['value']:.6g} {m['unit']}")
+    from .kyp import format_certificates
+
+    lines += format_certificates(r.get("passivity_certificates"))
+    if r.get("certificate_warning"):
+        lines.append("  WARNING: " + r["certificate_warning"])
     for w in r.get("sampled_data_warnings", []):
         lines.append("  WARNING: " + w + " (the search itself is continuous-time: tighten the human ranges or the "
                      "delay, then export and certify)")

@@ -224,7 +224,8 @@ def _assumption_warnings(plant: Plant, gains: Gains, J_m_hat, zeta, zeta_hat) ->
     if float(gains.B2_hat) < 0:
         out.append(
             f"B2_hat = {float(gains.B2_hat):.4g} s < 0: negative cuff-torque-rate feedback "
-            "(increase zeta_hat or reduce felt_damping)"
+            "(increase zeta_hat or reduce felt_damping); the nominal operator compliance C7 is then not "
+            f"passive, short of {-float(gains.B2_hat) / float(J_m_hat):.4g} rad/(N·m·s) (−B̂2/Ĵ_m)"
         )
     if float(gains.B1) < -float(plant.B_m):
         out.append("B1 < -B_m: the closed-loop motor damping is negative")

@@ -182,3 +182,28 @@ def test_felt_compliance_objective_minimizes_felt_inertia():
         rep = analyze_design(design_from_mapping(raw))
         assert (not all(h["robust"] for h in rep["humans"])) or rep["amplification"]["bandwidth_hz"] < 2.0 \
             or not rep["free_stable"] or not rep["locked_stable"]
+
+
+def test_nominal_passive_constraint_meets_its_closed_form_and_is_certified():
+    """Only nominal passivity constrains the felt inertia: fd ≤ 2ζ̂√(K_c·fi) (kyp.nominal_shortage),
+    so the lightest feasible felt inertia is (fd/2ζ̂)²/K_c; the optimum carries the KYP
+    certificates (cvxpy) and the nominal one confirms it."""
+    base = _base()
+    base["design"]["felt_damping"] = 1.0
+    base["design"]["zeta_hat"] = 0.7
+    s = _spec(base=base, objective="felt_inertia", free={"design.felt_inertia": [0.0005, 0.05]},
+              constraints={"robust": False, "free_stable": False, "locked_stable": False, "nominal_passive": True},
+              budget=100)
+    r = optimize(load_optimize_spec(s))
+    expect = (1.0 / (2 * 0.7)) ** 2 / 300.0
+    assert r["active_constraints"] == ["nominal_passive"]
+    assert r["x"]["design.felt_inertia"] == pytest.approx(expect, rel=2e-3)
+    assert r["x"]["design.felt_inertia"] >= expect * (1 - 1e-9)  # feasible side
+    certs = r["passivity_certificates"]
+    assert certs["nominal"]["passive"] is True and "certificate_warning" not in r
+    assert "KYP certificate, nominal" in format_optimize(r)
+    # without the constraint the optimum goes to the bound, where the nominal C7 is not passive
+    s["constraints"]["nominal_passive"] = False
+    r2 = optimize(load_optimize_spec(s))
+    assert r2["x"]["design.felt_inertia"] == pytest.approx(0.0005)
+    assert r2["passivity_certificates"]["nominal"]["passive"] is False

@@ -1,0 +1,273 @@
+"""Passivity certificates of the rational operator-side compliance by the KYP lemma (cvxpy).
+
+Paper §VI-C "Passivity of the Operator Compliance": "while the nominal operator compliance can be
+made passive, the phase lag in the cuff feedback signal make it impractical to actually achieve
+this". SPEC §5 defines passivity of C7 as Re{jω C7(jω)} ≥ 0 for all ω, i.e. the operator-side
+*admittance* Y(s) = s·C7(s) is positive real; SPEC §7 names "passivity/KYP certificates of the
+rational model" as the convex sub-problem for cvxpy. This module computes that certificate for the
+two rational models of a design:
+
+``nominal``     the paper's nominal C7 (eq. nominal_C7, zero delay, no filters, no DOB);
+``delay_free``  the implemented controller structure (G_v and derivative filters, DOB) with T = 0,
+                C7 = Δ10/Δ00 of :mod:`exotune.analysis` at e^{−sT} = 1.
+
+With the real delay C7 is not rational; the exact frequency-domain metric
+(``passivity.max_phase_excess_deg``) covers that case, and the certificate is *not* a claim about it.
+
+Method, for Y = s·C = q1 s + q0 + Y_p(s) (Y_p strictly proper, q1 s the lossless cuff-spring term,
+q1 = 1/K_c for C7):
+
+1. Y is positive real iff q1 ≥ 0, Y_p has no pole in Re s ≥ 0 (here: none on the axis either —
+   the rigid-body pole of C7 at s = 0 is cancelled by the s of Y exactly), and
+   Re Y(jω) = q0 + Re Y_p(jω) ≥ 0 for every ω.
+2. KYP lemma (A Hurwitz, (A, B) controllable): Re[Y_p(jω)] + q0 + d ≥ 0 ∀ω ⇔ ∃ P = Pᵀ with
+
+       [ AᵀP + PA    PB − Cᵀ      ]
+       [ BᵀP − C    −2 (q0 + d)   ]  ⪯ 0.
+
+   The smallest such d is the *passivity shortage* d* = max(0, −inf_ω Re Y(jω)) [rad/(N·m·s)]:
+   a semidefinite program (minimize d), solved by cvxpy (Clarabel, SCS as fallback). d* = 0 ⇔
+   passive; d* > 0 is how much parallel admittance (viscous "give" at the cuff) the compliance lacks.
+3. Conditioning: the frequency is scaled (s = ω0 ŝ, ω0 the geometric mean of the pole magnitudes),
+   Y_p is realized (``scipy.signal.tf2ss``) and balanced (square-root method from the two
+   Gramians); Hankel singular values below 1e−12 of the largest are truncated and the truncation
+   bound 2 Σ σ_dropped is reported and added to the verdict's tolerance.
+4. The returned P is checked independently in numpy: the largest eigenvalue of the LMI matrix at
+   (P, d*) relative to its norm is the ``certificate_residual``.
+
+The verdict is ``passive`` when d* ≤ ``tol`` · σ1 + truncation bound, σ1 the largest Hankel singular
+value of Y_p (a lower bound of its H∞ norm): the solver's accuracy is about 1e−8 relative.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["KypCertificate", "admittance_certificate", "compliance_certificate", "operator_certificates",
+           "nominal_shortage", "format_certificates", "SHORTAGE_UNIT"]
+
+SHORTAGE_UNIT = "rad/(N·m·s)"  # admittance: angular velocity per torque
+LOSSLESS_UNIT = "rad/(N·m)"  # compliance of the lossless spring-like term q1·s of Y
+TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class KypCertificate:
+    """Result of :func:`admittance_certificate` (one rational model)."""
+
+    model: str
+    passive: bool | None  # None: undecided (poles on the axis, solver failure)
+    shortage: float  # d* [rad/(N·m·s)]; inf when improper with a non-passive polynomial part
+    relative_shortage: float  # d* / σ1 (dimensionless)
+    lossless_compliance: float  # q1 [rad/(N·m)]
+    states: int  # order of the balanced realization of Y_p
+    truncation_bound: float  # 2 Σ dropped Hankel singular values [rad/(N·m·s)]
+    certificate_residual: float  # λ_max(LMI(P, d*)) / ‖LMI‖ (≈ 0 for a valid certificate)
+    solver: str
+    reason: str
+
+    def as_dict(self) -> dict:
+        return {
+            "model": self.model,
+            "passive": self.passive,
+            "shortage": self.shortage,
+            "shortage_unit": SHORTAGE_UNIT,
+            "relative_shortage": self.relative_shortage,
+            "lossless_compliance": self.lossless_compliance,
+            "lossless_compliance_unit": LOSSLESS_UNIT,
+            "states": self.states,
+            "truncation_bound": self.truncation_bound,
+            "certificate_residual": self.certificate_residual,
+            "solver": self.solver,
+            "method": "KYP lemma: min d s.t. [[AᵀP+PA, PB−Cᵀ], [BᵀP−C, −2(q0+d)]] ⪯ 0 (cvxpy SDP); "
+                      "shortage d* = max(0, −inf_ω Re{jω C7(jω)})",
+            "reason": self.reason,
+        }
+
+
+def _trim(c: np.ndarray) -> np.ndarray:
+    c = np.asarray(c, dtype=float)
+    nz = np.nonzero(c)[0]
+    return c[: nz[-1] + 1] if nz.size else np.zeros(1)
+
+
+def _balanced(A, B, C):
+    """Square-root balanced realization; returns (A, B, C, hsv_kept, truncation_bound)."""
+    import scipy.linalg as sla
+
+    Wc = sla.solve_continuous_lyapunov(A, -B @ B.T)
+    Wo = sla.solve_continuous_lyapunov(A.T, -C.T @ C)
+
+    def factor(W):
+        e, V = np.linalg.eigh(0.5 * (W + W.T))
+        return V * np.sqrt(np.clip(e, 0.0, None))
+
+    Lc, Lo = factor(Wc), factor(Wo)
+    U, S, Vt = np.linalg.svd(Lo.T @ Lc)
+    keep = S > 1e-12 * S[0] if S.size and S[0] > 0 else np.zeros(S.size, bool)
+    bound = 2.0 * float(S[~keep].sum())
+    U, Sk, V = U[:, keep], S[keep], Vt[keep].T
+    Tm = Lc @ V / np.sqrt(Sk)
+    Ti = (U / np.sqrt(Sk)).T @ Lo.T
+    return Ti @ A @ Tm, Ti @ B, C @ Tm, Sk, bound
+
+
+def _solve_kyp(A, B, C, q0):
+    """min d s.t. the KYP LMI; returns (d*, P, solver name, status)."""
+    import cvxpy as cp
+
+    n = A.shape[0]
+    P = cp.Variable((n, n), symmetric=True)
+    d = cp.Variable()
+    off = P @ B - C.T
+    corner = cp.reshape(-2.0 * (q0 + d), (1, 1), order="C")
+    M = cp.bmat([[A.T @ P + P @ A, off], [off.T, corner]])
+    prob = cp.Problem(cp.Minimize(d), [0.5 * (M + M.T) << 0])
+    last = "no solver"
+    for solver in ("CLARABEL", "SCS"):
+        if solver not in cp.installed_solvers():
+            continue
+        try:
+            prob.solve(solver=solver)
+        except cp.error.SolverError as e:  # pragma: no cover - depends on the solver build
+            last = f"{solver}: {e}"
+            continue
+        if prob.status in ("optimal", "optimal_inaccurate") and d.value is not None:
+            return float(d.value), np.asarray(P.value), solver, prob.status
+        last = f"{solver}: {prob.status}"
+    return float("nan"), None, last, "failed"
+
+
+def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCertificate:
+    """Positive-realness certificate of one rational admittance Y = num/den (ascending coefficients).
+
+    See the module docstring for the method. Poles of Y in the closed right half plane make Y not
+    positive real (``passive`` False, shortage NaN) or, on the axis, undecided (None)."""
+    import scipy.signal
+
+    num, den = _trim(num), _trim(den)
+    if not np.any(den):
+        raise ValueError("zero denominator")
+    # exact common zeros at s = 0 (e.g. the s of Y against the rigid-body pole of C)
+    while num.size > 1 and den.size > 1 and num[0] == 0.0 and den[0] == 0.0:
+        num, den = num[1:], den[1:]
+    nd = den.size - 1
+    nz = np.nonzero(den)[0]
+    # frequency scaling s = w0·ŝ: w0 the geometric mean of the pole magnitudes
+    w0 = (abs(den[nz[0]]) / abs(den[-1])) ** (1.0 / max(nd - nz[0], 1)) if nd > 0 else 1.0
+    if not np.isfinite(w0) or w0 <= 0:
+        w0 = 1.0
+    kn, kd = w0 ** np.arange(num.size), w0 ** np.arange(den.size)
+    lead = den[-1]
+    nS, dS = num * kn / lead, den * kd / lead  # Ŷ(ŝ) = Y(w0 ŝ)
+    q, r = np.polydiv(nS[::-1], dS[::-1])  # descending
+    q = np.trim_zeros(q, "f")
+    q1 = float(q[-2]) / w0 if q.size >= 2 else 0.0  # Y ~ q1 s in original units
+    q0 = float(q[-1]) if q.size >= 1 else 0.0
+    base = dict(model=model, lossless_compliance=q1, states=0, truncation_bound=0.0,
+                certificate_residual=float("nan"), solver="")
+    if q.size > 2:
+        return KypCertificate(passive=False, shortage=float("inf"), relative_shortage=float("inf"),
+                              reason=f"Y = s·C grows like s^{q.size - 1}: not positive real", **base)
+    if q1 < 0:
+        return KypCertificate(passive=False, shortage=float("inf"), relative_shortage=float("inf"),
+                              reason="the lossless term q1·s of Y has q1 < 0: not positive real", **base)
+    poles = np.roots(dS[::-1]) * w0
+    r = np.atleast_1d(r)
+    lead_r = np.nonzero(np.abs(r) > 1e-13 * np.max(np.abs(r), initial=0.0))[0]
+    r = r[lead_r[0]:] if lead_r.size else np.zeros(0)  # drop the rounding residue of polydiv
+    if r.size == 0 or not np.any(r):  # Y = q1 s + q0
+        d_ = max(0.0, -q0)
+        return KypCertificate(passive=d_ <= tol * max(abs(q0), 1e-300), shortage=d_,
+                              relative_shortage=d_ / max(abs(q0), 1e-300),
+                              reason="no strictly proper part", **base)
+    if np.any(poles.real > 0):
+        return KypCertificate(passive=False, shortage=float("nan"), relative_shortage=float("nan"),
+                              reason="Y has poles in the right half plane (the loop is unstable): not positive real", **base)
+    if np.any(poles.real >= -1e-12 * np.maximum(np.abs(poles), 1.0)):
+        return KypCertificate(passive=None, shortage=float("nan"), relative_shortage=float("nan"),
+                              reason="Y has poles on the imaginary axis (besides the cancelled rigid-body pole): "
+                                     "not decided by this certificate", **base)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
+        A, B, C, _ = scipy.signal.tf2ss(r, dS[::-1])
+    Ab, Bb, Cb, hsv, bound = _balanced(A, B, C)
+    s1 = float(hsv[0])
+    g = 1.0 / s1  # normalize ‖Ŷ_p‖ to about 1: the SDP works on g·Y
+    d, P, solver, status = _solve_kyp(Ab, Bb * np.sqrt(g), Cb * np.sqrt(g), g * q0)
+    base.update(states=int(Ab.shape[0]), truncation_bound=bound, solver=solver)
+    if P is None:
+        return KypCertificate(passive=None, shortage=float("nan"), relative_shortage=float("nan"),
+                              reason=f"SDP not solved ({solver})", **base)
+    # independent check of the certificate (numpy): the LMI at (P, d*)
+    Bg, Cg = Bb * np.sqrt(g), Cb * np.sqrt(g)
+    off = P @ Bg - Cg.T
+    M = np.block([[Ab.T @ P + P @ Ab, off], [off.T, np.array([[-2.0 * (g * q0 + d)]])]])
+    M = 0.5 * (M + M.T)
+    resid = float(np.linalg.eigvalsh(M)[-1] / max(np.linalg.norm(M, 2), 1e-300))
+    shortage = max(0.0, d / g)
+    rel = shortage / s1
+    passive = bool(shortage <= tol * s1 + bound)
+    if passive:  # within the solver's accuracy: report the exact verdict's value
+        shortage = rel = 0.0
+    base.update(certificate_residual=resid)
+    return KypCertificate(
+        passive=passive, shortage=shortage, relative_shortage=rel,
+        reason=("positive real: certified by the KYP LMI" if passive else
+                "not positive real: Re{Y(jω)} < 0 somewhere; shortage = −min Re Y") + f" ({status})",
+        **base)
+
+
+def compliance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCertificate:
+    """Certificate of a compliance C = num/den [rad/(N·m)]: Y = s·C (ascending coefficients)."""
+    return admittance_certificate(np.r_[0.0, _trim(num)], den, model=model, tol=tol)
+
+
+def nominal_shortage(alpha, felt_inertia, felt_damping, K_c, zeta_hat):
+    """Closed form of the nominal shortage (vectorized): with ω² = αK_c/Ĵ_m and b = B̂_m/Ĵ_m,
+    nominal C7 = (s² + 2ζ̂ω s + ω²)/(K_c s (s + b)), so Y = s/K_c + ((2ζ̂ω − b)s + ω²)/(K_c (s + b)) and
+
+        Re Y(jν) = [ω² b + (2ζ̂ω − b) ν²] / [K_c (b² + ν²)],
+
+    monotone in ν² between ω²/(K_c b) (ν = 0) and (2ζ̂ω − b)/K_c (ν → ∞): the nominal C7 is passive
+    iff 2ζ̂ω ≥ b, and the shortage is max(0, (b − 2ζ̂ω)/K_c) [rad/(N·m·s)]. Ĵ_m = α·felt_inertia,
+    B̂_m = α·felt_damping (SPEC §4). Since B̂2 = (2ζ̂√(αK_cĴ_m) − B̂_m)/K_c (paper eq. for B̂2), this is
+    max(0, −B̂2/Ĵ_m): the nominal C7 is passive iff the cuff-torque-rate gain B̂2 ≥ 0."""
+    a = np.asarray(alpha, float)
+    Jh = a * np.asarray(felt_inertia, float)
+    b = a * np.asarray(felt_damping, float) / Jh
+    w = np.sqrt(a * np.asarray(K_c, float) / Jh)
+    return np.maximum(0.0, (b - 2.0 * np.asarray(zeta_hat, float) * w) / np.asarray(K_c, float))
+
+
+def operator_certificates(cfg, tol: float = TOL) -> dict:
+    """Both certificates of a single-design config: {"nominal": …, "delay_free": …} (as dicts)."""
+    from .analysis import char_terms
+    from .controller import build_controller
+    from .poly import padd
+    from .shaping import nominal_transfer_functions
+
+    cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    c7 = nominal_transfer_functions(cfg.plant, cfg.design, ds)["C7_nominal"]
+    nom = compliance_certificate(np.ravel(np.atleast_2d(c7.num)[0]), np.ravel(np.atleast_2d(c7.den)[0]),
+                                 model="nominal C7 (paper eq. nominal_C7: no delay, no filters, no DOB)", tol=tol)
+    ct = char_terms(cfg.plant, cs, 1)
+    d00 = padd(ct.qp("00").p0, ct.qp("00").p1)[0]
+    d10 = padd(ct.qp("10").p0, ct.qp("10").p1)[0]
+    dfree = compliance_certificate(d10, d00, model="implemented C7 = Δ10/Δ00 with T = 0 (filters and DOB included)", tol=tol)
+    return {"nominal": nom.as_dict(), "delay_free": dfree.as_dict()}
+
+
+def format_certificates(certs: dict, indent: str = "  ") -> list[str]:
+    """Text lines of an :func:`operator_certificates` result (or of its ``error`` entry)."""
+    lines = []
+    for name, c in (certs or {}).items():
+        if name == "error":
+            lines.append(indent + str(c))
+            continue
+        verdict = {True: "passive (certified)", False: "NOT passive", None: "undecided"}[c["passive"]]
+        lines.append(f"{indent}KYP certificate, {c['model']}: {verdict}; shortage {c['shortage']:.4g} {c['shortage_unit']}")
+    return lines
