@@ -8,11 +8,14 @@ fractional) delay (:mod:`exotune.sampled`); a verdict at one parameter value is 
 of the sampled-data loop, |λ| < 1, the rigid-body z = 1 of an ungrounded structure excluded).
 
 Intervals of stable human parameters: verdicts at ``POINTS`` log-spaced values of each family's
-range; between two grid values with the same verdict where an oscillatory eigenvalue is lightly
-damped (|ζ| < ``NEAR``, ζ = −Re ln λ/|ln λ|: where a narrow window of the other verdict could
-hide), three halvings add up to 7 values; every change of verdict is bisected (geometric) to 1e-10 relative. A
-window narrower than the refined spacing that lies strictly between two values would still be
-missed; the report says so.
+range; every cell between two stable values is halved (at most ``MAX_DEPTH`` = 12 times) until
+its eigenvalue paths are resolved — each eigenvalue's motion over the cell (the chord between its
+end values and the first-order motion from its derivative at either end) is below its distance to
+the unit circle (step control of eigenvalue continuation); every change of verdict is bisected
+(geometric) to 1e-10 relative. A window of instability could still hide inside a cell only on an
+eigenvalue path much longer than its resolved chord and end speeds imply. A cell that stays
+unresolved at the finest step (≈ 2e-5 relative: an eigenvalue within a hair of the circle and
+moving fast) fails the certification.
 
 The file is **certified** when the free and the locked loops are stable, every rational human
 family is stable over its whole range, the golden vectors are reproduced by the reference runtime
@@ -30,50 +33,87 @@ from .sampled import loop_eigenvalues, loop_stable
 __all__ = ["POINTS", "sampled_analysis", "certify", "format_certify"]
 
 POINTS = 96
-NEAR = 0.05  # |damping ratio| of an oscillatory eigenvalue below which the grid is refined
+CHORD = 1.0  # over a resolved cell every eigenvalue moves ≤ CHORD × its distance to |z| = 1
+MAX_DEPTH = 12  # halvings of one base-grid cell (≈ 2e-5 relative for the default grid)
+_FD = 1e-7  # relative step of the finite-difference eigenvalue derivative
 _BISECT = 48
 
 
-def _margin(lam: np.ndarray) -> float:
-    """Smallest |damping ratio| ζ = −Re ln λ / |ln λ| of the oscillatory eigenvalues
-    (|arg λ| ≥ 0.01 rad): a lightly damped mode (|ζ| small) can change sign inside a narrow window
-    of the parameter, so the grid is refined around it."""
-    osc = lam[(np.abs(np.angle(lam)) >= 0.01) & (lam != 0)]
-    if not osc.size:
-        return math.inf
-    ln = np.log(osc)
-    return float(np.min(np.abs(ln.real) / np.abs(ln)))
+def _match(la: np.ndarray, lb: np.ndarray):
+    """Minimum-cost assignment of two eigenvalue sets (indices into la, lb)."""
+    from scipy.optimize import linear_sum_assignment
+
+    return linear_sum_assignment(np.abs(la[:, None] - lb[None, :]))
+
+
+def _cell_resolved(a, b, length: float) -> bool:
+    """True when, over a cell of ``length`` (in the grid's coordinate u: ln v on a log grid),
+    every eigenvalue (matched between the ends) moves by less than ``CHORD`` × its smaller
+    distance to the unit circle — both the chord |λ(b) − λ(a)| and the first-order motions
+    length·|dλ/du| at either end. ``a``, ``b``: (eigenvalues, derivatives dλ/du) at the ends.
+    An eigenvalue that leaves the circle inside the cell and comes back has to travel at least
+    twice that distance, so it would need a strongly curved path, or one whose speed rises
+    far above its speed at both ends (step control of eigenvalue continuation)."""
+    (la, da), (lb, db) = a, b
+    if la.size == 0 or lb.size == 0:
+        return True
+    r, c = _match(la, lb)
+    dist = np.minimum(np.abs(1.0 - np.abs(la[r])), np.abs(1.0 - np.abs(lb[c])))
+    move = np.maximum(np.abs(lb[c] - la[r]), length * np.maximum(np.abs(da[r]), np.abs(db[c])))
+    return bool(np.all(move <= CHORD * dist))
 
 
 def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
-    """Stable intervals of one family: verdicts on a log grid, refined (3 halvings) between grid
-    values with a lightly damped oscillatory eigenvalue (:func:`_margin` < ``NEAR``), every change
-    of verdict bisected. ``spectrum(v)`` → loop eigenvalues at parameter value v."""
+    """Stable intervals of one family. Verdicts on a grid of ``points`` values (log-spaced when
+    lo > 0); every cell with a stable verdict at both ends is halved until its eigenvalue paths are
+    resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times — cells still unresolved then
+    are reported; every change of verdict is bisected to 1e-10 relative. ``spectrum(v)`` → loop
+    eigenvalues at parameter value v (their derivatives by a forward difference)."""
     cache = {}
+    log = lo > 0
+    coord = (lambda v: math.log(v)) if log else (lambda v: v)
 
     def at(v):
         if v not in cache:
-            lam = spectrum(v)
+            lam = np.asarray(spectrum(v))
             rho = float(np.max(np.abs(lam))) if lam.size else 0.0
-            cache[v] = (rho < 1.0, _margin(lam))
+            cache[v] = (rho < 1.0, lam, None)
         return cache[v]
+
+    def with_derivative(v):
+        st, lam, d = at(v)
+        if d is None:
+            h = _FD * (abs(v) if log or v else max(abs(hi), 1.0))
+            lh = np.asarray(spectrum(v + h))
+            d = np.zeros_like(lam)
+            if lam.size and lh.size == lam.size:
+                r, c = _match(lam, lh)
+                d[r] = (lh[c] - lam[r]) / (coord(v + h) - coord(v))
+            cache[v] = (st, lam, d)
+        return cache[v][1], cache[v][2]
 
     mid = (lambda a, b: math.sqrt(a * b)) if lo > 0 else (lambda a, b: 0.5 * (a + b))
     vals = [float(v) for v in (np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points))]
     grid = [vals[0]]
     refined = 0
+    unresolved = []
     for a, b in zip(vals[:-1], vals[1:]):
-        stack = [(a, b, 3)]
+        stack = [(a, b, MAX_DEPTH)]
         pts = []
         while stack:
             x, y, depth = stack.pop()
-            (sx, mx), (sy, my) = at(x), at(y)
-            if depth and sx == sy and min(mx, my) < NEAR:
-                m = mid(x, y)
-                at(m)
-                refined += 1
-                pts.append(m)
-                stack += [(x, m, depth - 1), (m, y, depth - 1)]
+            if not (at(x)[0] and at(y)[0]):
+                continue
+            if _cell_resolved(with_derivative(x), with_derivative(y), coord(y) - coord(x)):
+                continue
+            if not depth:
+                unresolved.append([x, y])
+                continue
+            m = mid(x, y)
+            at(m)
+            refined += 1
+            pts.append(m)
+            stack += [(x, m, depth - 1), (m, y, depth - 1)]
         grid += sorted(pts) + [b]
     st = [at(v)[0] for v in grid]
     edges = []  # (position, stable after)
@@ -99,8 +139,9 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
             start = None
     if start is not None:
         ivs.append([start, hi])
-    return ivs, {"points": points, "refined_points": refined,
-                 "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in set(vals)))}
+    base = set(vals)
+    return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved),
+                 "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in base))}
 
 
 def _human_dict(fam, v: float) -> dict:
@@ -177,6 +218,19 @@ def _same_intervals(a: list, b: list, rtol: float = 1e-6) -> bool:
     return all(abs(x - y) <= rtol * max(abs(x), abs(y), 1e-300) for p, q in zip(a, b) for x, y in zip(p, q))
 
 
+def _unresolved(sa: dict, where: str) -> list[str]:
+    """Problems for the cells of stable values whose eigenvalue paths were not resolved."""
+    out = []
+    for h in sa["humans"] + sa["environment"]:
+        cells = h.get("unresolved") or []
+        if cells:
+            a, b = cells[0]
+            out.append(f"{where}{h['kind']} {h['parameter']}: eigenvalue paths not resolved at the finest step in "
+                       f"{len(cells)} cell(s), first [{a:.6g}, {b:.6g}] {h['unit']} (an eigenvalue within a hair of the "
+                       "unit circle and moving fast: a marginal design)")
+    return out
+
+
 def certify(doc: dict) -> dict:
     """Re-run the sampled-data analysis of a validated controller file and check its golden
     vectors and predictions (see the module docstring)."""
@@ -216,6 +270,7 @@ def certify(doc: dict) -> dict:
         if not h["robust"]:
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
                             f"stable only in {_fmt_ivs(h['stable_intervals'])}")
+    problems += _unresolved(sa, "")
     mism = []
     sched = doc.get("gain_schedule")
     if sched:
@@ -227,6 +282,7 @@ def certify(doc: dict) -> dict:
             bad += [k for k in ("free_stable", "locked_stable") if not sa_e[k]]
             rep["gain_schedule"].append({"joint_angle_rad": e["joint_angle_rad"], "ratio": e["ratio"],
                                          "robust": not bad, "not_robust": bad, "sampled": sa_e})
+            problems += _unresolved(sa_e, f"gain schedule at joint angle {e['joint_angle_rad']:g} rad: ")
             if bad:
                 problems.append(f"gain schedule at joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
                                 f"not stable for {', '.join(bad)}")
@@ -256,10 +312,10 @@ def certify(doc: dict) -> dict:
     rep["prediction_mismatches"] = mism
     rep["problems"] = problems
     rep["certified"] = not problems
-    rep["method"] = (f"exact sampled-data eigenvalues at {POINTS} log-spaced values per family, refined 8× between "
-                     f"values with a lightly damped oscillatory eigenvalue (|ζ| < {NEAR}), every verdict "
-                     "change bisected to 1e-10 relative (a window narrower than the refined spacing between two "
-                     "values would be missed); hysteretic humans are not rational and are skipped")
+    rep["method"] = (f"exact sampled-data eigenvalues at {POINTS} log-spaced values per family; cells between stable "
+                     f"values halved (≤ {MAX_DEPTH} times) until every eigenvalue moves less than its distance to the "
+                     "unit circle (chord and end derivatives); every verdict change bisected to 1e-10 relative; "
+                     "hysteretic humans are not rational and are skipped")
     return rep
 
 

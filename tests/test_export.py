@@ -238,8 +238,10 @@ def test_sampled_analysis_is_deterministic_and_uses_the_file_only(paper_doc):
 
 def test_certify_refinement_finds_a_narrow_window_between_grid_values(monkeypatch):
     """A synthetic loop whose lightly damped oscillatory pair leaves the unit circle only in a
-    window ~2 % wide, centred between two grid values (grid spacing ≈ 7.5 %): the plain grid misses
-    it, the refinement around lightly damped modes finds it and the bisection pins its ends."""
+    window ~2 % wide, centred between two grid values (grid spacing ≈ 7.5 %), with the *same*
+    eigenvalues at both grid values: the plain grid misses it; the step control of the refinement
+    (the eigenvalue's speed × cell length exceeds its distance to the circle) finds it and the
+    bisection pins its ends."""
     from exotune import certify as C
 
     lo, hi = 1e-3, 1.0
@@ -255,9 +257,34 @@ def test_certify_refinement_finds_a_narrow_window_between_grid_values(monkeypatc
     assert len(ivs) == 2 and info["refined_points"] > 0
     assert ivs[0][1] == pytest.approx(w0 * math.exp(-e), rel=1e-8)
     assert ivs[1][0] == pytest.approx(w0 * math.exp(e), rel=1e-8)
-    monkeypatch.setattr(C, "NEAR", 0.0)
+    assert info["unresolved"] == []
+    monkeypatch.setattr(C, "CHORD", math.inf)
     ivs0, _ = C._intervals(spectrum, lo, hi)
     assert ivs0 == [[lo, hi]]  # without the refinement the window is missed
+
+
+def test_certify_refinement_follows_a_fast_eigenvalue_and_reports_unresolved_cells(monkeypatch):
+    """An eigenvalue that runs along the circle at radius 0.999 while the parameter moves across
+    one grid cell needs many halvings (its motion per cell ≫ its 1e-3 distance to the circle);
+    a window where it steps out for 0.05 % of the range is found. With a depth limit too small,
+    the cell is reported unresolved instead of being silently trusted."""
+    from exotune import certify as C
+
+    lo, hi = 1.0, 10.0
+    grid = np.geomspace(lo, hi, C.POINTS)
+    c = math.sqrt(grid[50] * grid[51])
+
+    def spectrum(v):
+        u = math.log(v / c)
+        r = 0.999 + 0.002 * math.exp(-(u / 2e-4) ** 2)  # |λ| > 1 only for |u| ≲ 1.7e-4
+        return np.array([r * np.exp(40j * u), r * np.exp(-40j * u), 0.5])
+
+    ivs, info = C._intervals(spectrum, lo, hi)
+    assert len(ivs) == 2, ivs
+    assert ivs[0][1] < c < ivs[1][0] and ivs[1][0] / ivs[0][1] < 1.0 + 1e-3
+    monkeypatch.setattr(C, "MAX_DEPTH", 2)
+    ivs2, info2 = C._intervals(spectrum, lo, hi)
+    assert info2["unresolved"], info2
 
 
 def _scheduled(ratios=(0.8, 1.0, 1.3), mass_lo=0.01):
@@ -368,3 +395,17 @@ def test_shipped_scheduled_example_certifies():
     rep = certify(build_export(cfg, 1000.0))
     assert rep["certified"], rep["problems"]
     assert len(rep["gain_schedule"]) == 5 and all(e["robust"] for e in rep["gain_schedule"])
+
+
+def test_certify_fails_on_unresolved_eigenvalue_paths(paper_doc, monkeypatch):
+    """A cell of stable values whose eigenvalue paths the step control cannot resolve is a
+    certification problem, not silently trusted (forced here by a zero tolerance and no halving)."""
+    from exotune import certify as C
+
+    _, doc = paper_doc
+    assert not any("not resolved" in p for p in C.certify(doc)["problems"])
+    monkeypatch.setattr(C, "CHORD", 0.0)
+    monkeypatch.setattr(C, "MAX_DEPTH", 0)
+    rep = C.certify(doc)
+    assert not rep["certified"]
+    assert any("eigenvalue paths not resolved" in p for p in rep["problems"]), rep["problems"]
