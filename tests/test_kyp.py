@@ -205,3 +205,21 @@ def test_rigid_body_pole_cancelled():
     """C = 1/(s(s + 1)) (a free damped mass): Y = s·C = 1/(s + 1), positive real."""
     c = compliance_certificate([1.0], [0.0, 1.0, 1.0])
     assert c.passive is True and c.shortage == 0.0 and c.states == 1
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(alpha=st.floats(1.5, 40.0), fi=st.floats(0.02, 2.0), fd=st.floats(0.1, 20.0), zh=st.floats(0.2, 1.5),
+       fv=st.floats(20.0, 300.0), dob=st.one_of(st.none(), st.floats(10.0, 150.0)))
+def test_delay_free_poles_agree_with_the_argument_principle(alpha, fi, fd, zh, fv, dob):
+    """Y = s·C7 has right-half-plane poles exactly when the free loop at T = 0 is unstable (the
+    argument-principle count of the analysis); otherwise the shortage matches the frequency minimum."""
+    cfg = with_changes(design__amplification=alpha, design__felt_inertia=fi, design__felt_damping=fd,
+                       design__zeta_hat=zh, implementation__gv_filter={"cutoff_hz": fv, "damping": 0.7},
+                       implementation__dob=None if dob is None else {"cutoff_hz": dob, "damping": 0.7},
+                       implementation__delay_s=0.0)
+    c = operator_certificates(cfg)["delay_free"]
+    free = bool(analyze_batch(cfg)["free_stable"][0])
+    assert ("right half plane" in c["reason"]) == (not free), c
+    if free:
+        ref = max(0.0, -min_re(y_delay_free(cfg)))
+        assert c["shortage"] == pytest.approx(ref, rel=1e-5, abs=1e-9)
