@@ -656,3 +656,69 @@ def count_tasks(P0, P1, T, R0, R1, has_reg, arg_step: float, der_step: float, ma
     _count_tasks(c(P0), c(P1), f(T), f(R0), f(R1), np.ascontiguousarray(has_reg, dtype=np.bool_), float(arg_step),
                  float(der_step), int(max_levels), float(decades), int(per_decade), outN, outR, outOK)
     return outN, outR, outOK
+
+
+if AVAILABLE:
+
+    @njit(cache=True)
+    def _classify(a, b, va0, va1, vb0, vb1, k, cr, ci, lo, hi, sin_near, ga, gb, flags):
+        """Per leaf of a pair (Δ0, Δ1) and one family (f φ = c (jω)^k): the crossing function at
+        both ends and the bracket/sub-sampling flags of :func:`exotune.analysis._classify_numpy`
+        (bit 0: sign-change bracket, bit 1: sub-sample, bit 2: degenerate — a zero or non-finite
+        value, left to the numpy reference)."""
+        c = complex(cr, ci)
+        for i in range(a.size):
+            ai = a[i]
+            bi = b[i]
+            pa = 1.0
+            pb = 1.0
+            for _ in range(k):  # ω^k by products (numpy's power for k ≤ 2)
+                pa *= ai
+                pb *= bi
+            fa = c * (pa * va1[i])
+            fb = c * (pb * vb1[i])
+            xa = va0[i]
+            xb = vb0[i]
+            g1 = xa.imag * fa.real - xa.real * fa.imag  # Im(xa·conj fa)
+            g2 = xb.imag * fb.real - xb.real * fb.imag
+            ga[i] = g1
+            gb[i] = g2
+            na = fa.real * fa.real + fa.imag * fa.imag
+            nb = fb.real * fb.real + fb.imag * fb.imag
+            if not (na > 0.0 and nb > 0.0 and np.isfinite(na) and np.isfinite(nb)
+                    and np.isfinite(xa.real) and np.isfinite(xa.imag) and np.isfinite(xb.real) and np.isfinite(xb.imag)):
+                flags[i] = 4
+                continue
+            # κ = −x/f at both ends
+            kar = -(xa.real * fa.real + xa.imag * fa.imag) / na
+            kai = -(xa.imag * fa.real - xa.real * fa.imag) / na
+            kbr = -(xb.real * fb.real + xb.imag * fb.imag) / nb
+            kbi = -(xb.imag * fb.real - xb.real * fb.imag) / nb
+            ma = math.sqrt(kar * kar + kai * kai)
+            mb = math.sqrt(kbr * kbr + kbi * kbi)
+            if not (np.isfinite(ma) and np.isfinite(mb)):
+                flags[i] = 4
+                continue
+            kmin = min(ma, mb)
+            kmax = max(ma, mb)
+            pos = ai > 0.0
+            plausible = (kar > 0.0 or kbr > 0.0) and not (kmax * 1e3 < lo) and not (kmin > hi * 1e3)
+            br = pos and ((g1 < 0.0 and g2 > 0.0) or (g1 > 0.0 and g2 < 0.0)) and plausible
+            near = abs(kai) <= sin_near * ma or abs(kbi) <= sin_near * mb
+            sus = pos and plausible and near and not (kmax * 4.0 < lo) and not (kmin > hi * 4.0)
+            flags[i] = 2 if sus else (1 if br else 0)
+
+
+def classify_leaves(lv: dict, k: int, factor: complex, lo: float, hi: float, sin_near: float):
+    """Compiled :func:`exotune.analysis._classify_numpy` over the leaves ``lv`` of a pair:
+    (ga, gb, bracket mask, sub-sample mask, degenerate mask)."""
+    n = lv["a"].size
+    ga, gb = np.empty(n), np.empty(n)
+    flags = np.empty(n, np.uint8)
+    f = lambda x: np.ascontiguousarray(x, dtype=complex)  # noqa: E731
+    factor = complex(factor) * (1j ** int(k))
+    if n:
+        _classify(np.ascontiguousarray(lv["a"], dtype=float), np.ascontiguousarray(lv["b"], dtype=float),
+                  f(lv["va"][0]), f(lv["va"][1]), f(lv["vb"][0]), f(lv["vb"][1]), int(k), factor.real, factor.imag,
+                  float(lo), float(hi), float(sin_near), ga, gb, flags)
+    return ga, gb, flags == 1, flags == 2, flags == 4

@@ -327,34 +327,7 @@ class _Side:
                     b, _ = D1.eval(task, w, deriv=False)
                     return np.imag(a * np.conj(factor * (1j * w) ** k * b))
 
-                # f (jω)^k v as a complex constant times a real power (no complex power)
-                fl = lambda v, w, k=k, factor=factor: (factor * 1j**k) * (w**k * v)
-                fva, fvb = fl(lv["va"][1], lv["a"]), fl(lv["vb"][1], lv["b"])
-                ga = np.imag(lv["va"][0] * np.conj(fva))
-                gb = np.imag(lv["vb"][0] * np.conj(fvb))
-                br = (np.sign(ga) * np.sign(gb) < 0) & (lv["a"] > 0)
-                # keep only brackets whose crossing value can lie in [lo, hi]: within a leaf the
-                # phase of κ = −Δ_0/(fφΔ1) moves < 1 rad, so a crossing at p > 0 has Re κ > 0 at
-                # an end; |κ| is bounded loosely (factor 1e3) from the end values.
-                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                    ka = -lv["va"][0] / fva
-                    kb = -lv["vb"][0] / fvb
-                kmin = np.minimum(np.abs(ka), np.abs(kb))
-                kmax = np.maximum(np.abs(ka), np.abs(kb))
-                plausible = ((ka.real > 0) | (kb.real > 0)) & ~(kmax * 1e3 < fam.lo) & ~(kmin > fam.hi * 1e3)
-                br &= plausible | ~np.isfinite(kmax)
-                # a leaf can hold several crossings (an even number without a sign change at its
-                # ends, or three with one) when κ comes near the positive real axis — e.g. a nearly
-                # decoupled light mass on the cuff spring at high frequency, where the delay makes
-                # Im κ ripple with period 2π/T. The leaf criteria bound each function's phase step
-                # (< 0.8 rad) and its departure from the trapezoid estimate (≤ 0.5 rad), so arg κ
-                # cannot swing by ≳ 1 rad inside a leaf and back: every plausible leaf with κ within
-                # NEAR_REAL_RAD of the real axis at an end is sub-sampled (≥ 8 points, ≥ 8 per
-                # ripple period) and its brackets come from the sub-samples
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    near_real = (np.abs(ka.imag) <= _SIN_NEAR * np.abs(ka)) | (np.abs(kb.imag) <= _SIN_NEAR * np.abs(kb))
-                sus = ((lv["a"] > 0) & plausible & near_real & ~(kmax * 4.0 < fam.lo) & ~(kmin > fam.hi * 4.0))
-                br &= ~sus
+                ga, gb, br, sus = _classify(lv, k, factor, fam.lo, fam.hi)
                 tk, ba, bb, bga, bgb = lv["task"][br], lv["a"][br], lv["b"][br], ga[br], gb[br]
                 if sus.any():
                     st, sa_, sb_ = lv["task"][sus], lv["a"][sus], lv["b"][sus]
@@ -376,7 +349,7 @@ class _Side:
                         bgb = np.concatenate([bgb, gsub[j + 1]])
                 ws = _refine_crossings(g, D0, D1, k, factor, tk, ba, bb, bga, bgb)
                 a_, _ = D0.eval(tk, ws, deriv=False)
-                b_ = fl(D1.eval(tk, ws, deriv=False)[0], ws)
+                b_ = (factor * 1j**k) * (ws**k * D1.eval(tk, ws, deriv=False)[0])  # f (jω)^k Δ1
                 with np.errstate(divide="ignore", invalid="ignore"):
                     pc = -np.real(a_ * np.conj(b_)) / np.abs(b_) ** 2
                 # a real root through s = 0 at p = −Δ_0(0)/(φ Δ1)(0) (only φ = 1 can vanish there)
@@ -453,6 +426,55 @@ class _Side:
 
 NEAR_REAL_RAD = 1.0  # leaves with κ this close (in angle) to the real axis at an end are sub-sampled
 _SIN_NEAR = float(np.sin(NEAR_REAL_RAD))
+
+
+def _classify_numpy(lv: dict, k: int, factor: complex, lo: float, hi: float):
+    """Crossing function at both ends of every leaf, and which leaves hold a sign-change bracket
+    or must be sub-sampled, for one family (f φ = factor·(jω)^k) of a pair's leaves ``lv``
+    (numpy reference of :func:`exotune._fastphase.classify_leaves`). Returns (ga, gb, br, sus).
+
+    Brackets are kept only when their crossing value can lie in [lo, hi]: within a leaf the phase
+    of κ = −Δ_0/(fφΔ1) moves < 1 rad, so a crossing at p > 0 has Re κ > 0 at an end; |κ| is bounded
+    loosely (factor 1e3) from the end values. A leaf can hold several crossings (an even number
+    without a sign change at its ends, or three with one) when κ comes near the positive real
+    axis — e.g. a nearly decoupled light mass on the cuff spring at high frequency, where the delay
+    makes Im κ ripple with period 2π/T. The leaf criteria bound each function's phase step
+    (< 0.8 rad) and its departure from the trapezoid estimate (≤ 0.5 rad), so arg κ cannot swing by
+    ≳ 1 rad inside a leaf and back: every plausible leaf with κ within NEAR_REAL_RAD of the real
+    axis at an end is sub-sampled (≥ 8 points, ≥ 8 per ripple period) by the caller."""
+    # f (jω)^k v as a complex constant times a real power (no complex power)
+    fl = lambda v, w: (factor * 1j**k) * (w**k * v)  # noqa: E731
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        fva, fvb = fl(lv["va"][1], lv["a"]), fl(lv["vb"][1], lv["b"])
+        ga = np.imag(lv["va"][0] * np.conj(fva))
+        gb = np.imag(lv["vb"][0] * np.conj(fvb))
+        br = (np.sign(ga) * np.sign(gb) < 0) & (lv["a"] > 0)
+        ka = -lv["va"][0] / fva
+        kb = -lv["vb"][0] / fvb
+    kmin = np.minimum(np.abs(ka), np.abs(kb))
+    kmax = np.maximum(np.abs(ka), np.abs(kb))
+    plausible = ((ka.real > 0) | (kb.real > 0)) & ~(kmax * 1e3 < lo) & ~(kmin > hi * 1e3)
+    br &= plausible | ~np.isfinite(kmax)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        near_real = (np.abs(ka.imag) <= _SIN_NEAR * np.abs(ka)) | (np.abs(kb.imag) <= _SIN_NEAR * np.abs(kb))
+    sus = (lv["a"] > 0) & plausible & near_real & ~(kmax * 4.0 < lo) & ~(kmin > hi * 4.0)
+    br &= ~sus
+    return ga, gb, br, sus
+
+
+def _classify(lv: dict, k: int, factor: complex, lo: float, hi: float):
+    """:func:`_classify_numpy`, compiled when available; leaves with a zero or non-finite value
+    (where numpy's complex inf/nan rules decide) go through the numpy reference."""
+    if not _compiled():
+        return _classify_numpy(lv, k, factor, lo, hi)
+    from . import _fastphase
+
+    ga, gb, br, sus, deg = _fastphase.classify_leaves(lv, k, factor, lo, hi, _SIN_NEAR)
+    if deg.any():
+        sub = {"a": lv["a"][deg], "b": lv["b"][deg], "va": [lv["va"][0][deg], lv["va"][1][deg]],
+               "vb": [lv["vb"][0][deg], lv["vb"][1][deg]]}
+        _, _, br[deg], sus[deg] = _classify_numpy(sub, k, factor, lo, hi)
+    return ga, gb, br, sus
 
 
 def _compiled() -> bool:
