@@ -722,3 +722,50 @@ def classify_leaves(lv: dict, k: int, factor: complex, lo: float, hi: float, sin
                   f(lv["va"][0]), f(lv["va"][1]), f(lv["vb"][0]), f(lv["vb"][1]), int(k), factor.real, factor.imag,
                   float(lo), float(hi), float(sin_near), ga, gb, flags)
     return ga, gb, flags == 1, flags == 2, flags == 4
+
+
+if AVAILABLE:
+
+    @njit(cache=True)
+    def _subsample(cA0, cA1, cB0, cB1, Ts, st, sa, sb, Ms, k, fre, fim, cvals, otask, oa, ob, oga, ogb):
+        """Sign-change brackets of the crossing function on Ms[i] equally spaced points (ends
+        included) of each leaf [sa, sb] of task st."""
+        n = 0
+        for i in range(st.shape[0]):
+            t = st[i]
+            T = Ts[t]
+            a = sa[i]
+            b = sb[i]
+            M = Ms[i]
+            wp = a
+            gp = _fun(cA0, cA1, cB0, cB1, t, T, wp, MODE_CROSS, k, fre, fim, cvals[t])
+            for j in range(1, M):
+                w = a + (j / (M - 1)) * (b - a)
+                g = _fun(cA0, cA1, cB0, cB1, t, T, w, MODE_CROSS, k, fre, fim, cvals[t])
+                if (gp < 0.0 and g > 0.0) or (gp > 0.0 and g < 0.0):
+                    otask[n] = t
+                    oa[n] = wp
+                    ob[n] = w
+                    oga[n] = gp
+                    ogb[n] = g
+                    n += 1
+                wp = w
+                gp = g
+        return n
+
+
+def subsample_brackets(qa, qb, k: int, factor: complex, st, sa, sb):
+    """Compiled sub-sampling of leaves (see :meth:`exotune.analysis._Side.submit`): the sign-change
+    brackets (task, a, b, g(a), g(b)) of g(ω) = Im[Δa·conj(f (jω)^k Δb)] on each leaf's points."""
+    factor = complex(factor)
+    Tt = qa.T[st]
+    per = np.where(Tt > 0, 2 * np.pi / np.maximum(Tt, 1e-300), np.inf)
+    M = np.clip(np.ceil(8.0 * (sb - sa) / per), 8, 512).astype(np.int64)  # ≥ 8 points per ripple period
+    m = int(M.sum()) - len(st)
+    out = (np.empty(m, np.int64), np.empty(m), np.empty(m), np.empty(m), np.empty(m))
+    n = 0
+    if len(st):
+        f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
+        n = _subsample(*_pair_args(qa, qb), np.ascontiguousarray(st, dtype=np.int64), f(sa), f(sb), M, int(k),
+                       factor.real, factor.imag, _cvals(None, qa.n), *out)
+    return tuple(x[:n] for x in out)

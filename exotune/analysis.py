@@ -331,22 +331,9 @@ class _Side:
                 tk, ba, bb, bga, bgb = lv["task"][br], lv["a"][br], lv["b"][br], ga[br], gb[br]
                 if sus.any():
                     st, sa_, sb_ = lv["task"][sus], lv["a"][sus], lv["b"][sus]
-                    Tt = D0.T[st]
-                    per = np.where(Tt > 0, 2 * np.pi / np.maximum(Tt, 1e-300), np.inf)
-                    M = np.clip(np.ceil(8.0 * (sb_ - sa_) / per), 8, 512).astype(int)
-                    rep = np.repeat(np.arange(len(st)), M)
-                    # M points per leaf, both ends included (a sign change at the ends is kept)
-                    frac = (np.arange(rep.size) - np.repeat(np.cumsum(M) - M, M)) / np.repeat(M - 1, M)
-                    wsub = sa_[rep] + frac * (sb_ - sa_)[rep]
-                    gsub = _pair_values(g, D0, D1, "cross", st[rep], wsub, k=k, factor=factor)
-                    nxt = np.r_[rep[1:] == rep[:-1], False]
-                    j = np.nonzero(nxt & (np.sign(gsub) * np.sign(np.r_[gsub[1:], 0.0]) < 0))[0]
-                    if j.size:
-                        tk = np.concatenate([tk, st[rep[j]]])
-                        ba = np.concatenate([ba, wsub[j]])
-                        bb = np.concatenate([bb, wsub[j + 1]])
-                        bga = np.concatenate([bga, gsub[j]])
-                        bgb = np.concatenate([bgb, gsub[j + 1]])
+                    sub = _subsample_brackets(g, D0, D1, k, factor, st, sa_, sb_)
+                    if sub[0].size:
+                        tk, ba, bb, bga, bgb = (np.concatenate([x, y]) for x, y in zip((tk, ba, bb, bga, bgb), sub))
                 ws = _refine_crossings(g, D0, D1, k, factor, tk, ba, bb, bga, bgb)
                 a_, _ = D0.eval(tk, ws, deriv=False)
                 b_ = (factor * 1j**k) * (ws**k * D1.eval(tk, ws, deriv=False)[0])  # f (jω)^k Δ1
@@ -481,6 +468,27 @@ def _compiled() -> bool:
     from .quasipoly import _engine
 
     return _engine(None) == "numba"
+
+
+def _subsample_brackets(g, D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
+    """Sign-change brackets (task, a, b, g(a), g(b)) of the crossing function g on M equally
+    spaced points of each leaf [sa, sb] (ends included; M ≥ 8 and ≥ 8 per delay ripple period
+    2π/T, at most 512); compiled when available."""
+    if _compiled():
+        from . import _fastphase
+
+        return _fastphase.subsample_brackets(D0, D1, k, factor, st, sa, sb)
+    Tt = D0.T[st]
+    per = np.where(Tt > 0, 2 * np.pi / np.maximum(Tt, 1e-300), np.inf)
+    M = np.clip(np.ceil(8.0 * (sb - sa) / per), 8, 512).astype(int)
+    rep = np.repeat(np.arange(len(st)), M)
+    # M points per leaf, both ends included (a sign change at the ends is kept)
+    frac = (np.arange(rep.size) - np.repeat(np.cumsum(M) - M, M)) / np.repeat(M - 1, M)
+    wsub = sa[rep] + frac * (sb - sa)[rep]
+    gsub = _pair_values(g, D0, D1, "cross", st[rep], wsub, k=k, factor=factor)
+    nxt = np.r_[rep[1:] == rep[:-1], False]
+    j = np.nonzero(nxt & (np.sign(gsub) * np.sign(np.r_[gsub[1:], 0.0]) < 0))[0]
+    return st[rep[j]], wsub[j], wsub[j + 1], gsub[j], gsub[j + 1]
 
 
 def _refine_crossings(g, D0: QP, D1: QP, k: int, factor: complex, task, a, b, fa, fb):
