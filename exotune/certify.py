@@ -86,7 +86,7 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
             h = _FD * (abs(v) if log or v else max(abs(hi), 1.0))
             lh = np.asarray(spectrum(v + h))
             d = np.zeros_like(lam)
-            if lam.size and lh.size == lam.size:
+            if lam.size and lh.size:  # (an eigenvalue without a partner, e.g. at v = 0: speed 0)
                 r, c = _match(lam, lh)
                 d[r] = (lh[c] - lam[r]) / (coord(v + h) - coord(v))
             cache[v] = (st, lam, d)

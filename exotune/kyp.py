@@ -141,6 +141,13 @@ def _solve_kyp(A, B, C, q0):
     return float("nan"), None, last, "failed"
 
 
+def _polynomial_only(q0: float, tol: float, reason: str, base: dict) -> KypCertificate:
+    """Y = q1 s + q0 (q1 ≥ 0 checked by the caller): passive iff q0 ≥ 0."""
+    d_ = max(0.0, -q0)
+    return KypCertificate(passive=d_ <= tol * max(abs(q0), 1e-300), shortage=d_,
+                          relative_shortage=d_ / max(abs(q0), 1e-300), reason=reason, **base)
+
+
 def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCertificate:
     """Positive-realness certificate of one rational admittance Y = num/den (ascending coefficients).
 
@@ -180,10 +187,7 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     lead_r = np.nonzero(np.abs(r) > 1e-13 * np.max(np.abs(r), initial=0.0))[0]
     r = r[lead_r[0]:] if lead_r.size else np.zeros(0)  # drop the rounding residue of polydiv
     if r.size == 0 or not np.any(r):  # Y = q1 s + q0
-        d_ = max(0.0, -q0)
-        return KypCertificate(passive=d_ <= tol * max(abs(q0), 1e-300), shortage=d_,
-                              relative_shortage=d_ / max(abs(q0), 1e-300),
-                              reason="no strictly proper part", **base)
+        return _polynomial_only(q0, tol, "no strictly proper part", base)
     if np.any(poles.real > 0):
         return KypCertificate(passive=False, shortage=float("nan"), relative_shortage=float("nan"),
                               reason="Y has poles in the right half plane (the loop is unstable): not positive real", **base)
@@ -195,6 +199,8 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
         warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
         A, B, C, _ = scipy.signal.tf2ss(r, dS[::-1])
     Ab, Bb, Cb, hsv, bound = _balanced(A, B, C)
+    if hsv.size == 0:  # Y_p vanishes numerically: Y = q1 s + q0
+        return _polynomial_only(q0, tol, "the strictly proper part vanishes numerically", base)
     s1 = float(hsv[0])
     g = 1.0 / s1  # normalize ‖Ŷ_p‖ to about 1: the SDP works on g·Y
     d, P, solver, status = _solve_kyp(Ab, Bb * np.sqrt(g), Cb * np.sqrt(g), g * q0)
