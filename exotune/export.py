@@ -228,7 +228,11 @@ def _predicted(cfg) -> dict:
         "locked_stable": bool(r["locked_stable"]),
         "humans": humans,
         "passivity": {"max_phase_excess_deg": _q(r["passivity"]["max_phase_excess_deg"], "deg"),
-                      "nonpassive_band_hz": {"value": r["passivity"]["nonpassive_band_hz"], "unit": "Hz"}},
+                      "nonpassive_band_hz": {"value": r["passivity"]["nonpassive_band_hz"], "unit": "Hz"},
+                      "kyp": {name: (c if name == "error" else
+                                     {"model": c["model"], "passive": c["passive"],
+                                      "shortage": _q(c["shortage"], c["shortage_unit"])})
+                              for name, c in r["passivity"]["kyp"].items()}},
         "dob": None if dob is None else {
             "gain_margin_db": _q(dob["gain_margin_db"], "dB"),
             "phase_margin_deg": _q(dob["phase_margin_deg"], "deg"),

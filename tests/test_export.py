@@ -409,3 +409,13 @@ def test_certify_fails_on_unresolved_eigenvalue_paths(paper_doc, monkeypatch):
     rep = C.certify(doc)
     assert not rep["certified"]
     assert any("eigenvalue paths not resolved" in p for p in rep["problems"]), rep["problems"]
+
+
+def test_export_carries_the_kyp_certificates(paper_doc):
+    """The controller file's continuous predictions include the KYP passivity certificates (with
+    units) of the design's nominal and delay-free C7, as `exotune analyze` computes them."""
+    _, doc = paper_doc
+    kyp = doc["predicted"]["continuous"]["passivity"]["kyp"]
+    assert kyp["nominal"]["passive"] is True and kyp["nominal"]["shortage"] == {"value": 0.0, "unit": "rad/(N·m·s)"}
+    assert kyp["delay_free"]["passive"] is False
+    assert kyp["delay_free"]["shortage"]["value"] == pytest.approx(0.0599288, rel=1e-5)
