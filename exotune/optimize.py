@@ -370,12 +370,6 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
     from .config import design_from_mapping
 
     opt_cfg = design_from_mapping(optimized_design_mapping(spec, out))
-    # the convex sub-problem (SPEC §7): KYP certificates of the optimum's rational C7 models (cvxpy)
-    out["passivity_certificates"] = _kyp_certificates(opt_cfg)
-    nom = out["passivity_certificates"].get("nominal") or {}
-    if spec.constraints["nominal_passive"] and nom.get("passive") is not True:
-        out["certificate_warning"] = ("the KYP certificate does not confirm the closed-form nominal passivity of the "
-                                      f"optimum: {nom.get('reason', out['passivity_certificates'].get('error'))}")
     if spec.cfg.implementation.sample_rate_hz is not None:
         # the search is continuous-time (exact delay); with a sample rate, check the optimum's
         # sampled-data loop too and say where sampling breaks what the search accepted
@@ -383,6 +377,15 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
 
         rep = analyze_design(opt_cfg)
         out["sampled_data_warnings"] = [w for w in rep.get("warnings", []) if "sampled-data" in w]
+        certs = rep["passivity"]["kyp"]
+    else:
+        certs = _kyp_certificates(opt_cfg)
+    # the convex sub-problem (SPEC §7): KYP certificates of the optimum's rational C7 models (cvxpy)
+    out["passivity_certificates"] = certs
+    nom = certs.get("nominal") or {}
+    if spec.constraints["nominal_passive"] and nom.get("passive") is not True:
+        out["certificate_warning"] = ("the KYP certificate does not confirm the closed-form nominal passivity of the "
+                                      f"optimum: {nom.get('reason', certs.get('error'))}")
     if pareto:
         out["pareto"] = _pareto(spec, seen)
     return out

@@ -166,20 +166,23 @@ def test_compiled_counter_pipeline_equals_numpy_counter():
     assert total > 5 * n and has_reg
 
 
+def _human_leaves(n, rng, delay_lo, delay_hi):
+    """(Δ00, Δ10, leaves) of the human side for n random variants of the paper design."""
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    cfg = batch_config(base, {"design.amplification": np.exp(rng.uniform(0.0, np.log(30.0), n)),
+                              "implementation.delay_s": rng.uniform(delay_lo, delay_hi, n)})
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    return _Side(char_terms(cfg.plant, cs, n), "00", "10", base.humans).compute_leaves((0.0, 0.0, 0.0))
+
+
 @pytest.mark.parametrize("k,factor,lo,hi", [(0, 1.0, 1.0, 1e4), (2, -1.0, 1e-3, 1.0), (0, 1 + 0.2j, 10.0, 1e3), (1, 1.0, 0.1, 10.0)])
 def test_compiled_leaf_classification_equals_numpy(k, factor, lo, hi):
     """Crossing values and bracket / sub-sampling flags of every leaf: the compiled kernel equals the
     numpy reference, on real leaves and on planted degenerate ones (zeros, inf, nan, ω = 0)."""
     from exotune.analysis import _SIN_NEAR, _classify, _classify_numpy
 
-    base = load_design(ROOT / "examples" / "paper.yaml")
     rng = np.random.default_rng(3)
-    n = 60
-    cfg = batch_config(base, {"design.amplification": np.exp(rng.uniform(0.0, np.log(30.0), n)),
-                              "implementation.delay_s": rng.uniform(0.0, 0.005, n)})
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    side = _Side(char_terms(cfg.plant, cs, n), "00", "10", base.humans)
-    _, _, lv = side.compute_leaves((0.0, 0.0, 0.0))
+    _, _, lv = _human_leaves(60, rng, 0.0, 0.005)
     lv = {"a": lv["a"].copy(), "b": lv["b"].copy(), "task": lv["task"],
           "va": [lv["va"][0].copy(), lv["va"][1].copy()], "vb": [lv["vb"][0].copy(), lv["vb"][1].copy()]}
     m = lv["a"].size
@@ -208,15 +211,8 @@ def test_compiled_subsampling_equals_numpy(monkeypatch):
     ripple): the compiled pass returns exactly the numpy reference's brackets."""
     from exotune import analysis as A
 
-    base = load_design(ROOT / "examples" / "paper.yaml")
-    rng = np.random.default_rng(4)
-    n = 40
-    cfg = batch_config(base, {"design.amplification": np.exp(rng.uniform(0.0, np.log(30.0), n)),
-                              "implementation.delay_s": rng.uniform(0.0005, 0.006, n)})
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    side = _Side(char_terms(cfg.plant, cs, n), "00", "10", base.humans)
-    D0, D1, lv = side.compute_leaves((0.0, 0.0, 0.0))
-    fam = base.humans[0]  # mass: κ ≈ K_c/ω² hugs the real axis
+    D0, D1, lv = _human_leaves(40, np.random.default_rng(4), 0.0005, 0.006)
+    fam = load_design(ROOT / "examples" / "paper.yaml").humans[0]  # mass: κ ≈ K_c/ω² hugs the real axis
     _, _, _, sus = A._classify_numpy(lv, 2, -1.0, fam.lo, fam.hi)
     st, sa, sb = lv["task"][sus], lv["a"][sus], lv["b"][sus]
     assert st.size > 100
