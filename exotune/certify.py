@@ -15,7 +15,8 @@ the unit circle (step control of eigenvalue continuation); every change of verdi
 (geometric) to 1e-10 relative. A window of instability could still hide inside a cell only on an
 eigenvalue path much longer than its resolved chord and end speeds imply. A cell that stays
 unresolved at the finest step (≈ 2e-5 relative: an eigenvalue within a hair of the circle and
-moving fast) fails the certification.
+moving fast), or when the refinement budget (``MAX_REFINED`` values per family) is spent, fails
+the certification.
 
 The file is **certified** when the free and the locked loops are stable, every rational human
 family is stable over its whole range, the golden vectors are reproduced by the reference runtime
@@ -35,6 +36,7 @@ __all__ = ["POINTS", "sampled_analysis", "certify", "format_certify"]
 POINTS = 96
 CHORD = 1.0  # over a resolved cell every eigenvalue moves ≤ CHORD × its distance to |z| = 1
 MAX_DEPTH = 12  # halvings of one base-grid cell (≈ 2e-5 relative for the default grid)
+MAX_REFINED = 20000  # refinement values per family; past it, unresolved cells are reported as such
 _FD = 1e-7  # relative step of the finite-difference eigenvalue derivative
 _BISECT = 48
 
@@ -66,8 +68,8 @@ def _cell_resolved(a, b, length: float) -> bool:
 def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
     """Stable intervals of one family. Verdicts on a grid of ``points`` values (log-spaced when
     lo > 0); every cell with a stable verdict at both ends is halved until its eigenvalue paths are
-    resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times — cells still unresolved then
-    are reported; every change of verdict is bisected to 1e-10 relative. ``spectrum(v)`` → loop
+    resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times and ``MAX_REFINED`` values in
+    all (a bounded run time) — cells still unresolved then are reported; every change of verdict is bisected to 1e-10 relative. ``spectrum(v)`` → loop
     eigenvalues at parameter value v (their derivatives by a forward difference)."""
     cache = {}
     log = lo > 0
@@ -106,7 +108,7 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
                 continue
             if _cell_resolved(with_derivative(x), with_derivative(y), coord(y) - coord(x)):
                 continue
-            if not depth:
+            if not depth or refined >= MAX_REFINED:
                 unresolved.append([x, y])
                 continue
             m = mid(x, y)
@@ -225,9 +227,9 @@ def _unresolved(sa: dict, where: str) -> list[str]:
         cells = h.get("unresolved") or []
         if cells:
             a, b = cells[0]
-            out.append(f"{where}{h['kind']} {h['parameter']}: eigenvalue paths not resolved at the finest step in "
-                       f"{len(cells)} cell(s), first [{a:.6g}, {b:.6g}] {h['unit']} (an eigenvalue within a hair of the "
-                       "unit circle and moving fast: a marginal design)")
+            out.append(f"{where}{h['kind']} {h['parameter']}: eigenvalue paths not resolved in {len(cells)} cell(s), "
+                       f"first [{a:.6g}, {b:.6g}] {h['unit']} (at the finest step or past the refinement budget: an "
+                       "eigenvalue within a hair of the unit circle and moving fast, a marginal design)")
     return out
 
 

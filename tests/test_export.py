@@ -279,6 +279,7 @@ def test_certify_refinement_follows_a_fast_eigenvalue_and_reports_unresolved_cel
         r = 0.999 + 0.002 * math.exp(-(u / 2e-4) ** 2)  # |λ| > 1 only for |u| ≲ 1.7e-4
         return np.array([r * np.exp(40j * u), r * np.exp(-40j * u), 0.5])
 
+    monkeypatch.setattr(C, "MAX_REFINED", 10**6)  # ~10 halvings in every cell: beyond the default budget
     ivs, info = C._intervals(spectrum, lo, hi)
     assert len(ivs) == 2, ivs
     assert ivs[0][1] < c < ivs[1][0] and ivs[1][0] / ivs[0][1] < 1.0 + 1e-3
@@ -419,3 +420,18 @@ def test_export_carries_the_kyp_certificates(paper_doc):
     assert kyp["nominal"]["passive"] is True and kyp["nominal"]["shortage"] == {"value": 0.0, "unit": "rad/(N·m·s)"}
     assert kyp["delay_free"]["passive"] is False
     assert kyp["delay_free"]["shortage"]["value"] == pytest.approx(0.0599288, rel=1e-5)
+
+
+def test_certify_refinement_budget_reports_unresolved_cells(monkeypatch):
+    """The refinement has a bounded cost: past MAX_REFINED values the remaining unresolved cells
+    are reported (and would fail certification), not refined forever."""
+    from exotune import certify as C
+
+    def spectrum(v):  # an eigenvalue 1e-9 inside the circle, turning fast with the parameter
+        u = math.log(v)
+        return np.array([(1 - 1e-9) * np.exp(30j * u), (1 - 1e-9) * np.exp(-30j * u)])
+
+    monkeypatch.setattr(C, "MAX_REFINED", 300)
+    ivs, info = C._intervals(spectrum, 1.0, 10.0)
+    assert ivs == [[1.0, 10.0]] and info["refined_points"] <= 300 + C.MAX_DEPTH
+    assert len(info["unresolved"]) >= C.POINTS - 1
