@@ -129,6 +129,11 @@ def main() -> None:
     print(f"  ratio, per core          : exotune sweep is {rate / rate_c:.0f}× the minimal workflow, "
           f"{rate / rate_f:.0f}× the same-outputs workflow (python-control given the same {args.workers} cores)")
     print(f"  ratio, wall clock        : {rate / rate_c1:.0f}× / {rate / rate_f1:.0f}× a single-process python-control loop")
+    ok = lambda b: "met" if b else "NOT met"  # noqa: E731
+    print(f"  issue targets            : 10^6 designs in ≤ 300 s {ok(1e6 / rate <= 300)} (projected from this run: "
+          f"{fmt_s(1e6 / rate)}); ≥ 2000× the same-outputs workflow {ok(rate / rate_f >= 2000)} per core "
+          f"({rate / rate_f:.0f}×), {ok(rate / rate_f1 >= 2000)} on wall clock ({rate / rate_f1:.0f}×); "
+          f"peak memory < 2 GB {ok(max(self_rss, child_rss) < 2048)}")
     print(f"  projected, 10^6 designs  : exotune {fmt_s(1e6 / rate)} on {args.workers} workers; "
           f"python-control {fmt_s(1e6 / rate_c)} (minimal) / {fmt_s(1e6 / rate_f)} (same outputs) on {args.workers} cores")
     if not args.keep and not args.dir:
