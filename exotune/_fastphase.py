@@ -584,6 +584,10 @@ if AVAILABLE:
         a1 = np.zeros((1, m))
         K = int(decades * per_decade) + 1
         grid = np.zeros((1, K + 1))
+        ratio = np.empty(K)
+        for j in range(K):
+            ratio[j] = 10.0 ** (-decades + decades * j / (K - 1))
+        wm = np.empty(1)
         for t in range(ntask):
             # exact common zero low-order coefficients of the task and its regularized twin
             r = min(_first_nonzero(P0, t, m), _first_nonzero(P1, t, m), _first_nonzero(R0, t, m),
@@ -605,7 +609,6 @@ if AVAILABLE:
             for k in range(m):
                 a0[0, k] = abs(c0[0, k])
                 a1[0, k] = abs(c1[0, k])
-            wm = np.empty(1)
             _omega_max(a0, a1, 0.25, wm)
             wmax = wm[0]
             n = -1
@@ -617,7 +620,7 @@ if AVAILABLE:
             wg = wmax if valid else 1.0
             grid[0, 0] = 0.0
             for j in range(K):
-                grid[0, j + 1] = wg * 10.0 ** (-decades + decades * j / (K - 1))
+                grid[0, j + 1] = wg * ratio[j]
             total = 0.0
             resolved = False
             if valid:
