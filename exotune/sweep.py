@@ -417,19 +417,29 @@ def _plan_from_spec(spec: dict, spec_hash: str) -> SweepPlan:
     return plan
 
 
-def _arrow_column(name: str, v, n: int):
+def _np_arrow(v: np.ndarray, kind: str):
+    """A flat numpy column as an Arrow array, built on its buffer (zero-copy for float64/int64).
+
+    ``pa.array`` would give the same array, but on its first call it imports pandas to test for
+    pandas objects: ~1 s of every worker's start-up, for nothing (a sweep chunk holds numpy
+    arrays only). NaN stays a NaN value, as with ``pa.array(..., from_pandas=False)``."""
     import pyarrow as pa
 
+    if kind == "b":
+        v = np.ascontiguousarray(v, dtype=bool)
+        return pa.Array.from_buffers(pa.bool_(), v.size, [None, pa.py_buffer(np.packbits(v, bitorder="little"))])
+    dt, at = {"i": (np.int64, pa.int64()), "i32": (np.int32, pa.int32()), "f": (np.float64, pa.float64())}[kind]
+    v = np.ascontiguousarray(v, dtype=dt)
+    return pa.Array.from_buffers(at, v.size, [None, pa.py_buffer(v)])
+
+
+def _arrow_column(name: str, v, n: int):
     if isinstance(v, np.ndarray):
         if v.shape != (n,):
             raise ValueError(f"column {name!r} has shape {v.shape}, expected ({n},)")
         k = v.dtype.kind
-        if k == "b":
-            return pa.array(v, type=pa.bool_())
-        if k in "iu":
-            return pa.array(v.astype(np.int64), type=pa.int64())
-        if k == "f":
-            return pa.array(v.astype(np.float64), type=pa.float64())
+        if k in "biuf":
+            return _np_arrow(v, {"u": "i"}.get(k, k))
         if k == "O":
             v = v.tolist()
         else:
@@ -455,8 +465,8 @@ def _nested_float_lists(rows):
     inner = np.zeros(len(items) + 1, np.int32)
     np.cumsum([len(it) for it in items], out=inner[1:])
     values = np.fromiter(itertools.chain.from_iterable(items), dtype=np.float64, count=int(inner[-1]))
-    lists = pa.ListArray.from_arrays(pa.array(inner), pa.array(values, type=pa.float64()))
-    return pa.ListArray.from_arrays(pa.array(outer), lists)
+    lists = pa.ListArray.from_arrays(_np_arrow(inner, "i32"), _np_arrow(values, "f"))
+    return pa.ListArray.from_arrays(_np_arrow(outer, "i32"), lists)
 
 
 def _compute_table(plan: SweepPlan, index: int):
@@ -470,10 +480,10 @@ def _compute_table(plan: SweepPlan, index: int):
         del cols[k]  # per-edge details of box families (objects): single-design reports only
     for k in [k for k in cols if k.endswith("_verification_mismatches")]:
         cols[k] = np.array([len(m) for m in cols[k]], dtype=np.int64)  # count per design
-    names, arrays = ["point_index"], [pa.array(g, type=pa.int64())]
+    names, arrays = ["point_index"], [_np_arrow(g, "i")]
     for p in plan.paths:
         names.append(p)
-        arrays.append(pa.array(vals[p], type=pa.float64()))
+        arrays.append(_np_arrow(vals[p], "f"))
     for k, v in cols.items():
         if k in names:
             raise ValueError(f"analysis column {k!r} clashes with an axis column")
