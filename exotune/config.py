@@ -40,8 +40,9 @@ at least one a range — several make a box; missing ones are 0, but the inertia
 (``stiffness`` range, ``eta``). Environments: ``locked``, ``free``, ``spring`` (``stiffness``
 range, ``damping``), ``mass`` (``inertia`` range, ``damping``).
 
-YAML is read with :func:`yaml.safe_load` only; duplicate keys (which PyYAML would otherwise
-silently resolve to the last value) are rejected.
+YAML is read with a safe loader only (PyYAML's SafeLoader with YAML 1.2 floats, so ``1e-3`` is a
+number); duplicate keys (which PyYAML would otherwise silently resolve to the last value) are
+rejected.
 
 Batches (:func:`batch_config`) override plant, design and implementation parameters by dotted path
 with 1-D arrays; human and environment families are *not* overridable (they are the uncertainty
@@ -54,6 +55,7 @@ import hashlib
 import json
 import math
 import os
+import re
 from dataclasses import dataclass, replace
 from typing import Annotated, Any, Callable, Literal, Optional
 
@@ -140,10 +142,7 @@ def _to_number(v: Any) -> float:
                 float(v)
             except ValueError:
                 raise ValueError(f"expected a number, got the string {v!r}") from None
-            raise ValueError(
-                f"expected a number, got the string {v!r} (YAML reads exponent forms without a "
-                f"decimal point, like 1e3, as strings: write 1.0e3)"
-            )
+            raise ValueError(f"expected a number, got the string {v!r} (a quoted number? remove the quotes)")
         if v is None:
             raise ValueError("expected a number, got null")
         if isinstance(v, bool):
@@ -513,9 +512,42 @@ def _check_duplicate_keys(node, path: str = "") -> None:
             _check_duplicate_keys(v, f"{path}[{i}]")
 
 
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2 float syntax.
+
+    PyYAML follows YAML 1.1, where an exponent needs a decimal point and a signed exponent:
+    ``1e3``, ``1e-3`` and even ``1.0e3`` load as *strings*. Engineers write delays as ``1e-3``;
+    YAML 1.2 (and JSON) read them as numbers, and so does exotune. Only the float resolver
+    changes: no new tags, no object construction (still a safe loader)."""
+
+
+_Loader.yaml_implicit_resolvers = {
+    ch: [r for r in rs if r[0] != "tag:yaml.org,2002:float"]
+    for ch, rs in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+        |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
+    list("-+0123456789."),
+)
+
+
+def load_yaml_text(text: str):
+    """Parse YAML text with exotune's safe loader (:class:`_Loader`)."""
+    return yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is a SafeLoader subclass
+
+
 def read_yaml(path) -> dict:
-    """Read a YAML mapping from ``path`` with :func:`yaml.safe_load` (file-level errors ->
-    :class:`ConfigError` naming the file)."""
+    """Read a YAML mapping from ``path`` with exotune's safe loader (YAML 1.2 floats, duplicate
+    keys rejected; file-level errors -> :class:`ConfigError` naming the file)."""
     name = os.fspath(path)
     try:
         with open(name, "rb") as fh:
@@ -526,8 +558,8 @@ def read_yaml(path) -> dict:
     except OSError as e:
         raise ConfigError(name, f"cannot read file: {e.strerror or e}") from None
     try:
-        _check_duplicate_keys(yaml.compose(text, Loader=yaml.SafeLoader))
-        mapping = yaml.safe_load(text)
+        _check_duplicate_keys(yaml.compose(text, Loader=_Loader))
+        mapping = load_yaml_text(text)
     except ConfigError:
         raise
     except yaml.YAMLError as e:

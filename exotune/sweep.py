@@ -13,7 +13,7 @@ Spec file
     verify_points: 16                     # optional: verify every family's intervals with exact
                                           # counts at N values (mismatch → not robust; default 0)
 
-The spec is read with :func:`yaml.safe_load` (duplicate keys rejected) and validated strictly:
+The spec is read with exotune's safe YAML loader (YAML 1.2 floats, duplicate keys rejected) and validated strictly:
 unknown keys, an empty ``axes`` mapping, an axis that is neither a list of numbers nor a
 ``{start, stop, num[, scale]}`` mapping, ``num`` < 1 or not an integer, ``scale`` other than
 ``lin``/``log``, ``scale: log`` with a non-positive bound, duplicate values in a list, a parameter
