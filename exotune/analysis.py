@@ -1205,6 +1205,8 @@ METRIC_UNITS = {
     "passivity.kyp.*.lossless_compliance": "rad/(N·m) (the q1 of the lossless term q1·s of s·C7; 1/K_c)",
     "passivity.kyp.*.relative_shortage": "1 (shortage / largest Hankel singular value of the strictly proper part)",
     "passivity.kyp.*.truncation_bound": "rad/(N·m·s)",
+    "passivity.kyp.*.shortage_upper": "rad/(N·m·s) (the SDP's d*, an upper bound on the shortage)",
+    "passivity.kyp.*.witness_frequency_hz": "Hz (where Re{jω C7} is smallest: the non-passivity witness)",
     "passivity.kyp.*.certificate_residual": "1 (largest eigenvalue of the LMI at the solution / its norm)",
     "dob.gain_margin_db": "dB",
     "dob.phase_margin_deg": "deg",

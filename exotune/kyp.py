@@ -41,6 +41,7 @@ value of Y_p (a lower bound of its H∞ norm): the solver's accuracy is about 1e
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -68,6 +69,8 @@ class KypCertificate:
     certificate_residual: float  # λ_max(LMI(P, d*)) / ‖LMI‖ (≈ 0 for a valid certificate)
     solver: str
     reason: str
+    shortage_upper: float = float("nan")  # the SDP's d* (an upper bound: the LMI holds at it)
+    witness_frequency_hz: float = float("nan")  # where Re Y(jω) = −shortage (the non-passive proof)
 
     def as_dict(self) -> dict:
         return {
@@ -81,9 +84,12 @@ class KypCertificate:
             "states": self.states,
             "truncation_bound": self.truncation_bound,
             "certificate_residual": self.certificate_residual,
+            "shortage_upper": self.shortage_upper,
+            "witness_frequency_hz": self.witness_frequency_hz,
             "solver": self.solver,
-            "method": "KYP lemma: min d s.t. [[AᵀP+PA, PB−Cᵀ], [BᵀP−C, −2(q0+d)]] ⪯ 0 (cvxpy SDP); "
-                      "shortage d* = max(0, −inf_ω Re{jω C7(jω)})",
+            "method": "KYP lemma: min d s.t. [[AᵀP+PA, PB−Cᵀ], [BᵀP−C, −2(q0+d)]] ⪯ 0 (cvxpy SDP): "
+                      "passive when d* ≈ 0; otherwise shortage = −Re{jω C7(jω)} at a witness frequency "
+                      "(refined minimum, a proof of non-passivity), bracketed above by d*",
             "reason": self.reason,
         }
 
@@ -95,11 +101,19 @@ def _trim(c: np.ndarray) -> np.ndarray:
 
 
 def _balanced(A, B, C):
-    """Square-root balanced realization; returns (A, B, C, hsv_kept, truncation_bound)."""
+    """Square-root balanced realization; returns (A, B, C, hsv_kept, truncation_bound,
+    gramians_ill_conditioned)."""
     import scipy.linalg as sla
 
-    Wc = sla.solve_continuous_lyapunov(A, -B @ B.T)
-    Wo = sla.solve_continuous_lyapunov(A.T, -C.T @ C)
+    # scipy warns when two poles nearly cancel in λ_i + λ_j (poles decades apart, e.g. a filter
+    # cutoff far above the plant): the Gramians are then ill-conditioned, but the balanced
+    # realization stays an exact similarity transform (Ti·Tm = I by construction) and the
+    # certificate is re-checked on it, so the warning is recorded, not printed
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        Wc = sla.solve_continuous_lyapunov(A, -B @ B.T)
+        Wo = sla.solve_continuous_lyapunov(A.T, -C.T @ C)
+    ill = any(issubclass(w.category, RuntimeWarning) for w in caught)
 
     def factor(W):
         e, V = np.linalg.eigh(0.5 * (W + W.T))
@@ -112,7 +126,48 @@ def _balanced(A, B, C):
     U, Sk, V = U[:, keep], S[keep], Vt[keep].T
     Tm = Lc @ V / np.sqrt(Sk)
     Ti = (U / np.sqrt(Sk)).T @ Lo.T
-    return Ti @ A @ Tm, Ti @ B, C @ Tm, Sk, bound
+    return Ti @ A @ Tm, Ti @ B, C @ Tm, Sk, bound, ill
+
+
+def _realization_error(A, B, C, num_desc, den_desc, poles) -> float:
+    """sup over test frequencies of |C(jωI − A)⁻¹B − num/den(jω)| / sup |num/den(jω)|: an
+    independent check (transfer-function values, not Gramians) that the realization handed to the
+    SDP is the model. Test frequencies: a log grid two decades beyond the poles' range, and the
+    pole magnitudes (where resonances peak)."""
+    mags = np.abs(poles[np.abs(poles) > 0])
+    lo, hi = (mags.min(), mags.max()) if mags.size else (1.0, 1.0)
+    w = np.unique(np.r_[np.geomspace(lo / 100.0, hi * 100.0, 400), mags])
+    s = 1j * w
+    ref = np.polyval(num_desc, s) / np.polyval(den_desc, s)
+    n = A.shape[0]
+    got = np.array([(C @ np.linalg.solve(si * np.eye(n) - A, B)).item() for si in s])
+    scale = float(np.max(np.abs(ref)))
+    if not np.isfinite(scale) or scale == 0.0:
+        return float("inf")
+    return float(np.max(np.abs(got - ref)) / scale)
+
+
+def _witness(num_desc, den_desc, q0, poles):
+    """(ω̂*, min Re Y(jω̂*)) of Y = q0 + num/den (its real part; the lossless q1·s adds none; ω̂* = ∞
+    when the infimum is the limit q0 at high frequency): a log
+    grid two decades beyond the poles' range plus the pole magnitudes, then a bounded refinement
+    (log ω) around the smallest value. A frequency-domain *witness*: Re Y(jω̂*) < 0 proves Y not
+    positive real, and −Re Y(jω̂*) is a lower bound on the shortage (tight at the refined minimum)."""
+    import scipy.optimize
+
+    mags = np.abs(poles[np.abs(poles) > 0])
+    lo, hi = (mags.min(), mags.max()) if mags.size else (1.0, 1.0)
+    w = np.unique(np.r_[np.geomspace(lo / 100.0, hi * 100.0, 4000), mags])
+    re = lambda x: q0 + np.real(np.polyval(num_desc, 1j * x) / np.polyval(den_desc, 1j * x))  # noqa: E731
+    v = re(w)
+    k = int(np.nanargmin(v))
+    a, b = math.log(w[max(k - 1, 0)]), math.log(w[min(k + 1, w.size - 1)])
+    r = scipy.optimize.minimize_scalar(lambda x: float(re(math.exp(x))), bounds=(a, b), method="bounded",
+                                       options={"xatol": 1e-12})
+    best = (math.exp(r.x), float(r.fun)) if r.success and r.fun < v[k] else (float(w[k]), float(v[k]))
+    if q0 <= best[1]:  # Re Y → q0 as ω → ∞ (Y_p strictly proper): the infimum is at infinity
+        return math.inf, float(q0)
+    return best
 
 
 def _solve_kyp(A, B, C, q0):
@@ -198,9 +253,19 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
         A, B, C, _ = scipy.signal.tf2ss(r, dS[::-1])
-    Ab, Bb, Cb, hsv, bound = _balanced(A, B, C)
+    Ab, Bb, Cb, hsv, bound, ill = _balanced(A, B, C)
     if hsv.size == 0:  # Y_p vanishes numerically: Y = q1 s + q0
         return _polynomial_only(q0, tol, "the strictly proper part vanishes numerically", base)
+    fit = _realization_error(Ab, Bb, Cb, r, dS[::-1], poles / w0)
+    if not fit <= 1e-6:
+        # the (balanced, truncated) state space does not reproduce Y_p: coefficients decades
+        # apart (e.g. a filter cutoff far above the plant) make the polynomial-to-state-space
+        # step inexact, and a certificate of the wrong system would be a wrong verdict
+        return KypCertificate(passive=None, shortage=float("nan"), relative_shortage=float("nan"),
+                              reason=f"ill-conditioned model: its state-space realization misses Y_p by {fit:.1e} "
+                                     "(relative) — not decided by this certificate; the frequency metric stands"
+                                     + ("; ill-conditioned Gramians (poles decades apart)" if ill else ""),
+                              **base)
     s1 = float(hsv[0])
     g = 1.0 / s1  # normalize ‖Ŷ_p‖ to about 1: the SDP works on g·Y
     d, P, solver, status = _solve_kyp(Ab, Bb * np.sqrt(g), Cb * np.sqrt(g), g * q0)
@@ -214,17 +279,26 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     M = np.block([[Ab.T @ P + P @ Ab, off], [off.T, np.array([[-2.0 * (g * q0 + d)]])]])
     M = 0.5 * (M + M.T)
     resid = float(np.linalg.eigvalsh(M)[-1] / max(np.linalg.norm(M, 2), 1e-300))
-    shortage = max(0.0, d / g)
-    rel = shortage / s1
-    passive = bool(shortage <= tol * s1 + bound)
-    if passive:  # within the solver's accuracy: report the exact verdict's value
-        shortage = rel = 0.0
-    base.update(certificate_residual=resid)
-    return KypCertificate(
-        passive=passive, shortage=shortage, relative_shortage=rel,
-        reason=("positive real: certified by the KYP LMI" if passive else
-                "not positive real: Re{Y(jω)} < 0 somewhere; shortage = −min Re Y") + f" ({status})",
-        **base)
+    upper = max(0.0, d / g)
+    w_hat, re_min = _witness(r, dS[::-1], q0, poles / w0)
+    lower = max(0.0, -re_min)
+    thr = tol * s1 + bound
+    base.update(certificate_residual=resid, shortage_upper=upper)
+    note = "; ill-conditioned Gramians (poles decades apart): truncation bound approximate" if ill else ""
+    if upper <= thr and lower <= thr:  # within the solver's accuracy: report the exact verdict's value
+        return KypCertificate(passive=True, shortage=0.0, relative_shortage=0.0,
+                              reason=f"positive real: certified by the KYP LMI ({status}){note}", **base)
+    if lower > thr:  # proof by a frequency witness; the SDP brackets it from above
+        base.update(witness_frequency_hz=w_hat * w0 / (2.0 * math.pi))
+        why = ("not positive real: Re{Y(jω)} < 0 at the witness frequency; shortage = −min Re Y"
+               if upper > thr else
+               "not positive real: Re{Y(jω)} < 0 at the witness frequency, although the SDP's d* "
+               "is within its tolerance (solver inaccuracy)")
+        return KypCertificate(passive=False, shortage=lower, relative_shortage=lower / s1,
+                              reason=f"{why} ({status}){note}", **base)
+    return KypCertificate(passive=False, shortage=upper, relative_shortage=upper / s1,
+                          reason="not positive real by the SDP optimum d* (no frequency witness found: "
+                                 f"shortage is d*, an upper bound) ({status}){note}", **base)
 
 
 def compliance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCertificate:
@@ -275,5 +349,11 @@ def format_certificates(certs: dict, indent: str = "  ") -> list[str]:
             lines.append(indent + str(c))
             continue
         verdict = {True: "passive (certified)", False: "NOT passive", None: "undecided"}[c["passive"]]
-        lines.append(f"{indent}KYP certificate, {c['model']}: {verdict}; shortage {c['shortage']:.4g} {c['shortage_unit']}")
+        line = f"{indent}KYP certificate, {c['model']}: {verdict}; shortage {c['shortage']:.4g} {c['shortage_unit']}"
+        wf = c.get("witness_frequency_hz", float("nan"))
+        if c["passive"] is False and wf == wf:
+            line += f" (Re{{jω C7}} minimum at {wf:.4g} Hz)"
+        if c["passive"] is None:
+            line += f" — {c['reason']}"
+        lines.append(line)
     return lines
