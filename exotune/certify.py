@@ -214,10 +214,20 @@ def _golden_ok(out: np.ndarray, ref: np.ndarray) -> bool:
     return bool(np.max(np.abs(out - ref)) <= 1e-9 * max(scale, 1.0)) if ref.size else True
 
 
-def _same_intervals(a: list, b: list, rtol: float = 1e-6) -> bool:
-    if len(a) != len(b):
+def _same_intervals(a, b: list, rtol: float = 1e-6) -> bool:
+    """The file's predicted intervals ``a`` (untrusted: anything malformed is a mismatch, never an
+    error) against the recomputed ``b``."""
+    num = lambda x: isinstance(x, (int, float)) and not isinstance(x, bool)  # noqa: E731
+    if not isinstance(a, list) or len(a) != len(b):
+        return False
+    if not all(isinstance(p, list) and len(p) == 2 and all(num(x) for x in p) for p in a):
         return False
     return all(abs(x - y) <= rtol * max(abs(x), abs(y), 1e-300) for p, q in zip(a, b) for x, y in zip(p, q))
+
+
+def _entries(x) -> list:
+    """A predicted family list of the file (untrusted): its dict entries, [None] for the others."""
+    return [e if isinstance(e, dict) else None for e in x] if isinstance(x, list) else []
 
 
 def _unresolved(sa: dict, where: str) -> list[str]:
@@ -288,9 +298,12 @@ def certify(doc: dict) -> dict:
             if bad:
                 problems.append(f"gain schedule at joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
                                 f"not stable for {', '.join(bad)}")
-            p_e = e.get("predicted_sampled") or {}
-            for j, (p, h) in enumerate(zip(p_e.get("humans") or [], sa_e["humans"])):
-                if "stable_intervals" in h and not _same_intervals(p.get("stable_intervals") or [], h["stable_intervals"]):
+            p_e = e.get("predicted_sampled")
+            p_h = _entries(p_e.get("humans")) if isinstance(p_e, dict) else []
+            if len(p_h) != len(sa_e["humans"]):
+                mism.append(f"gain_schedule[{e['joint_angle_rad']:g} rad].humans (the entry predicts {len(p_h)} families)")
+            for j, (p, h) in enumerate(zip(p_h, sa_e["humans"])):
+                if "stable_intervals" in h and not _same_intervals((p or {}).get("stable_intervals"), h["stable_intervals"]):
                     mism.append(f"gain_schedule[{e['joint_angle_rad']:g} rad].humans[{j}].stable_intervals")
     pred = (doc.get("predicted") or {}).get("sampled")
     if not [h for h in sa["humans"] if "skipped" not in h]:
@@ -300,12 +313,14 @@ def certify(doc: dict) -> dict:
             if pred.get(key) != sa[key]:
                 mism.append(key)
         for grp in ("humans", "environment"):
-            if len(pred.get(grp) or []) != len(sa[grp]):
-                mism.append(f"{grp} (the file predicts {len(pred.get(grp) or [])} families, certify.{grp} has "
-                            f"{len(sa[grp])})")
+            p_g = _entries(pred.get(grp))
+            if len(p_g) != len(sa[grp]):
+                mism.append(f"{grp} (the file predicts {len(p_g)} families, certify.{grp} has {len(sa[grp])})")
                 continue
-            for j, (p, h) in enumerate(zip(pred.get(grp) or [], sa[grp])):
-                if "stable_intervals" in h and not _same_intervals(p.get("stable_intervals") or [], h["stable_intervals"]):
+            for j, (p, h) in enumerate(zip(p_g, sa[grp])):
+                if p is None:
+                    mism.append(f"{grp}[{j}] (not a mapping)")
+                elif "stable_intervals" in h and not _same_intervals(p.get("stable_intervals"), h["stable_intervals"]):
                     mism.append(f"{grp}[{j}].stable_intervals")
     else:
         mism.append("predicted.sampled missing")

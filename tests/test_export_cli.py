@@ -713,3 +713,48 @@ def test_tustin_sos_without_prewarp_is_plain_bilinear():
 def test_tustin_sos_refuses_an_improper_block():
     with pytest.raises(ValueError):
         tustin_sos([0.0, 0.0, 1.0], [1.0, 1.0], 1000.0, 10.0)
+
+
+def _pred_interval_list(d):
+    d["predicted"]["sampled"]["humans"][0]["stable_intervals"][0][0] = []
+
+
+def _pred_interval_text(d):
+    d["predicted"]["sampled"]["humans"][1]["stable_intervals"][0][1] = "abc"
+
+
+def _pred_family_null(d):
+    d["predicted"]["sampled"]["humans"][1] = None
+
+
+def _pred_family_list(d):
+    d["predicted"]["sampled"]["humans"][1] = [1, 2]
+
+
+def _pred_families_number(d):
+    d["predicted"]["sampled"]["humans"] = 1e300
+
+
+def _pred_families_bool(d):
+    d["predicted"]["sampled"]["humans"] = True
+
+
+def _pred_intervals_missing(d):
+    del d["predicted"]["sampled"]["humans"][0]["stable_intervals"]
+
+
+@pytest.mark.parametrize("mutate", [_pred_interval_list, _pred_interval_text, _pred_family_null, _pred_family_list,
+                                    _pred_families_number, _pred_families_bool, _pred_intervals_missing],
+                         ids=lambda f: f.__name__)
+def test_certify_malformed_predictions_fail_certification_cleanly(tmp_path, exported_doc, mutate):
+    """The file's predicted section is free-form (informational), so certify must not trust its
+    shape: a malformed prediction is a prediction mismatch (exit 1, named), never a traceback.
+    (Found by fuzzing the shipped controller file.)"""
+    d = copy.deepcopy(exported_doc)
+    mutate(d)
+    res = run("certify", _write_doc(tmp_path / "c.yaml", d), "--json")
+    assert clean_exit(res), f"uncaught {res.exception!r}"
+    assert res.exit_code == 1, res.output
+    rep = json.loads(res.stdout)
+    assert rep["certified"] is False
+    assert any(m.startswith("humans") for m in rep["prediction_mismatches"]), rep["prediction_mismatches"]
