@@ -111,7 +111,7 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
         raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
     cfg, _ = load_base(mapping["base"], root)
     objective = mapping.get("objective", "amplification")
-    if objective not in OBJECTIVES:
+    if not isinstance(objective, str) or objective not in OBJECTIVES:
         raise ConfigError("objective", f"unknown objective {objective!r} (known: {', '.join(OBJECTIVES)})")
     free_in = mapping.get("free")
     if not isinstance(free_in, dict) or not free_in:
@@ -149,9 +149,10 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     what = OBJECTIVES[objective][0]
     if what.startswith(("design.", "plant.", "implementation.")) and what not in free:
         raise ConfigError("objective", f"{objective} is the parameter {what}: list it under free with its bounds")
-    cons_in = mapping.get("constraints") or {}
+    cons_in = mapping.get("constraints")
+    cons_in = {} if cons_in is None else cons_in  # an empty `constraints:` key: the defaults
     if not isinstance(cons_in, dict):
-        raise ConfigError("constraints", "expected a mapping")
+        raise ConfigError("constraints", f"expected a mapping of constraint names to bounds, got {cons_in!r}")
     cons = dict(_BOOL_DEFAULT)
     for k, v in cons_in.items():
         if k in _BOOL:
@@ -160,6 +161,8 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
             cons[k] = v
         elif k in CONSTRAINTS:
             cons[k] = _num(f"constraints.{k}", v)
+            if k == "max_phase_excess_deg" and cons[k] < 0:
+                raise ConfigError(f"constraints.{k}", f"must be >= 0 (the phase excess is never negative), got {v!r}")
         else:
             raise ConfigError(f"constraints.{k}", f"unknown constraint (known: {', '.join(_BOOL + tuple(CONSTRAINTS))})")
     if cons["robust"] and not cfg.humans:

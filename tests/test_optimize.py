@@ -118,6 +118,11 @@ def test_cli_writes_a_loadable_design_and_rejects_bad_specs(tmp_path):
         "free.humans": dict(spec, free={"humans": [1, 2]}),
         "objective": dict(spec, free={"design.zeta_hat": [0.3, 1.2]}),  # α objective but α not free
         "budget": dict(spec, budget=3),
+        "objective:list": dict(spec, objective=["amplification"]),  # unhashable: found by fuzzing
+        "objective:mapping": dict(spec, objective={"amplification": 1}),
+        "constraints:number": dict(spec, constraints=0),
+        "constraints:list": dict(spec, constraints=[]),
+        "constraints.max_phase_excess_deg": dict(spec, constraints={"max_phase_excess_deg": -1.0}),
     }
     for field, s in bad.items():
         p = tmp_path / "bad.yaml"
