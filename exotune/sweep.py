@@ -563,7 +563,30 @@ def load_manifest(out_dir) -> dict:
         raise ConfigError(path, f"cannot read the sweep manifest: {e}") from None
     if not isinstance(m, dict) or m.get("format") != FORMAT:
         raise ConfigError(path, "not an exotune sweep manifest")
+    _check_manifest(m, path)
     return m
+
+
+def _check_manifest(m: dict, path: str) -> None:
+    """The fields that resuming and reporting rely on, with their types (a manifest edited or
+    damaged by hand is refused with the field named, never a traceback later)."""
+    is_int = lambda v: isinstance(v, int) and not isinstance(v, bool)  # noqa: E731
+    need = {"spec": (dict, "a mapping"), "spec_hash": (str, "a string"), "chunks": (list, "a list"),
+            "n_points": (is_int, "an integer"), "n_chunks": (is_int, "an integer"),
+            "chunk_size": (is_int, "an integer")}
+    for key, (typ, what) in need.items():
+        v = m.get(key)
+        ok = typ(v) if callable(typ) and not isinstance(typ, type) else isinstance(v, typ)
+        if not ok:
+            raise ConfigError(f"{path}: {key}", f"expected {what}, got {type(v).__name__} (damaged manifest; "
+                                                f"use a new directory)")
+    for i, c in enumerate(m["chunks"]):
+        if not (isinstance(c, dict) and is_int(c.get("index")) and isinstance(c.get("file"), str)
+                and isinstance(c.get("status"), str)):
+            raise ConfigError(f"{path}: chunks[{i}]", "expected a mapping with index, file and status "
+                                                       "(damaged manifest; use a new directory)")
+        if os.path.isabs(c["file"]) or ".." in c["file"].replace("\\", "/").split("/"):
+            raise ConfigError(f"{path}: chunks[{i}].file", f"must be a path inside the sweep directory, got {c['file']!r}")
 
 
 def _write_manifest(out_dir: str, manifest: dict) -> None:
@@ -1070,7 +1093,11 @@ def _read_tables(out_dir: str, columns=None, allow_partial: bool = False):
         if c.get("status") != "done" or not os.path.exists(path):
             missing.append(c["index"])
             continue
-        tables.append(pq.read_table(path, columns=columns))
+        try:
+            tables.append(pq.read_table(path, columns=columns))
+        except (OSError, pa.ArrowException) as e:
+            raise ConfigError(path, f"unreadable chunk ({' '.join(str(e).split())}); rerun "
+                                    "`exotune sweep` with the same spec to recompute it") from None
     if missing and not allow_partial:
         raise ConfigError(
             out_dir, f"the sweep is incomplete ({len(missing)} of {len(m['chunks'])} chunks missing); rerun `exotune sweep`"

@@ -500,3 +500,42 @@ def test_chunk_task_does_not_import_pandas(tmp_path):
     out = subprocess.run([sys.executable, "-c", code, str(spec)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "False"
+
+
+def _set_manifest(key, value):
+    def mod(d: Path):
+        m = json.loads((d / "manifest.json").read_text())
+        m[key] = value
+        (d / "manifest.json").write_text(json.dumps(m))
+    return mod
+
+
+def _corrupt_first_chunk(d: Path):
+    first = sorted((d / "chunks").iterdir())[0]
+    first.write_bytes(first.read_bytes()[:100])
+
+
+@pytest.mark.parametrize("damage,field", [
+    (_set_manifest("chunks", "x"), "chunks"),
+    (_set_manifest("spec", None), "spec"),
+    (_set_manifest("n_points", "many"), "n_points"),
+    (_set_manifest("chunks", [{"index": 0}]), "chunks[0]"),
+    (_set_manifest("chunks", [{"index": 0, "file": "../../etc/passwd", "status": "done"}]), "chunks[0].file"),
+    (_corrupt_first_chunk, "part-000000.parquet"),
+], ids=["chunks-str", "spec-null", "n_points-str", "chunk-entry", "chunk-outside", "chunk-truncated"])
+def test_damaged_sweep_directory_is_an_input_error(ref, tmp_path, damage, field):
+    """A manifest or chunk damaged by hand: `report` exits 2 naming the field or file (it was a
+    TypeError traceback — found by fuzzing); a truncated chunk is recomputed by rerunning `sweep`."""
+    import shutil
+
+    spec, out, _, df = ref
+    d = tmp_path / "d"
+    shutil.copytree(out, d)
+    damage(d)
+    res = CliRunner().invoke(cli, ["report", str(d), "-o", str(tmp_path / "rep")])
+    assert res.exit_code == 2, (res.exit_code, res.output, res.exception)
+    assert "Traceback" not in res.output and field in res.output
+    if field.endswith(".parquet"):  # resume recomputes the damaged chunk: the dataset is whole again
+        res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(d), "--workers", "1"])
+        assert res.exit_code == 0, res.output
+        assert_frames_equal(load_results(d), df)
