@@ -772,6 +772,9 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, joint_angl
     saturation; SPEC §8)."""
     from .simulate import format_simulation, load_for_simulation, plot_simulation, run_scenario
 
+    for name, v in (("--human-inertia", human_inertia), ("--joint-angle", joint_angle)):
+        if v is not None and not math.isfinite(v):
+            raise ConfigError(name, f"must be a finite number, got {v!r}")
     doc = load_for_simulation(input_file, sample_rate_hz)
     if joint_angle is not None:
         from .export import schedule_entry_doc

@@ -23,7 +23,8 @@ design ``felt_damping`` B̂_m/α           > 0 [N·m·s/rad] — *strictly*: B̂
                                         torque, and C7 gets a double integrator).
 design ``zeta`` ζ, ``zeta_hat`` ζ̂       > 0
 implementation ``delay_s`` T            ≥ 0 [s] (default 0)
-implementation ``sample_rate_hz``       null (continuous-time analysis, default) or > 0 [Hz]
+implementation ``sample_rate_hz``       null (continuous-time analysis, default) or > 0 [Hz];
+                                        delay_s · sample_rate_hz ≤ 1000 (one state per sample)
 filter ``cutoff_hz``                    > 0 [Hz], and < sample_rate_hz/2 (Nyquist) when a
                                         sample rate is set
 filter ``damping``                      > 0
@@ -647,10 +648,24 @@ def _parse_env(i: int, item: Any) -> tuple[EnvModel, dict]:
 _FILTER_KEYS = ("gv_filter", "derivative_filter", "dob", "velocity_filter")
 
 
+def check_delay_samples(delay_s: float, fs: float, field: str) -> None:
+    """The exact sampled-data model (SPEC §5) represents the delay by ⌈T·f_s⌉ shift states, in dense
+    matrices: more than MAX_DELAY_SAMPLES of them (e.g. 1 ms at 1 GHz: a million) is refused
+    up front rather than running out of memory."""
+    n = float(delay_s) * float(fs)
+    if n > MAX_DELAY_SAMPLES:
+        raise ConfigError(field, f"{fs:g} Hz makes the {float(delay_s) * 1e3:g} ms delay {n:.3g} samples; the "
+                                 f"sampled-data model holds one state per sample (limit {MAX_DELAY_SAMPLES})")
+
+
+MAX_DELAY_SAMPLES = 1000  # the sampled-data model holds one shift state per sample of delay
+
+
 def _check_nyquist(impl: ImplementationIn) -> None:
     fs = impl.sample_rate_hz
     if fs is None:
         return
+    check_delay_samples(impl.delay_s, fs, "implementation.sample_rate_hz")
     for key in _FILTER_KEYS:
         f = getattr(impl, key)
         if f is not None and not f.cutoff_hz < fs / 2.0:

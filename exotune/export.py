@@ -509,8 +509,11 @@ def load_controller(path) -> dict:
     """Read (safe YAML loader) and validate a controller file; returns the mapping."""
     from .config import read_yaml
 
+    from .config import check_delay_samples
+
     doc = read_yaml(path)
     validate_controller(doc, str(path))
+    check_delay_samples(doc["delay_s"]["value"], doc["sample_rate_hz"]["value"], "delay_s.value")
     dob_cmd = [f for f in doc["controller"]["filters"] if f["input"] == "tau_cmd"]
     for f in dob_cmd:
         g = float(np.prod([row[0] for row in f["sos"]]))

@@ -289,6 +289,9 @@ def load_for_simulation(path, sample_rate_hz: float | None = None) -> dict:
 
     raw = read_yaml(path)
     if isinstance(raw, dict) and "schema" in raw:
+        if sample_rate_hz is not None:
+            raise ConfigError("--sample-rate-hz", "a controller file carries the sample rate it was certified at; "
+                              "the option applies to design files only")
         return load_controller(path)
     fs = sample_rate_hz
     if fs is None and isinstance(raw, dict) and isinstance(raw.get("implementation"), dict):

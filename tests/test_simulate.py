@@ -120,6 +120,41 @@ def test_cli_simulate_errors_and_success(tmp_path):
     assert '"peak_motor_torque"' in res.output
 
 
+@pytest.mark.parametrize("args,field", [
+    (["examples/paper.yaml", "--sample-rate-hz", "1e9"], "implementation.sample_rate_hz"),  # 1e6 delay states
+    (["results/pipeline/controller_1khz.yaml", "--sample-rate-hz", "2000"], "--sample-rate-hz"),
+    (["results/pipeline/controller_1khz.yaml", "--human-inertia", "nan"], "--human-inertia"),
+    (["results/pipeline/controller_1khz.yaml", "--joint-angle", "inf"], "--joint-angle"),
+])
+def test_cli_simulate_refuses_options_it_cannot_honour(args, field):
+    """Found by fuzzing: a 1 GHz rate ran out of memory (MemoryError) building a million delay
+    states; an option that a controller file overrides, or a NaN, was silently ignored."""
+    res = CliRunner().invoke(cli, ["simulate", str(ROOT / args[0]), *args[1:], "--scenario", "light-mass"])
+    assert res.exit_code == 2, res.output
+    assert f"exotune: error: {field}" in res.output and "Traceback" not in res.output
+
+
+def test_delay_sample_limit_in_design_and_controller_files(tmp_path):
+    """The limit on shift states holds for design files (at their own rate) and for controller
+    files (certify), with the field named."""
+    import yaml
+
+    from exotune.config import MAX_DELAY_SAMPLES
+    from exotune.errors import ConfigError
+
+    raw = yaml.safe_load((ROOT / "examples" / "paper.yaml").read_text())
+    raw["implementation"]["sample_rate_hz"] = 1.01 * MAX_DELAY_SAMPLES / raw["implementation"]["delay_s"]
+    with pytest.raises(ConfigError, match="implementation.sample_rate_hz"):
+        design_from_mapping(raw)
+    raw["implementation"]["sample_rate_hz"] = 0.99 * MAX_DELAY_SAMPLES / raw["implementation"]["delay_s"]
+    design_from_mapping(raw)  # just under the limit: accepted
+    ctrl = yaml.safe_load((ROOT / "results" / "pipeline" / "controller_1khz.yaml").read_text())
+    ctrl["delay_s"]["value"] = 2.0  # 2000 samples at 1 kHz
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(ctrl, allow_unicode=True))
+    res = CliRunner().invoke(cli, ["certify", str(tmp_path / "c.yaml")])
+    assert res.exit_code == 2 and "exotune: error: delay_s.value" in res.output, res.output
+
+
 def test_cli_simulate_at_a_scheduled_joint_angle(tmp_path):
     import yaml
 
