@@ -21,6 +21,13 @@ __all__ = ["AVAILABLE", "phase_sums"]
 
 AVAILABLE = njit is not None
 
+# Per-task work budgets of the adaptive kernels. A normal task takes ~50 evaluations and ~100
+# leaves; a pathological design (e.g. a 1e-12 kg·m² motor inertia, or a GHz filter, with a delay:
+# the phase of e^{-jωT} winds ~ω_max·T times) could otherwise run for hours. A task that exhausts
+# its budget is reported unresolved (inconclusive: never "stable"), not computed forever.
+MAX_TASK_EVALS = 200_000  # argument-principle count: evaluations per task (typical: ~50)
+MAX_TASK_LEAVES = 100_000  # adaptive frequency sets: leaves per task (typical: ~100)
+
 if AVAILABLE:
 
     @njit(cache=True, inline="always")
@@ -153,6 +160,8 @@ if AVAILABLE:
                         res = False
                     acc += _step(ang, xa, xb)
                     continue
+                if cnt >= MAX_TASK_EVALS:  # budget spent: unresolved (see MAX_TASK_EVALS)
+                    return acc, False, cnt
                 m = 0.5 * (a + b)
                 vm, dm = _eval(c0T, c1T, t, T, m)
                 cnt += 1
@@ -226,7 +235,7 @@ if AVAILABLE:
 
     @njit(cache=True)
     def _leaves2(cA0, cA1, cB0, cB1, Ts, grid, valid, arg_step, der_step, max_levels, mag_mode, lthr,
-                 o_t, o_a, o_b, o_va0, o_vb0, o_va1, o_vb1, o_res):
+                 o_t, o_a, o_b, o_va0, o_vb0, o_va1, o_vb1, o_res, o_exh):
         tan_arg = math.tan(arg_step)
         ntask = grid.shape[0]
         K = grid.shape[1]
@@ -240,11 +249,13 @@ if AVAILABLE:
         sl = np.empty((S, 4), np.complex128)  # La0, Lb0, La1, Lb1
         for t in range(ntask):
             o_res[t] = True
+            o_exh[t] = False
             if not valid[t]:
                 o_res[t] = False
                 continue
             T = Ts[t]
             done = False
+            nt = 0
             wa = grid[t, 0]
             a0, d0 = _eval(cA0, cA1, t, T, wa)
             a1, d1 = _eval(cB0, cB1, t, T, wa)
@@ -293,6 +304,13 @@ if AVAILABLE:
                         if n < cap:
                             _push(o_a, o_b, o_t, o_va0, o_vb0, o_va1, o_vb1, n, a, b, t, xa0, xb0, xa1, xb1)
                         n += 1
+                        nt += 1
+                        if nt >= MAX_TASK_LEAVES:  # budget spent: the task stays unresolved
+                            o_res[t] = False
+                            o_exh[t] = True
+                            done = True
+                            top = 0
+                            continue
                         if mag_mode and not bad:
                             # only the first −3 dB down-crossing is wanted: stop this task once a
                             # leaf clearly brackets it (a 1e-9 relative margin, so the caller's
@@ -340,9 +358,10 @@ def leaves2(qa, qb, grid, valid, arg_step, der_step, max_levels, lthr=None):
         o_b = np.empty(cap)
         o_v = [np.empty(cap, np.complex128) for _ in range(4)]
         o_res = np.zeros(ntask, np.bool_)
+        o_exh = np.zeros(ntask, np.bool_)
         n = _leaves2(cA0, cA1, cB0, cB1, np.ascontiguousarray(qa.T, dtype=float), np.ascontiguousarray(grid, dtype=float),
                      np.ascontiguousarray(valid, dtype=np.bool_), float(arg_step), float(der_step), int(max_levels),
-                     mag, lt, o_t, o_a, o_b, o_v[0], o_v[1], o_v[2], o_v[3], o_res)
+                     mag, lt, o_t, o_a, o_b, o_v[0], o_v[1], o_v[2], o_v[3], o_res, o_exh)
         if n <= cap:
             break
         cap = int(n * 1.2) + 16
@@ -353,6 +372,7 @@ def leaves2(qa, qb, grid, valid, arg_step, der_step, max_levels, lthr=None):
         "va": [o_v[0][:n], o_v[2][:n]],
         "vb": [o_v[1][:n], o_v[3][:n]],
         "resolved": o_res,
+        "exhausted": o_exh,
     }
 
 

@@ -738,6 +738,11 @@ def passivity(side: _Side):
     bands = [[] for _ in range(Nd)]
     for t_, w0, w1 in zip(task[qs].tolist(), ws.tolist(), we.tolist()):
         bands[t_].append([w0 / (2 * np.pi), w1 / (2 * np.pi)])
+    exh = lv.get("exhausted")
+    if exh is not None and exh.any():  # partial frequency coverage: the metrics are undefined
+        best[exh] = np.nan
+        for t in np.flatnonzero(exh):
+            bands[t] = []
     return {"max_phase_excess_deg": best, "nonpassive_band_hz": bands, "conclusive": lv["valid"] & lv["resolved"]}
 
 
@@ -968,6 +973,9 @@ def _amp_dc_bandwidth(num: QP, den: QP, per_decade: int = 2):
 
         wb = _pair_roots(h, num, den, "mag", t, lv["a"][j], lv["b"][j], ha[j], hb[j], c=half)
         bw[t] = wb / (2 * np.pi)
+    exh = lv.get("exhausted")
+    if exh is not None:  # the search spent its budget before the −3 dB level: undefined
+        bw[exh] = np.nan
     return dc, bw
 
 
@@ -1140,7 +1148,9 @@ def _analyze_chunk(cfg, verify: int) -> dict:
     out["amplification_dc"] = dc
     out["amplification_bandwidth_hz"] = bw
     out["amplification_minimum_phase"] = okn & (Nn == 0) & (rn == 0)
+    out["amplification_conclusive"] = okn  # False: the minimum-phase verdict is unknown (reported False)
     out["locked_stable"] = locked_stable
+    out["locked_conclusive"] = okd
     for g in GAIN_NAMES:
         out[g] = np.broadcast_to(np.asarray(getattr(ds.gains, g), dtype=float), (N,)).copy()
     return out
@@ -1322,9 +1332,11 @@ def analyze_design(cfg) -> dict:
                             f"rescheduled design is not robust: {', '.join(e['not_robust'])}")
     kyp = _kyp_certificates(cfg)  # a non-passive nominal C7 is the B2_hat < 0 warning of shaping
     if not bool(cols["passivity_conclusive"][0]):
-        warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis)")
+        warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis, or the "
+                        "adaptive frequency search spent its per-task budget: extreme parameters)")
     if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
-        warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution): treated as NOT stable")
+        warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution, or an "
+                        "adaptive search spent its per-task budget: extreme parameters): treated as NOT stable")
     return {
         "model": "continuous-time, exact delay e^{-sT} (SPEC §3); verdicts by the argument principle on the closed-loop characteristic quasi-polynomial",
         "structure": cfg.implementation.structure,

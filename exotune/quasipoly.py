@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .poly import degree, leading, pder
+from ._fastphase import MAX_TASK_LEAVES
 
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
 
@@ -158,6 +159,8 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
     da = [x[:, :-1].ravel() for x in D]
     db = [x[:, 1:].ravel() for x in D]
     resolved = np.ones(ntask, bool)
+    exhausted = np.zeros(ntask, bool)
+    nleaf = np.zeros(ntask, np.int64)
     out_t, out_a, out_b = [], [], []
     out_va = [[] for _ in range(nf)]
     out_vb = [[] for _ in range(nf)]
@@ -208,6 +211,14 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
                 out_va[i].append(va[i][stop])
                 out_vb[i].append(vb[i][stop])
         go = ~stop
+        nleaf += np.bincount(ti[stop], minlength=ntask)
+        # the compiled kernel's per-task budget (MAX_TASK_LEAVES): a task whose leaves would pass
+        # it is dropped, unresolved (the same verdicts; its partial leaves may differ)
+        over = nleaf + 2 * np.bincount(ti[go], minlength=ntask) > MAX_TASK_LEAVES
+        if over.any():
+            resolved[over] = False
+            exhausted[over] = True
+            go &= ~over[ti]
         if not go.any():
             break
         ti, a, b = ti[go], a[go], b[go]
@@ -231,6 +242,7 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         "va": [cat(x, complex) for x in out_va],
         "vb": [cat(x, complex) for x in out_vb],
         "resolved": resolved,
+        "exhausted": exhausted,
     }
     order = np.lexsort((res["a"], res["task"]))
     for key in ("task", "a", "b"):
