@@ -542,8 +542,13 @@ _Loader.add_implicit_resolver(
 
 
 def load_yaml_text(text: str):
-    """Parse YAML text with exotune's safe loader (:class:`_Loader`)."""
-    return yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is a SafeLoader subclass
+    """Parse YAML text with exotune's safe loader (:class:`_Loader`, a ``yaml.SafeLoader``
+    subclass: what ``yaml.safe_load`` does, with YAML 1.2 floats)."""
+    loader = _Loader(text)
+    try:
+        return loader.get_single_data()
+    finally:
+        loader.dispose()
 
 
 def read_yaml(path) -> dict:
