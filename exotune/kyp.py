@@ -129,15 +129,20 @@ def _balanced(A, B, C):
     return Ti @ A @ Tm, Ti @ B, C @ Tm, Sk, bound, ill
 
 
+def _test_frequencies(poles, n: int) -> np.ndarray:
+    """A log grid of n frequencies two decades beyond the range of the pole magnitudes, plus
+    those magnitudes (where resonances peak)."""
+    mags = np.abs(poles[np.abs(poles) > 0])
+    lo, hi = (mags.min(), mags.max()) if mags.size else (1.0, 1.0)
+    return np.unique(np.r_[np.geomspace(lo / 100.0, hi * 100.0, n), mags])
+
+
 def _realization_error(A, B, C, num_desc, den_desc, poles) -> float:
     """sup over test frequencies of |C(jωI − A)⁻¹B − num/den(jω)| / sup |num/den(jω)|: an
     independent check (transfer-function values, not Gramians) that the realization handed to the
     SDP is the model. Test frequencies: a log grid two decades beyond the poles' range, and the
     pole magnitudes (where resonances peak)."""
-    mags = np.abs(poles[np.abs(poles) > 0])
-    lo, hi = (mags.min(), mags.max()) if mags.size else (1.0, 1.0)
-    w = np.unique(np.r_[np.geomspace(lo / 100.0, hi * 100.0, 400), mags])
-    s = 1j * w
+    s = 1j * _test_frequencies(poles, 400)
     ref = np.polyval(num_desc, s) / np.polyval(den_desc, s)
     n = A.shape[0]
     got = np.array([(C @ np.linalg.solve(si * np.eye(n) - A, B)).item() for si in s])
@@ -155,9 +160,7 @@ def _witness(num_desc, den_desc, q0, poles):
     positive real, and −Re Y(jω̂*) is a lower bound on the shortage (tight at the refined minimum)."""
     import scipy.optimize
 
-    mags = np.abs(poles[np.abs(poles) > 0])
-    lo, hi = (mags.min(), mags.max()) if mags.size else (1.0, 1.0)
-    w = np.unique(np.r_[np.geomspace(lo / 100.0, hi * 100.0, 4000), mags])
+    w = _test_frequencies(poles, 4000)
     re = lambda x: q0 + np.real(np.polyval(num_desc, 1j * x) / np.polyval(den_desc, 1j * x))  # noqa: E731
     v = re(w)
     k = int(np.nanargmin(v))
@@ -352,7 +355,8 @@ def format_certificates(certs: dict, indent: str = "  ") -> list[str]:
         line = f"{indent}KYP certificate, {c['model']}: {verdict}; shortage {c['shortage']:.4g} {c['shortage_unit']}"
         wf = c.get("witness_frequency_hz", float("nan"))
         if c["passive"] is False and wf == wf:
-            line += f" (Re{{jω C7}} minimum at {wf:.4g} Hz)"
+            line += (f" (Re{{jω C7}} minimum at {wf:.4g} Hz)" if math.isfinite(wf) else
+                     " (Re{jω C7} approaches its infimum as ω → ∞)")
         if c["passive"] is None:
             line += f" — {c['reason']}"
         lines.append(line)
