@@ -571,13 +571,12 @@ def _check_manifest(m: dict, path: str) -> None:
     """The fields that resuming and reporting rely on, with their types (a manifest edited or
     damaged by hand is refused with the field named, never a traceback later)."""
     is_int = lambda v: isinstance(v, int) and not isinstance(v, bool)  # noqa: E731
-    need = {"spec": (dict, "a mapping"), "spec_hash": (str, "a string"), "chunks": (list, "a list"),
-            "n_points": (is_int, "an integer"), "n_chunks": (is_int, "an integer"),
-            "chunk_size": (is_int, "an integer")}
-    for key, (typ, what) in need.items():
+    need = {"spec": (lambda v: isinstance(v, dict), "a mapping"), "spec_hash": (lambda v: isinstance(v, str), "a string"),
+            "chunks": (lambda v: isinstance(v, list), "a list"), "n_points": (is_int, "an integer"),
+            "n_chunks": (is_int, "an integer"), "chunk_size": (is_int, "an integer")}
+    for key, (ok_type, what) in need.items():
         v = m.get(key)
-        ok = typ(v) if callable(typ) and not isinstance(typ, type) else isinstance(v, typ)
-        if not ok:
+        if not ok_type(v):
             raise ConfigError(f"{path}: {key}", f"expected {what}, got {type(v).__name__} (damaged manifest; "
                                                 f"use a new directory)")
     for i, c in enumerate(m["chunks"]):
