@@ -84,3 +84,19 @@ def test_cli_analyze_of_a_pathological_design_ends_with_a_warning(tmp_path):
                          timeout=600)
     assert out.returncode == 0, out.stderr
     assert "budget" in out.stdout and "robust yes" not in out.stdout
+
+
+def test_optimizer_treats_a_budget_exhausted_design_as_infeasible():
+    """A design whose analysis spent its budget (NaN passivity metric, inconclusive verdicts) is
+    infeasible for ``exotune optimize``, while the same spec's normal design is feasible."""
+    from exotune.optimize import evaluate, load_optimize_spec
+
+    raw = yaml.safe_load(PAPER.read_text())
+    raw["humans"] = [{"kind": "mass", "inertia": [0.02, 1.0], "damping": 0.0}]
+    spec = load_optimize_spec({"base": raw, "objective": "amplification",
+                               "free": {"design.amplification": [1.5, 40.0], "plant.motor_inertia": [1e-12, 1.0]},
+                               "constraints": {"max_phase_excess_deg": 20.0}, "budget": 50})
+    ev = evaluate(spec, np.array([[4.0, 0.44], [4.0, 1e-12]]))
+    assert ev["feasible"][0] and not ev["feasible"][1]
+    assert np.isnan(ev["columns"]["passivity_max_phase_excess_deg"][1])
+    assert ev["broken"]["max_phase_excess_deg"][1]
