@@ -27,6 +27,11 @@ AVAILABLE = njit is not None
 # its budget is reported unresolved (inconclusive: never "stable"), not computed forever.
 MAX_TASK_EVALS = 200_000  # argument-principle count: evaluations per task (typical: ~50)
 MAX_TASK_LEAVES = 100_000  # adaptive frequency sets: leaves per task (typical: ~100)
+# Counts queued as one group (the sub-interval counts of one human family for one design) share
+# this budget: a degenerate design can have hundreds of sub-intervals whose counts would each spend
+# MAX_TASK_EVALS. A real design's group needs a few thousand evaluations (≤ 84 sub-intervals seen
+# with a 50 ms delay); tasks left when it is spent are unresolved.
+MAX_GROUP_EVALS = 1_000_000
 
 if AVAILABLE:
 
@@ -104,6 +109,14 @@ if AVAILABLE:
         return complex((d.real * v.real + d.imag * v.imag) * r, (d.imag * v.real - d.real * v.imag) * r)
 
     @njit(cache=True, inline="always")
+    def _cdiv(a, b):
+        """a / b, with numpy's inf/nan for b = 0 where numba's complex division raises
+        ZeroDivisionError (a degenerate design must not fail the batch it belongs to)."""
+        if b == 0:
+            return complex(math.inf, math.nan) if a != 0 else complex(math.nan, math.nan)
+        return a / b
+
+    @njit(cache=True, inline="always")
     def _step(ang, xa, xb):
         """The phase step arg(xb/xa) when _interval_ok did not compute it."""
         if ang == ang:
@@ -122,8 +135,10 @@ if AVAILABLE:
         return top + 1
 
     @njit(cache=True)
-    def _task_sum(c0T, c1T, t, T, grid, gi, K, tan_arg, der_step, max_levels, sa, sb, sd, sva, svb, sla, slb):
-        """(Σ accepted phase steps, resolved, evaluations) of row t over grid[gi, :K]."""
+    def _task_sum(c0T, c1T, t, T, grid, gi, K, tan_arg, der_step, max_levels, sa, sb, sd, sva, svb, sla, slb,
+                  max_evals):
+        """(Σ accepted phase steps, resolved, evaluations) of row t over grid[gi, :K]; unresolved
+        once ``max_evals`` evaluations are spent."""
         acc = 0.0
         res = True
         cnt = 0
@@ -160,7 +175,7 @@ if AVAILABLE:
                         res = False
                     acc += _step(ang, xa, xb)
                     continue
-                if cnt >= MAX_TASK_EVALS:  # budget spent: unresolved (see MAX_TASK_EVALS)
+                if cnt >= max_evals:  # budget spent: unresolved (see MAX_TASK_EVALS)
                     return acc, False, cnt
                 m = 0.5 * (a + b)
                 vm, dm = _eval(c0T, c1T, t, T, m)
@@ -193,7 +208,7 @@ if AVAILABLE:
             if not valid[t]:
                 continue
             acc, res, cnt = _task_sum(c0T, c1T, t, Ts[t], grid, t, grid.shape[1], tan_arg, der_step, max_levels,
-                                      sa, sb, sd, sva, svb, sla, slb)
+                                      sa, sb, sd, sva, svb, sla, slb, MAX_TASK_EVALS)
             out_sum[t] = acc
             out_res[t] = res
             out_count[t] = cnt
@@ -286,8 +301,8 @@ if AVAILABLE:
                     floor = (h <= 1e-13 * max(abs(b), 1e-300)) or dep >= max_levels
                     if mag_mode and ok and not bad:
                         # |num/den| must not dip below the −3 dB level inside (see analysis)
-                        fa = math.log(abs(xa0 / xa1))
-                        fb = math.log(abs(xb0 / xb1))
+                        fa = math.log(abs(_cdiv(xa0, xa1)))
+                        fb = math.log(abs(_cdiv(xb0, xb1)))
                         LA = La0 - La1
                         LB = Lb0 - Lb1
                         margin = min(fa, fb) - lthr[t]
@@ -316,7 +331,7 @@ if AVAILABLE:
                             # leaf clearly brackets it (a 1e-9 relative margin, so the caller's
                             # own test of the emitted leaves agrees)
                             lev = math.exp(lthr[t])
-                            if abs(xa0 / xa1) > lev * (1.0 + 1e-9) and abs(xb0 / xb1) < lev * (1.0 - 1e-9):
+                            if abs(_cdiv(xa0, xa1)) > lev * (1.0 + 1e-9) and abs(_cdiv(xb0, xb1)) < lev * (1.0 - 1e-9):
                                 done = True
                                 top = 0
                         continue
@@ -389,9 +404,9 @@ if AVAILABLE:
         a, _ = _eval(cA0, cA1, t, T, w)
         b, _ = _eval(cB0, cB1, t, T, w)
         if mode == 1:
-            return abs(a / b) ** 2 - cval
+            return abs(_cdiv(a, b)) ** 2 - cval
         if mode == 2:
-            c = b / a
+            c = _cdiv(b, a)
             ph = math.degrees(math.atan2(c.imag, c.real))
             if not (ph > 0):  # also NaN
                 return 0.0
@@ -591,7 +606,7 @@ if AVAILABLE:
         return default
 
     @njit(cache=True)
-    def _count_tasks(P0, P1, Ts, R0, R1, has_reg, arg_step, der_step, max_levels, decades, per_decade,
+    def _count_tasks(P0, P1, Ts, R0, R1, has_reg, group, arg_step, der_step, max_levels, decades, per_decade,
                      outN, outR, outOK):
         tan_arg = math.tan(arg_step)
         stk = _stacks(max_levels)
@@ -608,6 +623,8 @@ if AVAILABLE:
         for j in range(K):
             ratio[j] = 10.0 ** (-decades + decades * j / (K - 1))
         wm = np.empty(1)
+        cur_group = -1
+        left = 0
         for t in range(ntask):
             # exact common zero low-order coefficients of the task and its regularized twin
             r = min(_first_nonzero(P0, t, m), _first_nonzero(P1, t, m), _first_nonzero(R0, t, m),
@@ -643,17 +660,22 @@ if AVAILABLE:
                 grid[0, j + 1] = wg * ratio[j]
             total = 0.0
             resolved = False
-            if valid:
-                total, resolved, _ = _task_sum(c0, c1, 0, T, grid, 0, K + 1, tan_arg, der_step, max_levels,
-                                               stk[0], stk[1], stk[2], stk[3], stk[4], stk[5], stk[6])
+            if group[t] != cur_group:
+                cur_group = group[t]
+                left = MAX_GROUP_EVALS
+            if valid and left > 0:
+                total, resolved, used = _task_sum(c0, c1, 0, T, grid, 0, K + 1, tan_arg, der_step, max_levels,
+                                                  stk[0], stk[1], stk[2], stk[3], stk[4], stk[5], stk[6],
+                                                  min(MAX_TASK_EVALS, left))
+                left -= used
             vmax, _ = _eval(c0, c1, 0, T, wg)
             cn = c0[0, max(n, 0)]
             lead = cn * (1j ** max(n, 0)) if n >= 0 else 0j
-            q = lead / vmax
+            q = _cdiv(lead, vmax)
             total += math.atan2(q.imag, q.real)
             base = c0[0, 0] + c1[0, 0]
             if has_reg[t] and np.isfinite(v0r):
-                q = base / v0r
+                q = _cdiv(base, complex(v0r, 0.0))
                 total += math.atan2(q.imag, q.real)
                 base = complex(v0r, 0.0)
             psi = math.atan(cn.imag / cn.real) if cn.real != 0 else (math.nan if cn.imag == 0 else math.copysign(math.pi / 2, cn.imag))
@@ -665,18 +687,20 @@ if AVAILABLE:
 
 
 def count_tasks(P0, P1, T, R0, R1, has_reg, arg_step: float, der_step: float, max_levels: int,
-                decades: float = 6.0, per_decade: int = 2):
+                decades: float = 6.0, per_decade: int = 2, group=None):
     """Compiled :meth:`exotune.analysis._Counter.run` pipeline: per task, the exact common s = 0
     roots stripped (with the regularized twin), the zero-delay fold, the tail bound, the adaptive
     phase sum, the tail and ω = 0 terms and the count (same formulas as quasipoly.count_rhp).
-    Returns (N, rigid_body_roots, conclusive)."""
+    ``group``: consecutive tasks with the same id share MAX_GROUP_EVALS (default: every task its
+    own group). Returns (N, rigid_body_roots, conclusive)."""
     n = P0.shape[0]
+    group = np.arange(n, dtype=np.int64) if group is None else np.ascontiguousarray(group, dtype=np.int64)
     outN = np.empty(n, np.int64)
     outR = np.empty(n, np.int64)
     outOK = np.empty(n, np.bool_)
     c = lambda x: np.ascontiguousarray(x, dtype=complex)  # noqa: E731
     f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
-    _count_tasks(c(P0), c(P1), f(T), f(R0), f(R1), np.ascontiguousarray(has_reg, dtype=np.bool_), float(arg_step),
+    _count_tasks(c(P0), c(P1), f(T), f(R0), f(R1), np.ascontiguousarray(has_reg, dtype=np.bool_), group, float(arg_step),
                  float(der_step), int(max_levels), float(decades), int(per_decade), outN, outR, outOK)
     return outN, outR, outOK
 

@@ -220,9 +220,11 @@ class _Counter:
         self.items = []
         self.n = 0
 
-    def add(self, p0, p1, T, reg=None):
+    def add(self, p0, p1, T, reg=None, group=None):
+        """Queue the rows of (p0, p1, T) [with their regularized twin ``reg``]; rows with the same
+        ``group`` id (consecutive) share one work budget (``_fastphase.MAX_GROUP_EVALS``)."""
         T = np.broadcast_to(np.asarray(T, float), p0.shape[:1])
-        self.items.append((p0, p1, T, reg))
+        self.items.append((p0, p1, T, reg, group))
         h = slice(self.n, self.n + p0.shape[0])
         self.n += p0.shape[0]
         return h
@@ -250,7 +252,14 @@ class _Counter:
             from . import _fastphase
             from .quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
 
-            self.N, self.r, self.ok = _fastphase.count_tasks(P0, P1, T, R0, R1, has_reg, ARG_STEP, DER_STEP, MAX_LEVELS)
+            groups, base = [], 0
+            for i in self.items:
+                g = np.arange(i[0].shape[0]) if i[4] is None else np.asarray(i[4], np.int64)
+                groups.append(base + g)
+                base += int(g.max()) + 1 if g.size else 0
+            group = np.concatenate(groups)
+            self.N, self.r, self.ok = _fastphase.count_tasks(P0, P1, T, R0, R1, has_reg, ARG_STEP, DER_STEP, MAX_LEVELS,
+                                                             group=group)
             return
         r, (P0s, P1s, R0s, R1s) = strip_common_low_zeros(P0, P1, R0, R1)
         v0 = np.where(has_reg, R0s[:, 0] + R1s[:, 0], np.nan)
@@ -352,10 +361,16 @@ class _Side:
                 order = np.lexsort((cp, ct_))
                 ct_, cp, cw = ct_[order], cp[order], cw[order]
                 bounds, crit = _bounds(Nd, ct_, cp, cw, fam.lo, fam.hi)
+                # a design with more critical values in the range than MAX_FAMILY_PIECES is not
+                # counted piece by piece (each count is bounded, their number is not): inconclusive
+                too_many = np.diff(bounds[1]) - 1 > MAX_FAMILY_PIECES
                 rep_t, rep_p, rep_ab = _representatives(*bounds)
+                if too_many.any():
+                    kept = ~too_many[rep_t]
+                    rep_t, rep_p, rep_ab = rep_t[kept], rep_p[kept], (rep_ab[0][kept], rep_ab[1][kept])
                 h = _queue_points(counter, D0, D1, phi, factor, rep_t, rep_p)
                 res = dict(bounds=bounds, crit=crit, rep_t=rep_t, rep_ab=rep_ab, handle=h,
-                           leaves_ok=lv["valid"] & lv["resolved"])
+                           leaves_ok=lv["valid"] & lv["resolved"] & ~too_many, too_many=too_many)
                 if self.verify:
                     # independent check of the interval structure: exact counts at a grid of values
                     vp = np.geomspace(fam.lo, fam.hi, self.verify) if fam.lo > 0 else np.linspace(fam.lo, fam.hi, self.verify)
@@ -395,7 +410,7 @@ class _Side:
                 stv = okv & (Nv == 0) & (rv <= allowed_rigid)
                 for t_v, p_, s_, ok_ in zip(R["ver_t"].tolist(), R["ver_p"].tolist(), stv.tolist(), okv.tolist()):
                     edges = bv[bo[t_v] + 1: bo[t_v + 1] - 1].tolist()
-                    if not ok_ or any(abs(p_ - e) <= 1e-6 * max(abs(e), 1e-300) for e in edges):
+                    if not ok_ or R["too_many"][t_v] or any(abs(p_ - e) <= 1e-6 * max(abs(e), 1e-300) for e in edges):
                         continue
                     if s_ != any(a <= p_ <= b for a, b in intervals[t_v]):
                         mismatches[t_v].append(p_)
@@ -410,6 +425,12 @@ class _Side:
             })
         return out
 
+
+# More critical values than this in one family's range (one design) make the family inconclusive
+# for that design: each sub-interval costs an exact count (a real design has a handful: ≤ 84 seen
+# with a 50 ms delay; a degenerate one, e.g. a 1e-9 kg·m² felt inertia with a 0.2 s delay, has
+# ~10⁴ and would take minutes).
+MAX_FAMILY_PIECES = 1000
 
 NEAR_REAL_RAD = 1.0  # leaves with κ this close (in angle) to the real axis at an end are sub-sampled
 _SIN_NEAR = float(np.sin(NEAR_REAL_RAD))
@@ -526,7 +547,7 @@ def _queue_points(counter: _Counter, D0: QP, D1: QP, phi, factor: complex, rows:
         reg = (padd(D0.p0[rows], p[:, None] * D1p0[rows]), padd(D0.p1[rows], p[:, None] * D1p1[rows]))
     P0 = padd(D0.p0[rows].astype(complex if reg else float), (factor if reg else 1.0) * p[:, None] * D1p0[rows])
     P1 = padd(D0.p1[rows].astype(complex if reg else float), (factor if reg else 1.0) * p[:, None] * D1p1[rows])
-    return counter.add(P0, P1, D0.T[rows], reg)
+    return counter.add(P0, P1, D0.T[rows], reg, group=rows)
 
 
 def _bounds(Nd, ct_, cp, cw, lo, hi):
@@ -720,8 +741,9 @@ def passivity(side: _Side):
     fim = lambda t_, w: np.imag(c7(t_, w))
     # the band edges are the zeros of Im C7 = Im(Δ10/Δ00); the compiled refinement uses the same
     # zeros of Im(Δ00·conj Δ10) = −|Δ00|² Im C7 (no division): its bracket values change sign
-    gva = np.imag(lv["va"][0][pos] * np.conj(lv["va"][1][pos]))
-    gvb = np.imag(lv["vb"][0][pos] * np.conj(lv["vb"][1][pos]))
+    with np.errstate(over="ignore", invalid="ignore"):  # only their signs are used
+        gva = np.imag(lv["va"][0][pos] * np.conj(lv["va"][1][pos]))
+        gvb = np.imag(lv["vb"][0][pos] * np.conj(lv["vb"][1][pos]))
     bracket_start = (np.sign(ima[qs]) != np.sign(imb[qs])) & resolved_sign[qs] & resolved_a[qs]
     ws = a_l[qs].copy()
     if bracket_start.any():
@@ -1335,8 +1357,9 @@ def analyze_design(cfg) -> dict:
         warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis, or the "
                         "adaptive frequency search spent its per-task budget: extreme parameters)")
     if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
-        warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution, or an "
-                        "adaptive search spent its per-task budget: extreme parameters): treated as NOT stable")
+        warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution, an "
+                        "adaptive search that spent its per-task budget, or a human range with more than "
+                        f"{MAX_FAMILY_PIECES} critical values: extreme parameters): treated as NOT stable")
     return {
         "model": "continuous-time, exact delay e^{-sT} (SPEC §3); verdicts by the argument principle on the closed-loop characteristic quasi-polynomial",
         "structure": cfg.implementation.structure,
@@ -1407,10 +1430,16 @@ def _schedule_check(cfg) -> list[dict]:
     return out
 
 
+TEXT_LIST_MAX = 12  # the text report lists at most this many intervals / boundaries (--json: all)
+
+
 def _fmt_iv(iv, unit):
     if not iv:
         return "none"
-    return ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in iv) + f" {unit}"
+    s = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in iv[:TEXT_LIST_MAX]) + f" {unit}"
+    if len(iv) > TEXT_LIST_MAX:
+        s += f" … ({len(iv)} intervals in all; --json lists every one)"
+    return s
 
 
 def format_report(r: dict) -> str:
@@ -1444,8 +1473,10 @@ def format_report(r: dict) -> str:
             continue
         L.append(f"  {h['kind']:17s} {h['parameter']} in [{h['range'][0]:.6g}, {h['range'][1]:.6g}] {h['unit']}: robust {yn(h['robust'])}")
         L.append(f"    stable on {_fmt_iv(h['stable_intervals'], h['unit'])}")
-        for c in h["critical"]:
+        for c in h["critical"][:TEXT_LIST_MAX]:
             L.append(f"    boundary at {h['parameter']} = {c['value']:.6g} {h['unit']} (crossing at {c['frequency_hz']:.4g} Hz)")
+        if len(h["critical"]) > TEXT_LIST_MAX:
+            L.append(f"    … {len(h['critical'])} boundaries in all (--json lists every one)")
         if h.get("verification_mismatches"):
             L.append(f"    VERIFICATION FAILED at {h['parameter']} = {h['verification_mismatches']}: treated as not robust")
         if h.get("lowest_stable_value_below_range_top") is not None and h["kind"] in ("mass", "msd") and h["parameter"] == "inertia":

@@ -847,6 +847,12 @@ def batch_config(cfg: DesignConfig, overrides: dict[str, np.ndarray]) -> DesignC
 
     impl = cfg.implementation
     fs = impl.sample_rate_hz
+    if fs is not None and "implementation.delay_s" in vals:
+        i = int(np.argmax(vals["implementation.delay_s"]))
+        try:
+            check_delay_samples(vals["implementation.delay_s"][i], fs, "implementation.delay_s")
+        except ConfigError as e:
+            raise ConfigError(e.field, f"value at index {i}: {e.reason}") from None
     for key in _FILTER_KEYS:
         sub = [p for p in vals if p.startswith(f"implementation.{key}.")]
         if sub and getattr(impl, key) is None:

@@ -352,12 +352,15 @@ def format_certificates(certs: dict, indent: str = "  ") -> list[str]:
             lines.append(indent + str(c))
             continue
         verdict = {True: "passive (certified)", False: "NOT passive", None: "undecided"}[c["passive"]]
-        line = f"{indent}KYP certificate, {c['model']}: {verdict}; shortage {c['shortage']:.4g} {c['shortage_unit']}"
-        wf = c.get("witness_frequency_hz", float("nan"))
-        if c["passive"] is False and wf == wf:
+        sh = c["shortage"]
+        line = f"{indent}KYP certificate, {c['model']}: {verdict}"
+        if sh is not None and math.isfinite(sh):
+            line += f"; shortage {sh:.4g} {c['shortage_unit']}"
+        wf = c.get("witness_frequency_hz")
+        if c["passive"] is False and wf is not None and wf == wf:
             line += (f" (Re{{jω C7}} minimum at {wf:.4g} Hz)" if math.isfinite(wf) else
                      " (Re{jω C7} approaches its infimum as ω → ∞)")
-        if c["passive"] is None:
+        if c["passive"] is None or sh is None or not math.isfinite(sh):
             line += f" — {c['reason']}"
         lines.append(line)
     return lines

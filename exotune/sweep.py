@@ -123,6 +123,8 @@ FORMAT_VERSION = 1
 _SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points")
 _AXIS_KEYS = ("start", "stop", "num", "scale")
 _MAX_POINTS = 2**62
+MAX_VERIFY_POINTS = 1000  # spec key verify_points (the single-design report uses 64)
+MAX_AXIS_VALUES = 100_000  # per axis: the values are listed in the manifest (a 10⁵ × 10⁵ grid is fine)
 _FEISTEL_ROUNDS = 6
 _MANIFEST_MIN_INTERVAL_S = 2.0
 
@@ -154,9 +156,11 @@ def _is_number(v: Any) -> bool:
 def _number(field: str, v: Any) -> float:
     if not _is_number(v):
         kind = "null" if v is None else f"the string {v!r}" if isinstance(v, str) else type(v).__name__
-        hint = " (YAML reads 1e3 without a decimal point as a string: write 1.0e3)" if isinstance(v, str) else ""
-        raise ConfigError(field, f"expected a number, got {kind}{hint}")
-    x = float(v)
+        raise ConfigError(field, f"expected a number, got {kind}")
+    try:
+        x = float(v)
+    except OverflowError:
+        raise ConfigError(field, f"the integer {str(v)[:12]}… ({len(str(v))} digits) is too large for a float") from None
     if not math.isfinite(x):
         raise ConfigError(field, f"must be a finite number, got {x!r}")
     return x
@@ -167,6 +171,8 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
     if isinstance(spec, list):
         if not spec:
             raise ConfigError(field, "an axis list needs at least one value")
+        if len(spec) > MAX_AXIS_VALUES:
+            raise ConfigError(field, f"{len(spec)} values; an axis has at most {MAX_AXIS_VALUES}")
         vals = [_number(f"{field}[{i}]", v) for i, v in enumerate(spec)]
         seen = {}
         for i, v in enumerate(vals):
@@ -192,6 +198,9 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
         num = int(num)
         if num < 1:
             raise ConfigError(f"{field}.num", f"must be >= 1, got {num}")
+        if num > MAX_AXIS_VALUES:
+            raise ConfigError(f"{field}.num", f"{num} values; an axis has at most {MAX_AXIS_VALUES} "
+                                             "(a grid of several axes can still have up to 2^62 points)")
         scale = spec.get("scale", "lin")
         if scale not in ("lin", "log"):
             raise ConfigError(f"{field}.scale", f"must be 'lin' or 'log', got {scale!r}")
@@ -204,7 +213,10 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
             vals = np.geomspace(start, stop, num) if num > 1 else np.array([start])
         else:
             vals = np.linspace(start, stop, num) if num > 1 else np.array([start])
-        return [float(v) for v in vals], scale
+        out = [float(v) for v in vals]
+        if len(set(out)) < len(out):  # start and stop a few ulps apart
+            raise ConfigError(field, f"{num} values from {start!r} to {stop!r} are not distinct in floating point")
+        return out, scale
     kind = "null" if spec is None else type(spec).__name__
     raise ConfigError(field, f"expected a list of values or a mapping {{start, stop, num, scale}}, got {kind}")
 
@@ -261,6 +273,10 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
     if "base" not in mapping:
         raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
     cfg, base_source = load_base(mapping["base"], root)
+    for key in ("gv_filter", "derivative_filter"):
+        if getattr(cfg.implementation, key) is None:
+            raise ConfigError(f"base.implementation.{key}",
+                              "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (SPEC §3)")
 
     if "axes" not in mapping:
         raise ConfigError("axes", "required key is missing (a mapping of dotted parameter paths to values)")
@@ -301,6 +317,8 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
         raise ConfigError("seed", "only meaningful together with --sample")
 
     verify = _int_option("verify_points", mapping.get("verify_points", 0), 0)
+    if verify > MAX_VERIFY_POINTS:
+        raise ConfigError("verify_points", f"{verify} exact counts per family and design; at most {MAX_VERIFY_POINTS}")
     normalized = {
         "base": cfg.raw,
         "axes": axes,
@@ -740,6 +758,52 @@ def _run_inprocess(plan, out_dir, todo, on_result):
         on_result(_chunk_task(plan.spec, plan.hash, i, out_dir))
 
 
+def _worker_init(parent_pid: int) -> None:
+    """Sweep worker start-up: never outlive the sweep. Linux kills the worker with the parent
+    (``PR_SET_PDEATHSIG``); elsewhere, and as a second line, a daemon thread exits once the
+    parent is gone (re-parented). Without this a ``kill -9`` of ``exotune sweep`` left its idle
+    workers blocked on their pipe for ever, each holding ~200 MB."""
+    import threading
+
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(Exception):
+            import ctypes
+            import signal
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+    if os.getppid() != parent_pid:  # the parent died before prctl took effect
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent_pid:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exotune-parent-watch", daemon=True).start()
+
+
+@contextlib.contextmanager
+def _sigterm_as_exit():
+    """SIGTERM (``kill PID``) ends the sweep like Ctrl-C: the manifest records "interrupted" and
+    the worker pool is shut down (only the main thread can install a handler)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_term(signum, frame):
+        print("exotune sweep: terminated (SIGTERM); rerun the same command to resume", file=sys.stderr)
+        raise SystemExit(128 + signum)
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def _run_processes(plan, out_dir, todo, on_result, workers):
     import concurrent.futures as cf
     import multiprocessing as mp
@@ -748,7 +812,8 @@ def _run_processes(plan, out_dir, todo, on_result, workers):
     window = 2 * workers
     it = iter(todo)
     with _single_threaded_blas_env():
-        ex = cf.ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+        ex = cf.ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                                    initializer=_worker_init, initargs=(os.getpid(),))
         try:
             pending: dict = {}
 
@@ -1024,13 +1089,8 @@ def _execute(plan: SweepPlan, out_dir: str, manifest: dict, workers, dask_addres
             last_write[0] = now
 
     try:
-        if todo:
-            if backend == "dask":
-                _run_dask(plan, out_dir, todo, on_result, dask_address, workers)
-            elif backend == "in-process":
-                _run_inprocess(plan, out_dir, todo, on_result)
-            else:
-                _run_processes(plan, out_dir, todo, on_result, n_workers)
+        with _sigterm_as_exit():
+            _dispatch(plan, out_dir, todo, on_result, backend, dask_address, workers, n_workers)
     except BaseException:
         bar.close()
         manifest["status"] = "interrupted"
@@ -1057,6 +1117,17 @@ def _execute(plan: SweepPlan, out_dir: str, manifest: dict, workers, dask_addres
             manifest=manifest,
         )
     return manifest
+
+
+def _dispatch(plan, out_dir, todo, on_result, backend, dask_address, workers, n_workers) -> None:
+    if not todo:
+        return
+    if backend == "dask":
+        _run_dask(plan, out_dir, todo, on_result, dask_address, workers)
+    elif backend == "in-process":
+        _run_inprocess(plan, out_dir, todo, on_result)
+    else:
+        _run_processes(plan, out_dir, todo, on_result, n_workers)
 
 
 def _finish_timings(manifest: dict, run: dict, t0: float, final: bool) -> None:

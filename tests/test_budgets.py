@@ -100,3 +100,82 @@ def test_optimizer_treats_a_budget_exhausted_design_as_infeasible():
     assert ev["feasible"][0] and not ev["feasible"][1]
     assert np.isnan(ev["columns"]["passivity_max_phase_excess_deg"][1])
     assert ev["broken"]["max_phase_excess_deg"][1]
+
+
+# --- found by fuzzing in session 6 -------------------------------------------------------------
+def _with(**changes):
+    raw = yaml.safe_load(PAPER.read_text())
+    for path, v in changes.items():
+        sec, key = path.split("__")
+        raw[sec][key] = v
+    return design_from_mapping(raw)
+
+
+def _delay_tasks(n: int, T: float = 1e4):
+    """n copies of Δ = (s + 1)(s + 2) + 1.9 e^{−sT}: stable, but the phase of the delay term winds
+    ~ω_max·T times, so each count needs tens of thousands of evaluations."""
+    from exotune.quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
+
+    P0 = np.repeat([[2.0, 3.0, 1.0]], n, 0)
+    P1 = np.repeat([[1.9, 0.0, 0.0]], n, 0)
+    return (P0, P1, np.full(n, T), P0, P1, np.zeros(n, bool), ARG_STEP, DER_STEP, MAX_LEVELS)
+
+
+def test_group_budget_bounds_the_counts_of_one_group():
+    """Counts queued as one group (a family's sub-interval counts of one design) share
+    MAX_GROUP_EVALS: alone every count resolves; in one group the counts after the budget are
+    unresolved (a prefix resolves, the rest does not), and a new group gets a fresh budget."""
+    n = 40
+    N, _, ok = _fastphase.count_tasks(*_delay_tasks(n))
+    assert ok.all() and (N == 0).all()
+    N1, _, ok1 = _fastphase.count_tasks(*_delay_tasks(n), group=np.zeros(n, np.int64))
+    k = int(ok1.sum())
+    assert 0 < k < n
+    assert ok1[:k].all() and not ok1[k:].any()
+    np.testing.assert_array_equal(N1[:k], N[:k])
+    two = np.r_[np.zeros(n // 2, np.int64), np.ones(n // 2, np.int64)]
+    _, _, ok2 = _fastphase.count_tasks(*_delay_tasks(n), group=two)
+    assert ok2[n // 2]  # the second group starts with a full budget
+
+
+def test_family_with_thousands_of_critical_values_is_inconclusive():
+    """A degenerate design (α = 1, 1e-9 kg·m² felt inertia, 1e9 N·m/rad cuff, 0.2 s delay) has
+    ~10⁴ critical inertias: it used to queue 10⁴ budget-spending counts (10 minutes). Past
+    MAX_FAMILY_PIECES it is inconclusive at once, and never robust."""
+    from exotune.analysis import MAX_FAMILY_PIECES
+
+    cfg = _with(design__amplification=1.0, design__felt_inertia=1e-9, design__felt_damping=1e-12,
+                plant__cuff_stiffness=1e9, implementation__delay_s=0.2)
+    cols = analyze_batch(cfg)
+    assert len(cols["human0_mass_critical"][0]) > MAX_FAMILY_PIECES
+    assert not cols["human0_mass_conclusive"][0]
+    assert not cols["human0_mass_robust"][0]
+    assert cols["human0_mass_stable_intervals"][0] == []
+
+
+def test_zero_on_the_axis_in_a_refinement_does_not_fail_the_batch():
+    """A 1e-12 kg·m² motor inertia with a 1e6 N·m·s/rad motor damping made a value of Δ00 exactly 0
+    inside the passivity peak search: numba's complex division raised ZeroDivisionError and the
+    whole sweep chunk failed. Now the design is analysed (inconclusive, not stable) next to a
+    normal one that keeps its exact results."""
+    base = load_design(PAPER)
+    alone = analyze_batch(base)
+    mixed = analyze_batch(batch_config(base, {"plant.motor_inertia": np.array([0.44, 1e-12]),
+                                              "plant.motor_damping": np.array([17.9, 1e6]),
+                                              "implementation.delay_s": np.array([0.001, 0.0])}))
+    assert mixed["free_stable"][0] == alone["free_stable"][0]
+    assert mixed["passivity_max_phase_excess_deg"][0] == alone["passivity_max_phase_excess_deg"][0]
+    assert not mixed["free_stable"][1]
+    assert not mixed["human0_mass_robust"][1]
+
+
+def test_cli_analyze_of_a_zero_division_design_has_no_traceback(tmp_path):
+    raw = yaml.safe_load(PAPER.read_text())
+    raw["plant"].update(motor_inertia=1e-12, motor_damping=1e6)
+    raw["implementation"]["delay_s"] = 0.0
+    f = tmp_path / "d.yaml"
+    f.write_text(yaml.safe_dump(raw))
+    r = subprocess.run([sys.executable, "-m", "exotune", "analyze", str(f)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stderr and "Warning" not in r.stderr
+    assert "inconclusive" in r.stdout

@@ -202,6 +202,80 @@ def test_kill_and_resume_matches_uninterrupted(tmp_path):
     assert_frames_equal(load_results(killed), load_results(clean))
 
 
+def _big_sweep_process(tmp_path):
+    """A local-process sweep long enough to be signalled while its workers run."""
+    axes = {"design.amplification": {"start": 1.5, "stop": 20.0, "num": 300, "scale": "log"},
+            "implementation.delay_s": {"start": 0.0, "stop": 0.004, "num": 300}}
+    spec = write_spec(tmp_path, axes=axes, chunk_size=500)
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, "-m", "exotune", "sweep", str(spec), "-o", str(out), "--workers", "2"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:  # wait until both workers have written a chunk
+        d = out / "chunks"
+        if d.is_dir() and sum(n.startswith("part-") for n in os.listdir(d)) >= 2:
+            break
+        if proc.poll() is not None:
+            pytest.fail(f"sweep ended early: {proc.communicate()}")
+        time.sleep(0.02)
+    else:
+        proc.kill()
+        pytest.fail("no chunk file appeared")
+    kids = [int(x) for x in subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()]
+    return proc, out, kids
+
+
+def _all_gone(pids, timeout=15.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        alive = []
+        for p in pids:
+            try:
+                os.kill(p, 0)
+                with open(f"/proc/{p}/stat") as f:  # a zombie awaiting its (dead) parent counts as gone
+                    if f.read().split(") ", 1)[1].startswith("Z"):
+                        continue
+                alive.append(p)
+            except (ProcessLookupError, FileNotFoundError):
+                pass
+        if not alive:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/proc"), reason="Linux process table")
+def test_workers_die_with_a_killed_sweep(tmp_path):
+    """kill -9 of ``exotune sweep`` used to leave its worker processes blocked for ever (~200 MB
+    each); they now end with their parent."""
+    proc, out, kids = _big_sweep_process(tmp_path)
+    try:
+        assert kids, "the sweep has no worker processes"
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(10)
+        assert _all_gone(kids), "worker processes outlived the killed sweep"
+    finally:
+        for p in kids:
+            with __import__("contextlib").suppress(ProcessLookupError):
+                os.kill(p, signal.SIGKILL)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/proc"), reason="Linux process table")
+def test_sigterm_interrupts_the_sweep_cleanly(tmp_path):
+    """``kill PID`` ends the sweep like Ctrl-C: exit 143, the manifest says "interrupted", the
+    workers end, and rerunning the command completes the dataset."""
+    proc, out, kids = _big_sweep_process(tmp_path)
+    os.kill(proc.pid, signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err[-2000:]
+    assert "rerun the same command" in err and "Traceback" not in err
+    assert load_manifest(out)["status"] == "interrupted"
+    assert _all_gone(kids)
+    m = run_sweep(tmp_path / "spec.yaml", out, workers=1, progress=False)
+    assert m["status"] == "complete" and m["runs"][-1]["chunks_skipped"] >= 2
+
+
 # --------------------------------------------------------------------------------------------
 # refusals and bad specs
 # --------------------------------------------------------------------------------------------
@@ -256,12 +330,32 @@ BAD = [
     ({"base": "PAPER", "axes": {"design.amplification": [2.0]}, "chunk_size": "big"}, "chunk_size"),
     ({"base": "nonexistent.yaml", "axes": {"design.amplification": [2.0]}}, "base"),
     ({"base": {"plant": {}}, "axes": {"design.amplification": [2.0]}}, "base.plant"),
+    # found by fuzzing (session 6): each used to traceback, exhaust memory or fail every chunk
+    ({"base": "PAPER", "axes": {"design.zeta": [10**400]}}, "axes.design.zeta[0]"),
+    ({"base": "PAPER", "axes": {"design.zeta": {"start": 0.5, "stop": 10**400, "num": 3}}}, "axes.design.zeta.stop"),
+    ({"base": "PAPER", "axes": {"design.zeta": {"start": 0.5, "stop": 2.0, "num": 10**23}}}, "axes.design.zeta.num"),
+    ({"base": "PAPER", "axes": {"design.zeta": {"start": 0.5, "stop": 2.0, "num": 100_001}}}, "axes.design.zeta.num"),
+    ({"base": "PAPER", "axes": {"design.amplification": {"start": 1.0, "stop": 1.0000000000000004, "num": 5}}},
+     "axes.design.amplification"),
+    ({"base": "PAPER", "axes": {"design.amplification": [2.0]}, "verify_points": 10**12}, "verify_points"),
+    ({"base": "NOGV", "axes": {"design.zeta": [0.5, 0.7]}}, "base.implementation.gv_filter"),
+    ({"base": "DISCRETE", "axes": {"implementation.delay_s": [0.001, 2.0]}}, "axes.implementation.delay_s"),
 ]
+
+
+def _variant_base(kind: str):
+    raw = yaml.safe_load(PAPER.read_text())
+    if kind == "NOGV":
+        del raw["implementation"]["gv_filter"]
+    else:
+        raw["implementation"]["sample_rate_hz"] = 1000.0
+    return raw
 
 
 @pytest.mark.parametrize("spec,field", BAD, ids=[f for _, f in BAD])
 def test_bad_spec_names_the_field(tmp_path, spec, field):
-    spec = {k: (str(PAPER) if v == "PAPER" else v) for k, v in spec.items()}
+    spec = {k: (str(PAPER) if v == "PAPER" else _variant_base(v) if v in ("NOGV", "DISCRETE") else v)
+            for k, v in spec.items()}
     p = tmp_path / "bad.yaml"
     p.write_text(yaml.safe_dump(spec), encoding="utf-8")
     out = tmp_path / "out"
