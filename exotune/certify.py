@@ -15,7 +15,8 @@ the unit circle (step control of eigenvalue continuation); every change of verdi
 (geometric) to 1e-10 relative. A window of instability could still hide inside a cell only on an
 eigenvalue path much longer than its resolved chord and end speeds imply. A cell that stays
 unresolved at the finest step (≈ 2e-5 relative: an eigenvalue within a hair of the circle and
-moving fast), or when the refinement budget (``MAX_REFINED`` values per family) is spent, fails
+moving fast), or when the refinement budget (``MAX_REFINED`` values per family, fewer for loops of
+more than ``REF_STATES`` states) is spent, fails
 the certification.
 
 The file is **certified** when the free and the locked loops are stable, every rational human
@@ -37,6 +38,10 @@ POINTS = 96
 CHORD = 1.0  # over a resolved cell every eigenvalue moves ≤ CHORD × its distance to |z| = 1
 MAX_DEPTH = 12  # halvings of one base-grid cell (≈ 2e-5 relative for the default grid)
 MAX_REFINED = 20000  # refinement values per family; past it, unresolved cells are reported as such
+# ... for loops of up to REF_STATES states; a bigger loop (a long delay at a high rate: one state per
+# sample) gets the same eigen-solver work, MAX_REFINED·(REF_STATES/n)³ values (at least 50): a
+# 200 kHz export of a 1 ms delay (230 states) otherwise ran for hours
+REF_STATES = 40
 _FD = 1e-7  # relative step of the finite-difference eigenvalue derivative
 _BISECT = 48
 
@@ -96,6 +101,8 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
 
     mid = (lambda a, b: math.sqrt(a * b)) if lo > 0 else (lambda a, b: 0.5 * (a + b))
     vals = [float(v) for v in (np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points))]
+    n = max(at(vals[0])[1].size, 1)
+    max_refined = MAX_REFINED if n <= REF_STATES else max(50, int(MAX_REFINED * (REF_STATES / n) ** 3))
     grid = [vals[0]]
     refined = 0
     unresolved = []
@@ -108,7 +115,7 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
                 continue
             if _cell_resolved(with_derivative(x), with_derivative(y), coord(y) - coord(x)):
                 continue
-            if not depth or refined >= MAX_REFINED:
+            if not depth or refined >= max_refined:
                 unresolved.append([x, y])
                 continue
             m = mid(x, y)
@@ -170,9 +177,9 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
 
     plant = plant_from_file(doc)
     ctrl = discrete_from_file(doc)
-    K1 = float(doc["gains"]["K1"]["value"])
-    run = lambda human=None, env="free": loop_stable(plant, ctrl, K1 != 0.0, human, env)  # noqa: E731
-    spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, K1 != 0.0, human, env)  # noqa: E731
+    grounded = position_feedback(doc["controller"])
+    run = lambda human=None, env="free": loop_stable(plant, ctrl, grounded, human, env)  # noqa: E731
+    spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, grounded, human, env)  # noqa: E731
     free, rho = run()
     locked, rho_l = run(env="locked")
     out = {
@@ -188,13 +195,20 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     for i, item in enumerate(doc["certify"].get("humans") or []):
         fam, _ = _in_certify(_parse_human, i, item)
         entry = {"kind": fam.kind, "parameter": fam.param, "unit": fam.unit, "range": [fam.lo, fam.hi]}
-        if fam.kind == "complex_stiffness" or fam.box:
-            entry["skipped"] = ("hysteretic damping is not rational: it has no finite-dimensional sampled-data model"
-                                if fam.kind == "complex_stiffness" else "box family: certify each edge as its own family")
+        if fam.kind == "complex_stiffness":
+            entry["skipped"] = "hysteretic damping is not rational: it has no finite-dimensional sampled-data model"
+            out["humans"].append(entry)
+            continue
+        if fam.box:
+            # no edge theorem holds for the sampled-data loop (its matrix depends on the human
+            # through a matrix exponential): a box cannot be certified from its edges
+            entry["not_certifiable"] = ("a box of several uncertain msd parameters: the sampled-data check certifies "
+                                        "one-parameter families only; split it (fix all but one parameter per family)")
+            entry["box"] = {q: [a, b] for q, a, b in fam.box}
             out["humans"].append(entry)
             continue
         ivs, info = _intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points)
-        entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]]))
+        entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]] and not info["unresolved"]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
         env, _ = _in_certify(_parse_env, i, item)
@@ -204,8 +218,33 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
         out["environment"].append({"kind": env.kind, "parameter": env.param,
                                    "unit": "kg·m²" if env.param == "inertia" else "N·m/rad",
                                    "range": [env.lo, env.hi], **info, "stable_intervals": ivs,
-                                   "robust": ivs == [[env.lo, env.hi]], "note": "cuff free, environment at the joint"})
+                                   "robust": ivs == [[env.lo, env.hi]] and not info["unresolved"],
+                                   "note": "cuff free, environment at the joint"})
     return out
+
+
+def position_feedback(controller: dict, rtol: float = 1e-12) -> bool:
+    """Whether the file's controller feeds back the motor *position* at DC — from the controller
+    the runtime executes (its θ_m gain and the DC gains of its filters on θ_m), never from the
+    descriptive six-gain summary. Without it (and without a human or environment stiffness) the
+    structure is ungrounded and the loop has its rigid-body eigenvalue at z = 1."""
+    total = float(controller["gains"].get("theta_m", {"gain": 0.0})["gain"])
+    scale = abs(total)
+    for f in controller["filters"]:
+        if f["input"] != "theta_m":
+            continue
+        num, den = 1.0, 1.0
+        for b0, b1, b2, _a0, a1, a2 in f["sos"]:
+            sb = b0 + b1 + b2
+            num *= 0.0 if abs(sb) <= rtol * (abs(b0) + abs(b1) + abs(b2)) else sb
+            den *= 1.0 + a1 + a2
+        if num == 0.0:
+            continue
+        if den == 0.0:  # an integrator on θ_m: position feedback of unbounded DC gain
+            return True
+        total += num / den
+        scale += abs(num / den)
+    return abs(total) > rtol * max(scale, 1e-300) and total != 0.0
 
 
 def _golden_ok(out: np.ndarray, ref: np.ndarray) -> bool:
@@ -279,6 +318,11 @@ def certify(doc: dict) -> dict:
     for h in sa["humans"] + sa["environment"]:
         if "skipped" in h:
             continue
+        if "not_certifiable" in h:
+            box = ", ".join(f"{q} [{a:g}, {b:g}]" for q, (a, b) in h["box"].items())
+            problems.append(f"{h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']} × {box}: "
+                            f"not certified — {h['not_certifiable']}")
+            continue
         if not h["robust"]:
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
                             f"stable only in {_fmt_ivs(h['stable_intervals'])}")
@@ -290,7 +334,7 @@ def certify(doc: dict) -> dict:
         for e in sched["entries"]:
             sa_e = sampled_analysis(schedule_entry_doc(doc, e))
             bad = [f"{h['kind']} {h['parameter']}" for h in sa_e["humans"] + sa_e["environment"]
-                   if "skipped" not in h and not h["robust"]]
+                   if "skipped" not in h and not h.get("robust")]
             bad += [k for k in ("free_stable", "locked_stable") if not sa_e[k]]
             rep["gain_schedule"].append({"joint_angle_rad": e["joint_angle_rad"], "ratio": e["ratio"],
                                          "robust": not bad, "not_robust": bad, "sampled": sa_e})
@@ -298,32 +342,11 @@ def certify(doc: dict) -> dict:
             if bad:
                 problems.append(f"gain schedule at joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
                                 f"not stable for {', '.join(bad)}")
-            p_e = e.get("predicted_sampled")
-            p_h = _entries(p_e.get("humans")) if isinstance(p_e, dict) else []
-            if len(p_h) != len(sa_e["humans"]):
-                mism.append(f"gain_schedule[{e['joint_angle_rad']:g} rad].humans (the entry predicts {len(p_h)} families)")
-            for j, (p, h) in enumerate(zip(p_h, sa_e["humans"])):
-                if "stable_intervals" in h and not _same_intervals((p or {}).get("stable_intervals"), h["stable_intervals"]):
-                    mism.append(f"gain_schedule[{e['joint_angle_rad']:g} rad].humans[{j}].stable_intervals")
-    pred = (doc.get("predicted") or {}).get("sampled")
+            mism += _prediction_mismatches(e.get("predicted_sampled"), sa_e,
+                                           f"gain_schedule[{e['joint_angle_rad']:g} rad].predicted_sampled")
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the file names no rational human family to certify against (certify.humans)")
-    if isinstance(pred, dict):
-        for key in ("free_stable", "locked_stable"):
-            if pred.get(key) != sa[key]:
-                mism.append(key)
-        for grp in ("humans", "environment"):
-            p_g = _entries(pred.get(grp))
-            if len(p_g) != len(sa[grp]):
-                mism.append(f"{grp} (the file predicts {len(p_g)} families, certify.{grp} has {len(sa[grp])})")
-                continue
-            for j, (p, h) in enumerate(zip(p_g, sa[grp])):
-                if p is None:
-                    mism.append(f"{grp}[{j}] (not a mapping)")
-                elif "stable_intervals" in h and not _same_intervals(p.get("stable_intervals"), h["stable_intervals"]):
-                    mism.append(f"{grp}[{j}].stable_intervals")
-    else:
-        mism.append("predicted.sampled missing")
+    mism += _prediction_mismatches((doc.get("predicted") or {}).get("sampled"), sa, "predicted.sampled")
     if mism:
         problems.append("the file's predictions differ from this analysis: " + ", ".join(mism))
     rep["prediction_mismatches"] = mism
@@ -334,6 +357,41 @@ def certify(doc: dict) -> dict:
                      "unit circle (chord and end derivatives); every verdict change bisected to 1e-10 relative; "
                      "hysteretic humans are not rational and are skipped")
     return rep
+
+
+_FAMILY_KEYS = ("kind", "parameter", "unit", "range", "robust", "stable_intervals")
+
+
+def _prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
+    """Every sampled-data prediction of the file (``pred``: untrusted, anything malformed is a
+    mismatch) against the recomputed ``sa``: the free and locked verdicts and spectral radii, and
+    per family its identity, range, robust verdict and stable intervals."""
+    if not isinstance(pred, dict):
+        return [f"{where} missing"]
+    out = [f"{where}.{k}" for k in ("free_stable", "locked_stable") if pred.get(k) is not sa[k]]
+    for k in ("free_spectral_radius", "locked_spectral_radius"):
+        if k in pred and not _same_intervals([[pred[k], pred[k]]], [[sa[k], sa[k]]]):
+            out.append(f"{where}.{k}")
+    for grp in ("humans", "environment"):
+        p_g = _entries(pred.get(grp))
+        if len(p_g) != len(sa[grp]):
+            out.append(f"{where}.{grp} (the file predicts {len(p_g)} families, certify.{grp} has {len(sa[grp])})")
+            continue
+        for j, (p, h) in enumerate(zip(p_g, sa[grp])):
+            if p is None:
+                out.append(f"{where}.{grp}[{j}] (not a mapping)")
+                continue
+            for k in _FAMILY_KEYS:
+                if k not in h:
+                    continue
+                if k in ("range", "stable_intervals"):
+                    ok = _same_intervals(p.get(k) if k == "stable_intervals" else [p.get(k)],
+                                         h[k] if k == "stable_intervals" else [h[k]])
+                else:
+                    ok = p.get(k) == h[k] and type(p.get(k)) is type(h[k])
+                if not ok:
+                    out.append(f"{where}.{grp}[{j}].{k}")
+    return out
 
 
 def _fmt_ivs(ivs) -> str:

@@ -514,36 +514,52 @@ def _check_duplicate_keys(node, path: str = "") -> None:
 
 
 class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader with YAML 1.2 float syntax.
+    """PyYAML's safe loader with the YAML 1.2 core schema for numbers and booleans.
 
-    PyYAML follows YAML 1.1, where an exponent needs a decimal point and a signed exponent:
-    ``1e3``, ``1e-3`` and even ``1.0e3`` load as *strings*. Engineers write delays as ``1e-3``;
-    YAML 1.2 (and JSON) read them as numbers, and so does exotune. Only the float resolver
-    changes: no new tags, no object construction (still a safe loader)."""
+    PyYAML follows YAML 1.1: an exponent needs a decimal point and a signed exponent (``1e3``,
+    ``1e-3`` and even ``1.0e3`` load as *strings*), ``0300`` is octal (192), ``1:30`` is
+    sexagesimal (90), ``1_000`` is 1000 and ``yes``/``on``/``off`` are booleans. Engineers write
+    delays as ``1e-3`` and may pad numbers with zeros; YAML 1.2 (and JSON) read ``1e-3`` as a
+    float, ``0300`` as 300, and ``yes``, ``1:30``, ``1_000`` as strings (which validation then
+    refuses, naming the field), and so does exotune. Only the implicit resolvers of int, float
+    and bool and the int constructor change: no new tags, no object construction (still a safe
+    loader)."""
+
+    def construct_yaml_int(self, node):
+        v = self.construct_scalar(node)
+        if v.startswith("0o"):
+            return int(v[2:], 8)
+        if v.startswith("0x"):
+            return int(v[2:], 16)
+        return int(v, 10)
 
 
+_YAML11 = ("tag:yaml.org,2002:float", "tag:yaml.org,2002:int", "tag:yaml.org,2002:bool")
 _Loader.yaml_implicit_resolvers = {
-    ch: [r for r in rs if r[0] != "tag:yaml.org,2002:float"]
+    ch: [r for r in rs if r[0] not in _YAML11]
     for ch, rs in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
 _Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:int", re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$"), list("-+0123456789"))
+_Loader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(
-        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-        |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-        |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*
+        r"""^(?:[-+]?(?:\.[0-9]+|[0-9]+\.[0-9]*)(?:[eE][-+]?[0-9]+)?
+        |[-+]?[0-9]+[eE][-+]?[0-9]+
         |[-+]?\.(?:inf|Inf|INF)
         |\.(?:nan|NaN|NAN))$""",
         re.X,
     ),
     list("-+0123456789."),
 )
+_Loader.add_constructor("tag:yaml.org,2002:int", _Loader.construct_yaml_int)
 
 
 def load_yaml_text(text: str):
     """Parse YAML text with exotune's safe loader (:class:`_Loader`, a ``yaml.SafeLoader``
-    subclass: what ``yaml.safe_load`` does, with YAML 1.2 floats)."""
+    subclass: what ``yaml.safe_load`` does, with YAML 1.2 numbers and booleans)."""
     loader = _Loader(text)
     try:
         return loader.get_single_data()
@@ -552,7 +568,7 @@ def load_yaml_text(text: str):
 
 
 def read_yaml(path) -> dict:
-    """Read a YAML mapping from ``path`` with exotune's safe loader (YAML 1.2 floats, duplicate
+    """Read a YAML mapping from ``path`` with exotune's safe loader (YAML 1.2 numbers, duplicate
     keys rejected; file-level errors -> :class:`ConfigError` naming the file)."""
     name = os.fspath(path)
     try:
@@ -663,7 +679,8 @@ def check_delay_samples(delay_s: float, fs: float, field: str) -> None:
                                  f"sampled-data model holds one state per sample (limit {MAX_DELAY_SAMPLES})")
 
 
-MAX_DELAY_SAMPLES = 1000  # the sampled-data model holds one shift state per sample of delay
+MAX_DELAY_SAMPLES = 200  # the sampled-data model holds one shift state per sample of delay (dense eigenvalue
+# problems: 200 samples already make a ~230-state loop, ~40 s for an export; 1 ms at 200 kHz)
 
 
 def _check_nyquist(impl: ImplementationIn) -> None:

@@ -316,22 +316,27 @@ class _S(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
+# numbers are strict: a quoted "1000" or a boolean is refused (pydantic's lax mode would convert
+# them); integers are accepted as floats
+SF = Annotated[float, Field(strict=True)]
+
+
 class _Open(BaseModel):
     model_config = ConfigDict(extra="allow")
 
 
 class Quantity(_S):
-    value: float
+    value: SF
     unit: str
 
 
 class Gain(_S):
-    gain: float
+    gain: SF
     unit: str
 
 
-_A0 = Annotated[float, Field(ge=1.0, le=1.0, description="a0 = 1 (scipy sos convention)")]
-SosRow = tuple[float, float, float, _A0, float, float]
+_A0 = Annotated[float, Field(strict=True, ge=1.0, le=1.0, description="a0 = 1 (scipy sos convention)")]
+SosRow = tuple[SF, SF, SF, _A0, SF, SF]
 
 
 class Filter(_S):
@@ -342,7 +347,7 @@ class Filter(_S):
     unit: str
     description: str | None = None
     discretization: str
-    prewarp_hz: float | None = None
+    prewarp_hz: Annotated[float, Field(strict=True, gt=0.0)] | None = None
     continuous: dict | None = None
     sos: list[SosRow] = Field(min_length=1, description="rows [b0, b1, b2, a0, a1, a2], a0 = 1, DF-II transposed")
 
@@ -355,7 +360,7 @@ class ControllerSection(_S):
 
 class SignalValues(_S):
     unit: str
-    values: list[float]
+    values: list[SF]
 
 
 class GoldenInputs(_S):
@@ -373,23 +378,23 @@ class Golden(_S):
 
 
 class Delay(_S):
-    value: float = Field(ge=0.0)
+    value: SF = Field(ge=0.0)
     unit: Literal["s"]
-    samples: float | None = None
+    samples: SF | None = None
     note: str | None = None
 
 
 class SampleRate(_S):
-    value: float = Field(gt=0.0)
+    value: SF = Field(gt=0.0)
     unit: Literal["Hz"]
 
 
 class Positive(Quantity):
-    value: float = Field(gt=0.0)
+    value: SF = Field(gt=0.0)
 
 
 class NonNegative(Quantity):
-    value: float = Field(ge=0.0)
+    value: SF = Field(ge=0.0)
 
 
 class PlantSection(_S):
@@ -400,12 +405,16 @@ class PlantSection(_S):
     cuff_stiffness: Positive
 
 
+class AtLeastOne(Quantity):
+    value: SF = Field(ge=1.0)
+
+
 class DesignSection(_S):
-    amplification: Quantity
-    felt_inertia: Quantity
-    felt_damping: Quantity
-    zeta: Quantity
-    zeta_hat: Quantity
+    amplification: AtLeastOne
+    felt_inertia: Positive
+    felt_damping: Positive
+    zeta: NonNegative
+    zeta_hat: NonNegative
 
 
 class GainsSection(_S):
@@ -429,8 +438,8 @@ class ScheduleController(_S):
 
 
 class ScheduleEntry(_S):
-    joint_angle_rad: float
-    ratio: float = Field(gt=0.0)
+    joint_angle_rad: SF
+    ratio: SF = Field(gt=0.0)
     plant: PlantSection
     gains: GainsSection
     controller: ScheduleController
@@ -445,8 +454,8 @@ class GainSchedule(_S):
 
 
 class Transmission(_S):
-    joint_angle_rad: list[float]
-    ratio: list[float]
+    joint_angle_rad: list[SF]
+    ratio: list[SF]
 
 
 class ControllerFile(_S):
@@ -505,20 +514,123 @@ def validate_controller(doc: Any, source: str = "") -> ControllerFile:
         raise ConfigError(loc, msg) from None
 
 
-def load_controller(path) -> dict:
-    """Read (safe YAML loader) and validate a controller file; returns the mapping."""
-    from .config import read_yaml
+def _unit(field: str, got, want: str) -> None:
+    if got != want:
+        raise ConfigError(field, f"unit {got!r}, expected {want!r} (exotune.controller/1 fixes every unit)")
 
+
+def _check_controller(c: dict, where: str) -> None:
+    """Units, filter names and the DOB's algebraic loop of one controller section."""
+    for sig, gn in c["gains"].items():
+        _unit(f"{where}.gains.{sig}.unit", gn["unit"], _GAIN_UNITS[sig])
+    names = [f["name"] for f in c["filters"]]
+    for i, f in enumerate(c["filters"]):
+        fw = f"{where}.filters[{i}]"
+        if not f["name"] or f["name"] in names[:i]:
+            raise ConfigError(f"{fw}.name", f"filter names must be non-empty and unique, got {f['name']!r}")
+        _unit(f"{fw}.input_unit", f["input_unit"], SIGNAL_UNITS[f["input"]])
+        _unit(f"{fw}.output_unit", f["output_unit"], "N·m")
+        _unit(f"{fw}.unit", f["unit"], _GAIN_UNITS[f["input"]])
+    # the runtime solves τ_cmd = (rest + h)/(1 − g), g = Σ Π b0 over the filters on τ_cmd
+    g = sum(float(np.prod([row[0] for row in f["sos"]])) for f in c["filters"] if f["input"] == "tau_cmd")
+    if abs(1.0 - g) < 1e-9:
+        raise ConfigError(f"{where}.filters", f"the DOB's algebraic loop is singular: the feed-throughs Π b0 of the "
+                                              f"filters on tau_cmd add up to {g!r} (must not be 1)")
+
+
+def _check_plant(p: dict, where: str) -> None:
+    for k, q in p.items():
+        _unit(f"{where}.{k}.unit", q["unit"], _PLANT_UNITS[k])
+
+
+def check_controller_file(doc: dict) -> None:
+    """Checks of a schema-valid controller file that the JSON Schema cannot express (found by
+    fuzzing: each was accepted, some by ``certify``): every unit is the schema's; the delay in
+    samples agrees with the delay and the rate; filter names are unique; the DOB's algebraic loop
+    is not singular in any controller; the six-gain summary agrees with the static gains it names;
+    the gain schedule agrees with the transmission table; golden vectors are not empty. Problems
+    raise :class:`ConfigError` naming the field."""
     from .config import check_delay_samples
+
+    fs, T = doc["sample_rate_hz"]["value"], doc["delay_s"]["value"]
+    check_delay_samples(T, fs, "delay_s.value")
+    n = doc["delay_s"].get("samples")
+    if n is not None and abs(n - T * fs) > 1e-9 * max(1.0, T * fs):
+        raise ConfigError("delay_s.samples", f"{n!r} samples, but {T!r} s at {fs!r} Hz is {T * fs!r}")
+    _check_plant(doc["plant"], "plant")
+    for k, q in doc["design"].items():
+        _unit(f"design.{k}.unit", q["unit"], _DESIGN_UNITS[k])
+    for k, u in _SIX_GAIN_UNITS.items():
+        _unit(f"gains.{k}.unit", doc["gains"][k]["unit"], u)
+    want = {"inputs": {s: SIGNAL_UNITS[s] for s in Measured}, "output": {"tau_cmd": "N·m"}}
+    if doc["signals"] != want:
+        raise ConfigError("signals", f"must be {want} (the runtime's signals and their units)")
+    _check_controller(doc["controller"], "controller")
+    _check_six_gains(doc["gains"], doc["controller"], "gains")
+    for s_, v in doc["golden"]["inputs"].items():
+        _unit(f"golden.inputs.{s_}.unit", v["unit"], SIGNAL_UNITS[s_])
+    _unit("golden.tau_cmd.unit", doc["golden"]["tau_cmd"]["unit"], "N·m")
+    if len(doc["golden"]["tau_cmd"]["values"]) < MIN_GOLDEN_SAMPLES:
+        raise ConfigError("golden.tau_cmd.values", f"{len(doc['golden']['tau_cmd']['values'])} samples; a golden "
+                                                  f"vector has at least {MIN_GOLDEN_SAMPLES}")
+    dob = doc.get("dob")
+    if dob is not None:
+        listed = dob.get("filters", [])
+        if not isinstance(listed, list):
+            raise ConfigError("dob.filters", "expected a list of the DOB's filter names")
+        for i, name in enumerate(listed):
+            if name not in [f["name"] for f in doc["controller"]["filters"]]:
+                raise ConfigError(f"dob.filters[{i}]", f"no controller filter is named {name!r}")
+    sched, tr = doc.get("gain_schedule"), doc.get("transmission")
+    if (sched is None) != (tr is None):
+        raise ConfigError("gain_schedule" if sched is None else "transmission",
+                          "a gain schedule and a transmission table come together (one is missing)")
+    if sched is not None:
+        angles = [e["joint_angle_rad"] for e in sched["entries"]]
+        if len(set(angles)) != len(angles):
+            raise ConfigError("gain_schedule.entries", "two entries have the same joint angle")
+        if len(tr["joint_angle_rad"]) != len(tr["ratio"]):
+            raise ConfigError("transmission.ratio", "needs one ratio per joint angle")
+        if sorted(zip(angles, (e["ratio"] for e in sched["entries"]))) != sorted(zip(tr["joint_angle_rad"], tr["ratio"])):
+            raise ConfigError("gain_schedule.entries", "the entries' (joint angle, ratio) pairs must be the "
+                                                       "transmission table's")
+        for i, e in enumerate(sched["entries"]):
+            w = f"gain_schedule.entries[{i}]"
+            _check_plant(e["plant"], f"{w}.plant")
+            _check_controller(e["controller"], f"{w}.controller")
+            _check_six_gains(e["gains"], e["controller"], f"{w}.gains")
+            _unit(f"{w}.golden_tau_cmd.unit", e["golden_tau_cmd"]["unit"], "N·m")
+
+
+# the six gains that act as static gains on a sensed signal when no filter carries them
+# (sign: τ_cmd = −K1 θ_m − B1 θ̇_m + K2 τ_s + B2 τ̇_s + …, SPEC §3)
+_SIX_ON_SIGNAL = {"K1": ("theta_m", -1.0, "motor_position"), "B1": ("omega_m", -1.0, "motor_position"),
+                  "K2": ("tau_s", 1.0, "spring_torque"), "B2": ("dtau_s", 1.0, "spring_torque")}
+MIN_GOLDEN_SAMPLES = 10
+
+
+def _check_six_gains(six: dict, c: dict, where: str) -> None:
+    """The six-gain summary must state the controller's static gains (when no filter carries them:
+    with a velocity filter, K1/B1 and K2/B2 live inside the motor_position/spring_torque filters)."""
+    names = {f["name"] for f in c["filters"]}
+    for k, (sig, sign, carrier) in _SIX_ON_SIGNAL.items():
+        if carrier in names:
+            continue
+        run = c["gains"].get(sig, {"gain": 0.0})["gain"]
+        said = sign * six[k]["value"]
+        if abs(run - said) > 1e-9 * max(abs(run), abs(said), 1e-300):
+            raise ConfigError(f"{where}.{k}.value", f"{six[k]['value']!r} disagrees with the controller, which runs "
+                                                    f"{run!r} on {sig} (i.e. {k} = {sign * run!r})")
+
+
+def load_controller(path) -> dict:
+    """Read (safe YAML loader) and validate a controller file (schema, then
+    :func:`check_controller_file`); returns the mapping."""
+    from .config import read_yaml
 
     doc = read_yaml(path)
     validate_controller(doc, str(path))
-    check_delay_samples(doc["delay_s"]["value"], doc["sample_rate_hz"]["value"], "delay_s.value")
-    dob_cmd = [f for f in doc["controller"]["filters"] if f["input"] == "tau_cmd"]
-    for f in dob_cmd:
-        g = float(np.prod([row[0] for row in f["sos"]]))
-        if abs(1.0 - g) < 1e-12:
-            raise ConfigError(f"controller.filters.{f['name']}.sos", "the algebraic loop is singular (Π b0 = 1)")
+    check_controller_file(doc)
     return doc
 
 

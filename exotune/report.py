@@ -128,6 +128,10 @@ def _family_info(manifest: dict, side: str, i: int):
         return None
     fam = fams[i]
     kind = fam.get("kind")
+    ranged = [q for q in ("inertia", "stiffness", "damping")
+              if isinstance(fam.get(q), (list, tuple)) and len(fam[q]) == 2 and fam[q][0] != fam[q][1]]
+    if len(ranged) > 1:  # a box family: its interval column is [[lo, hi]] when robust, [] otherwise
+        return None
     for param in ("inertia", "stiffness", "damping"):
         v = fam.get(param)
         if isinstance(v, (list, tuple)) and len(v) == 2:
@@ -392,7 +396,14 @@ def make_report(sweep_dir, out_dir=None) -> Path:
     robust, used = robust_mask({c: simple[c] for c in simple if c == "free_stable"
                                 or re.match(r"^(human|env)\d+_.+_(robust|stable)$", c)})
     gidx = np.asarray(simple["point_index"], dtype=np.int64)
-    axis_idx = np.unravel_index(gidx, shape)
+    axis_idx = list(np.unravel_index(gidx, shape))
+    # maps, ranges and tables go by value: an axis listed out of order is sorted here
+    for j, v in enumerate(values):
+        order = np.argsort(v, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        axis_idx[j], values[j] = rank[axis_idx[j]], v[order]
+    axis_idx = tuple(axis_idx)
 
     metrics: dict[str, tuple[np.ndarray, dict]] = {}
     for c, (title, unit, factor, worst, cmap) in _METRICS.items():

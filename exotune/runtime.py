@@ -16,9 +16,12 @@ The output τ_cmd[k] is applied by the hardware after the file's ``delay_s`` (no
 
 from __future__ import annotations
 
+import math
 from typing import Mapping
 
 import numpy as np
+
+from .sampled import Measured  # the runtime's input signals
 
 __all__ = ["SosFilter", "Runtime"]
 
@@ -58,6 +61,10 @@ class Runtime:
     def __init__(self, doc: dict, limit_nm: float | None = None, joint_angle_rad: float | None = None):
         c = doc["controller"]
         sched = doc.get("gain_schedule")
+        if joint_angle_rad is not None and not math.isfinite(joint_angle_rad):
+            raise ValueError(f"joint_angle_rad must be a finite angle [rad], got {joint_angle_rad!r}")
+        if limit_nm is not None and not (math.isfinite(limit_nm) and limit_nm > 0):
+            raise ValueError(f"limit_nm must be a positive, finite torque [N·m], got {limit_nm!r}")
         if joint_angle_rad is not None and sched:
             # the scheduled controller of the nearest joint angle (entries are complete controllers)
             e = min(sched["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle_rad))
@@ -68,6 +75,9 @@ class Runtime:
         self.gains = {s: float(v["gain"]) for s, v in c["gains"].items()}
         self.filters = [(f["input"], SosFilter(f["sos"])) for f in c["filters"] if f["input"] != "tau_cmd"]
         self.loop = [SosFilter(f["sos"]) for f in c["filters"] if f["input"] == "tau_cmd"]
+        if abs(1.0 - sum(f.feedthrough for f in self.loop)) < 1e-9:
+            raise ValueError("the DOB's algebraic loop is singular (the feed-throughs of the filters on tau_cmd add "
+                             "up to 1)")
 
     @classmethod
     def from_file(cls, path) -> "Runtime":
@@ -83,9 +93,19 @@ class Runtime:
 
     def step(self, y: Mapping[str, float]) -> float:
         """τ_cmd [N·m] for the sampled signals ``y`` (θ_m [rad], θ̇_m [rad/s], τ_s [N·m],
-        τ̇_s [N·m/s], τ_c [N·m])."""
-        rest = sum(g * float(y[s]) for s, g in self.gains.items())
-        rest += sum(f.step(float(y[s])) for s, f in self.filters)
+        τ̇_s [N·m/s], τ_c [N·m]).
+
+        A non-finite signal raises ``ValueError`` before any state changes: one NaN would poison
+        every filter state for ever (and with a torque limit, ``min``/``max`` would turn it into a
+        full-scale command). A real-time port should treat it as a sensor fault: command zero
+        torque and latch the fault."""
+        vals = {s: float(y[s]) for s in Measured if s in y}
+        bad = [s for s, v in vals.items() if not math.isfinite(v)]
+        if bad:
+            raise ValueError(f"non-finite input {bad[0]} = {vals[bad[0]]!r}: refused, controller state unchanged "
+                             "(a sensor fault: command zero torque)")
+        rest = sum(g * vals[s] for s, g in self.gains.items())
+        rest += sum(f.step(vals[s]) for s, f in self.filters)
         g = sum(f.feedthrough for f in self.loop)
         h = sum(f.peek(0.0) for f in self.loop)
         u = (rest + h) / (1.0 - g)

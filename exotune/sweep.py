@@ -597,6 +597,16 @@ def _check_manifest(m: dict, path: str) -> None:
         if not ok_type(v):
             raise ConfigError(f"{path}: {key}", f"expected {what}, got {type(v).__name__} (damaged manifest; "
                                                 f"use a new directory)")
+    damaged = "(damaged manifest; use a new directory)"
+    axes, spec_axes = m.get("axes"), m["spec"].get("axes")
+    if not (isinstance(axes, list) and axes and all(isinstance(a, dict) and isinstance(a.get("path"), str) for a in axes)):
+        raise ConfigError(f"{path}: axes", f"expected a non-empty list of {{path, …}} {damaged}")
+    if not isinstance(spec_axes, dict) or [a["path"] for a in axes] != list(spec_axes):
+        raise ConfigError(f"{path}: spec.axes", f"must hold the manifest's axes, in order {damaged}")
+    for p, a in spec_axes.items():
+        vals = a.get("values") if isinstance(a, dict) else None
+        if not (isinstance(vals, list) and vals and all(_is_number(v) for v in vals)):
+            raise ConfigError(f"{path}: spec.axes.{p}.values", f"expected a non-empty list of numbers {damaged}")
     for i, c in enumerate(m["chunks"]):
         if not (isinstance(c, dict) and is_int(c.get("index")) and isinstance(c.get("file"), str)
                 and isinstance(c.get("status"), str)):

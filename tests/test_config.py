@@ -523,7 +523,7 @@ def test_yaml_12_floats(tmp_path):
 
     doc = load_yaml_text("a: 1e3\nb: 1e-3\nc: 1.0e3\nd: -2.5E+2\ne: .5e1\nf: 1000\ng: 1_000\nh: .inf\n"
                          "i: abc\nj: '1e3'\nk: 1.5\nl: 0x10\nm: 1e\nn: e3\n")
-    assert doc == {"a": 1000.0, "b": 0.001, "c": 1000.0, "d": -250.0, "e": 5.0, "f": 1000, "g": 1000,
+    assert doc == {"a": 1000.0, "b": 0.001, "c": 1000.0, "d": -250.0, "e": 5.0, "f": 1000, "g": "1_000",
                    "h": float("inf"), "i": "abc", "j": "1e3", "k": 1.5, "l": 16, "m": "1e", "n": "e3"}
     assert type(doc["f"]) is int and type(doc["a"]) is float
     text = (ROOT / "examples" / "paper.yaml").read_text().replace("delay_s: 0.001", "delay_s: 1e-3")
@@ -532,6 +532,27 @@ def test_yaml_12_floats(tmp_path):
     f.write_text(text)
     assert read_yaml(f)["implementation"]["delay_s"] == 0.001
     assert load_design(f).implementation.delay_s == 0.001
+
+
+def test_yaml_12_integers_and_booleans(tmp_path):
+    """YAML 1.1 (PyYAML) reads ``0300`` as octal 192, ``1:30`` as 90, ``0b11`` as 3, ``1_000`` as
+    1000 and ``yes``/``on``/``off`` as booleans; exotune reads the YAML 1.2 core schema: 300, and
+    strings for the rest (which validation refuses, naming the field). Found by fuzzing: a cuff
+    stiffness written ``0300`` was exported as 192 N·m/rad."""
+    from exotune.config import load_design, load_yaml_text
+
+    doc = load_yaml_text("a: 0300\nb: 1:30\nc: yes\nd: on\ne: Off\nf: 0b11\ng: 0o17\nh: -0012\ni: +7\n"
+                         "j: true\nk: FALSE\nl: y\nm: 190:20:30.15\n")
+    assert doc == {"a": 300, "b": "1:30", "c": "yes", "d": "on", "e": "Off", "f": "0b11", "g": 15, "h": -12, "i": 7,
+                   "j": True, "k": False, "l": "y", "m": "190:20:30.15"}
+    text = (ROOT / "examples" / "paper.yaml").read_text()
+    f = tmp_path / "d.yaml"
+    f.write_text(text.replace("cuff_stiffness: 300.0", "cuff_stiffness: 0300"))
+    assert load_design(f).plant.K_c == 300.0
+    f.write_text(text.replace("cuff_stiffness: 300.0", "cuff_stiffness: 1:30"))
+    with pytest.raises(ConfigError) as e:
+        load_design(f)
+    assert "plant.cuff_stiffness" in e.value.field
 
 
 @given(st.floats(allow_nan=False, allow_infinity=False))

@@ -392,7 +392,7 @@ def test_certify_catches_a_narrowed_family(tmp_path, exported_doc):
     rep = json.loads(res.stdout)
     assert rep["certified"] is False
     assert rep["sampled"]["humans"][0]["robust"] is True
-    assert "humans[0].stable_intervals" in rep["prediction_mismatches"]
+    assert "predicted.sampled.humans[0].stable_intervals" in rep["prediction_mismatches"]
 
 
 def test_certify_catches_deleted_families(tmp_path, exported_doc):
@@ -757,4 +757,4 @@ def test_certify_malformed_predictions_fail_certification_cleanly(tmp_path, expo
     assert res.exit_code == 1, res.output
     rep = json.loads(res.stdout)
     assert rep["certified"] is False
-    assert any(m.startswith("humans") for m in rep["prediction_mismatches"]), rep["prediction_mismatches"]
+    assert any(m.startswith("predicted.sampled.humans") for m in rep["prediction_mismatches"]), rep["prediction_mismatches"]

@@ -156,3 +156,47 @@ def test_report_paths_are_not_machine_paths(tmp_path, monkeypatch):
     other = tmp_path.parent / "elsewhere" / "data" / "sweep"
     assert _display_path(other) == "…/data/sweep"
     assert str(tmp_path.parent) not in _display_path(other)
+
+
+def test_unsorted_axis_is_reported_by_value(tmp_path):
+    """An axis listed out of order (found by fuzzing: the summary read "α ∈ {8 … 1.5, 2 … 4}" and
+    left a robust value out) gives the same per-axis tables and ranges as the sorted listing."""
+    base = yaml.safe_load(PAPER.read_text())
+    base["humans"][0]["inertia"] = [0.05, 1.0]
+    bp = tmp_path / "base.yaml"
+    bp.write_text(yaml.safe_dump(base))
+    amp, delay = [8.0, 1.5, 30.0, 2.0, 4.0], [0.002, 0.0, 0.001]
+    a = make_report(sweep(tmp_path, {"design.amplification": amp, "implementation.delay_s": delay}, "unsorted",
+                          base=str(bp)))
+    b = make_report(sweep(tmp_path, {"design.amplification": sorted(amp), "implementation.delay_s": sorted(delay)},
+                          "sorted", base=str(bp)))
+    for name in ("axis_design.amplification.csv", "axis_implementation.delay_s.csv"):
+        assert (a / name).read_text() == (b / name).read_text(), name
+    robust_line = lambda d: [ln for ln in (d / "summary.md").read_text().splitlines() if "Robust designs exist" in ln]  # noqa: E731
+    assert robust_line(a) == robust_line(b) and robust_line(a)
+    rows = list(csv.reader((a / "axis_design.amplification.csv").open()))
+    firsts = [float(r[0]) for r in rows[1:]]
+    assert firsts == sorted(firsts)
+
+
+def test_box_family_has_no_lightest_inertia(tmp_path):
+    """The interval column of an msd box is [[lo, hi]] when the box is robust and [] otherwise, so
+    no lightest stable inertia can be read from it (it used to be reported as ∞ everywhere)."""
+    base = yaml.safe_load(PAPER.read_text())
+    base["humans"] = [{"kind": "msd", "inertia": [0.001, 1.0], "stiffness": [1.0, 100.0], "damping": 0.0}]
+    bp = tmp_path / "boxbase.yaml"
+    bp.write_text(yaml.safe_dump(base))
+    out = make_report(sweep(tmp_path, {"design.amplification": [1.5, 8.0]}, "box", base=str(bp)))
+    assert "human0_lightest_stable_inertia" not in (out / "summary.md").read_text()
+
+
+def test_report_refuses_a_manifest_without_axes(tmp_path):
+    import json
+
+    d = sweep(tmp_path, {"design.amplification": [2.0, 8.0]}, "noaxes")
+    m = json.loads((d / "manifest.json").read_text())
+    del m["axes"]
+    (d / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(ConfigError) as e:
+        make_report(d)
+    assert "axes" in e.value.field
