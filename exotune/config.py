@@ -747,7 +747,22 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
     }
     if top.transmission is not None:  # only when given, so that existing spec hashes are unchanged
         raw["transmission"] = top.transmission.model_dump()
+    _check_gains_finite(plant, design)
     return DesignConfig(plant, design, _implementation(impl_in), tuple(humans), tuple(envs), raw, source)
+
+
+def _check_gains_finite(plant, design) -> None:
+    """Extreme but valid numbers (e.g. ζ = 1e300) can overflow a gain of the shaping (SPEC §4): the
+    design is refused rather than analysed with infinite gains."""
+    from .shaping import double_compliance_shaping
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        g = double_compliance_shaping(plant, design).gains
+    for k in ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat"):
+        v = float(np.ravel(getattr(g, k))[0])
+        if not math.isfinite(v):
+            raise ConfigError("design", f"the shaping gives the gain {k} = {v!r} (SPEC §4): the plant and design "
+                                        "numbers are too extreme for floating point")
 
 
 def load_design(path) -> DesignConfig:

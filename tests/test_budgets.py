@@ -179,3 +179,27 @@ def test_cli_analyze_of_a_zero_division_design_has_no_traceback(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr and "Warning" not in r.stderr
     assert "inconclusive" in r.stdout
+
+
+def test_design_whose_gains_overflow_is_refused():
+    """A felt inertia of 1e-310 kg·m² (a subnormal float) makes B1 = J_m B̂_m/Ĵ_m − B_m infinite."""
+    from exotune.errors import ConfigError
+
+    import pytest
+
+    with pytest.raises(ConfigError) as e:
+        _with(design__felt_inertia=1e-310)
+    assert e.value.field == "design" and "= inf" in e.value.reason
+
+
+def test_cli_analyze_of_an_overflowing_design_prints_no_numpy_warning(tmp_path):
+    """ζ = 1e300 gives finite gains but coefficients that overflow: the verdicts are inconclusive
+    (not stable) and said so, without numpy's RuntimeWarnings on the terminal."""
+    raw = yaml.safe_load(PAPER.read_text())
+    raw["design"]["zeta"] = 1e300
+    f = tmp_path / "d.yaml"
+    f.write_text(yaml.safe_dump(raw))
+    r = subprocess.run([sys.executable, "-m", "exotune", "analyze", str(f)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "RuntimeWarning" not in r.stderr and "Traceback" not in r.stderr
+    assert "Free exoskeleton (cuff free) stable: NO" in r.stdout and "inconclusive" in r.stdout
