@@ -311,7 +311,13 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
     |λ − 1| ≤ rigid_tol) is removed when nothing grounds the structure (no position feedback K1,
     no human or environment stiffness, not locked), as in the continuous analysis."""
     A, B, C = plant_ss(plant, human, env)
-    lam = np.linalg.eigvals(closed_loop_matrix(A, B, C, ctrl))
+    M = closed_loop_matrix(A, B, C, ctrl)
+    if not np.all(np.isfinite(M)):
+        from .errors import ConfigError
+
+        raise ConfigError("controller", "the sampled-data loop matrix overflows (gains or filter coefficients too "
+                                        "large for floating point)")
+    lam = np.linalg.eigvals(M)
     grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
                 or (human is not None and human.get("stiffness", 0.0) > 0) or position_feedback)
     if not grounded and lam.size:

@@ -260,3 +260,14 @@ def test_refinement_budget_shrinks_with_the_loop_size():
     ivs, info = _intervals(spectrum, 1.0, 2.0, points=8)
     assert info["unresolved"] and info["refined_points"] <= max(50, int(cmod.MAX_REFINED * (cmod.REF_STATES / 400) ** 3))
     assert ivs == [[1.0, 2.0]]  # every sampled value is stable: only the unresolved cells say otherwise
+
+
+def test_overflowing_controller_is_an_input_error(doc1k, tmp_path):
+    """A gain of 1e308 is a finite number, but the loop matrix overflows: exit 2 naming the
+    controller (it was a bare LinAlgError message), no numpy warnings."""
+    doc = copy.deepcopy(doc1k)
+    doc["controller"]["gains"]["tau_s"]["gain"] = 1e308
+    doc["gains"]["K2"]["value"] = 1e308
+    res = _certify(tmp_path, doc)
+    assert res.exit_code == 2 and res.stderr.startswith("exotune: error: controller: "), res.stderr
+    assert "RuntimeWarning" not in res.stderr
