@@ -1266,13 +1266,9 @@ def analyze_design(cfg) -> dict:
 def _analyze_design(cfg) -> dict:
     from .shaping import GAIN_UNITS_TORQUE, double_compliance_shaping
 
-    if cfg.implementation.gv_filter is None or cfg.implementation.derivative_filter is None:
-        from .errors import ConfigError
+    from .config import check_analysis_filters
 
-        raise ConfigError(
-            "implementation.gv_filter" if cfg.implementation.gv_filter is None else "implementation.derivative_filter",
-            "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (SPEC §3)",
-        )
+    check_analysis_filters(cfg.implementation)
     cols = analyze_batch(cfg, verify=VERIFY_POINTS)
     ds = double_compliance_shaping(cfg.plant, cfg.design)
     g = lambda k: float(np.asarray(cols[k])[0])

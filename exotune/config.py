@@ -751,6 +751,15 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
     return DesignConfig(plant, design, _implementation(impl_in), tuple(humans), tuple(envs), raw, source)
 
 
+def check_analysis_filters(impl, prefix: str = "") -> None:
+    """The analysis needs the G_v and derivative filters (SPEC §3): without them the cuff path
+    G_v(s)(K̂2 + B̂2 s) is improper. ``prefix`` names where the implementation sits (``base.``)."""
+    for key in ("gv_filter", "derivative_filter"):
+        if getattr(impl, key) is None:
+            raise ConfigError(f"{prefix}implementation.{key}",
+                              "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (SPEC §3)")
+
+
 def _check_gains_finite(plant, design) -> None:
     """Extreme but valid numbers (e.g. ζ = 1e300) can overflow a gain of the shaping (SPEC §4): the
     design is refused rather than analysed with infinite gains."""

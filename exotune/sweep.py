@@ -100,7 +100,7 @@ import numpy as np
 
 from . import __version__
 from .analysis import analyze_batch
-from .config import batch_config, design_from_mapping, hash_mapping, read_yaml
+from .config import batch_config, check_analysis_filters, design_from_mapping, hash_mapping, read_yaml
 from .errors import ConfigError
 from .jsonio import to_jsonable, write_atomic
 
@@ -273,10 +273,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
     if "base" not in mapping:
         raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
     cfg, base_source = load_base(mapping["base"], root)
-    for key in ("gv_filter", "derivative_filter"):
-        if getattr(cfg.implementation, key) is None:
-            raise ConfigError(f"base.implementation.{key}",
-                              "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (SPEC §3)")
+    check_analysis_filters(cfg.implementation, "base.")
 
     if "axes" not in mapping:
         raise ConfigError("axes", "required key is missing (a mapping of dotted parameter paths to values)")
