@@ -106,6 +106,7 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
     grid = [vals[0]]
     refined = 0
     unresolved = []
+    budget_spent = False
     for a, b in zip(vals[:-1], vals[1:]):
         stack = [(a, b, MAX_DEPTH)]
         pts = []
@@ -117,6 +118,7 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
                 continue
             if not depth or refined >= max_refined:
                 unresolved.append([x, y])
+                budget_spent = budget_spent or refined >= max_refined
                 continue
             m = mid(x, y)
             at(m)
@@ -150,6 +152,7 @@ def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[li
         ivs.append([start, hi])
     base = set(vals)
     return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved),
+                 "refinement_budget": max_refined, "budget_spent": budget_spent, "loop_states": n,
                  "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in base))}
 
 
@@ -276,9 +279,12 @@ def _unresolved(sa: dict, where: str) -> list[str]:
         cells = h.get("unresolved") or []
         if cells:
             a, b = cells[0]
+            why = (f"the refinement budget of {h['refinement_budget']} values for a {h['loop_states']}-state loop is "
+                   "spent: a high sample rate puts every eigenvalue near the unit circle; certify at a lower rate"
+                   if h.get("budget_spent") else
+                   "at the finest step: an eigenvalue within a hair of the unit circle and moving fast, a marginal design")
             out.append(f"{where}{h['kind']} {h['parameter']}: eigenvalue paths not resolved in {len(cells)} cell(s), "
-                       f"first [{a:.6g}, {b:.6g}] {h['unit']} (at the finest step or past the refinement budget: an "
-                       "eigenvalue within a hair of the unit circle and moving fast, a marginal design)")
+                       f"first [{a:.6g}, {b:.6g}] {h['unit']} ({why})")
     return out
 
 
@@ -292,7 +298,6 @@ def certify(doc: dict) -> dict:
 
 def _certify(doc: dict) -> dict:
     from .export import schedule_entry_doc
-    from .runtime import Runtime
 
     rep = {"schema": doc["schema"], "sample_rate_hz": doc["sample_rate_hz"], "delay_s": doc["delay_s"]["value"],
            "provenance": doc.get("provenance")}
@@ -305,13 +310,14 @@ def _certify(doc: dict) -> dict:
         problems.append("golden vectors have different lengths")
         err = math.inf
     else:
-        out = Runtime(doc).run(ins)
+        out = _run_golden(doc, ins, "controller")
         err = float(np.max(np.abs(out - ref))) if ref.size else 0.0
         if not _golden_ok(out, ref):
             problems.append(f"the reference runtime does not reproduce the golden vectors (max error {err:.3g} N·m)")
         for e in (doc.get("gain_schedule") or {}).get("entries", []):
             ref_e = np.asarray(e["golden_tau_cmd"]["values"], float)
-            if ref_e.size != ref.size or not _golden_ok(Runtime(schedule_entry_doc(doc, e)).run(ins), ref_e):
+            run_e = _run_golden(schedule_entry_doc(doc, e), ins, f"gain_schedule[{e['joint_angle_rad']:g} rad].controller")
+            if ref_e.size != ref.size or not _golden_ok(run_e, ref_e):
                 problems.append("the reference runtime does not reproduce the golden vectors of the gain schedule "
                                 f"entry at {e['joint_angle_rad']:g} rad")
     rep["golden"] = {"samples": int(ref.size), "max_abs_error": {"value": err, "unit": "N·m"}}
@@ -365,7 +371,8 @@ def _certify(doc: dict) -> dict:
     return rep
 
 
-_FAMILY_KEYS = ("kind", "parameter", "unit", "range", "robust", "stable_intervals")
+_FAMILY_KEYS = ("kind", "parameter", "unit", "range", "robust", "stable_intervals", "unresolved", "skipped",
+                "not_certifiable")
 
 
 def _prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
@@ -376,7 +383,7 @@ def _prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
         return [f"{where} missing"]
     out = [f"{where}.{k}" for k in ("free_stable", "locked_stable") if pred.get(k) is not sa[k]]
     for k in ("free_spectral_radius", "locked_spectral_radius"):
-        if k in pred and not _same_intervals([[pred[k], pred[k]]], [[sa[k], sa[k]]]):
+        if not _same_intervals([[pred.get(k), pred.get(k)]], [[sa[k], sa[k]]]):
             out.append(f"{where}.{k}")
     for grp in ("humans", "environment"):
         p_g = _entries(pred.get(grp))
@@ -387,17 +394,28 @@ def _prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
             if p is None:
                 out.append(f"{where}.{grp}[{j}] (not a mapping)")
                 continue
-            for k in _FAMILY_KEYS:
+            for k in _FAMILY_KEYS:  # a key the analysis does not give must not be predicted either
                 if k not in h:
-                    continue
-                if k in ("range", "stable_intervals"):
-                    ok = _same_intervals(p.get(k) if k == "stable_intervals" else [p.get(k)],
-                                         h[k] if k == "stable_intervals" else [h[k]])
+                    ok = k not in p
+                elif k in ("range", "stable_intervals", "unresolved"):
+                    ok = _same_intervals(p.get(k) if k != "range" else [p.get(k)], h[k] if k != "range" else [h[k]])
                 else:
                     ok = p.get(k) == h[k] and type(p.get(k)) is type(h[k])
                 if not ok:
                     out.append(f"{where}.{grp}[{j}].{k}")
     return out
+
+
+def _run_golden(doc: dict, ins: dict, where: str) -> np.ndarray:
+    """The reference runtime on the golden inputs; a controller that overflows on them (a command
+    too large for floating point) is a broken file: input error naming it."""
+    from .errors import ConfigError
+    from .runtime import Runtime
+
+    try:
+        return Runtime(doc).run(ins)
+    except ValueError as e:
+        raise ConfigError(where, f"the reference runtime refuses the golden inputs: {e}") from None
 
 
 def _fmt_ivs(ivs) -> str:

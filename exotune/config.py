@@ -153,7 +153,10 @@ def _to_number(v: Any) -> float:
         if isinstance(v, dict):
             raise ValueError("expected a number, got a mapping")
         raise ValueError(f"expected a number, got {type(v).__name__}")
-    x = float(v)
+    try:
+        x = float(v)
+    except OverflowError:
+        raise ValueError(f"the integer {str(v)[:12]}… ({len(str(v))} digits) is too large for a float") from None
     if not math.isfinite(x):
         raise ValueError(f"must be a finite number, got {_fmt(x)}")
     return x
@@ -589,6 +592,10 @@ def read_yaml(path) -> dict:
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         problem = getattr(e, "problem", None) or str(e)
         raise ConfigError(name, f"invalid YAML: {problem}{where}") from None
+    except (ValueError, KeyError, AttributeError, TypeError, OverflowError) as e:
+        # an explicit tag whose text does not fit it (``!!bool maybe``, ``!!timestamp abc``,
+        # ``!!int 0b11``): PyYAML's constructors raise plain Python errors
+        raise ConfigError(name, f"invalid YAML: a value does not fit its explicit tag ({type(e).__name__}: {e})") from None
     if not isinstance(mapping, dict):
         raise ConfigError(name, f"expected a YAML mapping at the top level, got {_kind_of(mapping)}")
     return mapping

@@ -570,18 +570,16 @@ def check_controller_file(doc: dict) -> None:
     for s_, v in doc["golden"]["inputs"].items():
         _unit(f"golden.inputs.{s_}.unit", v["unit"], SIGNAL_UNITS[s_])
     _unit("golden.tau_cmd.unit", doc["golden"]["tau_cmd"]["unit"], "N·m")
-    if len(doc["golden"]["tau_cmd"]["values"]) < MIN_GOLDEN_SAMPLES:
-        raise ConfigError("golden.tau_cmd.values", f"{len(doc['golden']['tau_cmd']['values'])} samples; a golden "
-                                                  f"vector has at least {MIN_GOLDEN_SAMPLES}")
-    dob = doc.get("dob")
-    if dob is not None:
-        listed = dob.get("filters", [])
-        if not isinstance(listed, list):
-            raise ConfigError("dob.filters", "expected a list of the DOB's filter names")
-        for i, name in enumerate(listed):
-            if name not in [f["name"] for f in doc["controller"]["filters"]]:
-                raise ConfigError(f"dob.filters[{i}]", f"no controller filter is named {name!r}")
+    n_golden = len(doc["golden"]["tau_cmd"]["values"])
+    if n_golden < MIN_GOLDEN_SAMPLES:
+        raise ConfigError("golden.tau_cmd.values", f"{n_golden} samples; a golden vector has at least {MIN_GOLDEN_SAMPLES}")
+    for s_, v in doc["golden"]["inputs"].items():
+        if len(v["values"]) != n_golden:
+            raise ConfigError(f"golden.inputs.{s_}.values", f"{len(v['values'])} samples, golden.tau_cmd has {n_golden}")
     sched, tr = doc.get("gain_schedule"), doc.get("transmission")
+    controllers = [("controller", doc["controller"])] + [
+        (f"gain_schedule.entries[{i}].controller", e["controller"]) for i, e in enumerate((sched or {}).get("entries", []))]
+    _check_dob_section(doc.get("dob"), controllers)
     if (sched is None) != (tr is None):
         raise ConfigError("gain_schedule" if sched is None else "transmission",
                           "a gain schedule and a transmission table come together (one is missing)")
@@ -597,24 +595,60 @@ def check_controller_file(doc: dict) -> None:
         for i, e in enumerate(sched["entries"]):
             w = f"gain_schedule.entries[{i}]"
             _check_plant(e["plant"], f"{w}.plant")
+            for k, q in e["plant"].items():  # the plant reflected at the entry's ratio (paper §VI)
+                want = doc["plant"][k]["value"] * (e["ratio"] ** 2 if k in _REFLECTED else 1.0)
+                if abs(q["value"] - want) > 1e-9 * max(abs(want), 1e-300):
+                    raise ConfigError(f"{w}.plant.{k}.value", f"{q['value']!r}, but the plant at ratio {e['ratio']!r} "
+                                                              f"has {want!r} ({'× ratio²' if k in _REFLECTED else 'as at ratio 1'})")
             _check_controller(e["controller"], f"{w}.controller")
             _check_six_gains(e["gains"], e["controller"], f"{w}.gains")
             _unit(f"{w}.golden_tau_cmd.unit", e["golden_tau_cmd"]["unit"], "N·m")
+
+
+_REFLECTED = ("motor_inertia", "motor_damping", "sea_stiffness")  # × ratio² in a gain-schedule entry
+
+
+def _check_dob_section(dob, controllers) -> None:
+    """The ``dob`` summary must describe the controllers: without it no filter closes the DOB's
+    loop (acts on τ_cmd); with it, its filters exist in every controller and its units are fixed."""
+    for where, c in controllers:
+        cmd = [f["name"] for f in c["filters"] if f["input"] == "tau_cmd"]
+        if dob is None and cmd:
+            raise ConfigError("dob", f"null, but {where} runs the DOB filter {cmd[0]!r} (on tau_cmd)")
+    if dob is None:
+        return
+    listed = dob.get("filters")
+    if not isinstance(listed, list) or not listed:
+        raise ConfigError("dob.filters", "expected the (non-empty) list of the DOB's filter names")
+    for where, c in controllers:
+        names = [f["name"] for f in c["filters"]]
+        for i, name in enumerate(listed):
+            if name not in names:
+                raise ConfigError(f"dob.filters[{i}]", f"{where} has no filter named {name!r}")
+        if not any(f["input"] == "tau_cmd" for f in c["filters"]):
+            raise ConfigError(f"{where}.filters", "a DOB is declared (dob) but no filter closes its loop on tau_cmd")
+    for key, unit in (("q_cutoff_hz", "Hz"), ("q_damping", "1")):
+        q = dob.get(key)
+        if not (isinstance(q, dict) and isinstance(q.get("value"), (int, float)) and not isinstance(q.get("value"), bool)
+                and math.isfinite(q["value"]) and q["value"] > 0):
+            raise ConfigError(f"dob.{key}", "expected {value: a positive number, unit: ...}")
+        _unit(f"dob.{key}.unit", q.get("unit"), unit)
 
 
 # the six gains that act as static gains on a sensed signal when no filter carries them
 # (sign: τ_cmd = −K1 θ_m − B1 θ̇_m + K2 τ_s + B2 τ̇_s + …, SPEC §3)
 _SIX_ON_SIGNAL = {"K1": ("theta_m", -1.0, "motor_position"), "B1": ("omega_m", -1.0, "motor_position"),
                   "K2": ("tau_s", 1.0, "spring_torque"), "B2": ("dtau_s", 1.0, "spring_torque")}
+_CARRIER_INPUT = {"motor_position": "theta_m", "spring_torque": "tau_s"}  # exotune.sampled.controller_blocks
 MIN_GOLDEN_SAMPLES = 10
 
 
 def _check_six_gains(six: dict, c: dict, where: str) -> None:
     """The six-gain summary must state the controller's static gains (when no filter carries them:
     with a velocity filter, K1/B1 and K2/B2 live inside the motor_position/spring_torque filters)."""
-    names = {f["name"] for f in c["filters"]}
+    carried = {(f["name"], f["input"]) for f in c["filters"]}
     for k, (sig, sign, carrier) in _SIX_ON_SIGNAL.items():
-        if carrier in names:
+        if (carrier, _CARRIER_INPUT[carrier]) in carried:
             continue
         run = c["gains"].get(sig, {"gain": 0.0})["gain"]
         said = sign * six[k]["value"]

@@ -75,6 +75,7 @@ class Runtime:
         self.gains = {s: float(v["gain"]) for s, v in c["gains"].items()}
         self.filters = [(f["input"], SosFilter(f["sos"])) for f in c["filters"] if f["input"] != "tau_cmd"]
         self.loop = [SosFilter(f["sos"]) for f in c["filters"] if f["input"] == "tau_cmd"]
+        self._all = [f for _, f in self.filters] + self.loop
         if abs(1.0 - sum(f.feedthrough for f in self.loop)) < 1e-9:
             raise ValueError("the DOB's algebraic loop is singular (the feed-throughs of the filters on tau_cmd add "
                              "up to 1)")
@@ -104,15 +105,22 @@ class Runtime:
         if bad:
             raise ValueError(f"non-finite input {bad[0]} = {vals[bad[0]]!r}: refused, controller state unchanged "
                              "(a sensor fault: command zero torque)")
-        rest = sum(g * vals[s] for s, g in self.gains.items())
-        rest += sum(f.step(vals[s]) for s, f in self.filters)
-        g = sum(f.feedthrough for f in self.loop)
-        h = sum(f.peek(0.0) for f in self.loop)
-        u = (rest + h) / (1.0 - g)
-        if self.limit_nm is not None:  # anti-windup: the DOB is fed the command actually applied
-            u = min(self.limit_nm, max(-self.limit_nm, u))
-        for f in self.loop:
-            f.step(u)
+        saved = [f.z.copy() for f in self._all]
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused just below
+            rest = sum(g * vals[s] for s, g in self.gains.items())
+            rest += sum(f.step(vals[s]) for s, f in self.filters)
+            g = sum(f.feedthrough for f in self.loop)
+            h = sum(f.peek(0.0) for f in self.loop)
+            u = (rest + h) / (1.0 - g)
+            if self.limit_nm is not None and math.isfinite(u):  # anti-windup: the DOB sees the applied command
+                u = min(self.limit_nm, max(-self.limit_nm, u))
+            for f in self.loop:
+                f.step(u)
+        if not (math.isfinite(u) and all(np.isfinite(f.z).all() for f in self._all)):
+            for f, z in zip(self._all, saved):  # finite inputs too large for floating point
+                f.z[:] = z
+            raise ValueError(f"the command overflows (τ_cmd = {u!r}) for inputs {vals}: refused, controller state "
+                             "unchanged (a sensor fault: command zero torque)")
         return u
 
     def run(self, inputs: Mapping[str, np.ndarray]) -> np.ndarray:

@@ -169,12 +169,32 @@ def simulate(doc: dict, scenario: Scenario, substeps: int = 20, without_dob: boo
     return {"series": rec, "sample_rate_hz": fs, "delay_samples": q, "locked": locked}
 
 
+GROWTH = 5.0  # a late torque peak this many times the mid-run peak (and well above the push) diverges
+
+
+def _growing(s: dict, sc: Scenario) -> bool:
+    """An unstable loop that has not yet reached the 1e6 state bound: the spring or cuff torque
+    peak over the last fifth of the run is > GROWTH × its peak over the middle fifth, and more than
+    10 × the push (torques, not positions: a free output may drift as a rigid body). A run whose
+    push starts after the middle window is judged on the 1e6 bound only."""
+    n = s["t"].size
+    if n < 50 or sc.push_at_s > 0.4 * float(s["t"][-1]):
+        return False
+    mid, late = slice(int(0.4 * n), int(0.6 * n)), slice(int(0.8 * n), n)
+    for key in ("tau_s", "tau_c"):
+        a = np.abs(s[key])
+        m, lt = float(np.max(a[mid])), float(np.max(a[late]))
+        if lt > GROWTH * m and lt > 10.0 * max(abs(sc.push_nm), 1.0):
+            return True
+    return False
+
+
 def _summary(sim: dict, sc: Scenario, alpha: float) -> dict:
     s = sim["series"]
     t = s["t"]
     n = t.size
     out = {"samples": int(n), "duration_s": {"value": float(t[-1]) if n else 0.0, "unit": "s"},
-           "diverged": bool(n < int(round(sc.duration_s * sim["sample_rate_hz"])))}
+           "diverged": bool(n < int(round(sc.duration_s * sim["sample_rate_hz"]))) or _growing(s, sc)}
     tail = slice(int(0.8 * n), n)
     if sc.locked and n:
         tc = float(np.mean(s["tau_c"][tail]))

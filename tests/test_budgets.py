@@ -17,7 +17,7 @@ from exotune import _fastphase
 from exotune.analysis import analyze_batch, char_terms
 from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.controller import build_controller
-from exotune.quasipoly import QP, adaptive_leaves, leaves_pair, log_grid, omega_max
+from exotune.quasipoly import adaptive_leaves, leaves_pair, log_grid, omega_max
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"

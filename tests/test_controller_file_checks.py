@@ -150,6 +150,11 @@ MALFORMED = [
     (_dup_filter_name, "controller.filters[1].name"),
     (_two_cmd_filters, "controller.filters"),
     (_set(("golden", "tau_cmd", "values"), []), "golden.tau_cmd.values"),
+    # second round of fuzzing
+    (_set(("golden", "inputs", "tau_c", "values"), [0.0] * 50), "golden.inputs.tau_c.values"),
+    (_set(("dob",), None), "dob"),
+    (_set(("dob", "q_cutoff_hz", "unit"), "kHz"), "dob.q_cutoff_hz.unit"),
+    (_set(("dob", "filters"), []), "dob.filters"),
 ]
 
 
@@ -162,6 +167,18 @@ def test_malformed_controller_file_is_an_input_error(doc1k, tmp_path, mutate, fi
     assert e.value.field.startswith(field), (e.value.field, str(e.value))
     res = _certify(tmp_path, doc)
     assert res.exit_code == 2 and res.stderr.startswith(f"exotune: error: {field}"), res.stderr
+
+
+def test_six_gain_check_is_not_skipped_by_a_filter_name(doc1k, tmp_path):
+    """The six-gain summary is compared with the static gains unless the velocity-filter block
+    that carries them exists on its own signal; renaming another filter does not switch it off."""
+    doc = copy.deepcopy(doc1k)
+    doc["controller"]["gains"]["tau_s"]["gain"] = -0.5  # the summary still says K2 = −0.78
+    cuff = [f for f in doc["controller"]["filters"] if f["name"] == "cuff_path"][0]
+    cuff["name"] = "spring_torque"  # on tau_c, not on tau_s
+    with pytest.raises(ConfigError) as e:
+        load_controller(_write(tmp_path, doc))
+    assert e.value.field == "gains.K2.value"
 
 
 def test_filter_prewarp_must_be_positive(doc1k):
@@ -178,6 +195,36 @@ PREDICTIONS = [
     (("free_stable",), False, "predicted.sampled.free_stable"),
     (("humans", 1, "stable_intervals"), [[1.0, 5000.0]], "predicted.sampled.humans[1].stable_intervals"),
 ]
+
+
+def _delete_radius(d):
+    del d["free_spectral_radius"]
+
+
+def _predict_a_skipped_family(d):
+    d["humans"].append({**d["humans"][0]})
+    d["humans"][-1].update(kind="complex_stiffness", parameter="stiffness", skipped="x")
+
+
+@pytest.mark.parametrize("edit, name", [
+    (_delete_radius, "predicted.sampled.free_spectral_radius"),
+    (lambda d: d["humans"][0].update(unresolved=[[0.5, 0.6]]), "predicted.sampled.humans[0].unresolved"),
+])
+def test_missing_or_extra_predictions_are_mismatches(doc1k, tmp_path, edit, name):
+    doc = copy.deepcopy(doc1k)
+    edit(doc["predicted"]["sampled"])
+    rep = certify(load_controller(_write(tmp_path, doc)))
+    assert not rep["certified"] and name in rep["prediction_mismatches"], rep["prediction_mismatches"]
+
+
+def test_prediction_for_a_skipped_family_is_a_mismatch(tmp_path):
+    raw = _design(humans=[{"kind": "mass", "inertia": [0.02, 1.0], "damping": 0.0},
+                          {"kind": "complex_stiffness", "stiffness": [10.0, 1000.0], "eta": 0.2}])
+    doc = _export(raw)
+    assert certify(copy.deepcopy(doc))["certified"]
+    doc["predicted"]["sampled"]["humans"][1].update(robust=True, stable_intervals=[[10.0, 1000.0]])
+    rep = certify(load_controller(_write(tmp_path, doc)))
+    assert "predicted.sampled.humans[1].robust" in rep["prediction_mismatches"], rep["prediction_mismatches"]
 
 
 @pytest.mark.parametrize("path, value, name", PREDICTIONS, ids=[n for *_, n in PREDICTIONS])
@@ -232,6 +279,51 @@ def test_schedule_must_match_the_transmission_table(scheduled, tmp_path):
     assert e.value.field == "gain_schedule"
 
 
+def test_schedule_entry_plant_must_be_the_reflected_plant(scheduled, tmp_path):
+    """A ratio-1 controller and plant pasted into the 1.25 entry certified although that
+    controller is not robust on the real (× 1.5625) plant: the entry's plant must be the top-level
+    plant with J_m, B_m, K_s × ratio²."""
+    doc = copy.deepcopy(scheduled)
+    e = doc["gain_schedule"]["entries"]
+    one = [x for x in e if x["ratio"] == 1.0][0]
+    other = [i for i, x in enumerate(e) if x["ratio"] != 1.0][-1]
+    for k in ("plant", "gains", "controller"):
+        e[other][k] = copy.deepcopy(one[k])
+    with pytest.raises(ConfigError) as err:
+        load_controller(_write(tmp_path, doc))
+    assert err.value.field.startswith(f"gain_schedule.entries[{other}].plant.")
+
+
+def test_schedule_entries_must_run_the_declared_dob(scheduled, tmp_path):
+    doc = copy.deepcopy(scheduled)
+    c = doc["gain_schedule"]["entries"][1]["controller"]
+    c["filters"] = [f for f in c["filters"] if f["name"] != "dob_command"]
+    with pytest.raises(ConfigError) as e:
+        load_controller(_write(tmp_path, doc))
+    assert e.value.field.startswith("dob.filters[")
+
+
+def test_explicit_yaml_tags_and_huge_integers_are_input_errors(tmp_path):
+    text = PAPER.read_text()
+    for bad, field in (("!!bool maybe", str(tmp_path / "d.yaml")), ("!!timestamp abc", str(tmp_path / "d.yaml")),
+                       ("1" + "0" * 400, "plant.motor_inertia")):
+        f = tmp_path / "d.yaml"
+        f.write_text(text.replace("motor_inertia: 0.44", f"motor_inertia: {bad}"))
+        res = CliRunner().invoke(cli, ["analyze", str(f)])
+        assert res.exit_code == 2 and res.stderr.startswith(f"exotune: error: {field}"), (bad, res.stderr, res.exception)
+
+
+def test_runtime_refuses_an_overflowing_command(doc1k):
+    """A finite input too large for floating point (1e308 N·m) used to turn every filter state
+    into NaN for ever — with a torque limit, a latched full-scale command."""
+    rt, ref = Runtime(doc1k, limit_nm=40.0), Runtime(doc1k, limit_nm=40.0)
+    y = {"theta_m": 0.0, "omega_m": 0.0, "tau_s": 0.0, "dtau_s": 0.0, "tau_c": 1e308}
+    with pytest.raises(ValueError, match="overflows"):
+        rt.step(y)
+    y["tau_c"] = 1.0
+    assert [rt.step(y) for _ in range(5)] == [ref.step(y) for _ in range(5)]
+
+
 def test_runtime_refuses_non_finite_inputs(doc1k):
     rt = Runtime(doc1k, limit_nm=40.0)
     y = {"theta_m": 0.01, "omega_m": 0.0, "tau_s": 1.0, "dtau_s": 0.0, "tau_c": 0.5}
@@ -259,6 +351,7 @@ def test_refinement_budget_shrinks_with_the_loop_size():
 
     ivs, info = _intervals(spectrum, 1.0, 2.0, points=8)
     assert info["unresolved"] and info["refined_points"] <= max(50, int(cmod.MAX_REFINED * (cmod.REF_STATES / 400) ** 3))
+    assert info["budget_spent"] and info["loop_states"] == 400
     assert ivs == [[1.0, 2.0]]  # every sampled value is stable: only the unresolved cells say otherwise
 
 
