@@ -548,8 +548,10 @@ def check_controller_file(doc: dict) -> None:
     fuzzing: each was accepted, some by ``certify``): every unit is the schema's; the delay in
     samples agrees with the delay and the rate; filter names are unique; the DOB's algebraic loop
     is not singular in any controller; the six-gain summary agrees with the static gains it names;
-    the gain schedule agrees with the transmission table; golden vectors are not empty. Problems
-    raise :class:`ConfigError` naming the field."""
+    the ``dob`` section describes every controller; the gain schedule agrees with the transmission
+    table and each entry's plant is the top-level plant reflected at its ratio; golden vectors
+    have at least MIN_GOLDEN_SAMPLES samples, all of one length. Problems raise
+    :class:`ConfigError` naming the field."""
     from .config import check_delay_samples
 
     fs, T = doc["sample_rate_hz"]["value"], doc["delay_s"]["value"]
@@ -596,10 +598,11 @@ def check_controller_file(doc: dict) -> None:
             w = f"gain_schedule.entries[{i}]"
             _check_plant(e["plant"], f"{w}.plant")
             for k, q in e["plant"].items():  # the plant reflected at the entry's ratio (paper §VI)
-                want = doc["plant"][k]["value"] * (e["ratio"] ** 2 if k in _REFLECTED else 1.0)
-                if abs(q["value"] - want) > 1e-9 * max(abs(want), 1e-300):
-                    raise ConfigError(f"{w}.plant.{k}.value", f"{q['value']!r}, but the plant at ratio {e['ratio']!r} "
-                                                              f"has {want!r} ({'× ratio²' if k in _REFLECTED else 'as at ratio 1'})")
+                reflected = doc["plant"][k]["value"] * (e["ratio"] ** 2 if k in _REFLECTED else 1.0)
+                if abs(q["value"] - reflected) > 1e-9 * max(abs(reflected), 1e-300):
+                    raise ConfigError(f"{w}.plant.{k}.value",
+                                      f"{q['value']!r}, but the plant at ratio {e['ratio']!r} has {reflected!r} "
+                                      f"({'× ratio²' if k in _REFLECTED else 'as at ratio 1'})")
             _check_controller(e["controller"], f"{w}.controller")
             _check_six_gains(e["gains"], e["controller"], f"{w}.gains")
             _unit(f"{w}.golden_tau_cmd.unit", e["golden_tau_cmd"]["unit"], "N·m")
