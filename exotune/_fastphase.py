@@ -587,6 +587,27 @@ if AVAILABLE:
             out[t] = w * 1.0000001 if (cn > 0 and d1 < n and finite) else math.inf
 
 
+if AVAILABLE:
+
+    @njit(cache=True)
+    def _pmul_rows(a, b, out):
+        """out[t] += a[t] * b[t] (ascending coefficients), accumulated in the order of
+        :func:`exotune.poly.pmul` (by coefficient of b, then of a), so both give the same bits."""
+        na = a.shape[1]
+        for t in range(a.shape[0]):
+            for j in range(b.shape[1]):
+                bj = b[t, j]
+                for i in range(na):
+                    out[t, i + j] += a[t, i] * bj
+
+
+def pmul_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Compiled batched product of two real polynomial batches of shape (n, ·)."""
+    out = np.zeros((a.shape[0], a.shape[1] + b.shape[1] - 1))
+    _pmul_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float), out)
+    return out
+
+
 def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
     """Compiled :func:`exotune.quasipoly.omega_max` (same bound, row by row)."""
     a0 = np.ascontiguousarray(np.abs(p0), dtype=float)

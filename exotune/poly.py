@@ -9,7 +9,9 @@ Conventions used throughout exotune's numerics:
   coefficient (e.g. the constant term of ``J_m s^2 + B_m s``) stays *exactly* ``0.0``. The analysis
   relies on this to remove the rigid-body root at ``s = 0`` exactly (SPEC §4), never by a tolerance.
 
-Only numpy is used; these are tiny kernels (degrees <= ~16) applied to large batches.
+These are tiny kernels (degrees <= ~16) applied to large batches, in numpy; the product of large
+real batches runs compiled (:func:`exotune._fastphase.pmul_rows`, same accumulation order, same
+bits) when numba is available.
 """
 
 from __future__ import annotations
@@ -64,6 +66,15 @@ def psub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _pad(np.asarray(a), n) - _pad(np.asarray(b), n)
 
 
+_COMPILED_MIN_ROWS = 64  # below this many rows numpy's loop is as fast as the compiled one
+
+
+def _compiled_pmul() -> bool:
+    from .quasipoly import _engine
+
+    return _engine(None) == "numba"
+
+
 def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a * b (batched convolution); exact zeros stay exact."""
     a = np.asarray(a)
@@ -71,6 +82,10 @@ def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     lead = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
     na, nb = a.shape[-1], b.shape[-1]
     dtype = np.result_type(a, b, float)
+    if len(lead) == 1 and lead[0] >= _COMPILED_MIN_ROWS and dtype == np.float64 and _compiled_pmul():
+        from ._fastphase import pmul_rows
+
+        return pmul_rows(np.broadcast_to(a, lead + (na,)), np.broadcast_to(b, lead + (nb,)))
     out = np.zeros(lead + (na + nb - 1,), dtype=dtype)
     for j in range(nb):
         out[..., j : j + na] += a * b[..., j : j + 1]
