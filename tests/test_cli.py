@@ -53,7 +53,7 @@ def design_json():
 
 def test_design_gains_match_spec_formulas(design_json):
     """Independent evaluation of the SPEC §4 formulas for the §9 example."""
-    J_m, B_m, K_s, J_j, K_c = 0.44, 17.9, 1180.0, 0.29, 300.0
+    J_m, B_m, K_s, K_c = 0.44, 17.9, 1180.0, 300.0  # the gains do not depend on J_j
     a, fi, fd, z, zh = 8.0, 0.25, 1.0, 0.7, 0.7
     Jh, Bh = a * fi, a * fd
     K2t, B1t = K_s / Jh, Bh / Jh
