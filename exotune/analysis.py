@@ -301,6 +301,9 @@ class _Side:
         self.results = [None] * len(self.fams)
 
     def group_functions(self, z0):
+        if not np.any(z0):  # Δ_0 = Δ{key0} (the product with z0 = 0 would add only zeros)
+            A = self.ct.qp(self.key0)
+            return QP(_trim(A.p0), _trim(A.p1), A.T), self.ct.qp(self.key1)
         D0, D1 = self.ct.combine(self.key0, self.key1, np.asarray(z0))
         return QP(_trim(D0.p0), _trim(D0.p1), D0.T), D1
 
@@ -592,6 +595,11 @@ def _representatives(bv, bo):
 def _family_wmax(D0: QP, D1: QP, phi, factor, lo, hi):
     """A tail frequency valid for every p in [lo, hi] (coefficients are affine in p)."""
     phi = np.asarray(phi, float)
+    real = not any(np.iscomplexobj(x) for x in (D0.p0, D0.p1, D1.p0, D1.p1))
+    if real and _compiled():
+        from . import _fastphase
+
+        return _fastphase.family_wmax(D0.p0, D0.p1, D1.p0, D1.p1, phi, factor, lo, hi)
     B0 = pmul(D1.p0, phi[None, :]).astype(complex) * factor
     B1 = pmul(D1.p1, phi[None, :]).astype(complex) * factor
     n0 = max(D0.p0.shape[-1], B0.shape[-1])
@@ -666,14 +674,29 @@ def passivity(side: _Side):
         ph = np.degrees(np.angle(c))
         return np.where(ph > 0, np.minimum(ph, 180.0 - ph), 0.0)
 
+    def excess_where(c, im):
+        # excess(c) where it can be positive (Im c > 0 ⇔ phase in (0°, 180°)), 0 elsewhere and
+        # where c is not finite; the same values as excess(c) without the angles of the rest
+        out = np.zeros(c.shape)
+        sel = (im > 0) & np.isfinite(c)
+        out[sel] = excess(c[sel])
+        return out
+
     pos = lv["a"] > 0
-    task = lv["task"][pos]
-    a_l, b_l = lv["a"][pos], lv["b"][pos]
+    # the leaves with a > 0 (all of them unless a grid starts at ω = 0): no copies when all
+    on = (lambda x: x) if pos.all() else (lambda x: x[pos])  # noqa: E731
+    task = on(lv["task"])
+    a_l, b_l = on(lv["a"]), on(lv["b"])
     with np.errstate(divide="ignore", invalid="ignore"):
-        ca = lv["va"][1][pos] / lv["va"][0][pos]
-        cb = lv["vb"][1][pos] / lv["vb"][0][pos]
-    ima, imb = np.imag(ca), np.imag(cb)
-    exb = np.where(np.isfinite(cb), excess(cb), 0.0)
+        cb = on(lv["vb"][1]) / on(lv["vb"][0])
+    imb = np.imag(cb)
+    leaf = np.flatnonzero(pos)
+
+    def ima(k):  # Im C7 at the a-end of leaves k (only the bracketing leaves need it)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.imag(lv["va"][1][leaf[k]] / lv["va"][0][leaf[k]])
+
+    exb = excess_where(cb, imb)
     best = np.zeros(Nd)
     np.maximum.at(best, task, exb)
     arg = _argmax_by_task(task, exb, Nd)
@@ -741,22 +764,27 @@ def passivity(side: _Side):
     fim = lambda t_, w: np.imag(c7(t_, w))
     # the band edges are the zeros of Im C7 = Im(Δ10/Δ00); the compiled refinement uses the same
     # zeros of Im(Δ00·conj Δ10) = −|Δ00|² Im C7 (no division): its bracket values change sign
-    with np.errstate(over="ignore", invalid="ignore"):  # only their signs are used
-        gva = np.imag(lv["va"][0][pos] * np.conj(lv["va"][1][pos]))
-        gvb = np.imag(lv["vb"][0][pos] * np.conj(lv["vb"][1][pos]))
-    bracket_start = (np.sign(ima[qs]) != np.sign(imb[qs])) & resolved_sign[qs] & resolved_a[qs]
+    # (computed for the bracketing leaves only; index k among the leaves with a > 0)
+    def gva(k):
+        with np.errstate(over="ignore", invalid="ignore"):  # only their signs are used
+            return np.imag(lv["va"][0][leaf[k]] * np.conj(lv["va"][1][leaf[k]]))
+
+    def gvb(k):
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.imag(lv["vb"][0][leaf[k]] * np.conj(lv["vb"][1][leaf[k]]))
+    bracket_start = (np.sign(ima(qs)) != np.sign(imb[qs])) & resolved_sign[qs] & resolved_a[qs]
     ws = a_l[qs].copy()
     if bracket_start.any():
         k = qs[bracket_start]
-        ws[bracket_start] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima[k], imb[k], gva[k], gvb[k])
+        ws[bracket_start] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima(k), imb[k], gva(k), gvb(k))
     we = np.full(len(qs), np.inf)
     jj = np.maximum(je, 0)
-    closes = has_end & (np.sign(ima[jj]) != np.sign(imb[jj])) & resolved_sign[jj] & resolved_a[jj]
+    closes = has_end & (np.sign(ima(jj)) != np.sign(imb[jj])) & resolved_sign[jj] & resolved_a[jj]
     we[has_end & ~closes] = b_l[np.maximum(je, 0)][has_end & ~closes] if (has_end & ~closes).any() else we[has_end & ~closes]
     has_end = closes
     if has_end.any():
         k = je[has_end]
-        we[has_end] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima[k], imb[k], gva[k], gvb[k])
+        we[has_end] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima(k), imb[k], gva(k), gvb(k))
     bands = [[] for _ in range(Nd)]
     for t_, w0, w1 in zip(task[qs].tolist(), ws.tolist(), we.tolist()):
         bands[t_].append([w0 / (2 * np.pi), w1 / (2 * np.pi)])

@@ -126,6 +126,28 @@ def test_omega_max_compiled_equals_numpy():
     assert seen_inf and seen_finite  # both branches exercised
 
 
+def test_omega_max_compiled_equals_numpy_with_extreme_and_nonfinite_coefficients():
+    """Coefficients over 60 decades, NaN and inf entries (an infinite coefficient below the
+    leading one makes the bound infinite: the task is then inconclusive); both engines agree bit
+    for bit."""
+    from exotune.quasipoly import omega_max
+
+    rng = np.random.default_rng(0)
+    p0 = rng.normal(size=(2000, 9)) * 10.0 ** rng.integers(-30, 30, size=(2000, 9))
+    p1 = rng.normal(size=(2000, 6)) * 10.0 ** rng.integers(-30, 30, size=(2000, 6))
+    p0[::5, 3] = np.nan
+    p0[1::7, 2] = np.inf
+    p1[::11, 1] = np.inf
+    p0[::13, -1] = 0.0
+    with np.errstate(all="ignore"):
+        x, y = omega_max(p0, p1, engine="numba"), omega_max(p0, p1, engine="numpy")
+    assert np.array_equal(x, y)
+    inf_rows = np.arange(1, 2000, 7)
+    inf_rows = inf_rows[~np.isnan(p0[inf_rows]).any(1)]
+    assert inf_rows.size > 200 and np.isinf(x[inf_rows]).all()  # an inf below the leading term
+    assert np.isfinite(x).sum() > 500
+
+
 def test_compiled_counter_pipeline_equals_numpy_counter():
     """The compiled counting pipeline (strip s = 0 roots with the regularized twin, zero-delay fold,
     tail bound, phase sum, tail and ω = 0 terms) gives the numpy Counter's exact (N, r, conclusive)
@@ -249,3 +271,34 @@ def test_compiled_polynomial_product_has_the_bits_of_the_numpy_loop(monkeypatch)
     # the compiled kernel is what ran above (not numpy twice), and both are the true product
     assert np.array_equal(_fastphase.pmul_rows(a, b), slow)
     assert np.allclose(slow_bc, np.stack([np.convolve(r, b[0]) for r in a]), rtol=1e-13, atol=0)
+
+
+def test_compiled_family_tail_bound_equals_numpy(monkeypatch):
+    """The compiled family tail frequency (every p of a family's range) equals the numpy one on
+    real designs, for the mass, spring and damper slots, ranges touching 0 and reversed signs."""
+    from exotune.analysis import _family_wmax
+    from exotune.humans import family_split
+
+    n = 300
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    rng = np.random.default_rng(11)
+    cfg = batch_config(base, {
+        "design.amplification": np.exp(rng.uniform(0.0, np.log(30.0), n)),
+        "implementation.delay_s": np.where(rng.random(n) < 0.2, 0.0, rng.uniform(0.0, 0.006, n)),
+        "plant.cuff_stiffness": np.exp(rng.uniform(np.log(30.0), np.log(5000.0), n)),
+    })
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ct = char_terms(cfg.plant, cs, n)
+    cases = [("mass", "inertia", 1e-6, 2.0, 0.0), ("spring", "stiffness", 0.0, 1e5, 0.0),
+             ("msd", "damping", 0.1, 50.0, 0.0), ("complex_stiffness", "stiffness", 10.0, 1000.0, 0.2)]
+    for kind, param, lo, hi, eta in cases:
+        z0, phi, factor = family_split(kind, param, {"inertia": 0.01, "stiffness": 100.0, "damping": 1.0}, eta)
+        D0, D1 = ct.combine("00", "10", z0)
+        fast = _family_wmax(D0, D1, phi, factor, lo, hi)
+        with monkeypatch.context() as m:
+            m.setenv("EXOTUNE_NUMPY_ONLY", "1")
+            slow = _family_wmax(D0, D1, phi, factor, lo, hi)
+        assert np.array_equal(np.isinf(fast), np.isinf(slow)), kind
+        f = np.isfinite(slow)
+        assert f.sum() > n // 2, kind
+        assert np.allclose(fast[f], slow[f], rtol=1e-12, atol=0), kind
