@@ -129,7 +129,8 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, engine: str | 
     return np.where(ok, w * 1.0000001, np.inf)
 
 
-def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None, extra_ok=None):
+def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None, extra_ok=None,
+                    geometric: bool = False):
     """Adaptive refinement of per-task frequency grids.
 
     ``evalfn(idx, w) -> list[(val, der)]`` evaluates the tracked functions at s = jω.
@@ -139,6 +140,9 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
     the accepted leaf intervals: ``task, a, b`` and per tracked function ``va[i], vb[i]``; plus a
     per-task boolean ``resolved`` (False where refinement hit the resolution floor or a value was
     not finite / exactly zero — a zero on the imaginary axis).
+    ``geometric``: split intervals wider than a ratio ``_fastphase.GEO_SPLIT_RATIO`` at their
+    geometric mean instead of their midpoint (the argument-principle counts do; same rule as the
+    compiled kernel).
     """
     T, K = grid.shape
     if valid is None:
@@ -227,6 +231,12 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         da = [x[go] for x in da]
         db = [x[go] for x in db]
         m = 0.5 * (a + b)
+        if geometric:
+            from ._fastphase import GEO_SPLIT_RATIO
+
+            with np.errstate(divide="ignore", invalid="ignore"):
+                wide = (a > 0) & (b > GEO_SPLIT_RATIO * a)
+                m = np.where(wide, a * np.sqrt(b / np.where(wide, a, 1.0)), m)
         mv = evalfn(ti, m)
         ti = np.concatenate([ti, ti])
         a, b = np.concatenate([a, m]), np.concatenate([m, b])
@@ -291,7 +301,7 @@ def _phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None =
     if _engine(engine) == "numba":
         total, resolved, _ = _fastphase.phase_sums(q.p0, q.p1, q.T, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS)
         return total, resolved
-    lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid)
+    lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid, geometric=True)
     with np.errstate(divide="ignore", invalid="ignore"):
         steps = np.angle(lv["vb"][0] / lv["va"][0])
     return np.bincount(lv["task"], weights=steps, minlength=q.n), lv["resolved"]
