@@ -42,7 +42,7 @@ import numpy as np
 from .controller import ControllerStructure, build_controller
 from .humans import HumanFamily, family_split
 from .model import Plant
-from .poly import as_poly, degree, leading, padd, pmul, pscale, psub, pval_flat, strip_common_low_zeros
+from .poly import _pad, as_poly, degree, leading, padd, pmul, pscale, psub, pval_flat, strip_common_low_zeros
 from .quasipoly import QP, bisect_roots, count_rhp, leaves_pair, log_grid, omega_max
 
 __all__ = [
@@ -241,7 +241,7 @@ class _Counter:
         w1 = max(i[1].shape[-1] for i in self.items)
         cplx = any(np.iscomplexobj(i[0]) or np.iscomplexobj(i[1]) for i in self.items)
         dt = complex if cplx else float
-        pad = lambda c, w: np.pad(c, ((0, 0), (0, w - c.shape[-1]))).astype(dt)
+        pad = lambda c, w: _pad(np.asarray(c), w).astype(dt)
         P0 = np.concatenate([pad(i[0], w0) for i in self.items])
         P1 = np.concatenate([pad(i[1], w1) for i in self.items])
         T = np.concatenate([i[2] for i in self.items])

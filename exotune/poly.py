@@ -48,10 +48,12 @@ def as_poly(*coeffs, shape=None) -> np.ndarray:
 
 
 def _pad(a: np.ndarray, n: int) -> np.ndarray:
+    """Append zero coefficients up to n (np.pad's result, without its per-call overhead)."""
     if a.shape[-1] == n:
         return a
-    pad = [(0, 0)] * (a.ndim - 1) + [(0, n - a.shape[-1])]
-    return np.pad(a, pad)
+    out = np.zeros(a.shape[:-1] + (n,), dtype=a.dtype)
+    out[..., : a.shape[-1]] = a
+    return out
 
 
 def padd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
