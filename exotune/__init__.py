@@ -13,8 +13,8 @@ try:  # the installed distribution is the source of truth (pyproject.toml)
     try:
         __version__ = _dist_version("exotune")
     except PackageNotFoundError:  # running from a source tree that is not installed
-        __version__ = "0.5.0"
+        __version__ = "0.6.0"
 except ImportError:  # pragma: no cover - importlib.metadata is stdlib on every supported Python
-    __version__ = "0.5.0"
+    __version__ = "0.6.0"
 
 __all__ = ["__version__"]
