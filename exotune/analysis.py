@@ -659,7 +659,8 @@ def passivity(side: _Side):
     refined by golden-section search. Band edges are the exact zeros of Im C7. With a delay,
     C7 → 1/K_c with a decaying ripple of period 1/T in frequency, giving infinitely many tiny
     bands: bands whose peak excess is below ``BAND_MIN_EXCESS_DEG`` (0.1°) are not listed
-    (``max_phase_excess_deg`` itself is exact).
+    (``max_phase_excess_deg`` itself is exact, and the band holding it is listed whenever it
+    reaches 0.1°; other bands are judged by their sampled peak).
     """
     z0 = (0.0, 0.0, 0.0)
     D0, D1, lv = side.leaves.get(z0) or side.compute_leaves(z0)
@@ -753,6 +754,8 @@ def passivity(side: _Side):
     nrun = int(rid[-1]) + 1 if rid.size else 0
     peak = np.zeros(nrun)
     np.maximum.at(peak, rid, exb)
+    if have.any():  # the refined maximum counts for the band that holds its leaf
+        np.maximum.at(peak, rid[j], np.where(np.isfinite(best[ti]), best[ti], 0.0))
     starts = np.nonzero(newrun)[0]
     qual = inside[starts] & (peak >= BAND_MIN_EXCESS_DEG)
     qs = starts[qual]

@@ -122,6 +122,29 @@ def test_prewarped_tustin_is_exact_at_the_prewarp_frequency():
     np.testing.assert_allclose(complex(np.ravel(hd)[0]), _ct(cs.cuff_torque, 2j * np.pi * fp), rtol=1e-9)
 
 
+def test_badly_scaled_block_prewarped_near_nyquist_is_accurate_and_quiet():
+    """A 4th-order block prewarped at 499 Hz of a 1 kHz controller has a companion realization
+    with ~1e10 coefficients (scipy warns of rcond ~1e-26 while discretizing it): its discrete
+    response still equals H(K (z−1)/(z+1)) to ~1e-11, and no warning reaches the user."""
+    import warnings
+
+    from exotune.sampled import _tustin
+
+    num = np.array([2.17411924e10, 1.02444596e10, 7.44571640e8, 8.40258869e6, 1.01233488e5])
+    den = np.array([2.47059005e10, 6.22682763e9, 1.26081987e7, 5.02175179e3, 1.0])
+    Ts, pw = 1e-3, 499.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Ad, Bd, Cd, Dd = _tustin(num, den, Ts, pw)
+    K = 2 * np.pi * pw / np.tan(np.pi * pw * Ts)
+    for f in (1.0, 10.0, 100.0, 300.0, 450.0, 499.0):
+        z = np.exp(2j * np.pi * f * Ts)
+        s = K * (z - 1) / (z + 1)
+        h = np.polyval(num[::-1], s) / np.polyval(den[::-1], s)
+        hd = (Cd @ np.linalg.solve(z * np.eye(Ad.shape[0]) - Ad, Bd) + Dd)[0, 0]
+        assert abs(hd - h) <= 1e-9 * abs(h)
+
+
 def _cases(n, seed):
     rng = np.random.default_rng(seed)
     humans = [None, "spring", "mass", "msd", "massless_damped"]
