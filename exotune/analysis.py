@@ -489,9 +489,9 @@ def _classify(lv: dict, k: int, factor: complex, lo: float, hi: float):
 
 
 def _compiled() -> bool:
-    from .quasipoly import _engine
+    from .quasipoly import compiled
 
-    return _engine(None) == "numba"
+    return compiled()
 
 
 def _subsample_brackets(g, D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
@@ -775,6 +775,7 @@ def passivity(side: _Side):
     def gvb(k):
         with np.errstate(over="ignore", invalid="ignore"):
             return np.imag(lv["vb"][0][leaf[k]] * np.conj(lv["vb"][1][leaf[k]]))
+
     bracket_start = (np.sign(ima(qs)) != np.sign(imb[qs])) & resolved_sign[qs] & resolved_a[qs]
     ws = a_l[qs].copy()
     if bracket_start.any():

@@ -71,12 +71,6 @@ def psub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 _COMPILED_MIN_ROWS = 64  # below this many rows numpy's loop is as fast as the compiled one
 
 
-def _compiled_pmul() -> bool:
-    from .quasipoly import _engine
-
-    return _engine(None) == "numba"
-
-
 def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a * b (batched convolution); exact zeros stay exact."""
     a = np.asarray(a)
@@ -84,7 +78,9 @@ def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     lead = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
     na, nb = a.shape[-1], b.shape[-1]
     dtype = np.result_type(a, b, float)
-    if len(lead) == 1 and lead[0] >= _COMPILED_MIN_ROWS and dtype == np.float64 and _compiled_pmul():
+    from .quasipoly import compiled  # (quasipoly imports this module)
+
+    if len(lead) == 1 and lead[0] >= _COMPILED_MIN_ROWS and dtype == np.float64 and compiled():
         from ._fastphase import pmul_rows
 
         return pmul_rows(np.broadcast_to(a, lead + (na,)), np.broadcast_to(b, lead + (nb,)))

@@ -280,6 +280,11 @@ def _engine(engine: str | None) -> str:
     return engine
 
 
+def compiled() -> bool:
+    """Whether the compiled (numba) kernels are in use (numba installed, EXOTUNE_NUMPY_ONLY unset)."""
+    return _engine(None) == "numba"
+
+
 def leaves_pair(qa: QP, qb: QP, grid: np.ndarray, valid: np.ndarray, magnitude_ok=None, lthr=None, engine: str | None = None):
     """Adaptive leaves tracking two quasi-polynomials with equal delays (compiled when possible).
 
