@@ -60,8 +60,8 @@ def main() -> None:
 
     from _percontrol import measure_rate, per_design
     from _percontrol_full import per_design_full
-    from exotune.config import batch_config
-    from exotune.sweep import chunk_points, load_results, load_spec, run_sweep
+    from exotune.config.design import batch_config
+    from exotune.sweep.engine import chunk_points, load_results, load_spec, run_sweep
 
     n = max(2, math.ceil(args.points ** 0.25))
     spec = {

@@ -25,7 +25,7 @@ import tempfile
 
 import click
 
-from . import __version__
+from .version import __version__
 from .errors import ConfigError
 
 __all__ = ["main", "cli", "design_report", "sea_report", "format_design", "format_sea"]
@@ -69,7 +69,7 @@ def _trim(c):
 
 def _minimal(num, den):
     """Cancel the common exact roots at s = 0 (structural, e.g. G_v with K̃1 = 0; SPEC §4)."""
-    from .poly import strip_common_low_zeros
+    from .numerics.poly import strip_common_low_zeros
 
     _, (n, d) = strip_common_low_zeros(_flat(num)[None, :], _flat(den)[None, :])
     return _trim(n[0]), _trim(d[0])
@@ -102,7 +102,7 @@ def _root_entries(roots):
 
 
 def _eval(num, den, w):
-    from .poly import pval
+    from .numerics.poly import pval
 
     s = 1j * w
     return pval(_flat(num), s) / pval(_flat(den), s)
@@ -252,7 +252,7 @@ def design_report(cfg) -> dict:
     """Everything ``exotune design`` prints, as a dict (SPEC §4, §8): gains with units, the
     compliance shape, poles/zeros of the nominal transfer functions, warnings and the validity of
     the low-frequency approximation Ĉ5 ≈ C5."""
-    from .shaping import GAIN_UNITS_TORQUE, SHAPE_UNITS, double_compliance_shaping, nominal_transfer_functions
+    from .model.shaping import GAIN_UNITS_TORQUE, SHAPE_UNITS, double_compliance_shaping, nominal_transfer_functions
 
     ds = double_compliance_shaping(cfg.plant, cfg.design)
     tfs = nominal_transfer_functions(cfg.plant, cfg.design, ds)
@@ -391,7 +391,7 @@ def _bode_png(curves, title: str, ylabel: str) -> bytes:
 
 
 def _design_plots(cfg) -> dict[str, bytes]:
-    from .shaping import double_compliance_shaping, nominal_transfer_functions
+    from .model.shaping import double_compliance_shaping, nominal_transfer_functions
 
     ds = double_compliance_shaping(cfg.plant, cfg.design)
     tfs = nominal_transfer_functions(cfg.plant, cfg.design, ds)
@@ -450,9 +450,9 @@ def sea_report(cfg) -> dict:
     extremes of C4(jω) (a compliance is passive where its phase is in [−180°, 0°])."""
     import numpy as np
 
-    from .model import Plant
-    from .poly import as_poly, padd, pmul, pscale
-    from .shaping import (
+    from .model.plant import Plant
+    from .numerics.poly import as_poly, padd, pmul, pscale
+    from .model.shaping import (
         GAIN_UNITS_DEFLECTION,
         GAIN_UNITS_TORQUE,
         SHAPE_UNITS,
@@ -623,7 +623,7 @@ def cli():
 @click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write Bode plots (PNG) of C4, C5, Ĉ5, C7, G_v.")
 def design_cmd(design_file, as_json, plots_dir):
     """Gains and nominal transfer functions of a design file (paper §IV, SPEC §4)."""
-    from .config import load_design
+    from .config.design import load_design
 
     cfg = load_design(design_file)
     rep = design_report(cfg)
@@ -638,7 +638,7 @@ def design_cmd(design_file, as_json, plots_dir):
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def sea_cmd(sea_file, as_json):
     """Analyse a plain SEA compliance-shaping controller (paper §II-B)."""
-    from .config import load_sea
+    from .config.design import load_sea
 
     rep = sea_report(load_sea(sea_file))
     click.echo(_dumps(rep) if as_json else format_sea(rep))
@@ -652,19 +652,19 @@ def sea_cmd(sea_file, as_json):
               help="Also compare the exact verdicts with closed-loop roots of two Padé models (SPEC §5).")
 def analyze_cmd(design_file, as_json, plots_dir, cross_check):
     """Stability, passivity, DOB margins and amplification of a design (SPEC §5, §8)."""
-    from .config import load_design
+    from .config.design import load_design
 
     cfg = load_design(design_file)  # input errors first, whatever the state of the analysis engine
-    from .analysis import analyze_design, format_report
+    from .analysis.core import analyze_design, format_report
 
     result = analyze_design(cfg)
     if cross_check:
-        from .crosscheck import pade_crosscheck
+        from .analysis.crosscheck import pade_crosscheck
 
         result["cross_check"] = pade_crosscheck(cfg)
     text = _dumps(result) if as_json else format_report(result)
     if plots_dir is not None:
-        from .plots import write_analysis_plots
+        from .plots.analysis import write_analysis_plots
 
         _staged_dir(plots_dir, lambda tmp: write_analysis_plots(cfg, result, tmp))
     click.echo(text)
@@ -680,7 +680,7 @@ def analyze_cmd(design_file, as_json, plots_dir, cross_check):
 @click.option("--chunk-size", type=click.IntRange(min=1), default=None, metavar="N", help="Design points per chunk.")
 def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_size):
     """Vectorized, chunked, resumable parameter sweep (SPEC §6)."""
-    from .sweep import run_sweep
+    from .sweep.engine import run_sweep
 
     run_sweep(
         spec_file,
@@ -699,7 +699,7 @@ def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_siz
 @click.option("-o", "--out", "out", default=None, metavar="OUT", help="Where to write the report.")
 def report_cmd(sweep_dir, out):
     """Stability maps and summary tables of a sweep (SPEC §6)."""
-    from .report import make_report
+    from .sweep.report import make_report
 
     make_report(sweep_dir, out)
 
@@ -729,7 +729,7 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
 @click.option("-o", "--out", "out", required=True, metavar="CONTROLLER.yaml", help="Controller file to write.")
 def export_cmd(design_file, sample_rate_hz, out):
     """Export the discrete-time runtime controller as YAML (SPEC §7)."""
-    from .export import export_design
+    from .controllerfile.export import export_design
 
     doc = export_design(design_file, sample_rate_hz, out)
     sa = doc["predicted"]["sampled"]
@@ -746,8 +746,8 @@ def export_cmd(design_file, sample_rate_hz, out):
 def certify_cmd(ctx, controller_file, as_json):
     """Exact sampled-data analysis of an exported controller file (SPEC §7). Exit code 0: certified,
     1: analysed but not certified (the reasons are listed), 2: invalid file."""
-    from .certify import certify, format_certify
-    from .export import load_controller
+    from .controllerfile.certify import certify, format_certify
+    from .controllerfile.export import load_controller
 
     rep = certify(load_controller(controller_file))
     click.echo(_dumps(rep) if as_json else format_certify(rep))
@@ -777,7 +777,7 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, joint_angl
             raise ConfigError(name, f"must be a finite number, got {v!r}")
     doc = load_for_simulation(input_file, sample_rate_hz)
     if joint_angle is not None:
-        from .export import schedule_entry_doc
+        from .controllerfile.export import schedule_entry_doc
 
         if not doc.get("gain_schedule"):
             raise ConfigError("--joint-angle", "the controller has no gain schedule (no transmission section)")

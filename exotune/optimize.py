@@ -92,8 +92,8 @@ def _num(field_: str, v) -> float:
 
 def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     """Read and validate an optimization spec (path or mapping); every problem is a ConfigError."""
-    from .config import OVERRIDABLE, batch_config, read_yaml
-    from .sweep import load_base
+    from .config.design import OVERRIDABLE, batch_config, read_yaml
+    from .sweep.engine import load_base
 
     if isinstance(spec, (str, os.PathLike)):
         mapping = read_yaml(os.fspath(spec))
@@ -190,8 +190,8 @@ def _log_fraction(ivs, lo, hi) -> float:
 
 def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
     """Analyse the designs of the rows of X (columns in ``spec.free`` order, natural units)."""
-    from .analysis import analyze_batch
-    from .config import batch_config
+    from .analysis.core import analyze_batch
+    from .config.design import batch_config
 
     X = np.atleast_2d(np.asarray(X, float))
     paths = list(spec.free)
@@ -245,8 +245,8 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
 def _nominal_shortage(spec, X):
     """Closed-form nominal passivity shortage of the rows of X (:func:`exotune.kyp.nominal_shortage`)
     and its normalization B̂_m/(Ĵ_m K_c) (the shortage when ζ̂ = 0)."""
-    from .config import batch_config
-    from .kyp import nominal_shortage
+    from .config.design import batch_config
+    from .analysis.kyp import nominal_shortage
 
     c = batch_config(spec.cfg, {p: X[:, j] for j, p in enumerate(spec.free)})
     d, pl = c.design, c.plant
@@ -369,20 +369,20 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
     }
     if not active:
         out["note"] = "no constraint is binding along the objective (metric objective): local optimum of the search"
-    from .analysis import _kyp_certificates
-    from .config import design_from_mapping
+    from .analysis.core import kyp_certificates
+    from .config.design import design_from_mapping
 
     opt_cfg = design_from_mapping(optimized_design_mapping(spec, out))
     if spec.cfg.implementation.sample_rate_hz is not None:
         # the search is continuous-time (exact delay); with a sample rate, check the optimum's
         # sampled-data loop too and say where sampling breaks what the search accepted
-        from .analysis import analyze_design
+        from .analysis.core import analyze_design
 
         rep = analyze_design(opt_cfg)
         out["sampled_data_warnings"] = [w for w in rep.get("warnings", []) if "sampled-data" in w]
         certs = rep["passivity"]["kyp"]
     else:
-        certs = _kyp_certificates(opt_cfg)
+        certs = kyp_certificates(opt_cfg)
     # the convex sub-problem (SPEC §7): KYP certificates of the optimum's rational C7 models (cvxpy)
     out["passivity_certificates"] = certs
     nom = certs.get("nominal") or {}
@@ -459,7 +459,7 @@ def format_optimize(r: dict) -> str:
                 lines.append(f"  {fk}: {iv}")
         else:
             lines.append(f"  {k}: {m['value']:.6g} {m['unit']}")
-    from .kyp import format_certificates
+    from .analysis.kyp import format_certificates
 
     lines += format_certificates(r.get("passivity_certificates"))
     if r.get("certificate_warning"):
@@ -478,7 +478,7 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> di
     problem writes nothing and returns the result (``feasible`` false)."""
     import yaml
 
-    from .config import design_from_mapping
+    from .config.design import design_from_mapping
     from .jsonio import write_atomic
 
     spec = load_optimize_spec(spec_file, seed=seed)

@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .runtime import Runtime
+from .controllerfile.runtime import Runtime
 
 __all__ = ["Nonlinearities", "Scenario", "SCENARIOS", "simulate", "run_scenario", "format_simulation"]
 
@@ -303,9 +303,9 @@ def plot_simulation(rep: dict) -> dict[str, bytes]:
 def load_for_simulation(path, sample_rate_hz: float | None = None) -> dict:
     """A controller file as is, or a design file exported in memory at ``sample_rate_hz`` (or at
     its own ``implementation.sample_rate_hz``)."""
-    from .config import read_yaml
+    from .config.design import read_yaml
     from .errors import ConfigError
-    from .export import build_export, design_at_rate, load_controller
+    from .controllerfile.export import build_export, design_at_rate, load_controller
 
     raw = read_yaml(path)
     if isinstance(raw, dict) and "schema" in raw:

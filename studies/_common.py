@@ -29,8 +29,8 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from exotune.jsonio import write_atomic  # noqa: E402
-from exotune.report import make_report, value_runs  # noqa: E402
-from exotune.sweep import load_manifest, load_results, run_sweep  # noqa: E402
+from exotune.sweep.report import make_report, value_runs  # noqa: E402
+from exotune.sweep.engine import load_manifest, load_results, run_sweep  # noqa: E402
 
 
 def parse_args(name: str, doc: str):
@@ -67,7 +67,7 @@ def run_study(name: str, spec: str, doc: str, extra) -> Path:
 
 
 def robust_of(df) -> np.ndarray:
-    from exotune.report import robust_mask
+    from exotune.sweep.report import robust_mask
 
     cols = {c: df[c].to_numpy() for c in df.columns}
     return robust_mask({c: v for c, v in cols.items() if c == "free_stable" or (

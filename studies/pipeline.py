@@ -19,9 +19,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from exotune import __version__  # noqa: E402
-from exotune.certify import certify, format_certify  # noqa: E402
-from exotune.export import export_design, load_controller  # noqa: E402
+from exotune import __version__
+from exotune.controllerfile.certify import certify, format_certify  # noqa: E402
+from exotune.controllerfile.export import export_design, load_controller  # noqa: E402
 from exotune.jsonio import write_atomic  # noqa: E402
 from exotune.optimize import format_optimize, run_optimize  # noqa: E402
 from exotune.simulate import SCENARIOS, format_simulation, plot_simulation, run_scenario  # noqa: E402

@@ -3,7 +3,7 @@
     python studies/sample_rate.py [--results DIR]
 
 The §9 design (examples/paper.yaml) with a total latency T of 0.5, 1 and 2 ms, run by a discrete
-controller at 500 Hz … 20 kHz (exotune.sampled: exact zero-order-hold plant, Tustin prewarped
+controller at 500 Hz … 20 kHz (exotune.sampled.loop: exact zero-order-hold plant, Tustin prewarped
 controller, the latency as whole + fractional samples). For each (T, f_s) the lightest stable pure
 inertia of the stable interval reaching 1 kg·m² is found on the sampled-data verdict (a 100-point
 log grid down from 1 kg·m², then 40 bisection steps) and compared with the exact continuous-time
@@ -31,13 +31,13 @@ import numpy as np  # noqa: E402
 
 from _common import plt, save_png, write_study_md  # noqa: E402
 
-from exotune import __version__  # noqa: E402
-from exotune.analysis import analyze_batch  # noqa: E402
-from exotune.config import load_design  # noqa: E402
-from exotune.controller import build_controller  # noqa: E402
-from exotune.humans import HumanFamily  # noqa: E402
+from exotune import __version__
+from exotune.analysis.core import analyze_batch  # noqa: E402
+from exotune.config.design import load_design  # noqa: E402
+from exotune.model.controller import build_controller  # noqa: E402
+from exotune.model.humans import HumanFamily  # noqa: E402
 from exotune.jsonio import write_atomic  # noqa: E402
-from exotune.sampled import default_prewarp, sampled_stable  # noqa: E402
+from exotune.sampled.loop import default_prewarp, sampled_stable  # noqa: E402
 
 DELAYS = (0.0005, 0.001, 0.002)
 RATES = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 20000.0)
@@ -115,7 +115,7 @@ def main() -> None:
     lines = ["# Lightest stable human inertia vs controller sample rate", "",
              "§9 design (α = 8, K_c = 300 N·m/rad, DOB 60 Hz); pure inertia on the cuff; the total latency T "
              "is held fixed while the sample rate changes (so T is a non-integer number of samples at some rates). "
-             "Sampled-data verdicts by `exotune.sampled` (exact ZOH plant, Tustin prewarped controller); "
+             "Sampled-data verdicts by `exotune.sampled.loop` (exact ZOH plant, Tustin prewarped controller); "
              "continuous values are the exact ends of the continuous stable intervals.", "",
              "| T [ms] | f_s [Hz] | T [samples] | lightest stable inertia, sampled [kg·m²] | continuous [kg·m²] | sampled / continuous |",
              "|---|---|---|---|---|---|"]

@@ -14,10 +14,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from exotune.analysis import char_terms, coupled_stable
-from exotune.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
-from exotune.model import Plant
-from exotune.shaping import DesignParams
+from exotune.analysis.core import char_terms, coupled_stable
+from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
+from exotune.model.plant import Plant
+from exotune.model.shaping import DesignParams
 
 from reference_model import closed_loop_poles, has_rigid_body_mode
 
@@ -200,13 +200,13 @@ def test_environment_verdicts_match_eigenvalues(env_kind):
 
 
 def test_product_pade_crosscheck_agrees():
-    """`exotune analyze --cross-check` (exotune.crosscheck): no disagreement on the §9 file, on the
+    """`exotune analyze --cross-check` (exotune.analysis.crosscheck): no disagreement on the §9 file, on the
     same file with masses down to 1e-6 kg·m², and on random designs; it reports its counts."""
     from pathlib import Path
 
-    from exotune.config import load_design
-    from exotune.crosscheck import pade_crosscheck
-    from exotune.humans import HumanFamily
+    from exotune.config.design import load_design
+    from exotune.analysis.crosscheck import pade_crosscheck
+    from exotune.model.humans import HumanFamily
 
     root = Path(__file__).resolve().parents[1]
     base = load_design(root / "examples" / "paper.yaml")
@@ -242,7 +242,7 @@ def _rhp_radius(ct_w, i, human):
     ct, holder = ct_w
     t = ct.terms
     z = np.zeros(3) if human is None else np.array([holder["k"][i], 0.0, 0.0])
-    from exotune.poly import padd, pmul
+    from exotune.numerics.poly import padd, pmul
 
     p0 = padd(t["00"].p0[i], pmul(t["10"].p0[i], z))
     p1 = padd(t["00"].p1[i], pmul(t["10"].p1[i], z))
@@ -265,8 +265,8 @@ def test_wide_parameter_ranges_free_and_spring_verdicts():
     import warnings
     from pathlib import Path
 
-    from exotune.analysis import analyze_batch
-    from exotune.config import batch_config, load_design
+    from exotune.analysis.core import analyze_batch
+    from exotune.config.design import batch_config, load_design
 
     base = load_design(Path(__file__).resolve().parents[1] / "examples" / "paper.yaml")
     rng = np.random.default_rng(11)
@@ -320,9 +320,9 @@ def test_cross_check_catches_a_wrong_stable_interval(monkeypatch):
     range stable, the Newton search on the exact Δ finds the RHP root and reports a disagreement."""
     from pathlib import Path
 
-    import exotune.crosscheck as cc_mod
-    from exotune.config import load_design
-    from exotune.humans import HumanFamily
+    import exotune.analysis.crosscheck as cc_mod
+    from exotune.config.design import load_design
+    from exotune.model.humans import HumanFamily
 
     base = load_design(Path(__file__).resolve().parents[1] / "examples" / "paper.yaml")
     cfg = dataclasses.replace(base, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0),))

@@ -1,8 +1,8 @@
-"""SPEC §5 metrics of exotune.analysis against independent computations.
+"""SPEC §5 metrics of exotune.analysis.core against independent computations.
 
 * SPEC §9 reference values of examples/paper.yaml;
 * DOB margins against the closed form of L_dob = ω_q² e^{−sT}/(s(s + 2ζω_q)) and python-control;
-* C7 = Δ10/Δ00 and C6/C5 against the paper's Table II propositions (exotune.model.seven_systems,
+* C7 = Δ10/Δ00 and C6/C5 against the paper's Table II propositions (exotune.model.plant.seven_systems,
   exact delay, DOB as the modified actuator) and, at T = 0, against the state-space reference
   (tests/reference_model.py, gains and G_c rebuilt there from SPEC §3-§4);
 * every interior end point of a stable interval is a true stability boundary of the reference
@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 from numpy.polynomial import polynomial as P
 from scipy.optimize import brentq
 
-from exotune.analysis import (
+from exotune.analysis.core import (
     amplification,
     amplification_qps,
     analyze_batch,
@@ -37,10 +37,10 @@ from exotune.analysis import (
     char_terms,
     dob_margins,
 )
-from exotune.config import batch_config, design_from_mapping, load_design, read_yaml
-from exotune.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
-from exotune.model import Plant, Tf, seven_systems
-from exotune.shaping import DesignParams
+from exotune.config.design import batch_config, design_from_mapping, load_design, read_yaml
+from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
+from exotune.model.plant import Plant, Tf, seven_systems
+from exotune.model.shaping import DesignParams
 
 from reference_model import pade_qp_roots, closed_loop_poles, closed_loop_system, coupled_verdict, has_rigid_body_mode, reference_gains, reference_gc
 
@@ -635,7 +635,7 @@ def test_dob_unstable_loop_has_zero_delay_margin():
 def test_dob_generic_path_equals_closed_form_path():
     """The general L_dob margin code (any rational Q; here the standard Q written with both
     polynomials scaled by 2, which disables the closed-form fast path) gives the same margins."""
-    from exotune.analysis import _dob_margins_rows
+    from exotune.analysis.core import _dob_margins_rows
 
     rng = np.random.default_rng(3)
     n = 40
@@ -657,7 +657,7 @@ def test_passivity_does_not_depend_on_the_human_families():
     empty and the excess read 0)."""
     import dataclasses
 
-    from exotune.humans import HumanFamily
+    from exotune.model.humans import HumanFamily
 
     cfg = load_design(PAPER)
     ref = analyze_design(cfg)["passivity"]

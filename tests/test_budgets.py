@@ -1,4 +1,4 @@
-"""Per-task work budgets of the adaptive kernels (exotune._fastphase.MAX_TASK_EVALS /
+"""Per-task work budgets of the adaptive kernels (exotune.numerics.kernels.MAX_TASK_EVALS /
 MAX_TASK_LEAVES): a pathological design terminates, its verdicts are inconclusive (never "stable")
 and the passivity metrics (which need full frequency coverage) are NaN. Found by fuzzing: a 1e-12 kg·m² motor
 inertia with a 1 ms delay made ``exotune analyze`` run for over half an hour (the phase of e^{-jωT}
@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from exotune import _fastphase
-from exotune.analysis import analyze_batch, char_terms
-from exotune.config import batch_config, design_from_mapping, load_design
-from exotune.controller import build_controller
-from exotune.quasipoly import adaptive_leaves, leaves_pair, log_grid, omega_max
+from exotune.numerics import kernels as _fastphase
+from exotune.analysis.core import analyze_batch, char_terms
+from exotune.config.design import batch_config, design_from_mapping, load_design
+from exotune.model.controller import build_controller
+from exotune.numerics.quasipoly import adaptive_leaves, leaves_pair, log_grid, omega_max
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -124,7 +124,7 @@ def _with(**changes):
 def _delay_tasks(n: int, T: float = 1e4):
     """n copies of Δ = (s + 1)(s + 2) + 1.9 e^{−sT}: stable, but the phase of the delay term winds
     ~ω_max·T times, so each count needs tens of thousands of evaluations."""
-    from exotune.quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
+    from exotune.numerics.quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
 
     P0 = np.repeat([[2.0, 3.0, 1.0]], n, 0)
     P1 = np.repeat([[1.9, 0.0, 0.0]], n, 0)
@@ -152,7 +152,7 @@ def test_family_with_thousands_of_critical_values_is_inconclusive():
     """A degenerate design (α = 1, 1e-9 kg·m² felt inertia, 1e9 N·m/rad cuff, 0.2 s delay) has
     ~10⁴ critical inertias: it used to queue 10⁴ budget-spending counts (10 minutes). Past
     MAX_FAMILY_PIECES it is inconclusive at once, and never robust."""
-    from exotune.analysis import MAX_FAMILY_PIECES
+    from exotune.analysis.core import MAX_FAMILY_PIECES
 
     cfg = _with(design__amplification=1.0, design__felt_inertia=1e-9, design__felt_damping=1e-12,
                 plant__cuff_stiffness=1e9, implementation__delay_s=0.2)

@@ -321,11 +321,11 @@ def test_sea_text():
 
 # -------------------------------------------------------------------------------- wrappers
 def test_analyze_json_if_available():
-    pytest.importorskip("exotune.analysis")
+    pytest.importorskip("exotune.analysis.core")
     try:
-        from exotune.analysis import analyze_design, format_report  # noqa: F401
+        from exotune.analysis.core import analyze_design, format_report  # noqa: F401
     except ImportError:
-        pytest.skip("exotune.analysis.analyze_design not available yet")
+        pytest.skip("exotune.analysis.core.analyze_design not available yet")
     res = run("analyze", PAPER, "--json")
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout)

@@ -15,9 +15,9 @@ import control
 import pytest
 
 import reference_model as ref
-from exotune.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
-from exotune.model import CompliancePair, Plant, Tf, parallel, series, seven_systems, virtual_parallel, virtual_series
-from exotune.shaping import DesignParams
+from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
+from exotune.model.plant import CompliancePair, Plant, Tf, parallel, series, seven_systems, virtual_parallel, virtual_series
+from exotune.model.shaping import DesignParams
 
 PAPER_PLANT = dict(J_m=0.44, B_m=17.9, K_s=1180.0, J_j=0.29, K_c=300.0)
 PAPER_DESIGN = dict(amplification=8.0, felt_inertia=0.25, felt_damping=1.0, zeta=0.7, zeta_hat=0.7)

@@ -25,11 +25,11 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from exotune.certify import _intervals, certify, position_feedback, sampled_analysis
+from exotune.controllerfile.certify import _intervals, certify, position_feedback, sampled_analysis
 from exotune.cli import cli
 from exotune.errors import ConfigError
-from exotune.export import build_export, check_controller_file, load_controller, validate_controller
-from exotune.runtime import Runtime
+from exotune.controllerfile.export import build_export, check_controller_file, load_controller, validate_controller
+from exotune.controllerfile.runtime import Runtime
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -43,7 +43,7 @@ def _design(**humans):
 
 
 def _export(raw, fs=1000.0) -> dict:
-    from exotune.export import design_at_rate
+    from exotune.controllerfile.export import design_at_rate
 
     return build_export(design_at_rate(raw, fs), fs)
 
@@ -240,7 +240,7 @@ def test_every_sampled_prediction_is_compared(doc1k, tmp_path, path, value, name
 
 @pytest.fixture(scope="module")
 def scheduled():
-    from exotune.export import export_design
+    from exotune.controllerfile.export import export_design
 
     import tempfile
 
@@ -341,7 +341,7 @@ def test_runtime_refuses_non_finite_inputs(doc1k):
 def test_refinement_budget_shrinks_with_the_loop_size():
     """A big loop (long delay at a high rate) gets the eigen-solver work of MAX_REFINED values of a
     REF_STATES-state loop: an unresolvable family stops after ≥ 50, not 20 000, values."""
-    from exotune import certify as cmod
+    from exotune.controllerfile import certify as cmod
 
     calls = []
 

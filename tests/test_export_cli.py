@@ -36,15 +36,15 @@ from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import exotune.export as export_mod
+import exotune.controllerfile.export as export_mod
 from exotune.cli import cli
 from exotune.errors import ConfigError
-from exotune.export import json_schema, schema_path, sos_ss, tustin_sos, validate_controller
-from exotune.runtime import SosFilter
+from exotune.controllerfile.export import json_schema, schema_path, sos_ss, tustin_sos, validate_controller
+from exotune.controllerfile.runtime import SosFilter
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
-SHIPPED_SCHEMA = ROOT / "exotune" / "schemas" / "controller.schema.json"
+SHIPPED_SCHEMA = ROOT / "exotune" / "controllerfile" / "schemas" / "controller.schema.json"
 
 
 def run(*args):

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exotune import _fastphase
-from exotune.analysis import _Counter, _Side, amplification_qps, char_terms
-from exotune.config import batch_config, load_design
-from exotune.controller import build_controller
-from exotune.quasipoly import QP, _phase_sums, count_rhp, log_grid, omega_max
+from exotune.numerics import kernels as _fastphase
+from exotune.analysis.core import _Counter, _Side, amplification_qps, char_terms
+from exotune.config.design import batch_config, load_design
+from exotune.model.controller import build_controller
+from exotune.numerics.quasipoly import QP, _phase_sums, count_rhp, log_grid, omega_max
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
 
@@ -46,7 +46,7 @@ def test_numba_and_numpy_phase_sums_agree():
     P0 = np.concatenate([pad(i[0], w0) for i in c.items])
     P1 = np.concatenate([pad(i[1], w1) for i in c.items])
     T = np.concatenate([np.broadcast_to(i[2], i[0].shape[:1]) for i in c.items])
-    from exotune.poly import strip_common_low_zeros
+    from exotune.numerics.poly import strip_common_low_zeros
 
     _, (P0, P1) = strip_common_low_zeros(P0, P1)
     q = QP(P0, P1, T)
@@ -67,8 +67,8 @@ def test_geometric_splitting_gives_the_same_phase_sums_with_fewer_evaluations():
     """Counts split wide intervals at their geometric mean (quasipoly.adaptive_leaves
     geometric=True, the compiled kernel likewise): the same accepted-phase totals as midpoint
     splitting, hence the same counts, from fewer evaluations."""
-    from exotune.poly import strip_common_low_zeros
-    from exotune.quasipoly import adaptive_leaves
+    from exotune.numerics.poly import strip_common_low_zeros
+    from exotune.numerics.quasipoly import adaptive_leaves
 
     c = _tasks(n=60, seed=9)
     items = [i for i in c.items if not np.iscomplexobj(i[0])]
@@ -112,7 +112,7 @@ def test_trap_counts_with_kernel():
 
 def test_analyze_batch_same_with_both_engines(monkeypatch):
     """Every metric of analyze_batch is the same with the compiled kernels and the numpy reference."""
-    from exotune.analysis import analyze_batch
+    from exotune.analysis.core import analyze_batch
 
     base = load_design(ROOT / "examples" / "paper.yaml")
     rng = np.random.default_rng(9)
@@ -143,7 +143,7 @@ def test_analyze_batch_same_with_both_engines(monkeypatch):
 def test_omega_max_compiled_equals_numpy():
     """The compiled tail bound equals the numpy one (rows with zeros, degree drops, P0 ≡ 0,
     non-retarded rows → inf, complex coefficients)."""
-    from exotune.quasipoly import omega_max
+    from exotune.numerics.quasipoly import omega_max
 
     rng = np.random.default_rng(3)
     seen_inf = seen_finite = False
@@ -165,7 +165,7 @@ def test_omega_max_compiled_equals_numpy_with_extreme_and_nonfinite_coefficients
     """Coefficients over 60 decades, NaN and inf entries (an infinite coefficient below the
     leading one makes the bound infinite: the task is then inconclusive); both engines agree bit
     for bit."""
-    from exotune.quasipoly import omega_max
+    from exotune.numerics.quasipoly import omega_max
 
     rng = np.random.default_rng(0)
     p0 = rng.normal(size=(2000, 9)) * 10.0 ** rng.integers(-30, 30, size=(2000, 9))
@@ -188,7 +188,7 @@ def test_compiled_counter_pipeline_equals_numpy_counter():
     tail bound, phase sum, tail and ω = 0 terms) gives the numpy Counter's exact (N, r, conclusive)
     on every task of a real batch: free, locked, minimum phase, the mass/spring/hysteretic family
     representatives (complex coefficients), with and without delay."""
-    import exotune.analysis as an
+    import exotune.analysis.core as an
 
     base = load_design(ROOT / "examples" / "paper.yaml")
     rng = np.random.default_rng(5)
@@ -236,7 +236,7 @@ def _human_leaves(n, rng, delay_lo, delay_hi):
 def test_compiled_leaf_classification_equals_numpy(k, factor, lo, hi):
     """Crossing values and bracket / sub-sampling flags of every leaf: the compiled kernel equals the
     numpy reference, on real leaves and on planted degenerate ones (zeros, inf, nan, ω = 0)."""
-    from exotune.analysis import _SIN_NEAR, _classify, _classify_numpy
+    from exotune.analysis.core import _SIN_NEAR, _classify, _classify_numpy
 
     rng = np.random.default_rng(3)
     _, _, lv = _human_leaves(60, rng, 0.0, 0.005)
@@ -266,7 +266,7 @@ def test_compiled_leaf_classification_equals_numpy(k, factor, lo, hi):
 def test_compiled_subsampling_equals_numpy(monkeypatch):
     """Brackets found by sub-sampling suspicious leaves (light masses near the real axis, delay
     ripple): the compiled pass returns exactly the numpy reference's brackets."""
-    from exotune import analysis as A
+    from exotune.analysis import core as A
 
     D0, D1, lv = _human_leaves(40, np.random.default_rng(4), 0.0005, 0.006)
     fam = load_design(ROOT / "examples" / "paper.yaml").humans[0]  # mass: κ ≈ K_c/ω² hugs the real axis
@@ -287,7 +287,7 @@ def test_compiled_subsampling_equals_numpy(monkeypatch):
 def test_compiled_polynomial_product_has_the_bits_of_the_numpy_loop(monkeypatch):
     """poly.pmul runs compiled for large real batches; it accumulates in the numpy loop's order,
     so both give identical coefficients (exact structural zeros included)."""
-    from exotune import poly
+    from exotune.numerics import poly
 
     rng = np.random.default_rng(3)
     a = rng.normal(size=(300, 6)) * 10.0 ** rng.integers(-8, 8, size=(300, 6))
@@ -311,8 +311,8 @@ def test_compiled_polynomial_product_has_the_bits_of_the_numpy_loop(monkeypatch)
 def test_compiled_family_tail_bound_equals_numpy(monkeypatch):
     """The compiled family tail frequency (every p of a family's range) equals the numpy one on
     real designs, for the mass, spring and damper slots, ranges touching 0 and reversed signs."""
-    from exotune.analysis import _family_wmax
-    from exotune.humans import family_split
+    from exotune.analysis.core import _family_wmax
+    from exotune.model.humans import family_split
 
     n = 300
     base = load_design(ROOT / "examples" / "paper.yaml")

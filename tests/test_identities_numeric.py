@@ -1,5 +1,5 @@
-"""SPEC §4 identities checked numerically on >= 10^4 random plants per test (exotune.model,
-exotune.shaping, exotune.controller), plus sanity tests of the independent reference model
+"""SPEC §4 identities checked numerically on >= 10^4 random plants per test (exotune.model.plant,
+exotune.model.shaping, exotune.model.controller), plus sanity tests of the independent reference model
 (tests/reference_model.py).
 
 Random plants: J_m, B_m, K_s, J_j, K_c, felt inertia and felt damping log-uniform over six decades
@@ -29,10 +29,10 @@ from hypothesis import strategies as st
 from scipy.optimize import linear_sum_assignment
 
 import reference_model as ref
-from exotune.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
-from exotune.model import Plant, Tf, seven_systems
-from exotune.poly import Rational
-from exotune.shaping import (
+from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
+from exotune.model.plant import Plant, Tf, seven_systems
+from exotune.numerics.poly import Rational
+from exotune.model.shaping import (
     DesignParams,
     SeaGains,
     SeaShape,
@@ -374,7 +374,7 @@ def test_nominal_Gv_matches_paper(seed):
 
 
 # ----------------------------------------------------------------------------------------------
-# implemented cuff path G_c,impl (SPEC §3) vs exotune.controller
+# implemented cuff path G_c,impl (SPEC §3) vs exotune.model.controller
 # ----------------------------------------------------------------------------------------------
 @BATCH_SETTINGS
 @given(seed=SEEDS)

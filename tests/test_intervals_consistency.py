@@ -8,10 +8,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from exotune.analysis import analyze_batch, char_terms, coupled_stable
-from exotune.config import batch_config, load_design
-from exotune.controller import build_controller
-from exotune.humans import EnvModel, HumanFamily
+from exotune.analysis.core import analyze_batch, char_terms, coupled_stable
+from exotune.config.design import batch_config, load_design
+from exotune.model.controller import build_controller
+from exotune.model.humans import EnvModel, HumanFamily
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
 
@@ -103,7 +103,7 @@ def test_critical_values_solve_the_crossing_equation():
     cols = analyze_batch(cfg)
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, 60)
-    from exotune.humans import family_split
+    from exotune.model.humans import family_split
 
     seen = 0
     for i, fam in enumerate(cfg.humans):
@@ -163,7 +163,7 @@ def test_single_design_report_verifies_intervals(monkeypatch):
     """analyze_design checks the interval structure against exact counts at 64 values per family:
     with the crossing search sabotaged (no critical values found), the mass family of the §9 file
     is flagged (mismatches listed, not robust, not conclusive) instead of being reported robust."""
-    import exotune.analysis as an
+    import exotune.analysis.core as an
 
     cfg = load_design(ROOT / "examples" / "paper.yaml")
     good = an.analyze_design(cfg)["humans"][0]

@@ -1,4 +1,4 @@
-"""KYP passivity certificates (exotune.kyp): the SDP against three independent references —
+"""KYP passivity certificates (exotune.analysis.kyp): the SDP against three independent references —
 the closed form of the nominal C7 (sympy), the frequency response (dense grid + local refinement),
 and python-control's own passivity LMI (control.passivity, cvxopt) — plus the exact-delay
 frequency metric of the analysis at T = 0."""
@@ -14,12 +14,12 @@ import sympy as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from exotune.analysis import analyze_batch, analyze_design, char_terms
-from exotune.config import batch_config, design_from_mapping, load_design
-from exotune.controller import build_controller
-from exotune.kyp import admittance_certificate, compliance_certificate, nominal_shortage, operator_certificates
-from exotune.poly import padd
-from exotune.shaping import double_compliance_shaping
+from exotune.analysis.core import analyze_batch, analyze_design, char_terms
+from exotune.config.design import batch_config, design_from_mapping, load_design
+from exotune.model.controller import build_controller
+from exotune.analysis.kyp import admittance_certificate, compliance_certificate, nominal_shortage, operator_certificates
+from exotune.numerics.poly import padd
+from exotune.model.shaping import double_compliance_shaping
 
 PAPER = "examples/paper.yaml"
 
@@ -75,8 +75,8 @@ def test_nominal_real_part_and_b2hat_identity_symbolic():
 @given(alpha=st.floats(1.5, 40.0), fi=st.floats(0.02, 2.0), fd=st.floats(0.05, 40.0), zh=st.floats(0.05, 1.5),
        Kc=st.floats(50.0, 3000.0))
 def test_nominal_certificate_matches_closed_form(alpha, fi, fd, zh, Kc):
-    from exotune.model import Plant
-    from exotune.shaping import DesignParams, nominal_transfer_functions
+    from exotune.model.plant import Plant
+    from exotune.model.shaping import DesignParams, nominal_transfer_functions
 
     plant = Plant(0.44, 17.9, 1180.0, 0.29, Kc)
     design = DesignParams(alpha, fi, fd, 0.7, zh)
@@ -263,7 +263,7 @@ def test_realization_error_detects_a_wrong_realization():
     perturbed one fails."""
     import scipy.signal
 
-    from exotune.kyp import _realization_error
+    from exotune.analysis.kyp import _realization_error
 
     num, den = np.array([1.0, 3.0]), np.array([1.0, 0.4, 4.0])  # descending
     A, B, C, _ = scipy.signal.tf2ss(num, den)

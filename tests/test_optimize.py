@@ -1,5 +1,5 @@
 """exotune optimize (SPEC §7): the optimum is checked by an independent path — the single-design
-analysis (exotune.analysis.analyze_design) at the optimum and just past it, and a dense batch scan
+analysis (exotune.analysis.core.analyze_design) at the optimum and just past it, and a dense batch scan
 of the objective parameter — plus determinism, the Pareto property and the CLI contract."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from exotune.analysis import analyze_batch, analyze_design
+from exotune.analysis.core import analyze_batch, analyze_design
 from exotune.cli import cli
-from exotune.config import batch_config, design_from_mapping, load_design
+from exotune.config.design import batch_config, design_from_mapping, load_design
 from exotune.optimize import format_optimize, load_optimize_spec, optimize, optimized_design_mapping
 
 ROOT = Path(__file__).resolve().parents[1]

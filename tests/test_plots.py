@@ -1,4 +1,4 @@
-"""``exotune analyze --plots``: the analysis figures (exotune.plots).
+"""``exotune analyze --plots``: the analysis figures (exotune.plots.analysis).
 
 The four PNGs are produced for the paper example and are real, non-trivial images; the DOB figure
 is skipped without a DOB; and a failure while rendering writes nothing (not even the directory).
@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from exotune import plots
-from exotune.analysis import analyze_design
-from exotune.config import load_design
+from exotune.plots import analysis as plots
+from exotune.analysis.core import analyze_design
+from exotune.config.design import load_design
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"

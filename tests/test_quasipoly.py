@@ -1,4 +1,4 @@
-"""exotune.quasipoly.count_rhp: RHP zero counts of Δ(s) = P0(s) + P1(s) e^{−sT} (SPEC §5).
+"""exotune.numerics.quasipoly.count_rhp: RHP zero counts of Δ(s) = P0(s) + P1(s) e^{−sT} (SPEC §5).
 
 Independent truths used here:
 
@@ -27,7 +27,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from numpy.polynomial import polynomial as P
 
-from exotune.quasipoly import QP, count_rhp
+from exotune.numerics.quasipoly import QP, count_rhp
 
 from reference_model import pade_qp_roots
 

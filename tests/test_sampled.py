@@ -1,11 +1,11 @@
-"""Sampled-data model (exotune.sampled) checked two independent ways:
+"""Sampled-data model (exotune.sampled.loop) checked two independent ways:
 
 * its pieces: the fractional-delay zero-order-hold discretization against a fine continuous
   simulation (scipy.signal.lsim with the delayed held input), and the assembled discrete controller
   against the continuous controller of SPEC §3 through the exact Tustin frequency identity
   H_d(e^{jωT_s}) = H(j (2/T_s) tan(ωT_s/2));
 * its verdicts: at a high sample rate the sampled-data loop agrees with the continuous exact-delay
-  analysis (exotune.analysis.coupled_stable) on random designs, humans and environments, and the
+  analysis (exotune.analysis.core.coupled_stable) on random designs, humans and environments, and the
   light-inertia boundary of the §9 design converges to the continuous one.
 """
 
@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from exotune.analysis import analyze_design, coupled_stable
-from exotune.config import load_design
-from exotune.controller import build_controller
-from exotune.sampled import Measured, closed_loop_matrix, discretize, plant_ss, sampled_stable, zoh_fractional
+from exotune.analysis.core import analyze_design, coupled_stable
+from exotune.config.design import load_design
+from exotune.model.controller import build_controller
+from exotune.sampled.loop import Measured, closed_loop_matrix, discretize, plant_ss, sampled_stable, zoh_fractional
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = load_design(ROOT / "examples" / "paper.yaml")
@@ -128,7 +128,7 @@ def test_badly_scaled_block_prewarped_near_nyquist_is_accurate_and_quiet():
     response still equals H(K (z−1)/(z+1)) to ~1e-11, and no warning reaches the user."""
     import warnings
 
-    from exotune.sampled import _tustin
+    from exotune.sampled.loop import _tustin
 
     num = np.array([2.17411924e10, 1.02444596e10, 7.44571640e8, 8.40258869e6, 1.01233488e5])
     den = np.array([2.47059005e10, 6.22682763e9, 1.26081987e7, 5.02175179e3, 1.0])
@@ -286,7 +286,7 @@ def test_sampled_check_covers_environment_ranges():
     """Environment spring/mass ranges at the joint (cuff free) are checked like the human
     families: the §9 design with a joint spring range 10–10⁴ N·m/rad and a joint mass range
     0.01–10 kg·m² at 1 kHz, sampled verdicts against the continuous environment intervals."""
-    from exotune.humans import EnvModel
+    from exotune.model.humans import EnvModel
 
     env = (EnvModel("locked"), EnvModel("spring", "stiffness", 10.0, 1e4), EnvModel("mass", "inertia", 0.01, 10.0))
     cfg = dataclasses.replace(BASE, environment=env,
@@ -315,7 +315,7 @@ def test_zoh_and_prewarped_tustin_match_python_control():
     responses on the unit circle."""
     import control
 
-    from exotune.sampled import _tustin
+    from exotune.sampled.loop import _tustin
 
     A, B, C = plant_ss(BASE.plant, {"inertia": 0.1, "damping": 2.0, "stiffness": 30.0}, "free")
     Ts = 1e-3

@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exotune.cli import cli
-from exotune.config import design_from_mapping, load_design
-from exotune.export import build_export, discrete_from_file, plant_from_file
-from exotune.sampled import closed_loop_matrix, plant_ss
+from exotune.config.design import design_from_mapping, load_design
+from exotune.controllerfile.export import build_export, discrete_from_file, plant_from_file
+from exotune.sampled.loop import closed_loop_matrix, plant_ss
 from exotune.simulate import SCENARIOS, Nonlinearities, _deadzone, run_scenario, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -139,7 +139,7 @@ def test_delay_sample_limit_in_design_and_controller_files(tmp_path):
     files (certify), with the field named."""
     import yaml
 
-    from exotune.config import MAX_DELAY_SAMPLES
+    from exotune.config.design import MAX_DELAY_SAMPLES
     from exotune.errors import ConfigError
 
     raw = yaml.safe_load((ROOT / "examples" / "paper.yaml").read_text())

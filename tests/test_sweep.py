@@ -21,11 +21,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from exotune import __version__
-from exotune.analysis import analyze_batch
+from exotune.analysis.core import analyze_batch
 from exotune.cli import cli
-from exotune.config import batch_config, load_design
+from exotune.config.design import batch_config, load_design
 from exotune.errors import ConfigError
-from exotune.sweep import SweepError, load_manifest, load_results, load_spec, run_sweep
+from exotune.sweep.engine import SweepError, load_manifest, load_results, load_spec, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -165,7 +165,7 @@ def test_kill_and_resume_matches_uninterrupted(tmp_path):
     spec = write_spec(tmp_path, axes=axes, chunk_size=1)
     killed, clean = tmp_path / "killed", tmp_path / "clean"
     code = (
-        "import sys; from exotune.sweep import run_sweep; "
+        "import sys; from exotune.sweep.engine import run_sweep; "
         f"run_sweep({str(spec)!r}, {str(killed)!r}, workers=1, progress=False)"
     )
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -429,7 +429,7 @@ def test_sampling_deterministic_uniform_without_replacement():
     assert sorted(full.tolist()) == list(range(total)) and not np.array_equal(full, np.arange(total))
     # chunks are generated independently: any chunk equals the slice of the whole
     plan, whole = idx(500, 1, chunk_size=37)
-    from exotune.sweep import chunk_points
+    from exotune.sweep.engine import chunk_points
 
     g, vals = chunk_points(plan, 5)
     assert np.array_equal(g, whole[5 * 37: 6 * 37])
@@ -462,7 +462,7 @@ def test_sampled_sweep_rows(tmp_path):
 # failing chunks
 # --------------------------------------------------------------------------------------------
 def test_failing_chunk_reported_and_retried(ref, tmp_path, monkeypatch, capsys):
-    import exotune.sweep as sw
+    import exotune.sweep.engine as sw
 
     spec, _, _, df = ref
     real = sw.analyze_batch
@@ -499,7 +499,7 @@ def test_verify_points_option(tmp_path):
     stores the number of mismatches per design (0 for a correct analysis)."""
     import yaml
 
-    from exotune.sweep import load_results, run_sweep
+    from exotune.sweep.engine import load_results, run_sweep
 
     spec = tmp_path / "spec.yaml"
     spec.write_text(yaml.safe_dump({
@@ -519,7 +519,7 @@ def test_sweep_with_a_box_family(tmp_path):
     the single-design report)."""
     import yaml
 
-    from exotune.sweep import load_results, run_sweep
+    from exotune.sweep.engine import load_results, run_sweep
 
     base = yaml.safe_load((Path(__file__).resolve().parents[1] / "examples" / "paper.yaml").read_text())
     base["humans"] = [{"kind": "msd", "inertia": [0.002, 0.15], "damping": [0.01, 2.0], "stiffness": [2.0, 300.0]}]
@@ -538,7 +538,7 @@ def test_nested_list_column_equals_pyarrow_conversion(rows):
     conversion of the nested Python lists (values, empties, inf)."""
     import pyarrow as pa
 
-    from exotune.sweep import _nested_float_lists
+    from exotune.sweep.engine import _nested_float_lists
 
     ref = pa.array(rows, type=pa.list_(pa.list_(pa.float64())))
     assert _nested_float_lists(rows).equals(ref)
@@ -548,7 +548,7 @@ def test_nested_list_column_equals_pyarrow_conversion(rows):
 def test_manifest_says_a_sample_rate_is_not_simulated(tmp_path):
     """A base design with sample_rate_hz: the sweep is still the continuous analysis and says so
     (manifest ``model`` and the report's summary)."""
-    from exotune.report import make_report
+    from exotune.sweep.report import make_report
 
     base = yaml.safe_load(PAPER.read_text())
     base["implementation"]["sample_rate_hz"] = 1000.0
@@ -568,7 +568,7 @@ def test_numpy_to_arrow_matches_pa_array(xs, step):
     for float (NaN kept as a value), int64 and bool columns, strided inputs included."""
     import pyarrow as pa
 
-    from exotune.sweep import _np_arrow
+    from exotune.sweep.engine import _np_arrow
 
     f = np.array(xs, dtype=float)[::step]
     ints = np.arange(f.size, dtype=np.int64)[::-1] * 7 - 3
@@ -588,7 +588,7 @@ def test_chunk_task_does_not_import_pandas(tmp_path):
     """A worker's chunk (analysis, Arrow table, Parquet) never imports pandas (~1 s of start-up)."""
     spec = tmp_path / "s.yaml"
     spec.write_text(yaml.safe_dump({"base": str(PAPER), "axes": {"design.amplification": [2.0, 4.0]}}))
-    code = ("import sys; from exotune.sweep import load_spec, _chunk_task; p = load_spec(sys.argv[1]); "
+    code = ("import sys; from exotune.sweep.engine import load_spec, _chunk_task; p = load_spec(sys.argv[1]); "
             "r = _chunk_task(p.spec, p.hash, 0, None); assert r['error'] is None and r['rows'] == 2, r; "
             "print('pandas' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code, str(spec)], capture_output=True, text=True, timeout=300)

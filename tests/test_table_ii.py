@@ -1,10 +1,10 @@
-"""paper Table II built from a plant and a design (exotune.shaping.table_ii) satisfies the SPEC §4
+"""paper Table II built from a plant and a design (exotune.model.shaping.table_ii) satisfies the SPEC §4
 identities at zero delay, and the delay enters only through H1 (exactly)."""
 
 import numpy as np
 
-from exotune.model import Plant
-from exotune.shaping import DesignParams, double_compliance_shaping, table_ii
+from exotune.model.plant import Plant
+from exotune.model.shaping import DesignParams, double_compliance_shaping, table_ii
 
 PLANT = Plant(0.44, 17.9, 1180.0, 0.29, 300.0)
 DESIGN = DesignParams(8.0, 0.25, 1.0, 0.7, 0.7)

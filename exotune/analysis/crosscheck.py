@@ -21,11 +21,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .analysis import _strip, _trim, analyze_batch, char_terms
-from .controller import build_controller
-from .humans import family_split
-from .poly import padd, pmul
-from .quasipoly import QP, omega_max
+from .core import strip_qps, trim_poly, analyze_batch, char_terms
+from ..model.controller import build_controller
+from ..model.humans import family_split
+from ..numerics.poly import padd, pmul
+from ..numerics.quasipoly import QP, omega_max
 
 __all__ = ["pade_crosscheck", "pade_stable"]
 
@@ -55,7 +55,7 @@ def _roots_scaled(c: np.ndarray) -> np.ndarray:
 def pade_stable(p0: np.ndarray, p1: np.ndarray, T: float, order: int, allowed_rigid: int = 1):
     """(stable, rightmost root) of P0 + P1·Padé_n(e^{−sT}) for one real quasi-polynomial."""
     q = QP(np.atleast_2d(p0), np.atleast_2d(p1), np.array([T]))
-    r, (qs,) = _strip(q)
+    r, (qs,) = strip_qps(q)
     roots = _pade_roots(qs.p0[0], qs.p1[0], T, order)
     right = roots[np.argmax(roots.real)] if roots.size else complex(-np.inf)
     return bool((right.real < 0) and (r[0] <= allowed_rigid)), right
@@ -131,11 +131,11 @@ def pade_crosscheck(cfg, orders=(10, 16)) -> dict:
             p0 = padd(D0.p0[0], p * pmul(D1.p0[0], phi))
             p1 = padd(D0.p1[0], p * pmul(D1.p1[0], phi))
             verdict = any(a <= p <= b for a, b in ivs)
-            cases.append((f"human{i} {fam.kind} {fam.param} = {p:.6g} {fam.unit}", _trim(p0[None])[0], _trim(p1[None])[0], 1, verdict))
+            cases.append((f"human{i} {fam.kind} {fam.param} = {p:.6g} {fam.unit}", trim_poly(p0[None])[0], trim_poly(p1[None])[0], 1, verdict))
     out = {"pade_orders": list(orders), "checked": 0, "agree": 0, "unconfirmed": [], "disagreements": []}
     for label, p0, p1, allowed, verdict in cases:
         q = QP(np.atleast_2d(p0), np.atleast_2d(p1), np.array([T]))
-        r, (qs,) = _strip(q)
+        r, (qs,) = strip_qps(q)
         rhp = exact_rhp_roots(qs.p0[0], qs.p1[0], T, orders)
         second = bool(rhp.size == 0 and r[0] <= allowed)
         out["checked"] += 1

@@ -131,7 +131,7 @@ def _design_label(cfg, result: dict) -> str:
 
 
 def _controller(cfg, implementation=None):
-    from .controller import build_controller
+    from ..model.controller import build_controller
 
     return build_controller(cfg.plant, cfg.design, implementation or cfg.implementation)
 
@@ -146,7 +146,7 @@ def _mark_bands(ax, bands, label=True):
 # 1. Bode of the compliances
 # ----------------------------------------------------------------------------------------------
 def _fig_bode_compliances(cfg, result: dict) -> bytes:
-    from .analysis import amplification_qps, char_terms
+    from ..analysis.core import amplification_qps, char_terms
 
     cs, _ds = _controller(cfg)
     ct = char_terms(cfg.plant, cs, 1)
@@ -258,8 +258,8 @@ def _nyq_extent(L: np.ndarray) -> float:
 def _fig_nyquist_humans(cfg, result: dict) -> bytes:
     from matplotlib import colormaps
 
-    from .analysis import char_terms
-    from .humans import family_split
+    from ..analysis.core import char_terms
+    from ..model.humans import family_split
 
     humans = result["humans"]
     cs, _ds = _controller(cfg)
@@ -447,7 +447,7 @@ def second_delay(T: float) -> float:
 
 
 def _fig_amplification(cfg, result: dict) -> bytes:
-    from .analysis import amplification, amplification_qps
+    from ..analysis.core import amplification, amplification_qps
 
     T = float(np.asarray(cfg.implementation.delay_s))
     T2 = second_delay(T)
@@ -521,7 +521,7 @@ def write_analysis_plots(cfg, result: dict, out_dir) -> list[Path]:
     If writing fails part-way, the files written by this call are removed again (and
     ``out_dir`` too when this call created it and it is left empty). Returns the written paths.
     """
-    from .jsonio import write_atomic
+    from ..jsonio import write_atomic
 
     files = render_analysis_plots(cfg, result)
     out = Path(out_dir)

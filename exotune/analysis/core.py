@@ -39,11 +39,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .controller import ControllerStructure, build_controller
-from .humans import HumanFamily, family_split
-from .model import Plant
-from .poly import _pad, as_poly, degree, leading, padd, pmul, pscale, psub, pval_flat, strip_common_low_zeros
-from .quasipoly import QP, bisect_roots, count_rhp, leaves_pair, log_grid, omega_max
+from ..model.controller import ControllerStructure, build_controller
+from ..model.humans import HumanFamily, family_split
+from ..model.plant import Plant
+from ..numerics.poly import pad_cols, as_poly, degree, leading, padd, pmul, pscale, psub, pval_flat, strip_common_low_zeros
+from ..numerics.quasipoly import QP, bisect_roots, count_rhp, leaves_pair, log_grid, omega_max
 
 __all__ = [
     "CharTerms",
@@ -161,11 +161,11 @@ def char_terms(plant: Plant, cs: ControllerStructure, N: int) -> CharTerms:
         S = padd(padd(pmul(w_th, Nth[key]), pmul(w_ts, Nts[key])), pmul(w_tc, Ntc[key]))
         P0 = pmul(dd, dmn)
         P1 = psub(pmul(dd, nq), pmul(dq, S))
-        terms[key] = QP(_trim(P0), _trim(P1), T)
+        terms[key] = QP(trim_poly(P0), trim_poly(P1), T)
     return CharTerms(terms, T)
 
 
-def _trim(c: np.ndarray) -> np.ndarray:
+def trim_poly(c: np.ndarray) -> np.ndarray:
     """Drop trailing all-zero highest-order columns."""
     nz = np.nonzero(np.any(c != 0, axis=0))[0]
     return c[:, : (nz[-1] + 1 if nz.size else 1)]
@@ -185,17 +185,17 @@ def amplification_qps(plant: Plant, cs: ControllerStructure, N: int) -> tuple[QP
     P0 = pmul(Ad, psub(dq, nq))
     Sd = psub(w_th, pscale(w_ts, Ks))
     Sn = psub(Sd, pscale(w_tc, Ks))
-    den = QP(_trim(P0), _trim(psub(pmul(Ad, nq), pmul(dq, Sd))), T)
-    num = QP(_trim(P0), _trim(psub(pmul(Ad, nq), pmul(dq, Sn))), T)
+    den = QP(trim_poly(P0), trim_poly(psub(pmul(Ad, nq), pmul(dq, Sd))), T)
+    num = QP(trim_poly(P0), trim_poly(psub(pmul(Ad, nq), pmul(dq, Sn))), T)
     return num, den
 
 
 # ----------------------------------------------------------------------------------------------
 # stability
 # ----------------------------------------------------------------------------------------------
-def _strip(*qps: QP, max_strip=None):
+def strip_qps(*qps: QP, max_strip=None):
     r, arrs = strip_common_low_zeros(*[a for q in qps for a in (q.p0, q.p1)], max_strip=max_strip)
-    out = [QP(_trim(arrs[2 * i]), _trim(arrs[2 * i + 1]), qps[i].T) for i in range(len(qps))]
+    out = [QP(trim_poly(arrs[2 * i]), trim_poly(arrs[2 * i + 1]), qps[i].T) for i in range(len(qps))]
     return r, out
 
 
@@ -241,7 +241,7 @@ class _Counter:
         w1 = max(i[1].shape[-1] for i in self.items)
         cplx = any(np.iscomplexobj(i[0]) or np.iscomplexobj(i[1]) for i in self.items)
         dt = complex if cplx else float
-        pad = lambda c, w: _pad(np.asarray(c), w).astype(dt)
+        pad = lambda c, w: pad_cols(np.asarray(c), w).astype(dt)
         P0 = np.concatenate([pad(i[0], w0) for i in self.items])
         P1 = np.concatenate([pad(i[1], w1) for i in self.items])
         T = np.concatenate([i[2] for i in self.items])
@@ -249,8 +249,8 @@ class _Counter:
         R1 = np.concatenate([pad(i[3][1] if i[3] is not None else i[1], w1) for i in self.items]).real
         has_reg = np.concatenate([np.full(i[0].shape[0], i[3] is not None) for i in self.items])
         if (engine is None and _compiled()) or engine == "numba":
-            from . import _fastphase
-            from .quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
+            from ..numerics import kernels as _fastphase
+            from ..numerics.quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
 
             groups, base = [], 0
             for i in self.items:
@@ -265,7 +265,7 @@ class _Counter:
         v0 = np.where(has_reg, R0s[:, 0] + R1s[:, 0], np.nan)
         if not cplx:
             v0 = None
-        N, ok = count_rhp(QP(_trim(P0s), _trim(P1s), T), v0=v0)
+        N, ok = count_rhp(QP(trim_poly(P0s), trim_poly(P1s), T), v0=v0)
         self.N, self.r, self.ok = N, r, ok
 
     def result(self, h):
@@ -303,9 +303,9 @@ class _Side:
     def group_functions(self, z0):
         if not np.any(z0):  # Δ_0 = Δ{key0} (the product with z0 = 0 would add only zeros)
             A = self.ct.qp(self.key0)
-            return QP(_trim(A.p0), _trim(A.p1), A.T), self.ct.qp(self.key1)
+            return QP(trim_poly(A.p0), trim_poly(A.p1), A.T), self.ct.qp(self.key1)
         D0, D1 = self.ct.combine(self.key0, self.key1, np.asarray(z0))
-        return QP(_trim(D0.p0), _trim(D0.p1), D0.T), D1
+        return QP(trim_poly(D0.p0), trim_poly(D0.p1), D0.T), D1
 
     def compute_leaves(self, z0, extra_wmax=None):
         D0, D1 = self.group_functions(z0)
@@ -478,7 +478,7 @@ def _classify(lv: dict, k: int, factor: complex, lo: float, hi: float):
     (where numpy's complex inf/nan rules decide) go through the numpy reference."""
     if not _compiled():
         return _classify_numpy(lv, k, factor, lo, hi)
-    from . import _fastphase
+    from ..numerics import kernels as _fastphase
 
     ga, gb, br, sus, deg = _fastphase.classify_leaves(lv, k, factor, lo, hi, _SIN_NEAR)
     if deg.any():
@@ -489,7 +489,7 @@ def _classify(lv: dict, k: int, factor: complex, lo: float, hi: float):
 
 
 def _compiled() -> bool:
-    from .quasipoly import compiled
+    from ..numerics.engine import compiled
 
     return compiled()
 
@@ -499,7 +499,7 @@ def _subsample_brackets(g, D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
     spaced points of each leaf [sa, sb] (ends included; M ≥ 8 and ≥ 8 per delay ripple period
     2π/T, at most 512); compiled when available."""
     if _compiled():
-        from . import _fastphase
+        from ..numerics import kernels as _fastphase
 
         return _fastphase.subsample_brackets(D0, D1, k, factor, st, sa, sb)
     Tt = D0.T[st]
@@ -524,7 +524,7 @@ def _pair_roots(fun, qa: QP, qb: QP, mode: str, task, a, b, fa, fb, k: int = 0, 
     """Illinois refinement of sign-change brackets of ``fun`` (numpy reference), or of the same
     function compiled (:func:`exotune._fastphase.pair_roots`, ``mode``/``k``/``factor``/``c``)."""
     if _compiled():
-        from . import _fastphase
+        from ..numerics import kernels as _fastphase
 
         return _fastphase.pair_roots(qa, qb, mode, task, a, b, fa, fb, k=k, factor=factor, c=c)
     return bisect_roots(fun, task, a, b, fa, fb=fb)
@@ -533,7 +533,7 @@ def _pair_roots(fun, qa: QP, qb: QP, mode: str, task, a, b, fa, fb, k: int = 0, 
 def _pair_values(fun, qa: QP, qb: QP, mode: str, task, w, k: int = 0, factor: complex = 1.0, c=None):
     """``fun(task, w)`` (numpy reference) or the same function compiled."""
     if _compiled():
-        from . import _fastphase
+        from ..numerics import kernels as _fastphase
 
         return _fastphase.pair_values(qa, qb, mode, task, w, k=k, factor=factor, c=c)
     return fun(task, w)
@@ -597,7 +597,7 @@ def _family_wmax(D0: QP, D1: QP, phi, factor, lo, hi):
     phi = np.asarray(phi, float)
     real = not any(np.iscomplexobj(x) for x in (D0.p0, D0.p1, D1.p0, D1.p1))
     if real and _compiled():
-        from . import _fastphase
+        from ..numerics import kernels as _fastphase
 
         return _fastphase.family_wmax(D0.p0, D0.p1, D1.p0, D1.p1, phi, factor, lo, hi)
     B0 = pmul(D1.p0, phi[None, :]).astype(complex) * factor
@@ -709,7 +709,7 @@ def passivity(side: _Side):
         a_ = a_l[j]
         b_ = np.where(task[nxt] == ti, b_l[nxt], b_l[j])
         if _compiled():
-            from . import _fastphase
+            from ..numerics import kernels as _fastphase
 
             peak = _fastphase.golden_max(D0, D1, "excess", ti, a_, b_, iters=40)
         else:
@@ -886,7 +886,7 @@ def _dob_margins_rows(nq, dq, T):
     standard = (nq.shape[1] == 1) and (dq.shape[1] == 3) and np.all(dq[:, 2] == 1) and np.all(dq[:, 0] == nq[:, 0])
     if standard:
         out = _dob_margins_standard(nq, dq, T)
-        Nd, rd, okd = rhp_count(QP(_trim(m), _trim(nq), T))
+        Nd, rd, okd = rhp_count(QP(trim_poly(m), trim_poly(nq), T))
         stable = okd & (Nd == 0) & (rd == 0)
         out["delay_margin_s"] = np.where(stable, out["delay_margin_s"], 0.0)
         out["stable"] = stable
@@ -956,7 +956,7 @@ def _dob_margins_rows(nq, dq, T):
     # closed DOB loop 1 + L_dob ∝ (d_q − n_q) + n_q e^{−sT}: if it is already unstable the loop
     # tolerates no extra delay — the wrapped PM_k/ω_k of SPEC §5 would read as a (misleading)
     # positive margin, so the delay margin is 0 then
-    Nd, rd, okd = rhp_count(QP(_trim(m), _trim(nq), T))
+    Nd, rd, okd = rhp_count(QP(trim_poly(m), trim_poly(nq), T))
     stable = okd & (Nd == 0) & (rd == 0)
     dm = np.where(stable, dm, 0.0)
     return {"gain_margin_db": gm, "phase_margin_deg": pm, "delay_margin_s": dm, "crossover_hz": fc, "stable": stable}
@@ -1067,7 +1067,7 @@ def coupled_stable(plant: Plant, cs: ControllerStructure, N: int, human: dict | 
     t = ct.terms
     p0 = padd(padd(t["00"].p0, pmul(t["10"].p0, zh)), padd(pmul(t["01"].p0, ze), pmul(t["11"].p0, pmul(zh, ze))))
     p1 = padd(padd(t["00"].p1, pmul(t["10"].p1, zh)), padd(pmul(t["01"].p1, ze), pmul(t["11"].p1, pmul(zh, ze))))
-    N_, r, ok = rhp_count(QP(_trim(p0), _trim(p1), ct.T))
+    N_, r, ok = rhp_count(QP(trim_poly(p0), trim_poly(p1), ct.T))
     return {"stable": ok & (N_ == 0) & (r <= 1), "n_rhp": N_, "rigid_body_roots": r, "conclusive": ok}
 
 
@@ -1078,7 +1078,7 @@ def _zpoly(d: dict) -> np.ndarray:
 
 def _affine(ct: CharTerms, k0: str, k1: str, z: np.ndarray) -> QP:
     q, _ = ct.combine(k0, k1, z)
-    return QP(_trim(q.p0), _trim(q.p1), q.T)
+    return QP(trim_poly(q.p0), trim_poly(q.p1), q.T)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -1296,9 +1296,9 @@ def analyze_design(cfg) -> dict:
 
 
 def _analyze_design(cfg) -> dict:
-    from .shaping import GAIN_UNITS_TORQUE, double_compliance_shaping
+    from ..model.shaping import GAIN_UNITS_TORQUE, double_compliance_shaping
 
-    from .config import check_analysis_filters
+    from ..config.design import check_analysis_filters
 
     check_analysis_filters(cfg.implementation)
     cols = analyze_batch(cfg, verify=VERIFY_POINTS)
@@ -1365,7 +1365,7 @@ def _analyze_design(cfg) -> dict:
     warnings = list(ds.warnings)
     sampled = None
     if cfg.implementation.sample_rate_hz:
-        from .sampled import check_design
+        from ..sampled.loop import check_design
 
         sampled = check_design(cfg, {"humans": humans, "environment": env})
         fs = sampled["sample_rate_hz"]
@@ -1389,7 +1389,7 @@ def _analyze_design(cfg) -> dict:
         if not e["robust"]:
             warnings.append(f"at joint angle {e['joint_angle_rad']:g} rad (transmission ratio {e['ratio']:g}) the "
                             f"rescheduled design is not robust: {', '.join(e['not_robust'])}")
-    kyp = _kyp_certificates(cfg)  # a non-passive nominal C7 is the B2_hat < 0 warning of shaping
+    kyp = kyp_certificates(cfg)  # a non-passive nominal C7 is the B2_hat < 0 warning of shaping
     if not bool(cols["passivity_conclusive"][0]):
         warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis, or the "
                         "adaptive frequency search spent its per-task budget: extreme parameters)")
@@ -1432,7 +1432,7 @@ def _analyze_design(cfg) -> dict:
     }
 
 
-def _kyp_certificates(cfg) -> dict:
+def kyp_certificates(cfg) -> dict:
     """KYP passivity certificates of the rational models of C7 (:mod:`exotune.kyp`, cvxpy); a
     missing or failing SDP solver is reported in the result, not raised."""
     try:
@@ -1449,7 +1449,7 @@ def _schedule_check(cfg) -> list[dict]:
     tr = cfg.raw["transmission"]
     r2 = np.asarray(tr["ratio"], float) ** 2
     g = lambda x: float(np.ravel(x)[0])  # noqa: E731
-    from .config import batch_config
+    from ..config.design import batch_config
 
     cols = analyze_batch(batch_config(cfg, {"plant.motor_inertia": g(cfg.plant.J_m) * r2,
                                             "plant.motor_damping": g(cfg.plant.B_m) * r2,

@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .model import Plant
-from .poly import Rational, as_poly, padd, pmul, pscale
+from .plant import Plant
+from ..numerics.poly import Rational, as_poly, padd, pmul, pscale
 from .shaping import DesignParams, DoubleShaping, Gains, double_compliance_shaping
 
 __all__ = [

@@ -47,9 +47,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError
-from .jsonio import write_atomic
-from .sweep import _read_tables, load_manifest
+from ..errors import ConfigError
+from ..jsonio import write_atomic
+from .engine import read_tables, load_manifest
 
 __all__ = ["make_report", "derived_metrics", "robust_mask", "AXIS_UNITS", "interval_ends"]
 
@@ -388,7 +388,7 @@ def make_report(sweep_dir, out_dir=None) -> Path:
     want |= {c for c in col_names if re.match(r"^(human|env)\d+_.+_(robust|stable|conclusive|stable_intervals)$", c)}
     want |= {c for c in col_names if c.endswith("_conclusive")}
     cols = [c for c in col_names if c in want]
-    _, table, missing = _read_tables(sweep_dir, cols, allow_partial=True)
+    _, table, missing = read_tables(sweep_dir, cols, allow_partial=True)
     if table is None:
         raise ConfigError(sweep_dir, "the sweep has no results yet (no chunk finished); run `exotune sweep` first")
     n = table.num_rows

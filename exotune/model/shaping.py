@@ -18,8 +18,8 @@ from typing import Literal
 
 import numpy as np
 
-from .model import Plant
-from .poly import Rational, as_poly, padd, pmul, pscale
+from .plant import Plant
+from ..numerics.poly import Rational, as_poly, padd, pmul, pscale
 
 GainUnits = Literal["torque", "deflection"]
 
@@ -286,7 +286,7 @@ def table_ii(plant: Plant, design: DesignParams, delay_s: float = 0.0) -> dict:
     Returns the :class:`~exotune.model.CompliancePair` of each system, evaluable at any array of
     complex s. (The implemented, filtered controller is analysed by :mod:`exotune.analysis`.)
     """
-    from .model import Tf, seven_systems
+    from .plant import Tf, seven_systems
 
     ds = double_compliance_shaping(plant, design)
     g = ds.gains

@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from .sampled import loop_eigenvalues, loop_stable
+from ..sampled.loop import loop_eigenvalues, loop_stable
 
 __all__ = ["POINTS", "sampled_analysis", "certify", "format_certify"]
 
@@ -164,7 +164,7 @@ def _human_dict(fam, v: float) -> dict:
 
 def _in_certify(parse, i, item):
     """A family of the file's ``certify`` section, errors naming ``certify.…``."""
-    from .errors import ConfigError
+    from ..errors import ConfigError
 
     try:
         return parse(i, item)
@@ -175,7 +175,7 @@ def _in_certify(parse, i, item):
 def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     """Free/locked verdicts and the stable intervals of every rational human family and every
     environment spring/mass range of the file's ``certify`` section, for the file's controller."""
-    from .config import _parse_env, _parse_human
+    from ..config.design import parse_env, parse_human
     from .export import discrete_from_file, plant_from_file
 
     plant = plant_from_file(doc)
@@ -196,7 +196,7 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
         "environment": [],
     }
     for i, item in enumerate(doc["certify"].get("humans") or []):
-        fam, _ = _in_certify(_parse_human, i, item)
+        fam, _ = _in_certify(parse_human, i, item)
         entry = {"kind": fam.kind, "parameter": fam.param, "unit": fam.unit, "range": [fam.lo, fam.hi]}
         if fam.kind == "complex_stiffness":
             entry["skipped"] = "hysteretic damping is not rational: it has no finite-dimensional sampled-data model"
@@ -214,7 +214,7 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]] and not info["unresolved"]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
-        env, _ = _in_certify(_parse_env, i, item)
+        env, _ = _in_certify(parse_env, i, item)
         if env.kind not in ("spring", "mass"):
             continue
         ivs, info = _intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points)
@@ -409,7 +409,7 @@ def _prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
 def _run_golden(doc: dict, ins: dict, where: str) -> np.ndarray:
     """The reference runtime on the golden inputs; a controller that overflows on them (a command
     too large for floating point) is a broken file: input error naming it."""
-    from .errors import ConfigError
+    from ..errors import ConfigError
     from .runtime import Runtime
 
     try:

@@ -319,7 +319,7 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
     A, B, C = plant_ss(plant, human, env)
     M = closed_loop_matrix(A, B, C, ctrl)
     if not np.all(np.isfinite(M)):
-        from .errors import ConfigError
+        from ..errors import ConfigError
 
         raise ConfigError("controller", "the sampled-data loop matrix overflows (gains or filter coefficients too "
                                         "large for floating point)")
@@ -391,7 +391,7 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
     report (:func:`exotune.analysis.analyze_design`): the free and locked verdicts, and for each
     rational human family the verdict at ``points`` log-spaced values of its range compared with
     the continuous stable intervals. Disagreements are listed (value, continuous, sampled)."""
-    from .controller import build_controller
+    from ..model.controller import build_controller
 
     fs = float(cfg.implementation.sample_rate_hz)
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)

@@ -47,7 +47,7 @@ def as_poly(*coeffs, shape=None) -> np.ndarray:
     return out
 
 
-def _pad(a: np.ndarray, n: int) -> np.ndarray:
+def pad_cols(a: np.ndarray, n: int) -> np.ndarray:
     """Append zero coefficients up to n (np.pad's result, without its per-call overhead)."""
     if a.shape[-1] == n:
         return a
@@ -59,13 +59,13 @@ def _pad(a: np.ndarray, n: int) -> np.ndarray:
 def padd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a + b for polynomial batches (broadcast over leading dims)."""
     n = max(a.shape[-1], b.shape[-1])
-    return _pad(np.asarray(a), n) + _pad(np.asarray(b), n)
+    return pad_cols(np.asarray(a), n) + pad_cols(np.asarray(b), n)
 
 
 def psub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a - b for polynomial batches."""
     n = max(a.shape[-1], b.shape[-1])
-    return _pad(np.asarray(a), n) - _pad(np.asarray(b), n)
+    return pad_cols(np.asarray(a), n) - pad_cols(np.asarray(b), n)
 
 
 _COMPILED_MIN_ROWS = 64  # below this many rows numpy's loop is as fast as the compiled one
@@ -78,10 +78,10 @@ def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     lead = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
     na, nb = a.shape[-1], b.shape[-1]
     dtype = np.result_type(a, b, float)
-    from .quasipoly import compiled  # (quasipoly imports this module)
+    from .engine import compiled
 
     if len(lead) == 1 and lead[0] >= _COMPILED_MIN_ROWS and dtype == np.float64 and compiled():
-        from ._fastphase import pmul_rows
+        from .kernels import pmul_rows
 
         return pmul_rows(np.broadcast_to(a, lead + (na,)), np.broadcast_to(b, lead + (nb,)))
     out = np.zeros(lead + (na + nb - 1,), dtype=dtype)

@@ -64,11 +64,11 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, field_validator
 
-from .controller import STRUCTURES, FirstOrderFilter, Implementation, SecondOrderFilter
-from .errors import ConfigError
-from .humans import EnvModel, HumanFamily
-from .model import Plant
-from .shaping import DesignParams, SeaGains
+from ..model.controller import STRUCTURES, FirstOrderFilter, Implementation, SecondOrderFilter
+from ..errors import ConfigError
+from ..model.humans import EnvModel, HumanFamily
+from ..model.plant import Plant
+from ..model.shaping import DesignParams, SeaGains
 
 __all__ = [
     "DesignConfig",
@@ -604,7 +604,7 @@ def read_yaml(path) -> dict:
 # --------------------------------------------------------------------------------------------
 # Design files
 # --------------------------------------------------------------------------------------------
-def _parse_human(i: int, item: Any) -> tuple[HumanFamily, dict]:
+def parse_human(i: int, item: Any) -> tuple[HumanFamily, dict]:
     where = f"humans[{i}]"
     if not isinstance(item, dict):
         raise ConfigError(where, f"expected a mapping {{kind: ..., ...}}, got {_kind_of(item)}")
@@ -656,7 +656,7 @@ def _parse_human(i: int, item: Any) -> tuple[HumanFamily, dict]:
     return fam, raw
 
 
-def _parse_env(i: int, item: Any) -> tuple[EnvModel, dict]:
+def parse_env(i: int, item: Any) -> tuple[EnvModel, dict]:
     where = f"environment[{i}]"
     if not isinstance(item, dict):
         raise ConfigError(where, f"expected a mapping {{kind: ..., ...}}, got {_kind_of(item)}")
@@ -734,12 +734,12 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
     env_in = top.environment or []
     humans, humans_raw = [], []
     for i, item in enumerate(humans_in):
-        fam, raw = _parse_human(i, item)
+        fam, raw = parse_human(i, item)
         humans.append(fam)
         humans_raw.append(raw)
     envs, envs_raw = [], []
     for i, item in enumerate(env_in):
-        env, raw = _parse_env(i, item)
+        env, raw = parse_env(i, item)
         envs.append(env)
         envs_raw.append(raw)
     p, d = top.plant, top.design
@@ -770,7 +770,7 @@ def check_analysis_filters(impl, prefix: str = "") -> None:
 def _check_gains_finite(plant, design) -> None:
     """Extreme but valid numbers (e.g. ζ = 1e300) can overflow a gain of the shaping (SPEC §4): the
     design is refused rather than analysed with infinite gains."""
-    from .shaping import double_compliance_shaping
+    from ..model.shaping import double_compliance_shaping
 
     with np.errstate(over="ignore", invalid="ignore"):
         g = double_compliance_shaping(plant, design).gains
@@ -951,7 +951,7 @@ def batch_config(cfg: DesignConfig, overrides: dict[str, np.ndarray]) -> DesignC
 def hash_mapping(mapping: Any) -> str:
     """SHA-256 (hex) of the canonical JSON of ``mapping`` (sorted keys, no whitespace, exotune's
     JSON conventions for numpy types and non-finite floats)."""
-    from .jsonio import to_jsonable
+    from ..jsonio import to_jsonable
 
     text = json.dumps(to_jsonable(mapping), sort_keys=True, separators=(",", ":"), ensure_ascii=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from .poly import pval
+from ..numerics.poly import pval
 
 __all__ = [
     "Plant",

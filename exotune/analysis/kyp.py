@@ -328,10 +328,10 @@ def nominal_shortage(alpha, felt_inertia, felt_damping, K_c, zeta_hat):
 
 def operator_certificates(cfg, tol: float = TOL) -> dict:
     """Both certificates of a single-design config: {"nominal": …, "delay_free": …} (as dicts)."""
-    from .analysis import char_terms
-    from .controller import build_controller
-    from .poly import padd
-    from .shaping import nominal_transfer_functions
+    from .core import char_terms
+    from ..model.controller import build_controller
+    from ..numerics.poly import padd
+    from ..model.shaping import nominal_transfer_functions
 
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     c7 = nominal_transfer_functions(cfg.plant, cfg.design, ds)["C7_nominal"]

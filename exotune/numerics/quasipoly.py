@@ -31,8 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .engine import compiled, resolve_engine as _engine
 from .poly import degree, leading, pder
-from ._fastphase import MAX_TASK_LEAVES
+from .kernels import MAX_TASK_LEAVES
 
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
 
@@ -105,7 +106,7 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, engine: str | 
     Compiled (:func:`exotune._fastphase.omega_max`) unless the numpy engine is selected.
     """
     if _engine(engine) == "numba":
-        from . import _fastphase
+        from . import kernels as _fastphase
 
         return _fastphase.omega_max(p0, p1, frac)
     n = degree(p0)
@@ -232,7 +233,7 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         db = [x[go] for x in db]
         m = 0.5 * (a + b)
         if geometric:
-            from ._fastphase import GEO_SPLIT_RATIO
+            from .kernels import GEO_SPLIT_RATIO
 
             with np.errstate(divide="ignore", invalid="ignore"):
                 wide = (a > 0) & (b > GEO_SPLIT_RATIO * a)
@@ -270,27 +271,12 @@ def log_grid(wmax: np.ndarray, decades: float = 9.0, per_decade: int = 8) -> np.
     return np.concatenate([np.zeros((len(wmax), 1)), g], axis=1)
 
 
-def _engine(engine: str | None) -> str:
-    import os
-
-    from . import _fastphase
-
-    if engine is None:
-        engine = "numba" if (_fastphase.AVAILABLE and not os.environ.get("EXOTUNE_NUMPY_ONLY")) else "numpy"
-    return engine
-
-
-def compiled() -> bool:
-    """Whether the compiled (numba) kernels are in use (numba installed, EXOTUNE_NUMPY_ONLY unset)."""
-    return _engine(None) == "numba"
-
-
 def leaves_pair(qa: QP, qb: QP, grid: np.ndarray, valid: np.ndarray, magnitude_ok=None, lthr=None, engine: str | None = None):
     """Adaptive leaves tracking two quasi-polynomials with equal delays (compiled when possible).
 
     ``magnitude_ok``/``lthr``: the amplification-bandwidth magnitude criterion (numpy callback /
     per-task log −3 dB level for the compiled kernel)."""
-    from . import _fastphase
+    from . import kernels as _fastphase
 
     if _engine(engine) == "numba":
         return _fastphase.leaves2(qa, qb, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS, lthr=lthr)
@@ -301,7 +287,7 @@ def _phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None =
     """Σ of the accepted principal phase steps of Δ(jω) over each task's grid, and whether every
     interval was resolved. ``engine``: "numba" (compiled kernel, default when numba is
     installed and EXOTUNE_NUMPY_ONLY is unset) or "numpy" (the reference implementation)."""
-    from . import _fastphase
+    from . import kernels as _fastphase
 
     if _engine(engine) == "numba":
         total, resolved, _ = _fastphase.phase_sums(q.p0, q.p1, q.T, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS)

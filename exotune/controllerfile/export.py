@@ -35,8 +35,8 @@ import numpy as np
 import scipy.signal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from .errors import ConfigError
-from .sampled import Measured, assemble, controller_blocks, default_prewarp, prewarped
+from ..errors import ConfigError
+from ..sampled.loop import Measured, assemble, controller_blocks, default_prewarp, prewarped
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -143,7 +143,7 @@ _SIX_GAIN_UNITS = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)",
 
 def _controller_section(cfg, fs: float) -> tuple[dict, list[dict], dict]:
     """(static gains on the signals, sos filters, the six design gains with units) of one design."""
-    from .controller import build_controller
+    from ..model.controller import build_controller
 
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     six = {k: _q(float(np.ravel(getattr(cs.gains, k))[0]), u) for k, u in _SIX_GAIN_UNITS.items()}
@@ -184,7 +184,7 @@ def reflected_mapping(raw: dict, ratio: float) -> dict:
 
 def _gain_schedule(cfg, fs: float, doc: dict) -> dict:
     from .certify import sampled_analysis
-    from .config import design_from_mapping
+    from ..config.design import design_from_mapping
 
     tr = cfg.raw["transmission"]
     entries = []
@@ -213,7 +213,7 @@ def _predicted(cfg) -> dict:
     """The continuous SPEC §5 metrics of the design (exotune.analysis), with units."""
     import dataclasses
 
-    from .analysis import analyze_design
+    from ..analysis.core import analyze_design
 
     # continuous metrics only: the sampled-data intervals are computed once, by certify's own
     # analysis of the file (predicted.sampled), not a second time inside analyze_design
@@ -247,7 +247,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
                  now: _dt.datetime | None = None) -> dict:
     """The controller file of a validated single design ``cfg`` at ``sample_rate_hz``
     (the configuration must already carry that sample rate: see :func:`exotune.cli` export)."""
-    from . import __version__
+    from ..version import __version__
     from .certify import sampled_analysis
     from .runtime import Runtime
 
@@ -492,7 +492,7 @@ def json_schema() -> dict:
 
 
 def write_schema(path: Path | None = None) -> None:
-    from .jsonio import write_atomic
+    from ..jsonio import write_atomic
 
     write_atomic(path or schema_path(), json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n")
 
@@ -552,7 +552,7 @@ def check_controller_file(doc: dict) -> None:
     table and each entry's plant is the top-level plant reflected at its ratio; golden vectors
     have at least MIN_GOLDEN_SAMPLES samples, all of one length. Problems raise
     :class:`ConfigError` naming the field."""
-    from .config import check_delay_samples
+    from ..config.design import check_delay_samples
 
     fs, T = doc["sample_rate_hz"]["value"], doc["delay_s"]["value"]
     check_delay_samples(T, fs, "delay_s.value")
@@ -663,7 +663,7 @@ def _check_six_gains(six: dict, c: dict, where: str) -> None:
 def load_controller(path) -> dict:
     """Read (safe YAML loader) and validate a controller file (schema, then
     :func:`check_controller_file`); returns the mapping."""
-    from .config import read_yaml
+    from ..config.design import read_yaml
 
     doc = read_yaml(path)
     validate_controller(doc, str(path))
@@ -681,7 +681,7 @@ def discrete_from_file(doc: dict):
 
 
 def plant_from_file(doc: dict):
-    from .model import Plant
+    from ..model.plant import Plant
 
     p = {k: v["value"] for k, v in doc["plant"].items()}
     return Plant(p["motor_inertia"], p["motor_damping"], p["sea_stiffness"], p["joint_inertia"], p["cuff_stiffness"])
@@ -694,8 +694,8 @@ def export_design(design_file, sample_rate_hz: float, out) -> dict:
 
     import yaml
 
-    from .config import read_yaml
-    from .jsonio import write_atomic
+    from ..config.design import read_yaml
+    from ..jsonio import write_atomic
 
     raw = read_yaml(design_file)
     cfg = design_at_rate(raw, sample_rate_hz, str(design_file))
@@ -722,7 +722,7 @@ def check_sample_rate(value, field: str = "--sample-rate-hz") -> float:
 def design_at_rate(raw, sample_rate_hz, source: str | None = None):
     """Validate a design mapping with ``implementation.sample_rate_hz`` set to ``sample_rate_hz``
     (so every filter cutoff is checked against that Nyquist frequency)."""
-    from .config import design_from_mapping
+    from ..config.design import design_from_mapping
 
     fs = check_sample_rate(sample_rate_hz)
     if isinstance(raw, dict) and (raw.get("implementation") is None or isinstance(raw.get("implementation"), dict)):

@@ -21,7 +21,7 @@ from typing import Mapping
 
 import numpy as np
 
-from .sampled import Measured  # the runtime's input signals
+from ..sampled.loop import Measured  # the runtime's input signals
 
 __all__ = ["SosFilter", "Runtime"]
 

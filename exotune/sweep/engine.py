@@ -98,11 +98,11 @@ from typing import Any
 import click
 import numpy as np
 
-from . import __version__
-from .analysis import analyze_batch
-from .config import batch_config, check_analysis_filters, design_from_mapping, hash_mapping, read_yaml
-from .errors import ConfigError
-from .jsonio import to_jsonable, write_atomic
+from ..version import __version__
+from ..analysis.core import analyze_batch
+from ..config.design import batch_config, check_analysis_filters, design_from_mapping, hash_mapping, read_yaml
+from ..errors import ConfigError
+from ..jsonio import to_jsonable, write_atomic
 
 __all__ = [
     "run_sweep",
@@ -666,20 +666,20 @@ def _spec_diff(a: dict, b: dict) -> list[str]:
     return [k for k in keys if hash_mapping(a.get(k)) != hash_mapping(b.get(k))]
 
 
-_ENGINE_MODULES = ("poly", "model", "shaping", "controller", "humans", "quasipoly", "analysis", "config")
+_ENGINE_PACKAGES = ("numerics", "model", "config", "analysis")
 
 
 def engine_hash() -> str:
-    """SHA-256 of the source of the modules that compute the results: a resumed sweep refuses to
+    """SHA-256 of the source of the packages that compute the results: a resumed sweep refuses to
     mix chunks computed by different analysis code (the version string alone is not enough)."""
     import hashlib
-    import importlib
+    from pathlib import Path
 
+    root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
-    for name in _ENGINE_MODULES:
-        mod = importlib.import_module(f"exotune.{name}")
-        with open(mod.__file__, "rb") as f:
-            h.update(name.encode() + b"\0" + f.read())
+    for pkg in _ENGINE_PACKAGES:
+        for f in sorted((root / pkg).rglob("*.py")):
+            h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
     return h.hexdigest()
 
 
@@ -1159,7 +1159,7 @@ def _finish_timings(manifest: dict, run: dict, t0: float, final: bool) -> None:
 # ---------------------------------------------------------------------------------------------
 # Reading results
 # ---------------------------------------------------------------------------------------------
-def _read_tables(out_dir: str, columns=None, allow_partial: bool = False):
+def read_tables(out_dir: str, columns=None, allow_partial: bool = False):
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -1196,7 +1196,7 @@ def load_results(out_dir, columns: list[str] | None = None, allow_partial: bool 
     import pyarrow as pa
 
     out_dir = os.fspath(out_dir)
-    m, table, _ = _read_tables(out_dir, columns, allow_partial)
+    m, table, _ = read_tables(out_dir, columns, allow_partial)
     if table is None:
         names = columns if columns is not None else [c[0] for c in (m.get("columns") or [])]
         return pd.DataFrame({c: [] for c in names})

@@ -1,0 +1,199 @@
+"""The package's import graph: layered, acyclic, no private names across modules, no click or
+print in the library (docs/architecture.md).
+
+Every ``import``/``from … import`` statement of every module under ``exotune/`` is parsed with
+:mod:`ast` (function-level imports included, since a lazy import is still a dependency).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parent.parent / "exotune"
+
+# Lower layers never import higher ones; a layer may import its own package and any lower layer.
+LAYERS = [
+    {"version", "errors", "jsonio", "units"},
+    {"numerics"},
+    {"model"},
+    {"config"},
+    {"sampled"},
+    {"analysis"},
+    {"controllerfile", "sweep"},
+    {"optimize", "simulate"},
+    {"text", "plots"},
+    {"api", "__init__"},
+    {"cli"},
+    {"__main__"},
+]
+LEVEL = {name: i for i, layer in enumerate(LAYERS) for name in layer}
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for p in sorted(PKG.rglob("*.py")):
+        rel = p.relative_to(PKG).with_suffix("")
+        parts = list(rel.parts)
+        if parts[-1] == "__init__" and len(parts) > 1:
+            parts = parts[:-1]
+            name = ".".join(parts) + ".__init__"
+        else:
+            name = ".".join(parts)
+        out[name] = p
+    return out
+
+
+MODULES = _modules()
+
+
+def _package_of(mod: str) -> list[str]:
+    parts = mod.split(".")
+    return parts[:-1]
+
+
+def _resolve(mod: str, node: ast.ImportFrom) -> list[tuple[str, str | None]]:
+    """(target module under exotune, imported name or None) for one ``from`` import."""
+    if node.level == 0:
+        if not (node.module or "").startswith("exotune"):
+            return []
+        base = node.module.split(".")[1:]
+    else:
+        pkg = _package_of(mod)
+        if mod.endswith(".__init__"):
+            pkg = mod.split(".")[:-1]
+        base = pkg[: len(pkg) - (node.level - 1)] + (node.module.split(".") if node.module else [])
+    out = []
+    for alias in node.names:
+        cand = ".".join(base + [alias.name])
+        if cand in MODULES or cand + ".__init__" in MODULES:
+            out.append((cand if cand in MODULES else cand + ".__init__", None))
+        else:
+            tgt = ".".join(base)
+            if tgt + ".__init__" in MODULES:
+                tgt = tgt + ".__init__"
+            elif not base:
+                tgt = "__init__"
+            out.append((tgt, alias.name))
+    return out
+
+
+def _edges():
+    edges = []
+    for mod, path in MODULES.items():
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                for tgt, name in _resolve(mod, node):
+                    edges.append((mod, tgt, name, node.lineno))
+            elif isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.startswith("exotune."):
+                        t = a.name.split(".", 1)[1]
+                        edges.append((mod, t if t in MODULES else t + ".__init__", None, node.lineno))
+    return edges
+
+
+EDGES = _edges()
+
+
+def _top(mod: str) -> str:
+    return mod.split(".")[0]
+
+
+def test_every_module_has_a_layer():
+    missing = sorted({_top(m) for m in MODULES} - set(LEVEL))
+    assert not missing, f"modules outside the layer table: {missing}"
+
+
+def test_imports_point_downward():
+    bad = []
+    for src, tgt, name, line in EDGES:
+        a, b = _top(src), _top(tgt)
+        if a == b:
+            continue
+        if LEVEL[b] > LEVEL[a] or (LEVEL[b] == LEVEL[a] and a != b):
+            bad.append(f"{src}:{line} imports {tgt} ({a} → {b})")
+    assert not bad, "\n".join(bad)
+
+
+def test_library_never_imports_the_root_package():
+    """Subpackages import ``exotune.version``, never the package root (which is the public API)."""
+    bad = [f"{s}:{ln}" for s, t, _, ln in EDGES if t == "__init__" and s not in ("__init__", "cli", "__main__", "api")]
+    assert not bad, bad
+
+
+def test_module_graph_is_acyclic():
+    graph: dict[str, set[str]] = {m: set() for m in MODULES}
+    for src, tgt, _, _ in EDGES:
+        if tgt in graph and tgt != src:
+            graph[src].add(tgt)
+    # a package __init__ that re-exports is an edge __init__ → submodule; a submodule importing its
+    # own package's __init__ would then be a cycle, which is what we want to catch.
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(n):
+        state[n] = 1
+        stack.append(n)
+        for m in sorted(graph[n]):
+            if state.get(m) == 1:
+                cyc = stack[stack.index(m):] + [m]
+                pytest.fail("import cycle: " + " → ".join(cyc))
+            if m not in state:
+                visit(m)
+        stack.pop()
+        state[n] = 2
+
+    for n in sorted(graph):
+        if n not in state:
+            visit(n)
+
+
+def test_no_private_names_across_modules():
+    bad = [f"{s}:{ln} imports {n} from {t}" for s, t, n, ln in EDGES
+           if n and n.startswith("_") and not n.startswith("__") and t != s]
+    assert not bad, "\n".join(bad)
+
+
+def test_library_never_imports_click_or_prints():
+    bad = []
+    for mod, path in MODULES.items():
+        if mod in ("cli", "__main__"):
+            continue
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "click" for a in node.names):
+                bad.append(f"{mod}:{node.lineno} imports click")
+            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "click":
+                bad.append(f"{mod}:{node.lineno} imports click")
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "print":
+                bad.append(f"{mod}:{node.lineno} calls print")
+    assert not bad, "\n".join(bad)
+
+
+def test_tests_import_no_private_names_from_other_modules():
+    root = PKG.parent / "tests"
+    bad = []
+    for p in root.rglob("*.py"):
+        tree = ast.parse(p.read_text(), str(p))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("exotune"):
+                for a in node.names:
+                    if a.name.startswith("_") and not a.name.startswith("__"):
+                        bad.append(f"{p.relative_to(root)}:{node.lineno} imports {a.name} from {node.module}")
+    assert not bad, "\n".join(bad)
+
+
+MAX_MODULE_LINES = 650
+
+
+def test_modules_are_small():
+    big = []
+    for mod, path in MODULES.items():
+        n = len(path.read_text().splitlines())
+        if n > MAX_MODULE_LINES:
+            big.append(f"{mod}: {n} lines")
+    assert not big, "\n".join(big)
