@@ -9,11 +9,28 @@ file-level problems (unreadable file, invalid YAML), the file name. ``str(err)``
 
 from __future__ import annotations
 
-__all__ = ["ConfigError"]
+__all__ = ["ExotuneError", "ConfigError", "RunFailed"]
 
 
-class ConfigError(Exception):
-    """Invalid user input: ``field`` (dotted path or file name) and a human-readable ``reason``."""
+class ExotuneError(Exception):
+    """Base of every error exotune reports to its user. The command line prints ``str(error)`` as
+    one line ``exotune: error: …`` and exits with :attr:`exit_code`, without a traceback."""
+
+    exit_code = 2
+
+
+class RunFailed(ExotuneError):
+    """A run that was set up correctly but did not complete (e.g. failed sweep chunks). Exit code 1."""
+
+    exit_code = 1
+
+    def __init__(self, message: str):
+        super().__init__(" ".join(str(message).split()))
+
+
+class ConfigError(ExotuneError):
+    """Invalid user input: ``field`` (dotted path or file name) and a human-readable ``reason``.
+    Exit code 2."""
 
     def __init__(self, field: str, reason: str):
         self.field = str(field)
