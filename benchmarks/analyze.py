@@ -34,8 +34,8 @@ import numpy as np  # noqa: E402
 from _percontrol import measure_rate, per_design  # noqa: E402
 from _percontrol_full import per_design_full  # noqa: E402
 
-from exotune.analysis.core import analyze_batch  # noqa: E402
-from exotune.config.design import batch_config, load_design  # noqa: E402
+from exotune.analysis import analyze_batch  # noqa: E402
+from exotune.config import batch_config, load_design  # noqa: E402
 
 
 def random_designs(n: int, seed: int):

@@ -60,8 +60,8 @@ def main() -> None:
 
     from _percontrol import measure_rate, per_design
     from _percontrol_full import per_design_full
-    from exotune.config.design import batch_config
-    from exotune.sweep.engine import chunk_points, load_results, load_spec, run_sweep
+    from exotune.config import batch_config
+    from exotune.sweep import TqdmProgress, chunk_points, load_results, load_spec, run_sweep
 
     n = max(2, math.ceil(args.points ** 0.25))
     spec = {
@@ -92,7 +92,8 @@ def main() -> None:
 
     tracemalloc.start()
     t0 = time.perf_counter()
-    manifest = run_sweep(spec_path, out, workers=args.workers, sample=sample, seed=seed, progress=sys.stderr.isatty())
+    progress = TqdmProgress(sys.stderr) if sys.stderr.isatty() else None
+    manifest = run_sweep(spec_path, out, workers=args.workers, sample=sample, seed=seed, progress=progress)
     wall = time.perf_counter() - t0
     _, py_peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()

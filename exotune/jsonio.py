@@ -8,21 +8,27 @@
 * :func:`write_atomic` writes a file through a temporary file in the same directory followed by
   :func:`os.replace`, so a reader never sees a half-written output (SPEC §6, §8: "nothing
   half-written").
+* :func:`write_files` writes several outputs (each atomically) under one directory, and
+  :func:`staged_dir` lets a producer write into a temporary directory whose files are copied to
+  the destination only when the producer succeeds (a failing run leaves nothing behind).
+* :func:`dumps` is the JSON text of every ``--json`` output.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import enum
+import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import PurePath
 from typing import Any
 
 import numpy as np
 
-__all__ = ["to_jsonable", "write_atomic"]
+__all__ = ["to_jsonable", "dumps", "write_atomic", "write_files", "staged_dir"]
 
 
 def _float(x: float):
@@ -99,3 +105,79 @@ def write_atomic(path, data: str | bytes) -> None:
             # name the destination, not the temporary file
             raise type(e)(e.errno, e.strerror, path) from None
         raise
+
+
+def dumps(obj) -> str:
+    """The JSON text of ``obj`` as every ``--json`` output prints it.
+
+    Parameters
+    ----------
+    obj : object
+        A result (converted by :func:`to_jsonable`).
+
+    Returns
+    -------
+    str
+        Strict JSON (no NaN/Infinity literals), indented by 2, non-ASCII characters kept.
+
+    References
+    ----------
+    docs/cli.md#json-output.
+    """
+    return json.dumps(to_jsonable(obj), indent=2, ensure_ascii=False, allow_nan=False)
+
+
+def write_files(dest, files: dict[str, bytes]) -> None:
+    """Write ``files`` (relative path → content) under the directory ``dest``, each atomically.
+
+    Parameters
+    ----------
+    dest : str or os.PathLike
+        Destination directory (created with its missing parents).
+    files : dict
+        Relative path → bytes (or text).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        ``<dest>: cannot write output: <reason>`` when a file cannot be written.
+
+    References
+    ----------
+    docs/cli.md#outputs.
+    """
+    from .errors import ConfigError
+
+    try:
+        for rel, data in files.items():
+            write_atomic(os.path.join(dest, rel), data)
+    except OSError as e:
+        raise ConfigError(dest, f"cannot write output: {e.strerror or e}") from None
+
+
+def staged_dir(dest, produce) -> None:
+    """Run ``produce(tmpdir)``; only if it succeeds, copy what it wrote into ``dest``.
+
+    Parameters
+    ----------
+    dest : str or os.PathLike
+        Destination directory. A failing producer leaves it untouched (not even created).
+    produce : callable
+        Called with the path of a fresh temporary directory, which is removed afterwards.
+
+    References
+    ----------
+    docs/cli.md#outputs.
+    """
+    tmp = tempfile.mkdtemp(prefix="exotune-stage-")
+    try:
+        produce(tmp)
+        files = {}
+        for root, _dirs, names in os.walk(tmp):
+            for nm in names:
+                full = os.path.join(root, nm)
+                with open(full, "rb") as fh:
+                    files[os.path.relpath(full, tmp)] = fh.read()
+        write_files(dest, files)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

@@ -29,8 +29,7 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from exotune.jsonio import write_atomic  # noqa: E402
-from exotune.sweep.report import make_report, value_runs  # noqa: E402
-from exotune.sweep.engine import load_manifest, load_results, run_sweep  # noqa: E402
+from exotune.sweep import TqdmProgress, load_manifest, load_results, make_report, run_sweep, value_runs  # noqa: E402
 
 
 def parse_args(name: str, doc: str):
@@ -52,7 +51,8 @@ def run_study(name: str, spec: str, doc: str, extra) -> Path:
             sys.exit(f"{data} exists and is not a sweep directory; refusing to delete it")
         shutil.rmtree(data)
     t0 = time.perf_counter()
-    manifest = run_sweep(HERE / spec, data, workers=args.workers, progress=sys.stderr.isatty())
+    progress = TqdmProgress(sys.stderr) if sys.stderr.isatty() else None
+    manifest = run_sweep(HERE / spec, data, workers=args.workers, progress=progress)
     t_sweep = time.perf_counter() - t0
     out = Path(args.results) / name
     if out.exists():
@@ -67,7 +67,7 @@ def run_study(name: str, spec: str, doc: str, extra) -> Path:
 
 
 def robust_of(df) -> np.ndarray:
-    from exotune.sweep.report import robust_mask
+    from exotune.sweep import robust_mask
 
     cols = {c: df[c].to_numpy() for c in df.columns}
     return robust_mask({c: v for c, v in cols.items() if c == "free_stable" or (

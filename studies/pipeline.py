@@ -20,11 +20,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from exotune import __version__
-from exotune.controllerfile.certify import certify, format_certify  # noqa: E402
-from exotune.controllerfile.export import export_design, load_controller  # noqa: E402
+from exotune.controllerfile.certify import certify  # noqa: E402
+from exotune.text.certify import format_certify  # noqa: E402
+from exotune.controllerfile import export_design, load_controller  # noqa: E402
 from exotune.jsonio import write_atomic  # noqa: E402
 from exotune.optimize import format_optimize, run_optimize  # noqa: E402
-from exotune.simulate import SCENARIOS, format_simulation, plot_simulation, run_scenario  # noqa: E402
+from exotune.plots.simulate import plot_simulation  # noqa: E402
+from exotune.simulate import SCENARIOS, run_scenario  # noqa: E402
+from exotune.text.simulate import format_simulation  # noqa: E402
 
 
 def main() -> None:

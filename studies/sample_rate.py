@@ -32,8 +32,8 @@ import numpy as np  # noqa: E402
 from _common import plt, save_png, write_study_md  # noqa: E402
 
 from exotune import __version__
-from exotune.analysis.core import analyze_batch  # noqa: E402
-from exotune.config.design import load_design  # noqa: E402
+from exotune.analysis import analyze_batch  # noqa: E402
+from exotune.config import load_design  # noqa: E402
 from exotune.model.controller import build_controller  # noqa: E402
 from exotune.model.humans import HumanFamily  # noqa: E402
 from exotune.jsonio import write_atomic  # noqa: E402

@@ -2,7 +2,7 @@
 
 This module rebuilds the coupled linear system *directly from the physical equations* as a
 state-space model (numpy matrices wrapped in a python-control ``StateSpace``) and returns its
-eigenvalues. It deliberately shares no code with ``exotune.analysis.core`` (nor with
+eigenvalues. It deliberately shares no code with ``exotune.analysis`` (nor with
 ``exotune.model.plant``/``exotune.model.controller``): the controller gains, the cuff-path transfer function
 G_c and the DOB are taken as plain numbers / coefficient arrays, and everything else
 (physics, signal routing, realizations of the rational blocks, Padé delay) is written out here.

@@ -14,7 +14,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from exotune.analysis.core import char_terms, coupled_stable
+from exotune.analysis import char_terms, coupled_stable
 from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
 from exotune.model.plant import Plant
 from exotune.model.shaping import DesignParams
@@ -204,7 +204,7 @@ def test_product_pade_crosscheck_agrees():
     same file with masses down to 1e-6 kg·m², and on random designs; it reports its counts."""
     from pathlib import Path
 
-    from exotune.config.design import load_design
+    from exotune.config import load_design
     from exotune.analysis.crosscheck import pade_crosscheck
     from exotune.model.humans import HumanFamily
 
@@ -265,8 +265,8 @@ def test_wide_parameter_ranges_free_and_spring_verdicts():
     import warnings
     from pathlib import Path
 
-    from exotune.analysis.core import analyze_batch
-    from exotune.config.design import batch_config, load_design
+    from exotune.analysis import analyze_batch
+    from exotune.config import batch_config, load_design
 
     base = load_design(Path(__file__).resolve().parents[1] / "examples" / "paper.yaml")
     rng = np.random.default_rng(11)
@@ -321,7 +321,7 @@ def test_cross_check_catches_a_wrong_stable_interval(monkeypatch):
     from pathlib import Path
 
     import exotune.analysis.crosscheck as cc_mod
-    from exotune.config.design import load_design
+    from exotune.config import load_design
     from exotune.model.humans import HumanFamily
 
     base = load_design(Path(__file__).resolve().parents[1] / "examples" / "paper.yaml")

@@ -1,4 +1,4 @@
-"""SPEC §5 metrics of exotune.analysis.core against independent computations.
+"""SPEC §5 metrics of exotune.analysis against independent computations.
 
 * SPEC §9 reference values of examples/paper.yaml;
 * DOB margins against the closed form of L_dob = ω_q² e^{−sT}/(s(s + 2ζω_q)) and python-control;
@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 from numpy.polynomial import polynomial as P
 from scipy.optimize import brentq
 
-from exotune.analysis.core import (
+from exotune.analysis import (
     amplification,
     amplification_qps,
     analyze_batch,
@@ -37,7 +37,7 @@ from exotune.analysis.core import (
     char_terms,
     dob_margins,
 )
-from exotune.config.design import batch_config, design_from_mapping, load_design, read_yaml
+from exotune.config import batch_config, design_from_mapping, load_design, read_yaml
 from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
 from exotune.model.plant import Plant, Tf, seven_systems
 from exotune.model.shaping import DesignParams
@@ -635,7 +635,7 @@ def test_dob_unstable_loop_has_zero_delay_margin():
 def test_dob_generic_path_equals_closed_form_path():
     """The general L_dob margin code (any rational Q; here the standard Q written with both
     polynomials scaled by 2, which disables the closed-form fast path) gives the same margins."""
-    from exotune.analysis.core import _dob_margins_rows
+    from exotune.analysis.dob import dob_margins_rows
 
     rng = np.random.default_rng(3)
     n = 40
@@ -644,8 +644,8 @@ def test_dob_generic_path_equals_closed_form_path():
     T = rng.uniform(0.0, 0.006, n)
     nq = (wq**2)[:, None]
     dq = np.stack([wq**2, 2 * z * wq, np.ones(n)], axis=1)
-    fast = _dob_margins_rows(nq, dq, T)
-    slow = _dob_margins_rows(2 * nq, 2 * dq, T)
+    fast = dob_margins_rows(nq, dq, T)
+    slow = dob_margins_rows(2 * nq, 2 * dq, T)
     assert np.array_equal(fast["stable"], slow["stable"])
     for k in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "crossover_hz"):
         assert np.allclose(fast[k], slow[k], rtol=1e-7, atol=1e-9), k

@@ -14,8 +14,8 @@ import numpy as np
 import yaml
 
 from exotune.numerics import kernels as _fastphase
-from exotune.analysis.core import analyze_batch, char_terms
-from exotune.config.design import batch_config, design_from_mapping, load_design
+from exotune.analysis import analyze_batch, char_terms
+from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.model.controller import build_controller
 from exotune.numerics.quasipoly import adaptive_leaves, leaves_pair, log_grid, omega_max
 
@@ -152,7 +152,7 @@ def test_family_with_thousands_of_critical_values_is_inconclusive():
     """A degenerate design (α = 1, 1e-9 kg·m² felt inertia, 1e9 N·m/rad cuff, 0.2 s delay) has
     ~10⁴ critical inertias: it used to queue 10⁴ budget-spending counts (10 minutes). Past
     MAX_FAMILY_PIECES it is inconclusive at once, and never robust."""
-    from exotune.analysis.core import MAX_FAMILY_PIECES
+    from exotune.analysis import MAX_FAMILY_PIECES
 
     cfg = _with(design__amplification=1.0, design__felt_inertia=1e-9, design__felt_damping=1e-12,
                 plant__cuff_stiffness=1e9, implementation__delay_s=0.2)

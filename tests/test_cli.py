@@ -178,6 +178,52 @@ def test_bad_input_exit_2(tmp_path, old, new, field, command):
     assert not plots.exists()
 
 
+# Command-line usage errors: one line naming the option (or argument), exit code 2, nothing written.
+USAGE_ERRORS = [
+    # (case, arguments ({out} is a path inside tmp_path), named option, words of the reason)
+    ("workers-zero", ["sweep", "spec.yaml", "-o", "{out}", "--workers", "0"], "--workers", "0 is not in the range x>=1"),
+    ("seed-negative", ["optimize", "spec.yaml", "-o", "{out}/d.yaml", "--seed", "-1"], "--seed", "-1 is not in the range x>=0"),
+    ("missing-sample-rate", ["export", PAPER, "-o", "{out}/c.yaml"], "--sample-rate-hz", "missing required option"),
+    ("unknown-scenario", ["simulate", PAPER, "--scenario", "moonwalk", "--plots", "{out}"], "--scenario",
+     "'moonwalk' is not one of"),
+    ("bad-inertia", ["simulate", PAPER, "--scenario", "light-mass", "--human-inertia", "abc", "--plots", "{out}"],
+     "--human-inertia", "'abc'"),
+    ("unknown-command", ["moonwalk", PAPER, "--plots", "{out}"], "moonwalk", "no such command"),
+    ("missing-argument", ["design"], "DESIGN.yaml", "missing required argument"),
+    ("unknown-option", ["design", PAPER, "--plot", "{out}"], "--plot", "no such option (did you mean --plots?)"),
+    ("option-without-value", ["design", PAPER, "--plots"], "--plots", "requires an argument"),
+]
+
+
+@pytest.mark.parametrize("args,option,reason", [c[1:] for c in USAGE_ERRORS], ids=[c[0] for c in USAGE_ERRORS])
+def test_usage_error_one_line(tmp_path, args, option, reason):
+    out = tmp_path / "out"
+    res = run(*[str(a).format(out=out) for a in args])
+    assert res.exit_code == 2, res.output
+    lines = res.stderr.strip().splitlines()
+    assert lines == [lines[0]] and lines[0].startswith(f"exotune: error: {option}: "), res.stderr
+    assert reason in lines[0], lines[0]
+    assert "Usage:" not in res.output and "Traceback" not in res.output
+    assert res.stdout == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_usage_error_subprocess(tmp_path):
+    """The console script prints the same single line (no usage block, no traceback)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run(_exotune_cmd() + ["optimize", "spec.yaml", "-o", str(tmp_path / "d.yaml"), "--seed", "-1"],
+                       capture_output=True, text=True, env=env, timeout=60)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.strip().splitlines() == ["exotune: error: --seed: -1 is not in the range x>=0."]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_no_arguments_prints_help():
+    """``exotune`` alone still prints the help (not an error line)."""
+    res = CliRunner().invoke(cli, [])
+    assert "Usage:" in res.output and "design" in res.output
+
+
 @pytest.mark.parametrize("command", ["design", "sea", "analyze"])
 def test_unreadable_file(tmp_path, command):
     p = tmp_path / "missing.yaml"
@@ -321,11 +367,11 @@ def test_sea_text():
 
 # -------------------------------------------------------------------------------- wrappers
 def test_analyze_json_if_available():
-    pytest.importorskip("exotune.analysis.core")
+    pytest.importorskip("exotune.analysis.design")
     try:
-        from exotune.analysis.core import analyze_design, format_report  # noqa: F401
+        from exotune.analysis import analyze_design  # noqa: F401
     except ImportError:
-        pytest.skip("exotune.analysis.core.analyze_design not available yet")
+        pytest.skip("exotune.analysis.analyze_design not available yet")
     res = run("analyze", PAPER, "--json")
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout)
@@ -343,17 +389,27 @@ def test_sweep_and_report_registered():
 
 
 def test_readme_quickstart_and_ci_agree():
-    """README starts with the two commands; .ci/run runs exactly the README's test command."""
-    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
-    assert lines[0] == "```"
-    install, test_cmd = lines[1], lines[2]
-    assert "pip install -e '.[test]'" in install and install.startswith("python3 -m venv .venv")
+    """The README opens with its title, then the two commands (the install uses the lock file);
+    .ci/run installs from the same lock, builds the docs strictly and runs the README's test
+    command; the README stays short and cites the product's docs, never an internal spec."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(text.encode("utf-8")) <= 10240
+    assert "SPEC §" not in text
+    lines = text.splitlines()
+    assert lines[0].startswith("# ")
+    fence = next(i for i, ln in enumerate(lines) if ln.startswith("```"))
+    install, test_cmd = lines[fence + 1], lines[fence + 2]
+    assert install.startswith("python3 -m venv .venv")
+    assert "pip install -c constraints.txt -e '.[test]'" in install
+    assert install.endswith("exotune analyze examples/paper.yaml")
     assert test_cmd == "python -m pytest -n auto tests"
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
     assert "set -euo pipefail" in ci
-    assert "pip install -e '.[test]'" in ci
-    assert test_cmd in ci
+    assert any("pip install -c constraints.txt -e '.[test,docs]'" in ln for ln in ci)
+    assert any(ln.strip().startswith("mkdocs build --strict") for ln in ci)
+    assert test_cmd in [ln.strip() for ln in ci]
     assert os.access(ROOT / ".ci" / "run", os.X_OK)
+    assert (ROOT / "constraints.txt").is_file()
 
 
 def test_analyze_with_sample_rate_text_and_json(tmp_path):

@@ -16,7 +16,7 @@ import pytest
 import yaml
 from hypothesis import given, settings, strategies as st
 
-from exotune.config.design import (
+from exotune.config import (
     OVERRIDABLE,
     DesignConfig,
     batch_config,
@@ -519,7 +519,7 @@ def test_msd_box_family(base):
 def test_yaml_12_floats(tmp_path):
     """Exponent forms load as numbers (YAML 1.2), where PyYAML's YAML 1.1 gives strings: the
     design file's ``delay_s: 1e-3`` is the number 0.001."""
-    from exotune.config.design import load_design, load_yaml_text, read_yaml
+    from exotune.config import load_design, load_yaml_text, read_yaml
 
     doc = load_yaml_text("a: 1e3\nb: 1e-3\nc: 1.0e3\nd: -2.5E+2\ne: .5e1\nf: 1000\ng: 1_000\nh: .inf\n"
                          "i: abc\nj: '1e3'\nk: 1.5\nl: 0x10\nm: 1e\nn: e3\n")
@@ -539,7 +539,7 @@ def test_yaml_12_integers_and_booleans(tmp_path):
     1000 and ``yes``/``on``/``off`` as booleans; exotune reads the YAML 1.2 core schema: 300, and
     strings for the rest (which validation refuses, naming the field). Found by fuzzing: a cuff
     stiffness written ``0300`` was exported as 192 N·m/rad."""
-    from exotune.config.design import load_design, load_yaml_text
+    from exotune.config import load_design, load_yaml_text
 
     doc = load_yaml_text("a: 0300\nb: 1:30\nc: yes\nd: on\ne: Off\nf: 0b11\ng: 0o17\nh: -0012\ni: +7\n"
                          "j: true\nk: FALSE\nl: y\nm: 190:20:30.15\n")
@@ -559,7 +559,7 @@ def test_yaml_12_integers_and_booleans(tmp_path):
 def test_yaml_float_repr_round_trip(x):
     """Python's float repr (``1e-05``, ``1e+16``) and PyYAML's own dump load back
     exactly, as floats."""
-    from exotune.config.design import load_yaml_text
+    from exotune.config import load_yaml_text
 
     for text in (f"v: {x!r}", yaml.safe_dump({"v": x})):
         v = load_yaml_text(text)["v"]

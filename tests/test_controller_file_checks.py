@@ -25,10 +25,10 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from exotune.controllerfile.certify import _intervals, certify, position_feedback, sampled_analysis
+from exotune.controllerfile.certify import certify, position_feedback, sampled_analysis, stable_intervals
 from exotune.cli import cli
 from exotune.errors import ConfigError
-from exotune.controllerfile.export import build_export, check_controller_file, load_controller, validate_controller
+from exotune.controllerfile import build_export, check_controller_file, load_controller, validate_controller
 from exotune.controllerfile.runtime import Runtime
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,7 +43,7 @@ def _design(**humans):
 
 
 def _export(raw, fs=1000.0) -> dict:
-    from exotune.controllerfile.export import design_at_rate
+    from exotune.controllerfile import design_at_rate
 
     return build_export(design_at_rate(raw, fs), fs)
 
@@ -240,7 +240,7 @@ def test_every_sampled_prediction_is_compared(doc1k, tmp_path, path, value, name
 
 @pytest.fixture(scope="module")
 def scheduled():
-    from exotune.controllerfile.export import export_design
+    from exotune.controllerfile import export_design
 
     import tempfile
 
@@ -349,7 +349,7 @@ def test_refinement_budget_shrinks_with_the_loop_size():
         calls.append(v)
         return 0.9999999 * np.exp(1j * np.linspace(0.0, 3.0, 400) * (1.0 + 50.0 * math.log(v)))
 
-    ivs, info = _intervals(spectrum, 1.0, 2.0, points=8)
+    ivs, info = stable_intervals(spectrum, 1.0, 2.0, points=8)
     assert info["unresolved"] and info["refined_points"] <= max(50, int(cmod.MAX_REFINED * (cmod.REF_STATES / 400) ** 3))
     assert info["budget_spent"] and info["loop_states"] == 400
     assert ivs == [[1.0, 2.0]]  # every sampled value is stable: only the unresolved cells say otherwise

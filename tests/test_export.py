@@ -24,11 +24,11 @@ import pytest
 import scipy.signal
 import yaml
 
-from exotune.analysis.core import analyze_design
+from exotune.analysis import analyze_design
 from exotune.controllerfile.certify import certify, sampled_analysis
-from exotune.config.design import design_from_mapping, load_design
+from exotune.config import design_from_mapping, load_design
 from exotune.model.controller import build_controller
-from exotune.controllerfile.export import build_export, discrete_from_file, export_design, load_controller, plant_from_file
+from exotune.controllerfile import build_export, discrete_from_file, export_design, load_controller, plant_from_file
 from exotune.controllerfile.runtime import Runtime
 from exotune.sampled.loop import Measured, default_prewarp, discretize, plant_ss, zoh_fractional
 
@@ -252,14 +252,14 @@ def test_certify_refinement_finds_a_narrow_window_between_grid_values(monkeypatc
         r = 1.005 - 0.5 * abs(math.log(v / w0))
         return np.array([r * np.exp(0.5j), r * np.exp(-0.5j), 0.3])
 
-    ivs, info = C._intervals(spectrum, lo, hi)
+    ivs, info = C.stable_intervals(spectrum, lo, hi)
     e = 0.01  # |log(v/w0)| where r = 1
     assert len(ivs) == 2 and info["refined_points"] > 0
     assert ivs[0][1] == pytest.approx(w0 * math.exp(-e), rel=1e-8)
     assert ivs[1][0] == pytest.approx(w0 * math.exp(e), rel=1e-8)
     assert info["unresolved"] == []
     monkeypatch.setattr(C, "CHORD", math.inf)
-    ivs0, _ = C._intervals(spectrum, lo, hi)
+    ivs0, _ = C.stable_intervals(spectrum, lo, hi)
     assert ivs0 == [[lo, hi]]  # without the refinement the window is missed
 
 
@@ -280,11 +280,11 @@ def test_certify_refinement_follows_a_fast_eigenvalue_and_reports_unresolved_cel
         return np.array([r * np.exp(40j * u), r * np.exp(-40j * u), 0.5])
 
     monkeypatch.setattr(C, "MAX_REFINED", 10**6)  # ~10 halvings in every cell: beyond the default budget
-    ivs, info = C._intervals(spectrum, lo, hi)
+    ivs, info = C.stable_intervals(spectrum, lo, hi)
     assert len(ivs) == 2, ivs
     assert ivs[0][1] < c < ivs[1][0] and ivs[1][0] / ivs[0][1] < 1.0 + 1e-3
     monkeypatch.setattr(C, "MAX_DEPTH", 2)
-    ivs2, info2 = C._intervals(spectrum, lo, hi)
+    ivs2, info2 = C.stable_intervals(spectrum, lo, hi)
     assert info2["unresolved"], info2
 
 
@@ -315,7 +315,7 @@ def test_gain_schedule_recomputes_gains_from_the_reflected_plant():
 
 
 def test_runtime_follows_the_schedule_and_certify_checks_every_entry():
-    from exotune.controllerfile.export import schedule_entry_doc
+    from exotune.controllerfile import schedule_entry_doc
 
     raw, doc = _scheduled(ratios=(1.0, 2.0), mass_lo=0.006)
     ins = {s: np.asarray(v["values"]) for s, v in doc["golden"]["inputs"].items()}
@@ -340,7 +340,7 @@ def test_scheduled_file_validates_against_the_shipped_schema():
     jsonschema = pytest.importorskip("jsonschema")
     import json
 
-    from exotune.controllerfile.export import schema_path
+    from exotune.controllerfile import schema_path
 
     _, doc = _scheduled(ratios=(0.9, 1.1))
     jsonschema.validate(json.loads(json.dumps(doc)), json.loads(schema_path().read_text()))
@@ -364,7 +364,7 @@ def test_transmission_section_is_validated(tr, field):
 
 
 def test_no_transmission_keeps_the_mapping_and_its_hash():
-    from exotune.config.design import hash_mapping
+    from exotune.config import hash_mapping
 
     cfg = load_design(PAPER)
     assert "transmission" not in cfg.raw  # sweep spec hashes of existing runs are unchanged
@@ -376,7 +376,7 @@ def test_no_transmission_keeps_the_mapping_and_its_hash():
 def test_analyze_checks_every_scheduled_angle_like_export():
     """analyze's continuous check of the schedule (one batch over the angles) agrees with the
     single-design analysis of each reflected design, and its gains with the export's entries."""
-    from exotune.controllerfile.export import reflected_mapping
+    from exotune.controllerfile import reflected_mapping
 
     raw = copy.deepcopy(load_design(PAPER).raw)
     raw["humans"] = [{"kind": "mass", "inertia": [0.0048, 1.0], "damping": 0.0}]
@@ -432,6 +432,6 @@ def test_certify_refinement_budget_reports_unresolved_cells(monkeypatch):
         return np.array([(1 - 1e-9) * np.exp(30j * u), (1 - 1e-9) * np.exp(-30j * u)])
 
     monkeypatch.setattr(C, "MAX_REFINED", 300)
-    ivs, info = C._intervals(spectrum, 1.0, 10.0)
+    ivs, info = C.stable_intervals(spectrum, 1.0, 10.0)
     assert ivs == [[1.0, 10.0]] and info["refined_points"] <= 300 + C.MAX_DEPTH
     assert len(info["unresolved"]) >= C.POINTS - 1

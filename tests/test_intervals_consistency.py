@@ -8,8 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from exotune.analysis.core import analyze_batch, char_terms, coupled_stable
-from exotune.config.design import batch_config, load_design
+from exotune.analysis import analyze_batch, char_terms, coupled_stable
+from exotune.config import batch_config, load_design
 from exotune.model.controller import build_controller
 from exotune.model.humans import EnvModel, HumanFamily
 
@@ -163,18 +163,19 @@ def test_single_design_report_verifies_intervals(monkeypatch):
     """analyze_design checks the interval structure against exact counts at 64 values per family:
     with the crossing search sabotaged (no critical values found), the mass family of the §9 file
     is flagged (mismatches listed, not robust, not conclusive) instead of being reported robust."""
-    import exotune.analysis.core as an
+    import exotune.analysis.intervals as intervals_mod
+    from exotune.analysis import analyze_design
 
     cfg = load_design(ROOT / "examples" / "paper.yaml")
-    good = an.analyze_design(cfg)["humans"][0]
+    good = analyze_design(cfg)["humans"][0]
     assert good["verification_mismatches"] == [] and good["verified_points"] == 64
 
     def no_crossings(Nd, ct_, cp, cw, lo, hi):
         bv = np.tile([lo, hi], Nd).astype(float)
         return (bv, np.arange(Nd + 1) * 2), [[] for _ in range(Nd)]
 
-    monkeypatch.setattr(an, "_bounds", no_crossings)
-    bad = an.analyze_design(cfg)["humans"][0]
+    monkeypatch.setattr(intervals_mod, "_bounds", no_crossings)
+    bad = analyze_design(cfg)["humans"][0]
     assert bad["kind"] == "mass"
     assert bad["verification_mismatches"], bad
     assert bad["robust"] is False and bad["conclusive"] is False

@@ -11,8 +11,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from exotune.analysis.core import analyze_batch
-from exotune.config.design import load_design
+from exotune.analysis import analyze_batch
+from exotune.config import load_design
 from exotune.model.humans import EnvModel, HumanFamily
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]

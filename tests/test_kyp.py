@@ -14,10 +14,10 @@ import sympy as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from exotune.analysis.core import analyze_batch, analyze_design, char_terms
-from exotune.config.design import batch_config, design_from_mapping, load_design
+from exotune.analysis import analyze_batch, analyze_design, char_terms
+from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.model.controller import build_controller
-from exotune.analysis.kyp import admittance_certificate, compliance_certificate, nominal_shortage, operator_certificates
+from exotune.analysis import admittance_certificate, compliance_certificate, nominal_shortage, operator_certificates
 from exotune.numerics.poly import padd
 from exotune.model.shaping import double_compliance_shaping
 
@@ -231,7 +231,12 @@ def test_far_filter_cutoffs_certified_or_undecided_never_wrong():
     """G_v cutoffs decades above the plant: the certificate either matches the frequency-response
     minimum (1e4–1e7 Hz: shortage ∝ 1/cutoff, as the filter's phase lag shrinks) or, when the
     polynomial-to-state-space step is too ill-conditioned to reproduce Y_p (1e9 Hz), is
-    undecided — never a verdict about the wrong system — and no numerical warning escapes."""
+    undecided — never a verdict about the wrong system — and no numerical warning escapes.
+
+    What is guaranteed: 1e4 and 1e5 Hz are decided (not passive, the right shortage); from 1e6 Hz on
+    the conditioning depends on the LAPACK/solver build, so there a certificate may also be
+    undecided (NaN shortage, with its reason) on some machines — but when it decides,
+    it is right. 1e9 Hz is always undecided."""
     import warnings
 
     prev = None
@@ -241,6 +246,10 @@ def test_far_filter_cutoffs_certified_or_undecided_never_wrong():
             warnings.simplefilter("error")
             c = operator_certificates(cfg)["delay_free"]
         ref = max(0.0, -min_re(y_delay_free(cfg), lo=1e-2, hi=1e10, n=400_001))
+        if fc >= 1e6 and c["passive"] is None:  # undecided allowed here (never a wrong verdict)
+            assert math.isnan(c["shortage"]) and c["reason"]  # ill-conditioned model, or SDP not solved
+            prev = None
+            continue
         assert c["passive"] is False
         # rel 1e-5: the reference evaluates s·C7 unreduced, where Re Y ~ 1e-6 is a difference of
         # terms of size |q1·s| ~ 1e4 at these frequencies (the certificate divides q1·s out first)
@@ -263,10 +272,10 @@ def test_realization_error_detects_a_wrong_realization():
     perturbed one fails."""
     import scipy.signal
 
-    from exotune.analysis.kyp import _realization_error
+    from exotune.analysis.kyp import realization_error
 
     num, den = np.array([1.0, 3.0]), np.array([1.0, 0.4, 4.0])  # descending
     A, B, C, _ = scipy.signal.tf2ss(num, den)
     poles = np.roots(den)
-    assert _realization_error(A, B, C, num, den, poles) < 1e-12
-    assert _realization_error(A, B, 1.001 * C, num, den, poles) > 5e-4
+    assert realization_error(A, B, C, num, den, poles) < 1e-12
+    assert realization_error(A, B, 1.001 * C, num, den, poles) > 5e-4

@@ -20,8 +20,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exotune.analysis.margins import family_latency_margin, latency_margin, qp_latency_margin
-from exotune.analysis.core import analyze_batch
-from exotune.config.design import batch_config, design_from_mapping, read_yaml
+from exotune.analysis import analyze_batch
+from exotune.config import batch_config, design_from_mapping, read_yaml
 
 from reference_model import coupled_verdict, reference_gains, reference_gc
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from exotune.plots import analysis as plots
-from exotune.analysis.core import analyze_design
-from exotune.config.design import load_design
+from exotune.analysis import analyze_design
+from exotune.config import load_design
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -112,3 +112,28 @@ def test_matplotlib_global_backend_untouched(paper, tmp_path, monkeypatch):
     plots.write_analysis_plots(cfg, result, tmp_path / "x")
     if "matplotlib.pyplot" in sys.modules:
         assert sys.modules["matplotlib.pyplot"].get_fignums() == []
+
+
+def test_plot_numbers_come_from_the_analysis_layer(paper):
+    """The figures only draw: the responses come from exotune.analysis.plot_data."""
+    import numpy as np
+
+    from exotune.analysis import plot_data
+
+    cfg, result = paper
+    r = plot_data.compliance_responses(cfg, result)
+    assert r["f"].shape == r["C5"].shape == r["C7"].shape == r["A"].shape
+    assert np.all(np.diff(r["f"]) > 0) and r["f"][0] == pytest.approx(plot_data.F_MIN_HZ)
+    loops = plot_data.human_loops(cfg, result)
+    assert [lp["h"]["kind"] for lp in loops] == [h["kind"] for h in result["humans"]]
+    for lp in loops:
+        assert 3 <= len(lp["curves"]) <= 5
+        assert {c[2] for c in lp["curves"]} <= {"critical", "stable", "UNSTABLE"}
+        for c, Lc in lp["critical"]:  # L = −1 at a critical value and frequency
+            assert abs(Lc + 1.0) < 1e-3, (lp["h"]["kind"], c, Lc)
+    d = plot_data.dob_loop(cfg, result)
+    if d["crossover"] is not None:
+        assert abs(abs(d["crossover"][1]) - 1.0) < 1e-6  # |L_dob| = 1 at the gain crossover
+    f, runs = plot_data.amplification_at_delays(cfg, result)
+    assert [run["configured"] for run in runs] == [True, False]
+    assert runs[1]["T"] == plot_data.second_delay(runs[0]["T"])

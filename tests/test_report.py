@@ -14,8 +14,7 @@ from click.testing import CliRunner
 
 from exotune.cli import cli
 from exotune.errors import ConfigError
-from exotune.sweep.report import interval_ends, make_report
-from exotune.sweep.engine import load_results, run_sweep
+from exotune.sweep import interval_ends, load_results, make_report, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -89,10 +88,10 @@ def test_lightest_stable_inertia_from_intervals(two_axes):
             assert [a, b] == row[-1]
         else:
             assert math.isnan(a)
-    from exotune.sweep.report import derived_metrics
+    from exotune.sweep import derived_metrics
     import pyarrow.parquet as pq
 
-    from exotune.sweep.engine import load_manifest
+    from exotune.sweep import load_manifest
 
     table = pq.read_table(d / "chunks" / "part-000000.parquet")
     vals, info = derived_metrics(table, load_manifest(d))["human0_lightest_stable_inertia"]
@@ -147,15 +146,15 @@ def test_report_errors(tmp_path):
 def test_report_paths_are_not_machine_paths(tmp_path, monkeypatch):
     """Reports get committed: paths below the working directory are shown relative to it, others
     by their last two components only."""
-    from exotune.sweep.report import _display_path
+    from exotune.sweep import display_path
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "studies").mkdir()
-    assert _display_path(tmp_path / "studies" / "arm.yaml") == "studies/arm.yaml"
-    assert _display_path("studies/arm.yaml") == "studies/arm.yaml"
+    assert display_path(tmp_path / "studies" / "arm.yaml") == "studies/arm.yaml"
+    assert display_path("studies/arm.yaml") == "studies/arm.yaml"
     other = tmp_path.parent / "elsewhere" / "data" / "sweep"
-    assert _display_path(other) == "…/data/sweep"
-    assert str(tmp_path.parent) not in _display_path(other)
+    assert display_path(other) == "…/data/sweep"
+    assert str(tmp_path.parent) not in display_path(other)
 
 
 def test_unsorted_axis_is_reported_by_value(tmp_path):

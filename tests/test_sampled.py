@@ -5,7 +5,7 @@
   against the continuous controller of SPEC §3 through the exact Tustin frequency identity
   H_d(e^{jωT_s}) = H(j (2/T_s) tan(ωT_s/2));
 * its verdicts: at a high sample rate the sampled-data loop agrees with the continuous exact-delay
-  analysis (exotune.analysis.core.coupled_stable) on random designs, humans and environments, and the
+  analysis (exotune.analysis.coupled_stable) on random designs, humans and environments, and the
   light-inertia boundary of the §9 design converges to the continuous one.
 """
 
@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from exotune.analysis.core import analyze_design, coupled_stable
-from exotune.config.design import load_design
+from exotune.analysis import analyze_design, coupled_stable
+from exotune.config import load_design
 from exotune.model.controller import build_controller
 from exotune.sampled.loop import Measured, closed_loop_matrix, discretize, plant_ss, sampled_stable, zoh_fractional
 
@@ -128,14 +128,14 @@ def test_badly_scaled_block_prewarped_near_nyquist_is_accurate_and_quiet():
     response still equals H(K (z−1)/(z+1)) to ~1e-11, and no warning reaches the user."""
     import warnings
 
-    from exotune.sampled.loop import _tustin
+    from exotune.sampled import tustin
 
     num = np.array([2.17411924e10, 1.02444596e10, 7.44571640e8, 8.40258869e6, 1.01233488e5])
     den = np.array([2.47059005e10, 6.22682763e9, 1.26081987e7, 5.02175179e3, 1.0])
     Ts, pw = 1e-3, 499.0
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        Ad, Bd, Cd, Dd = _tustin(num, den, Ts, pw)
+        Ad, Bd, Cd, Dd = tustin(num, den, Ts, pw)
     K = 2 * np.pi * pw / np.tan(np.pi * pw * Ts)
     for f in (1.0, 10.0, 100.0, 300.0, 450.0, 499.0):
         z = np.exp(2j * np.pi * f * Ts)
@@ -315,7 +315,7 @@ def test_zoh_and_prewarped_tustin_match_python_control():
     responses on the unit circle."""
     import control
 
-    from exotune.sampled.loop import _tustin
+    from exotune.sampled import tustin
 
     A, B, C = plant_ss(BASE.plant, {"inertia": 0.1, "damping": 2.0, "stiffness": 30.0}, "free")
     Ts = 1e-3
@@ -328,7 +328,7 @@ def test_zoh_and_prewarped_tustin_match_python_control():
     cfg, cs = _cfg()
     z = np.exp(1j * 2 * np.pi * np.array([1.0, 10.0, 60.0, 200.0]) * Ts)
     for blk, fp in ((cs.cuff_torque, 80.0), (cs.dob_q, 60.0)):
-        Ad, Bd, Cd, Dd = _tustin(blk.num, blk.den, Ts, fp)
+        Ad, Bd, Cd, Dd = tustin(blk.num, blk.den, Ts, fp)
         mine = np.array([(Cd @ np.linalg.solve(zz * np.eye(Ad.shape[0]) - Ad, Bd) + Dd).item() for zz in z])
         tf = control.tf(np.ravel(blk.num)[::-1], np.ravel(blk.den)[::-1])
         d = control.sample_system(tf, Ts, "tustin", prewarp_frequency=2 * np.pi * fp)

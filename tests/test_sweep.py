@@ -21,11 +21,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from exotune import __version__
-from exotune.analysis.core import analyze_batch
+from exotune.analysis import analyze_batch
 from exotune.cli import cli
-from exotune.config.design import batch_config, load_design
+from exotune.config import batch_config, load_design
 from exotune.errors import ConfigError
-from exotune.sweep.engine import SweepError, load_manifest, load_results, load_spec, run_sweep
+from exotune.sweep import SweepError, SweepProgress, load_manifest, load_results, load_spec, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -155,6 +155,15 @@ def test_rerun_complete_is_noop_and_cli(ref, tmp_path):
     res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(out), "--workers", "1"])
     assert res.exit_code == 0, res.output
     assert_frames_equal(load_results(out), df)
+    lines = res.stderr.replace("\r", "\n").splitlines()
+    assert lines[0] == "exotune sweep: 9 designs in 5 chunks of 2 (in-process); resuming: 5 of 5 chunks already done"
+    assert lines[-1].startswith("exotune sweep: complete — 0 designs computed in ") and lines[-1].endswith(str(out))
+    # the library prints nothing; a function given as ``progress`` receives the same lines
+    got = []
+    run_sweep(spec, out, workers=1, progress=got.append)
+    assert got[0] == lines[0] and got[1].startswith("exotune sweep: complete — 0 designs") and len(got) == 2
+    with pytest.raises(TypeError, match="progress must be"):
+        run_sweep(spec, out, workers=1, progress=True)
 
 
 # --------------------------------------------------------------------------------------------
@@ -165,7 +174,7 @@ def test_kill_and_resume_matches_uninterrupted(tmp_path):
     spec = write_spec(tmp_path, axes=axes, chunk_size=1)
     killed, clean = tmp_path / "killed", tmp_path / "clean"
     code = (
-        "import sys; from exotune.sweep.engine import run_sweep; "
+        "import sys; from exotune.sweep import run_sweep; "
         f"run_sweep({str(spec)!r}, {str(killed)!r}, workers=1, progress=False)"
     )
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -429,7 +438,7 @@ def test_sampling_deterministic_uniform_without_replacement():
     assert sorted(full.tolist()) == list(range(total)) and not np.array_equal(full, np.arange(total))
     # chunks are generated independently: any chunk equals the slice of the whole
     plan, whole = idx(500, 1, chunk_size=37)
-    from exotune.sweep.engine import chunk_points
+    from exotune.sweep import chunk_points
 
     g, vals = chunk_points(plan, 5)
     assert np.array_equal(g, whole[5 * 37: 6 * 37])
@@ -462,7 +471,7 @@ def test_sampled_sweep_rows(tmp_path):
 # failing chunks
 # --------------------------------------------------------------------------------------------
 def test_failing_chunk_reported_and_retried(ref, tmp_path, monkeypatch, capsys):
-    import exotune.sweep.engine as sw
+    import exotune.sweep.compute as sw
 
     spec, _, _, df = ref
     real = sw.analyze_batch
@@ -475,10 +484,26 @@ def test_failing_chunk_reported_and_retried(ref, tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(sw, "analyze_batch", flaky)
     out = tmp_path / "f"
+
+    class Record(SweepProgress):
+        def __init__(self):
+            self.messages, self.done = [], 0
+
+        def message(self, kind, text):
+            self.messages.append((kind, text))
+
+        def advance(self, n):
+            self.done += n
+
+    rec = Record()
     with pytest.raises(SweepError, match="1 of 5 chunks failed") as e:
-        run_sweep(spec, out, workers=1, progress=False)
+        run_sweep(spec, out, workers=1, progress=rec)
     assert e.value.failed == [2]  # rows 4, 5 = (8, 0.002), (8, 0.004)
-    assert "boom in chunk" in capsys.readouterr().err
+    assert e.value.exit_code == 1
+    failed = [t for k, t in rec.messages if k == "chunk_failed"]
+    assert len(failed) == 1 and failed[0].startswith("exotune: chunk 2 failed: ") and "boom in chunk" in failed[0]
+    assert [k for k, _ in rec.messages] == ["start", "chunk_failed"] and rec.done == 9
+    assert capsys.readouterr().err == ""  # the library itself never writes to the terminal
     m = load_manifest(out)
     assert m["status"] == "failed"
     assert [c["status"] for c in m["chunks"]] == ["done", "done", "failed", "done", "done"]
@@ -499,7 +524,7 @@ def test_verify_points_option(tmp_path):
     stores the number of mismatches per design (0 for a correct analysis)."""
     import yaml
 
-    from exotune.sweep.engine import load_results, run_sweep
+    from exotune.sweep import load_results, run_sweep
 
     spec = tmp_path / "spec.yaml"
     spec.write_text(yaml.safe_dump({
@@ -519,7 +544,7 @@ def test_sweep_with_a_box_family(tmp_path):
     the single-design report)."""
     import yaml
 
-    from exotune.sweep.engine import load_results, run_sweep
+    from exotune.sweep import load_results, run_sweep
 
     base = yaml.safe_load((Path(__file__).resolve().parents[1] / "examples" / "paper.yaml").read_text())
     base["humans"] = [{"kind": "msd", "inertia": [0.002, 0.15], "damping": [0.01, 2.0], "stiffness": [2.0, 300.0]}]
@@ -538,17 +563,17 @@ def test_nested_list_column_equals_pyarrow_conversion(rows):
     conversion of the nested Python lists (values, empties, inf)."""
     import pyarrow as pa
 
-    from exotune.sweep.engine import _nested_float_lists
+    from exotune.sweep import nested_float_lists
 
     ref = pa.array(rows, type=pa.list_(pa.list_(pa.float64())))
-    assert _nested_float_lists(rows).equals(ref)
+    assert nested_float_lists(rows).equals(ref)
 
 
 
 def test_manifest_says_a_sample_rate_is_not_simulated(tmp_path):
     """A base design with sample_rate_hz: the sweep is still the continuous analysis and says so
     (manifest ``model`` and the report's summary)."""
-    from exotune.sweep.report import make_report
+    from exotune.sweep import make_report
 
     base = yaml.safe_load(PAPER.read_text())
     base["implementation"]["sample_rate_hz"] = 1000.0
@@ -568,13 +593,13 @@ def test_numpy_to_arrow_matches_pa_array(xs, step):
     for float (NaN kept as a value), int64 and bool columns, strided inputs included."""
     import pyarrow as pa
 
-    from exotune.sweep.engine import _np_arrow
+    from exotune.sweep import np_arrow
 
     f = np.array(xs, dtype=float)[::step]
     ints = np.arange(f.size, dtype=np.int64)[::-1] * 7 - 3
     bools = np.isfinite(f) & (np.nan_to_num(f) > 0)
     for v, kind, typ in ((f, "f", pa.float64()), (ints, "i", pa.int64()), (bools, "b", pa.bool_())):
-        got = _np_arrow(v, kind)
+        got = np_arrow(v, kind)
         want = pa.array(v, type=typ)
         assert got.type == want.type and len(got) == len(want) == v.size
         assert got.null_count == 0
@@ -588,8 +613,8 @@ def test_chunk_task_does_not_import_pandas(tmp_path):
     """A worker's chunk (analysis, Arrow table, Parquet) never imports pandas (~1 s of start-up)."""
     spec = tmp_path / "s.yaml"
     spec.write_text(yaml.safe_dump({"base": str(PAPER), "axes": {"design.amplification": [2.0, 4.0]}}))
-    code = ("import sys; from exotune.sweep.engine import load_spec, _chunk_task; p = load_spec(sys.argv[1]); "
-            "r = _chunk_task(p.spec, p.hash, 0, None); assert r['error'] is None and r['rows'] == 2, r; "
+    code = ("import sys; from exotune.sweep import load_spec, chunk_task; p = load_spec(sys.argv[1]); "
+            "r = chunk_task(p.spec, p.hash, 0, None); assert r['error'] is None and r['rows'] == 2, r; "
             "print('pandas' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code, str(spec)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr

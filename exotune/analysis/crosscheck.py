@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .core import strip_qps, trim_poly, analyze_batch, char_terms
+from .batch import analyze_batch
+from .charfun import char_terms, strip_qps, trim_poly
 from ..model.controller import build_controller
 from ..model.humans import family_split
 from ..numerics.poly import padd, pmul

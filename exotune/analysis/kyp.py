@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["KypCertificate", "admittance_certificate", "compliance_certificate", "operator_certificates",
-           "nominal_shortage", "format_certificates", "SHORTAGE_UNIT"]
+           "nominal_shortage", "format_certificates", "realization_error", "SHORTAGE_UNIT"]
 
 SHORTAGE_UNIT = "rad/(N·m·s)"  # admittance: angular velocity per torque
 LOSSLESS_UNIT = "rad/(N·m)"  # compliance of the lossless spring-like term q1·s of Y
@@ -137,11 +137,32 @@ def _test_frequencies(poles, n: int) -> np.ndarray:
     return np.unique(np.r_[np.geomspace(lo / 100.0, hi * 100.0, n), mags])
 
 
-def _realization_error(A, B, C, num_desc, den_desc, poles) -> float:
-    """sup over test frequencies of |C(jωI − A)⁻¹B − num/den(jω)| / sup |num/den(jω)|: an
+def realization_error(A, B, C, num_desc, den_desc, poles) -> float:
+    """Relative error of a state-space realization against its transfer function.
+
+    sup over test frequencies of |C(jωI − A)⁻¹B − num/den(jω)| / sup |num/den(jω)|: an
     independent check (transfer-function values, not Gramians) that the realization handed to the
     SDP is the model. Test frequencies: a log grid two decades beyond the poles' range, and the
-    pole magnitudes (where resonances peak)."""
+    pole magnitudes (where resonances peak).
+
+    Parameters
+    ----------
+    A, B, C : ndarray
+        The realization (n×n, n×1, 1×n).
+    num_desc, den_desc : ndarray
+        The strictly proper transfer function, descending coefficients.
+    poles : ndarray
+        Its poles (they place the test frequencies).
+
+    Returns
+    -------
+    float
+        The relative error (inf when the transfer function vanishes or is not finite).
+
+    References
+    ----------
+    Paper §VI-C; docs/method.md#passivity-of-the-operator-compliance.
+    """
     s = 1j * _test_frequencies(poles, 400)
     ref = np.polyval(num_desc, s) / np.polyval(den_desc, s)
     n = A.shape[0]
@@ -210,7 +231,10 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     """Positive-realness certificate of one rational admittance Y = num/den (ascending coefficients).
 
     See the module docstring for the method. Poles of Y in the closed right half plane make Y not
-    positive real (``passive`` False, shortage NaN) or, on the axis, undecided (None)."""
+    positive real (``passive`` False, shortage NaN) or, on the axis, undecided (None).
+
+    One function (over 80 lines): the steps 1–4 of the module docstring in order, each ending in an
+    early return with its verdict."""
     import scipy.signal
 
     num, den = _trim(num), _trim(den)
@@ -259,7 +283,7 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     Ab, Bb, Cb, hsv, bound, ill = _balanced(A, B, C)
     if hsv.size == 0:  # Y_p vanishes numerically: Y = q1 s + q0
         return _polynomial_only(q0, tol, "the strictly proper part vanishes numerically", base)
-    fit = _realization_error(Ab, Bb, Cb, r, dS[::-1], poles / w0)
+    fit = realization_error(Ab, Bb, Cb, r, dS[::-1], poles / w0)
     if not fit <= 1e-6:
         # the (balanced, truncated) state space does not reproduce Y_p: coefficients decades
         # apart (e.g. a filter cutoff far above the plant) make the polynomial-to-state-space
@@ -328,7 +352,7 @@ def nominal_shortage(alpha, felt_inertia, felt_damping, K_c, zeta_hat):
 
 def operator_certificates(cfg, tol: float = TOL) -> dict:
     """Both certificates of a single-design config: {"nominal": …, "delay_free": …} (as dicts)."""
-    from .core import char_terms
+    from .charfun import char_terms
     from ..model.controller import build_controller
     from ..numerics.poly import padd
     from ..model.shaping import nominal_transfer_functions

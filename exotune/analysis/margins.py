@@ -332,8 +332,8 @@ def _all_ok(cols: dict, t: int) -> bool:
 
 
 def _analyze_delays(cfg, delays):
-    from ..config.design import batch_config
-    from .core import analyze_batch
+    from ..config import batch_config
+    from .batch import analyze_batch
 
     b = batch_config(cfg, {"implementation.delay_s": np.asarray(delays, dtype=float)})
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -363,7 +363,7 @@ def latency_margin(cfg, nominal: dict | None = None, verify: bool = True) -> Lat
 
     References
     ----------
-    docs/method.md#analyses-and-metrics (latency margin); paper §V (delay in the actuator path).
+    docs/method.md#latency-margin; paper Fig. 5 (a delay in the actuator path destabilizes the amplification loop) and Fig. 3.
 
     Examples
     --------
@@ -373,7 +373,8 @@ def latency_margin(cfg, nominal: dict | None = None, verify: bool = True) -> Lat
     True
     """
     from ..model.controller import build_controller
-    from .core import analyze_batch, char_terms
+    from .batch import analyze_batch
+    from .charfun import char_terms
 
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         cols = nominal if nominal is not None else analyze_batch(cfg)
@@ -437,3 +438,29 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
         loops = [lowered if lp.loop == lowered.loop else lp for lp in loops]
     return LatencyMargin(crit.extra_delay_s, crit, tuple(loops), T, res.sample_rate_hz, False,
                          "the exact checks did not settle after 8 refinements")
+
+
+def analyze_with_margins(cfg) -> dict:
+    """The single-design analysis (``exotune analyze --json``) with its ``margins`` section first:
+    the latency margin of :func:`latency_margin` as a mapping with units.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design.
+
+    Returns
+    -------
+    dict
+        ``{"margins": {"latency": …}, …}`` followed by every key of the analysis.
+
+    References
+    ----------
+    docs/method.md#latency-margin; paper Fig. 5.
+    """
+    from .design import analyze_design
+
+    rec = analyze_design(cfg)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        lm = latency_margin(cfg)
+    return {"margins": {"latency": lm.to_dict()}, **rec}

@@ -30,9 +30,9 @@ import math
 
 import numpy as np
 
-from ..sampled.loop import loop_eigenvalues, loop_stable
+from ..sampled import loop_eigenvalues, loop_stable
 
-__all__ = ["POINTS", "sampled_analysis", "certify", "format_certify"]
+__all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify"]
 
 POINTS = 96
 CHORD = 1.0  # over a resolved cell every eigenvalue moves ≤ CHORD × its distance to |z| = 1
@@ -70,12 +70,36 @@ def _cell_resolved(a, b, length: float) -> bool:
     return bool(np.all(move <= CHORD * dist))
 
 
-def _intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
+def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
     """Stable intervals of one family. Verdicts on a grid of ``points`` values (log-spaced when
     lo > 0); every cell with a stable verdict at both ends is halved until its eigenvalue paths are
     resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times and ``MAX_REFINED`` values in
     all (a bounded run time) — cells still unresolved then are reported; every change of verdict is bisected to 1e-10 relative. ``spectrum(v)`` → loop
-    eigenvalues at parameter value v (their derivatives by a forward difference)."""
+    eigenvalues at parameter value v (their derivatives by a forward difference).
+
+    Parameters
+    ----------
+    spectrum : callable
+        ``spectrum(v)``: the eigenvalues of the sampled-data loop at the parameter value ``v``.
+    lo, hi : float
+        The family's range (log-spaced grid when ``lo > 0``).
+    points : int
+        Values of the base grid.
+
+    Returns
+    -------
+    intervals : list of [a, b]
+        The stable intervals (|λ| < 1 for every eigenvalue).
+    info : dict
+        ``points``, ``refined_points``, ``unresolved`` cells, ``refinement_budget``,
+        ``budget_spent``, ``loop_states``, ``stable_points``.
+
+    References
+    ----------
+    The certification method: the module docstring (eigenvalue continuation with step control).
+    One function on purpose: the refinement and the bisections share the verdict cache of the
+    closures ``at``/``with_derivative``.
+    """
     cache = {}
     log = lo > 0
     coord = (lambda v: math.log(v)) if log else (lambda v: v)
@@ -175,8 +199,8 @@ def _in_certify(parse, i, item):
 def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     """Free/locked verdicts and the stable intervals of every rational human family and every
     environment spring/mass range of the file's ``certify`` section, for the file's controller."""
-    from ..config.design import parse_env, parse_human
-    from .export import discrete_from_file, plant_from_file
+    from ..config import parse_env, parse_human
+    from .fileio import discrete_from_file, plant_from_file
 
     plant = plant_from_file(doc)
     ctrl = discrete_from_file(doc)
@@ -210,14 +234,14 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
             entry["box"] = {q: [a, b] for q, a, b in fam.box}
             out["humans"].append(entry)
             continue
-        ivs, info = _intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points)
+        ivs, info = stable_intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points)
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]] and not info["unresolved"]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
         env, _ = _in_certify(parse_env, i, item)
         if env.kind not in ("spring", "mass"):
             continue
-        ivs, info = _intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points)
+        ivs, info = stable_intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points)
         out["environment"].append({"kind": env.kind, "parameter": env.param,
                                    "unit": "kg·m²" if env.param == "inertia" else "N·m/rad",
                                    "range": [env.lo, env.hi], **info, "stable_intervals": ivs,
@@ -297,7 +321,7 @@ def certify(doc: dict) -> dict:
 
 
 def _certify(doc: dict) -> dict:
-    from .export import schedule_entry_doc
+    from .fileio import schedule_entry_doc
 
     rep = {"schema": doc["schema"], "sample_rate_hz": doc["sample_rate_hz"], "delay_s": doc["delay_s"]["value"],
            "provenance": doc.get("provenance")}
@@ -420,31 +444,3 @@ def _run_golden(doc: dict, ins: dict, where: str) -> np.ndarray:
 
 def _fmt_ivs(ivs) -> str:
     return ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in ivs) if ivs else "nowhere"
-
-
-def format_certify(rep: dict) -> str:
-    sa = rep["sampled"]
-    lines = [f"exotune certify — {rep['schema']}, {rep['sample_rate_hz']['value']:g} Hz, "
-             f"delay {rep['delay_s'] * 1e3:.6g} ms",
-             f"  golden vectors: {rep['golden']['samples']} samples, max error "
-             f"{rep['golden']['max_abs_error']['value']:.3g} N·m",
-             f"  free (cuff free): {'stable' if sa['free_stable'] else 'UNSTABLE'} (spectral radius "
-             f"{sa['free_spectral_radius']:.9f})",
-             f"  locked joint:     {'stable' if sa['locked_stable'] else 'UNSTABLE'} (spectral radius "
-             f"{sa['locked_spectral_radius']:.9f})"]
-    for e in rep.get("gain_schedule", []):
-        lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
-                     + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
-    for h in sa["humans"] + sa["environment"]:
-        head = f"  {h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
-        if "skipped" in h:
-            lines.append(head + "skipped (" + h["skipped"] + ")")
-        else:
-            lines.append(head + ("robust" if h["robust"] else "NOT robust") + f"; stable in {_fmt_ivs(h['stable_intervals'])}")
-    lines.append("  method: " + rep["method"])
-    if rep["certified"]:
-        lines.append("CERTIFIED")
-    else:
-        lines.append("NOT CERTIFIED:")
-        lines += [f"  - {p}" for p in rep["problems"]]
-    return "\n".join(lines)

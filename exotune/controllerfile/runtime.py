@@ -21,7 +21,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..sampled.loop import Measured  # the runtime's input signals
+from ..sampled import Measured  # the runtime's input signals
 
 __all__ = ["SosFilter", "Runtime"]
 
@@ -82,7 +82,7 @@ class Runtime:
 
     @classmethod
     def from_file(cls, path) -> "Runtime":
-        from .export import load_controller
+        from .fileio import load_controller
 
         return cls(load_controller(path))
 

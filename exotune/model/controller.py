@@ -95,6 +95,22 @@ class ControllerStructure:
     def blocks(self) -> dict[str, Rational]:
         return {"theta_m": self.motor_position, "tau_s": self.spring_torque, "tau_c": self.cuff_torque}
 
+    def to_control(self, index: int = 0) -> dict:
+        """The blocks of paper Fig. 3 as python-control transfer functions (docs/method.md#controller):
+        τ_cmd = G_θ θ_m + G_s τ_s + G_c τ_c (minus the DOB's estimate), applied after ``delay_s``.
+
+        Returns ``{"G_theta": [N·m/rad], "G_s": [–], "G_c": [–], "Q": DOB filter or None,
+        "delay_s": float [s]}`` for member ``index`` of a batch.
+        """
+        d = np.asarray(self.delay_s, dtype=float).ravel()
+        return {
+            "G_theta": self.motor_position.to_control(index),
+            "G_s": self.spring_torque.to_control(index),
+            "G_c": self.cuff_torque.to_control(index),
+            "Q": None if self.dob_q is None else self.dob_q.to_control(index),
+            "delay_s": float(d[index] if d.size > 1 else d[0]),
+        }
+
 
 def _sea_blocks(g: Gains, impl: Implementation) -> tuple[Rational, Rational]:
     K1, B1, K2, B2 = (np.asarray(x, dtype=float) for x in (g.K1, g.B1, g.K2, g.B2))

@@ -78,6 +78,38 @@ class Plant:
     def K_c(self):
         return np.asarray(self.cuff_stiffness, dtype=float)
 
+    def to_control(self, index: int = 0):
+        """The plant as a ``control.StateSpace`` (paper §II, Fig. 2; docs/method.md#physical-model):
+
+        J_m θ̈_m + B_m θ̇_m = τ_s + τ_m,   J_j θ̈_j = τ_c − τ_s,   τ_s = K_s (θ_j − θ_m).
+
+        States ``[θ_m, θ̇_m, θ_j, θ̇_j]`` [rad, rad/s]; inputs ``tau_m`` (motor torque) and
+        ``tau_c`` (cuff torque on the joint) [N·m]; outputs ``theta_m``, ``theta_j`` [rad] and
+        ``tau_s`` [N·m]. The cuff spring K_c joins θ_j to the human: close that loop with a human
+        model. ``index`` picks one member of a batched plant.
+
+        Examples
+        --------
+        >>> Plant(0.44, 17.9, 1180.0, 0.29, 300.0).to_control().nstates
+        4
+        """
+        import control
+
+        def v(x):
+            a = np.asarray(x, dtype=float).ravel()
+            return float(a[index] if a.size > 1 else a[0])
+
+        Jm, Bm, Ks, Jj = v(self.motor_inertia), v(self.motor_damping), v(self.sea_stiffness), v(self.joint_inertia)
+        A = np.array([[0.0, 1.0, 0.0, 0.0],
+                      [-Ks / Jm, -Bm / Jm, Ks / Jm, 0.0],
+                      [0.0, 0.0, 0.0, 1.0],
+                      [Ks / Jj, 0.0, -Ks / Jj, 0.0]])
+        B = np.array([[0.0, 0.0], [1.0 / Jm, 0.0], [0.0, 0.0], [0.0, 1.0 / Jj]])
+        C = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-Ks, 0.0, Ks, 0.0]])
+        return control.ss(A, B, C, np.zeros((3, 2)), inputs=["tau_m", "tau_c"],
+                          outputs=["theta_m", "theta_j", "tau_s"],
+                          states=["theta_m", "omega_m", "theta_j", "omega_j"], name="plant")
+
     def as_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "ascending",
+    "descending",
     "as_poly",
     "padd",
     "psub",
@@ -211,6 +213,16 @@ class Rational:
     def __neg__(self) -> "Rational":
         return Rational(-self.num, self.den)
 
+    def descending(self, index: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """(num, den) of member ``index`` with descending coefficients (numpy/python-control order)."""
+        return descending(_member(self.num, index)), descending(_member(self.den, index))
+
+    def to_control(self, index: int = 0):
+        """Member ``index`` as a ``control.TransferFunction`` (docs/api.md#python-control)."""
+        import control
+
+        return control.TransferFunction(*self.descending(index))
+
     def __sub__(self, other: "Rational") -> "Rational":
         return self + (-other if isinstance(other, Rational) else Rational.const(-np.asarray(other)))
 
@@ -221,3 +233,38 @@ class Rational:
         n = np.broadcast_to(self.num, np.broadcast_shapes(self.num.shape[:-1], self.den.shape[:-1]) + self.num.shape[-1:])
         d = np.broadcast_to(self.den, n.shape[:-1] + self.den.shape[-1:])
         return Rational(n[idx], d[idx])
+
+
+def descending(c) -> np.ndarray:
+    """Ascending coefficients (the kernels' order) → descending (numpy, scipy.signal,
+    python-control, MATLAB), highest-power exact zeros dropped.
+
+    Examples
+    --------
+    >>> descending([1.0, 2.0, 3.0]).tolist()   # 1 + 2 s + 3 s²
+    [3.0, 2.0, 1.0]
+    """
+    c = np.asarray(c, dtype=float).ravel()
+    nz = np.flatnonzero(c)
+    c = c[: nz[-1] + 1] if nz.size else c[:1]
+    return c[::-1].copy()
+
+
+def ascending(d) -> np.ndarray:
+    """Descending coefficients (numpy/python-control order) → ascending (the kernels' order).
+
+    Examples
+    --------
+    >>> ascending([3.0, 2.0, 1.0]).tolist()
+    [1.0, 2.0, 3.0]
+    """
+    return np.asarray(d, dtype=float).ravel()[::-1].copy()
+
+
+def _member(a, index: int) -> np.ndarray:
+    """Row ``index`` of a batch of coefficient vectors (a 1-D array or a batch of one: itself)."""
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1:
+        return a
+    rows = a.reshape(-1, a.shape[-1])
+    return rows[index if rows.shape[0] > 1 else 0]

@@ -283,7 +283,7 @@ def leaves_pair(qa: QP, qb: QP, grid: np.ndarray, valid: np.ndarray, magnitude_o
     return adaptive_leaves(lambda i, w: [qa.eval(i, w), qb.eval(i, w)], qa.n, grid, valid, extra_ok=magnitude_ok)
 
 
-def _phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None):
+def phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None):
     """Σ of the accepted principal phase steps of Δ(jω) over each task's grid, and whether every
     interval was resolved. ``engine``: "numba" (compiled kernel, default when numba is
     installed and EXOTUNE_NUMPY_ONLY is unset) or "numpy" (the reference implementation)."""
@@ -325,7 +325,7 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     wmax = omega_max(p0, p1)
     valid = np.isfinite(wmax)
     grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=per_decade)
-    total, resolved = _phase_sums(q, grid, valid)
+    total, resolved = phase_sums(q, grid, valid)
     idx = np.arange(ntask)
     vmax, _ = q.eval(idx, np.where(valid, wmax, 1.0), deriv=False)
     n = degree(p0)

@@ -36,7 +36,8 @@ import scipy.linalg
 import scipy.signal
 
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
-           "closed_loop_matrix", "sampled_stable", "loop_stable", "loop_eigenvalues"]
+           "closed_loop_matrix", "sampled_stable", "loop_stable", "loop_eigenvalues", "tustin", "prewarped",
+           "zoh_fractional", "default_prewarp", "check_design"]
 
 # sampled signals the controller may use (order of the plant's output vector)
 Measured = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
@@ -129,9 +130,31 @@ def prewarped(num: np.ndarray, den: np.ndarray, Ts: float, prewarp_hz: float | N
     return num * lam ** np.arange(num.size), den * lam ** np.arange(den.size)
 
 
-def _tustin(num_asc, den_asc, Ts: float, prewarp_hz: float | None):
+def tustin(num_asc, den_asc, Ts: float, prewarp_hz: float | None):
     """Discrete (A, B, C, D) of a proper num/den (ascending coefficients) by the bilinear
-    transform, prewarped at ``prewarp_hz`` when given (s ← K (z−1)/(z+1), K = ω/tan(ωT_s/2))."""
+    transform, prewarped at ``prewarp_hz`` when given (s ← K (z−1)/(z+1), K = ω/tan(ωT_s/2)).
+
+    Parameters
+    ----------
+    num_asc, den_asc : array_like
+        Numerator and denominator of the continuous block, ascending powers of s (proper).
+    Ts : float
+        Sample period [s].
+    prewarp_hz : float or None
+        Frequency [Hz] where the discrete response equals the continuous one exactly; ``None``
+        for the plain bilinear transform.
+
+    Returns
+    -------
+    A, B, C, D : numpy.ndarray
+        The discrete state space (empty A for a static block; all-zero for a zero block).
+
+    References
+    ----------
+    The controller's discretization for the sampled-data analysis: docs/method.md (sampled-data
+    check); the export discretizes the same blocks through zeros and poles
+    (:func:`exotune.controllerfile.sos.tustin_sos`).
+    """
     num = np.trim_zeros(_row(num_asc), "b")
     den = np.trim_zeros(_row(den_asc), "b")
     if num.size == 0:
@@ -208,7 +231,7 @@ def discretize(cs, plant, sample_rate_hz: float, prewarp: dict | None = None) ->
     Ts = 1.0 / float(sample_rate_hz)
     pw = prewarp or {}
     static, blocks = controller_blocks(cs, plant)
-    ss = [(_tustin(b.num, b.den, Ts, pw.get(b.prewarp)), b.input) for b in blocks]
+    ss = [(tustin(b.num, b.den, Ts, pw.get(b.prewarp)), b.input) for b in blocks]
     return assemble(static, ss, sample_rate_hz, float(np.ravel(cs.delay_s)[0]))
 
 

@@ -1,0 +1,234 @@
+"""The single-design analysis: every metric of one design, as a JSON-ready report.
+
+References
+----------
+docs/cli.md#exotune-analyze; docs/method.md#analyses-and-metrics.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .batch import GAIN_NAMES, analyze_batch
+from .intervals import MAX_FAMILY_PIECES
+
+__all__ = ["analyze_design", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
+
+
+METRIC_UNITS = {
+    "passivity.max_phase_excess_deg": "deg",
+    "passivity.nonpassive_band_hz": "Hz",
+    "passivity.kyp.*.shortage": "rad/(N·m·s) (admittance: −min Re{jω C7(jω)}, 0 when passive)",
+    "passivity.kyp.*.lossless_compliance": "rad/(N·m) (the q1 of the lossless term q1·s of s·C7; 1/K_c)",
+    "passivity.kyp.*.relative_shortage": "1 (shortage / largest Hankel singular value of the strictly proper part)",
+    "passivity.kyp.*.truncation_bound": "rad/(N·m·s)",
+    "passivity.kyp.*.shortage_upper": "rad/(N·m·s) (the SDP's d*, an upper bound on the shortage)",
+    "passivity.kyp.*.witness_frequency_hz": "Hz (where Re{jω C7} is smallest: the non-passivity witness)",
+    "passivity.kyp.*.certificate_residual": "1 (largest eigenvalue of the LMI at the solution / its norm)",
+    "dob.gain_margin_db": "dB",
+    "dob.phase_margin_deg": "deg",
+    "dob.delay_margin_s": "s (extra delay on top of the modelled T)",
+    "dob.crossover_hz": "Hz",
+    "amplification.dc": "1 (|C6/C5| at ω → 0)",
+    "amplification.bandwidth_hz": "Hz (first −3 dB frequency of |C6/C5|)",
+    "delay_s": "s",
+}
+
+
+VERIFY_POINTS = 64
+
+
+def analyze_design(cfg) -> dict:
+    """All SPEC §5 metrics for one design, as a JSON-ready dict (SPEC §8 ``analyze --json``).
+    Overflow in an extreme design is reported through the inconclusive flags and warnings of
+    the result, not as numpy's floating-point warnings."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return _analyze_design(cfg)
+
+
+def _human_entry(cols, i: int, fam) -> dict:
+    """The report entry of human family ``i`` (its columns of the one-design batch)."""
+    key = f"human{i}_{fam.kind}"
+    iv = cols[f"{key}_stable_intervals"][0]
+    entry = {
+        "kind": fam.kind,
+        "parameter": fam.param,
+        "unit": fam.unit,
+        "range": [fam.lo, fam.hi],
+        "fixed": {k: v for k, v in {**fam.fixed(), **({"eta": fam.eta} if fam.kind == "complex_stiffness" else {})}.items() if k != fam.param},
+        "stable_intervals": iv,
+        "robust": bool(cols[f"{key}_robust"][0]),
+        "conclusive": bool(cols[f"{key}_conclusive"][0]),
+        "critical": [{"value": p, "frequency_hz": f} for p, f in cols[f"{key}_critical"][0]],
+        "verified_points": VERIFY_POINTS,
+        "verification_mismatches": cols[f"{key}_verification_mismatches"][0],
+    }
+    if fam.box:
+        boxed = {fam.param: [fam.lo, fam.hi], **{q: [lo, hi] for q, lo, hi in fam.box}}
+        entry["box"] = boxed
+        entry["fixed"] = {k: v for k, v in fam.fixed().items() if k not in boxed}
+        entry["stable_intervals"] = None  # a box's stable set is not an interval
+        entry["method"] = "Edge Theorem: the box is robustly stable iff each of its edges is (exact intervals per edge)"
+        entry["edges"] = [
+            {"parameter": e.param, "range": [e.lo, e.hi],
+             "at": {q: getattr(e, q) for q in boxed if q != e.param}, "stable_intervals": ivs}
+            for e, ivs in cols[f"{key}_edges"][0]
+        ]
+    elif iv:
+        # the stable interval reaching the top of the range gives e.g. the lightest stable inertia
+        top = [x for x in iv if x[1] == fam.hi]
+        entry["lowest_stable_value_below_range_top"] = top[0][0] if top else None
+    return entry
+
+
+def _environment_entries(cfg, cols) -> list[dict]:
+    """The report entries of the environment models."""
+    env = []
+    for i, e in enumerate(cfg.environment):
+        key = f"env{i}_{e.kind}"
+        if e.kind in ("locked", "free"):
+            env.append({"kind": e.kind, "stable": bool(cols[f"{key}_stable"][0])})
+        else:
+            env.append(
+                {
+                    "kind": e.kind,
+                    "parameter": e.param,
+                    "range": [e.lo, e.hi],
+                    "stable_intervals": cols[f"{key}_stable_intervals"][0],
+                    "robust": bool(cols[f"{key}_robust"][0]),
+                }
+            )
+    return env
+
+
+def _sampled_check(cfg, cols, humans: list, env: list, warnings: list):
+    """The sampled-data check at the file's sample rate (None without one); its disagreements with
+    the continuous verdicts are appended to ``warnings``."""
+    sampled = None
+    if cfg.implementation.sample_rate_hz:
+        from ..sampled.loop import check_design
+
+        sampled = check_design(cfg, {"humans": humans, "environment": env})
+        fs = sampled["sample_rate_hz"]
+        for name in ("free", "locked"):
+            if sampled[f"{name}_stable"] != bool(cols[f"{name}_stable"][0]):
+                warnings.append(f"at {fs:g} Hz the sampled-data loop is {'stable' if sampled[f'{name}_stable'] else 'UNSTABLE'} "
+                                f"{'with the cuff free' if name == 'free' else 'with the output locked'}, unlike the continuous analysis")
+        for side, fams in (("human", sampled["humans"]), ("environment", sampled["environment"])):
+            for h in fams:
+                for b in h.get("boundaries", []):
+                    if b["sampled_unstable_where_continuous_stable"]:
+                        lo_, hi_ = b["sampled_unstable_where_continuous_stable"]
+                        warnings.append(f"at {fs:g} Hz the sampled-data loop is UNSTABLE for {side} {h['kind']} "
+                                        f"{h['parameter']} in [{lo_:.5g}, {hi_:.5g}], where the continuous analysis says stable")
+                if h.get("disagreements"):
+                    vals = ", ".join(f"{d['value']:.4g}" for d in h["disagreements"][:6])
+                    warnings.append(f"at {fs:g} Hz the sampled-data loop disagrees with the continuous {side} {h['kind']} "
+                                    f"intervals at {h['parameter']} = {vals}" + (" …" if len(h["disagreements"]) > 6 else ""))
+    return sampled
+
+
+def _analyze_design(cfg) -> dict:
+    from ..model.shaping import GAIN_UNITS_TORQUE, double_compliance_shaping
+
+    from ..config import check_analysis_filters
+
+    check_analysis_filters(cfg.implementation)
+    cols = analyze_batch(cfg, verify=VERIFY_POINTS)
+    ds = double_compliance_shaping(cfg.plant, cfg.design)
+    g = lambda k: float(np.asarray(cols[k])[0])
+    humans = [_human_entry(cols, i, fam) for i, fam in enumerate(cfg.humans)]
+    env = _environment_entries(cfg, cols)
+    dob = None
+    if cfg.implementation.dob is not None:
+        dob = {
+            "gain_margin_db": g("dob_gain_margin_db"),
+            "phase_margin_deg": g("dob_phase_margin_deg"),
+            "delay_margin_s": g("dob_delay_margin_s"),
+            "crossover_hz": g("dob_crossover_hz"),
+            "stable": bool(cols["dob_stable"][0]),
+        }
+    ratio = float(ds.J_m_hat / cfg.plant.J_j)
+    warnings = list(ds.warnings)
+    sampled = _sampled_check(cfg, cols, humans, env, warnings)
+    schedule = _schedule_check(cfg) if cfg.raw.get("transmission") else None
+    for e in schedule or []:
+        if not e["robust"]:
+            warnings.append(f"at joint angle {e['joint_angle_rad']:g} rad (transmission ratio {e['ratio']:g}) the "
+                            f"rescheduled design is not robust: {', '.join(e['not_robust'])}")
+    kyp = kyp_certificates(cfg)  # a non-passive nominal C7 is the B2_hat < 0 warning of shaping
+    if not bool(cols["passivity_conclusive"][0]):
+        warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis, or the "
+                        "adaptive frequency search spent its per-task budget: extreme parameters)")
+    if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
+        warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution, an "
+                        "adaptive search that spent its per-task budget, or a human range with more than "
+                        f"{MAX_FAMILY_PIECES} critical values: extreme parameters): treated as NOT stable")
+    return {
+        "model": "continuous-time, exact delay e^{-sT} (SPEC §3); verdicts by the argument principle on the closed-loop characteristic quasi-polynomial",
+        "structure": cfg.implementation.structure,
+        "delay_s": float(np.asarray(cfg.implementation.delay_s)),
+        "gain_convention": "torque",
+        "gains": {k: g(k) for k in GAIN_NAMES},
+        "units": dict(GAIN_UNITS_TORQUE),
+        "free_stable": bool(cols["free_stable"][0]),
+        "free": {
+            "stable": bool(cols["free_stable"][0]),
+            "rigid_body_roots": int(cols["free_rigid_body_roots"][0]),
+            "note": "the rigid-body root at s = 0 (K1 = 0, cuff free) is physical and removed exactly (SPEC §4)",
+        },
+        "locked_stable": bool(cols["locked_stable"][0]),
+        "humans": humans,
+        "environment": env,
+        "passivity": {
+            "max_phase_excess_deg": g("passivity_max_phase_excess_deg"),
+            "nonpassive_band_hz": cols["passivity_nonpassive_band_hz"][0],
+            "kyp": kyp,
+        },
+        "dob": dob,
+        "amplification": {
+            "dc": g("amplification_dc"),
+            "bandwidth_hz": g("amplification_bandwidth_hz"),
+            "minimum_phase": bool(cols["amplification_minimum_phase"][0]),
+        },
+        "J_m_hat_over_J_j": ratio,
+        "sampled_data": sampled,
+        "gain_schedule": schedule,
+        "metric_units": METRIC_UNITS,
+        "warnings": warnings,
+    }
+
+
+def kyp_certificates(cfg) -> dict:
+    """KYP passivity certificates of the rational models of C7 (:mod:`exotune.kyp`, cvxpy); a
+    missing or failing SDP solver is reported in the result, not raised."""
+    try:
+        from .kyp import operator_certificates
+
+        return operator_certificates(cfg)
+    except (ImportError, ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+        return {"error": f"KYP certificates not computed: {type(e).__name__}: {e}"}
+
+
+def _schedule_check(cfg) -> list[dict]:
+    """Continuous analysis of the design rescheduled at every joint angle of its ``transmission``
+    section (paper §VI: J_m, B_m, K_s × ratio², gains recomputed; one batch over the angles)."""
+    tr = cfg.raw["transmission"]
+    r2 = np.asarray(tr["ratio"], float) ** 2
+    g = lambda x: float(np.ravel(x)[0])  # noqa: E731
+    from ..config import batch_config
+
+    cols = analyze_batch(batch_config(cfg, {"plant.motor_inertia": g(cfg.plant.J_m) * r2,
+                                            "plant.motor_damping": g(cfg.plant.B_m) * r2,
+                                            "plant.sea_stiffness": g(cfg.plant.K_s) * r2}))
+    fams = [k[: -len("_robust")] for k in cols if k.startswith(("human", "env")) and k.endswith("_robust")]
+    out = []
+    for i, (angle, ratio) in enumerate(zip(tr["joint_angle_rad"], tr["ratio"])):
+        bad = [k for k in fams if not bool(cols[f"{k}_robust"][i])]
+        bad += [k for k in ("free_stable", "locked_stable") if not bool(cols[k][i])]
+        bad += [k for k in cols if k.startswith("env") and k.endswith("_stable") and not bool(cols[k][i])]
+        out.append({"joint_angle_rad": float(angle), "ratio": float(ratio), "robust": not bad, "not_robust": bad,
+                    "gains": {k: float(cols[k][i]) for k in GAIN_NAMES},
+                    "human_stable_intervals": {k: cols[f"{k}_stable_intervals"][i] for k in fams
+                                               if f"{k}_stable_intervals" in cols}})
+    return out

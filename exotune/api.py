@@ -1,0 +1,272 @@
+"""The Python twin of each command (docs/api.md).
+
+Every function accepts a path or an object and returns a typed result
+(:mod:`exotune.results`) whose ``to_dict()`` is the command's ``--json`` object, ``to_text()``
+its text report and, where the command draws, ``plot(ax=None)`` a matplotlib figure::
+
+    import exotune
+    r = exotune.analyze("examples/paper.yaml")
+    r.plot()
+
+Errors in the input raise :class:`exotune.errors.ConfigError` (field and reason), as the command
+line reports them.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from .results import (
+    Certificate,
+    ControllerFile,
+    DesignAnalysis,
+    DesignSummary,
+    OptimizeResult,
+    SimulationRun,
+    SweepResult,
+)
+
+__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "simulate"]
+
+
+
+def load_design(source) -> Any:
+    """Read and validate a design.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, Mapping or DesignConfig
+        A design file (YAML, docs/design-file.md), the same content as a mapping, or an already
+        loaded design (returned as is).
+
+    Returns
+    -------
+    DesignConfig
+        The validated design: plant, design parameters, implementation, human families,
+        environments.
+
+    Raises
+    ------
+    ConfigError
+        The first invalid field and why.
+
+    References
+    ----------
+    docs/design-file.md; paper §IV (the design parameters).
+
+    Examples
+    --------
+    >>> cfg = load_design("examples/paper.yaml")
+    >>> cfg.design.amplification
+    8.0
+    """
+    from .config import design_from_mapping, load_design as _load
+
+    if isinstance(source, (str, os.PathLike)):
+        return _load(source)
+    if isinstance(source, Mapping):
+        return design_from_mapping(dict(source))
+    if hasattr(source, "plant") and hasattr(source, "design"):
+        return source
+    raise TypeError(f"expected a design file path, a mapping or a DesignConfig, got {type(source).__name__}")
+
+
+def design(source) -> DesignSummary:
+    """Every controller gain of a design by double compliance shaping, with the nominal transfer
+    functions (the library twin of ``exotune design``).
+
+    Parameters
+    ----------
+    source : path, Mapping or DesignConfig
+        See :func:`load_design`.
+
+    Returns
+    -------
+    DesignSummary
+        ``gains`` (torque units, ``units``), ``transfer_functions()`` as python-control objects,
+        ``to_dict()`` (= ``exotune design --json``), ``to_text()``, ``plot()``.
+
+    References
+    ----------
+    Paper §IV, eqs. (16)–(21); docs/method.md#double-compliance-shaping.
+
+    Examples
+    --------
+    >>> d = design("examples/paper.yaml")
+    >>> round(d.gains["K2_hat"], 6), d.units["K1"]
+    (7.0, 'N·m/rad')
+    """
+    from .analysis import design_report
+
+    cfg = load_design(source)
+    return DesignSummary.from_record(design_report(cfg), cfg)
+
+
+def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
+    """Coupled stability, robust intervals, passivity, DOB margins, amplification and the
+    latency margin of one design (the library twin of ``exotune analyze``).
+
+    Parameters
+    ----------
+    source : path, Mapping or DesignConfig
+        See :func:`load_design`.
+    cross_check : bool
+        Also compare the exact verdicts with the closed-loop roots of two Padé models.
+
+    Returns
+    -------
+    DesignAnalysis
+        Typed verdicts and metrics; ``to_dict()`` is ``exotune analyze --json``.
+
+    References
+    ----------
+    Paper §IV-A and Fig. 5; docs/method.md#analyses-and-metrics.
+
+    Examples
+    --------
+    >>> r = analyze("examples/paper.yaml")
+    >>> r.free_stable, r.robust
+    (True, False)
+    """
+    from .analysis import analyze_with_margins
+
+    cfg = load_design(source)
+    rec = analyze_with_margins(cfg)
+    if cross_check:
+        from .analysis import pade_crosscheck
+
+        rec["cross_check"] = pade_crosscheck(cfg)
+    return DesignAnalysis.from_record(rec, cfg)
+
+
+def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = None, sample: int | None = None,
+          seed: int | None = None, chunk_size: int | None = None,
+          progress: Callable[[str], None] | None = None) -> SweepResult:
+    """Run (or resume) a chunked parameter sweep into ``out`` (the library twin of ``exotune sweep``).
+
+    Parameters
+    ----------
+    spec : path
+        Sweep specification (docs/sweep-spec.md).
+    out : path
+        Output directory; rerunning with the same spec resumes.
+    workers, dask_address, sample, seed, chunk_size
+        As the command's options.
+    progress : callable, optional
+        Receives one line of progress text at a time (nothing is printed otherwise).
+
+    Returns
+    -------
+    SweepResult
+        The manifest and ``table()`` of every row.
+
+    References
+    ----------
+    docs/sweep-spec.md.
+    """
+    from .sweep import run_sweep
+
+    run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
+              chunk_size=chunk_size, progress=progress)
+    return SweepResult.from_directory(out)
+
+
+def report(sweep_dir, out=None) -> Path:
+    """Stability maps and summary tables of a sweep (the library twin of ``exotune report``).
+
+    Returns
+    -------
+    pathlib.Path
+        The report directory that was written.
+
+    References
+    ----------
+    docs/sweep-spec.md#report.
+    """
+    from .sweep import make_report
+
+    where = make_report(sweep_dir, out)
+    return Path(where) if where is not None else Path(sweep_dir) / "report"
+
+
+def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
+    """Maximize the objective under robust-stability constraints and write the best feasible
+    design to ``out`` (the library twin of ``exotune optimize``).
+
+    References
+    ----------
+    docs/optimize-spec.md.
+    """
+    from .optimize import run_optimize
+
+    return OptimizeResult.from_record(run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv), out)
+
+
+def export(source, sample_rate_hz: float, out) -> ControllerFile:
+    """Export the discrete-time runtime controller of a design file at ``sample_rate_hz`` [Hz]
+    to ``out`` (YAML, written atomically; the library twin of ``exotune export``).
+
+    Parameters
+    ----------
+    source : path or DesignConfig loaded from a file
+        The design file (its bytes are hashed into the controller file's provenance).
+    sample_rate_hz : float
+        Runtime sample rate [Hz].
+    out : path
+        Controller file to write (docs/controller-file.md).
+
+    References
+    ----------
+    docs/controller-file.md; paper §V (the experiments' 1 kHz runtime).
+    """
+    from .controllerfile import export_design
+
+    path = source if isinstance(source, (str, os.PathLike)) else getattr(source, "source", None)
+    if path is None:
+        raise TypeError("export needs the design file (a path, or a design loaded from a file)")
+    return ControllerFile.from_record(export_design(path, sample_rate_hz, out), out)
+
+
+def certify(source) -> Certificate:
+    """Exact sampled-data certification of a controller file (the library twin of ``exotune certify``).
+
+    Parameters
+    ----------
+    source : path, Mapping or ControllerFile
+        The controller file, its content, or the result of :func:`export`.
+
+    References
+    ----------
+    docs/controller-file.md#certification.
+    """
+    from .controllerfile.certify import certify as _certify
+    from .controllerfile import load_controller
+
+    if isinstance(source, ControllerFile):
+        source = source.path if source.path is not None else source.to_dict()
+    doc = load_controller(source) if isinstance(source, (str, os.PathLike)) else dict(source)
+    return Certificate.from_record(_certify(doc))
+
+
+def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
+             human_inertia: float | None = None) -> SimulationRun:
+    """Time-domain run of the runtime controller on the plant (the library twin of
+    ``exotune simulate``).
+
+    Parameters
+    ----------
+    source : path
+        A design file (with ``sample_rate_hz``) or a controller file.
+    scenario : str
+        ``locked-output``, ``dob-friction``, ``light-mass`` or ``saturation``.
+
+    References
+    ----------
+    docs/cli.md#simulate; paper §V (experiments).
+    """
+    from .simulate import load_for_simulation, run_scenario
+
+    doc = load_for_simulation(source, sample_rate_hz)
+    return SimulationRun.from_report(run_scenario(doc, scenario, human_inertia=human_inertia))

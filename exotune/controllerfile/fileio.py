@@ -1,0 +1,73 @@
+"""Reading and writing controller files: :func:`load_controller` (safe YAML loader, schema, then
+the consistency checks), :func:`write_controller` (YAML, written atomically), and the views of a
+loaded file the analysis and the runtime use — its controller as one discrete state space, its
+plant, and one gain-schedule entry as a controller file of its own.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..sampled import Measured, assemble
+from .checks import check_controller_file
+from .schema import validate_controller
+from .sos import sos_ss
+
+__all__ = ["load_controller", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc"]
+
+
+def load_controller(path) -> dict:
+    """Read (safe YAML loader) and validate a controller file (schema, then
+    :func:`check_controller_file`); returns the mapping."""
+    from ..config import read_yaml
+
+    doc = read_yaml(path)
+    validate_controller(doc, str(path))
+    check_controller_file(doc)
+    return doc
+
+
+def write_controller(doc: dict, out) -> None:
+    """Write the controller file ``doc`` to ``out`` as YAML, atomically.
+
+    Parameters
+    ----------
+    doc : dict
+        A controller file (as built by :func:`exotune.controllerfile.export.build_export`).
+    out : str or os.PathLike
+        The file to write; it is replaced atomically (a reader never sees half a file).
+
+    Notes
+    -----
+    The format is schema ``exotune.controller/1`` (:mod:`exotune.controllerfile.schema`).
+    """
+    import yaml
+
+    from ..jsonio import write_atomic
+
+    text = ("# exotune runtime controller file (schema exotune.controller/1, see exotune/schemas/controller.schema.json)\n"
+            + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=120))
+    write_atomic(out, text)
+
+
+def discrete_from_file(doc: dict):
+    """The file's controller as one state space (:class:`exotune.sampled.DiscreteController`),
+    built from its gains and sos filters only."""
+    c = doc["controller"]
+    static = np.array([c["gains"].get(s, {"gain": 0.0})["gain"] for s in Measured], dtype=float)
+    blocks = [(sos_ss(f["sos"]), f["input"]) for f in c["filters"]]
+    return assemble(static, blocks, doc["sample_rate_hz"]["value"], doc["delay_s"]["value"])
+
+
+def plant_from_file(doc: dict):
+    """The file's plant (:class:`exotune.model.plant.Plant`) from its ``plant`` section."""
+    from ..model.plant import Plant
+
+    p = {k: v["value"] for k, v in doc["plant"].items()}
+    return Plant(p["motor_inertia"], p["motor_damping"], p["sea_stiffness"], p["joint_inertia"], p["cuff_stiffness"])
+
+
+def schedule_entry_doc(doc: dict, entry: dict) -> dict:
+    """The controller-file view of one gain-schedule entry (its plant, gains and controller)."""
+    return {**doc, "plant": entry["plant"], "gains": entry["gains"],
+            "controller": {**doc["controller"], **entry["controller"]}}

@@ -1,0 +1,251 @@
+"""The controller file's format (schema ``exotune.controller/1``): its units and its pydantic
+model :class:`ControllerFile`, whose JSON Schema ships as ``exotune/schemas/controller.schema.json``
+(:func:`json_schema`, :func:`write_schema`; a test keeps them equal).
+
+Every number of the file carries its unit, and the units are fixed (:data:`SIGNAL_UNITS`,
+:data:`GAIN_UNITS`, :data:`PLANT_UNITS`, :data:`DESIGN_UNITS`, :data:`SIX_GAIN_UNITS`).
+:func:`validate_controller` checks a mapping against the model (unknown keys refused, numbers strict
+and finite); the checks the schema cannot express are in :mod:`exotune.controllerfile.checks`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from ..errors import ConfigError
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "SIGNAL_UNITS",
+    "GAIN_UNITS",
+    "PLANT_UNITS",
+    "DESIGN_UNITS",
+    "SIX_GAIN_UNITS",
+    "ControllerFile",
+    "validate_controller",
+    "json_schema",
+    "write_schema",
+    "schema_path",
+]
+
+SCHEMA_VERSION = "exotune.controller/1"
+
+SIGNAL_UNITS = {"theta_m": "rad", "omega_m": "rad/s", "tau_s": "N·m", "dtau_s": "N·m/s", "tau_c": "N·m",
+                "tau_cmd": "N·m"}
+GAIN_UNITS = {"theta_m": "N·m/rad", "omega_m": "N·m·s/rad", "tau_s": "1 (N·m/N·m)", "dtau_s": "s",
+               "tau_c": "1 (N·m/N·m)", "tau_cmd": "1 (N·m/N·m)"}
+PLANT_UNITS = {"motor_inertia": "kg·m²", "motor_damping": "N·m·s/rad", "sea_stiffness": "N·m/rad",
+                "joint_inertia": "kg·m²", "cuff_stiffness": "N·m/rad"}
+DESIGN_UNITS = {"amplification": "1", "felt_inertia": "kg·m²", "felt_damping": "N·m·s/rad", "zeta": "1",
+                 "zeta_hat": "1"}
+SIX_GAIN_UNITS = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)",
+                   "B2_hat": "s"}
+
+
+# --------------------------------------------------------------------------------------------
+# validation (pydantic model; its JSON Schema ships with the package)
+# --------------------------------------------------------------------------------------------
+class _S(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+# numbers are strict: a quoted "1000" or a boolean is refused (pydantic's lax mode would convert
+# them); integers are accepted as floats
+SF = Annotated[float, Field(strict=True)]
+
+
+class _Open(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+
+class Quantity(_S):
+    value: SF
+    unit: str
+
+
+class Gain(_S):
+    gain: SF
+    unit: str
+
+
+_A0 = Annotated[float, Field(strict=True, ge=1.0, le=1.0, description="a0 = 1 (scipy sos convention)")]
+SosRow = tuple[SF, SF, SF, _A0, SF, SF]
+
+
+class Filter(_S):
+    name: str
+    input: Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c", "tau_cmd"]
+    input_unit: str
+    output_unit: str
+    unit: str
+    description: str | None = None
+    discretization: str
+    prewarp_hz: Annotated[float, Field(strict=True, gt=0.0)] | None = None
+    continuous: dict | None = None
+    sos: list[SosRow] = Field(min_length=1, description="rows [b0, b1, b2, a0, a1, a2], a0 = 1, DF-II transposed")
+
+
+class ControllerSection(_S):
+    equation: str
+    gains: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], Gain]
+    filters: list[Filter]
+
+
+class SignalValues(_S):
+    unit: str
+    values: list[SF]
+
+
+class GoldenInputs(_S):
+    theta_m: SignalValues
+    omega_m: SignalValues
+    tau_s: SignalValues
+    dtau_s: SignalValues
+    tau_c: SignalValues
+
+
+class Golden(_S):
+    note: str | None = None
+    inputs: GoldenInputs
+    tau_cmd: SignalValues
+
+
+class Delay(_S):
+    value: SF = Field(ge=0.0)
+    unit: Literal["s"]
+    samples: SF | None = None
+    note: str | None = None
+
+
+class SampleRate(_S):
+    value: SF = Field(gt=0.0)
+    unit: Literal["Hz"]
+
+
+class Positive(Quantity):
+    value: SF = Field(gt=0.0)
+
+
+class NonNegative(Quantity):
+    value: SF = Field(ge=0.0)
+
+
+class PlantSection(_S):
+    motor_inertia: Positive
+    motor_damping: NonNegative
+    sea_stiffness: Positive
+    joint_inertia: Positive
+    cuff_stiffness: Positive
+
+
+class AtLeastOne(Quantity):
+    value: SF = Field(ge=1.0)
+
+
+class DesignSection(_S):
+    amplification: AtLeastOne
+    felt_inertia: Positive
+    felt_damping: Positive
+    zeta: NonNegative
+    zeta_hat: NonNegative
+
+
+class GainsSection(_S):
+    K1: Quantity
+    B1: Quantity
+    K2: Quantity
+    B2: Quantity
+    K2_hat: Quantity
+    B2_hat: Quantity
+    convention: str | None = None
+
+
+class CertifySection(_S):
+    humans: list[dict] = Field(default_factory=list)
+    environment: list[dict] = Field(default_factory=list)
+
+
+class ScheduleController(_S):
+    gains: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], Gain]
+    filters: list[Filter]
+
+
+class ScheduleEntry(_S):
+    joint_angle_rad: SF
+    ratio: SF = Field(gt=0.0)
+    plant: PlantSection
+    gains: GainsSection
+    controller: ScheduleController
+    predicted_sampled: _Open
+    golden_tau_cmd: SignalValues
+
+
+class GainSchedule(_S):
+    variable: Literal["joint_angle_rad"]
+    unit: Literal["rad"]
+    entries: list[ScheduleEntry] = Field(min_length=1)
+
+
+class Transmission(_S):
+    joint_angle_rad: list[SF]
+    ratio: list[SF]
+
+
+class ControllerFile(_S):
+    """The controller file (SPEC §7). Extra keys are refused; numbers are finite."""
+
+    schema_: Literal["exotune.controller/1"] = Field(alias="schema")
+    sample_rate_hz: SampleRate
+    delay_s: Delay
+    plant: PlantSection
+    design: DesignSection
+    gains: GainsSection
+    signals: dict[str, dict[str, str]]
+    controller: ControllerSection
+    dob: _Open | None = None
+    gain_schedule: GainSchedule | None = None
+    gain_schedule_note: str | None = None
+    transmission: Transmission | None = None
+    certify: CertifySection
+    predicted: _Open
+    golden: Golden
+    provenance: _Open
+
+
+def schema_path() -> Path:
+    return Path(__file__).resolve().parent / "schemas" / "controller.schema.json"
+
+
+def json_schema() -> dict:
+    s = ControllerFile.model_json_schema(by_alias=True)
+    s["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    s["$id"] = "https://exotune.invalid/schemas/controller/1"
+    s["title"] = "exotune runtime controller file (schema exotune.controller/1)"
+    return s
+
+
+def write_schema(path: Path | None = None) -> None:
+    from ..jsonio import write_atomic
+
+    write_atomic(path or schema_path(), json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n")
+
+
+def validate_controller(doc: Any, source: str = "") -> ControllerFile:
+    """Validate a controller mapping; problems raise :class:`ConfigError` naming the field."""
+    if not isinstance(doc, dict):
+        raise ConfigError(source or "<controller>", "expected a mapping at the top level")
+    try:
+        return ControllerFile.model_validate(doc)
+    except ValidationError as e:
+        err = e.errors()[0]
+        loc = ".".join(str(x) for x in err["loc"]) or (source or "<controller>")
+        msg = err["msg"]
+        if err["type"] == "missing":
+            msg = "missing field"
+        elif err["type"] == "extra_forbidden":
+            msg = "unknown field"
+        raise ConfigError(loc, msg) from None

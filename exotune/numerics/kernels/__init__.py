@@ -1,0 +1,43 @@
+"""Compiled (numba) kernels with the numpy implementation as reference and fallback.
+
+One module per kernel family:
+
+- :mod:`.common`: numba (optional: ``AVAILABLE``), the per-task work budgets and the inlined
+  scalar primitives (Δ(jω) and its derivative, the interval acceptance rule, the stack);
+- :mod:`.phase`: the argument-principle count (adaptive phase sums, the whole count pipeline);
+- :mod:`.leaves`: adaptive frequency sets of two tracked quasi-polynomials;
+- :mod:`.pair`: scalar functions of a pair (values, Illinois roots, golden-section maxima, the
+  crossing classification and sub-sampling of leaves);
+- :mod:`.bounds`: frequency tail bounds and batched polynomial products.
+
+Which engine runs is decided in one place, :mod:`exotune.numerics.engine`. The kernels are
+compiled with ``cache=True``: numba keys each cached kernel on its own module's file only, so after
+editing :mod:`.common` (or :mod:`.bounds`) delete this package's ``__pycache__`` (or touch the
+modules that use it) to recompile the kernels that inline it.
+"""
+
+from .bounds import family_wmax, omega_max, pmul_rows
+from .common import AVAILABLE, GEO_SPLIT_RATIO, MAX_GROUP_EVALS, MAX_TASK_EVALS, MAX_TASK_LEAVES
+from .leaves import leaves2
+from .pair import classify_leaves, golden_max, pair_roots, pair_values, refine_crossings, subsample_brackets
+from .phase import count_tasks, phase_sums
+
+__all__ = [
+    "AVAILABLE",
+    "MAX_TASK_EVALS",
+    "MAX_TASK_LEAVES",
+    "MAX_GROUP_EVALS",
+    "GEO_SPLIT_RATIO",
+    "phase_sums",
+    "count_tasks",
+    "leaves2",
+    "pair_values",
+    "pair_roots",
+    "refine_crossings",
+    "golden_max",
+    "classify_leaves",
+    "subsample_brackets",
+    "family_wmax",
+    "omega_max",
+    "pmul_rows",
+]

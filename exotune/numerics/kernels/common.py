@@ -1,0 +1,144 @@
+"""Shared pieces of the compiled kernels: numba (optional), the work budgets, and the inlined
+scalar primitives every kernel family uses — Δ(jω) = P0 + P1 e^{−jωT} and its derivative by
+Horner's rule in real arithmetic, the acceptance rule of an interval for one tracked function,
+the log-derivative, a complex division that never raises, and the interval stack.
+
+The numpy implementation in :mod:`exotune.numerics.quasipoly` remains the reference (and the
+fallback when numba is not installed).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:  # numba is optional: the numpy path is used without it
+    from numba import njit
+except Exception:  # pragma: no cover - exercised only where numba is missing
+    njit = None
+
+# (the compiled primitives eval_quasi, interval_ok, log_derivative, cdiv and push_interval exist only
+# when numba is available)
+__all__ = ["AVAILABLE", "MAX_TASK_EVALS", "MAX_TASK_LEAVES", "MAX_GROUP_EVALS", "GEO_SPLIT_RATIO", "njit",
+           "coefficients"]
+
+AVAILABLE = njit is not None
+
+# Per-task work budgets of the adaptive kernels. A normal task takes ~50 evaluations and ~100
+# leaves; a pathological design (e.g. a 1e-12 kg·m² motor inertia, or a GHz filter, with a delay:
+# the phase of e^{-jωT} winds ~ω_max·T times) could otherwise run for hours. A task that exhausts
+# its budget is reported unresolved (inconclusive: never "stable"), not computed forever.
+MAX_TASK_EVALS = 200_000  # argument-principle count: evaluations per task (typical: ~50)
+MAX_TASK_LEAVES = 100_000  # adaptive frequency sets: leaves per task (typical: ~100)
+# Counts queued as one group (the sub-interval counts of one human family for one design) share
+# this budget: a degenerate design can have hundreds of sub-intervals whose counts would each spend
+# MAX_TASK_EVALS. A real design's group needs a few thousand evaluations (≤ 84 sub-intervals seen
+# with a 50 ms delay); tasks left when it is spent are unresolved.
+MAX_GROUP_EVALS = 1_000_000
+# Argument-principle counts split a rejected interval [a, b] with b > GEO_SPLIT_RATIO·a at its
+# geometric mean (see kernels.phase); the frequency sets (leaves) keep midpoints.
+GEO_SPLIT_RATIO = 1.25
+
+if AVAILABLE:
+
+    @njit(cache=True, inline="always")
+    def horner(c, t, w):
+        """Value and derivative of row t of c (ascending coefficients) at s = jω, in real
+        arithmetic: multiplying by the pure-imaginary s costs two products, not a complex one."""
+        m = c.shape[1]
+        vr = c[t, m - 1].real
+        vi = c[t, m - 1].imag
+        dr = 0.0
+        di = 0.0
+        for k in range(m - 2, -1, -1):
+            ndr = vr - w * di
+            di = vi + w * dr
+            dr = ndr
+            ck = c[t, k]
+            nvr = ck.real - w * vi
+            vi = ck.imag + w * vr
+            vr = nvr
+        return vr, vi, dr, di
+
+    @njit(cache=True, inline="always")
+    def eval_quasi(c0, c1, t, T, w):
+        """Δ(jω) = P0 + P1 e^{−jωT} and dΔ/ds of row t (coefficients row-major: c[t, k])."""
+        v0r, v0i, d0r, d0i = horner(c0, t, w)
+        v1r, v1i, d1r, d1i = horner(c1, t, w)
+        er = math.cos(w * T)
+        ei = -math.sin(w * T)
+        # v1·e and (d1 − T v1)·e
+        pr = v1r * er - v1i * ei
+        pi = v1r * ei + v1i * er
+        qr = d1r - T * v1r
+        qi = d1i - T * v1i
+        val = complex(v0r + pr, v0i + pi)
+        der = complex(d0r + qr * er - qi * ei, d0i + qr * ei + qi * er)
+        return val, der
+
+    @njit(cache=True, inline="always")
+    def interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step):
+        """(accept, bad, phase step) for one tracked function on [a, b] (same rule as quasipoly).
+
+        The phase step is arg(xb/xa), computed as arg(xb·conj(xa)) (no division), and only for
+        intervals that pass the cheaper tests (NaN otherwise; the kernel computes it when needed)."""
+        if a == 0.0 and xa == 0 and xb != 0:
+            return True, False, 0.0  # structural zero at s = 0: skipped on the first interval
+        if xa == 0 or xb == 0:
+            return False, True, 0.0
+        rr = xb.real * xa.real + xb.imag * xa.imag
+        ri = xb.imag * xa.real - xb.real * xa.imag
+        if not (np.isfinite(rr) and np.isfinite(ri)):
+            return False, True, 0.0
+        h = b - a
+        dr = Lb.real - La.real
+        di = Lb.imag - La.imag
+        crit = h * math.sqrt(dr * dr + di * di)
+        if not np.isfinite(crit):
+            return False, True, math.nan
+        if crit > der_step or not ((rr > 0) and (abs(ri) <= tan_arg * rr)):
+            return False, False, math.nan
+        ang = math.atan2(ri, rr)
+        trap = 2.0 * abs(0.5 * h * (La.real + Lb.real) - ang)
+        if not np.isfinite(trap):
+            return False, True, ang
+        return trap <= der_step, False, ang
+
+    @njit(cache=True, inline="always")
+    def log_derivative(d, v):
+        """d/v (the log-derivative Δ'/Δ) by one real reciprocal; the scaled complex division only
+        when |v|² over- or underflows."""
+        n = v.real * v.real + v.imag * v.imag
+        if n == 0.0 or not np.isfinite(n) or n < 1e-290:
+            return d / v if v != 0 else 0j
+        r = 1.0 / n
+        return complex((d.real * v.real + d.imag * v.imag) * r, (d.imag * v.real - d.real * v.imag) * r)
+
+    @njit(cache=True, inline="always")
+    def cdiv(a, b):
+        """a / b, with numpy's inf/nan for b = 0 where numba's complex division raises
+        ZeroDivisionError (a degenerate design must not fail the batch it belongs to)."""
+        if b == 0:
+            return complex(math.inf, math.nan) if a != 0 else complex(math.nan, math.nan)
+        return a / b
+
+    @njit(cache=True, inline="always")
+    def push_interval(sa, sb, sd, sva, svb, sla, slb, top, a, b, dep, xa, xb, La, Lb):
+        """Push the interval [a, b] (depth ``dep``, values and log-derivatives of the tracked
+        function at both ends) on the stack arrays at ``top``; returns the new top."""
+        sa[top] = a
+        sb[top] = b
+        sd[top] = dep
+        sva[top] = xa
+        svb[top] = xb
+        sla[top] = La
+        slb[top] = Lb
+        return top + 1
+
+
+def coefficients(q):
+    """The coefficient rows (p0, p1) of the quasi-polynomial batch ``q``, contiguous, complex when
+    either is complex (else float): the layout the kernels take."""
+    dt = complex if (np.iscomplexobj(q.p0) or np.iscomplexobj(q.p1)) else float
+    return np.ascontiguousarray(np.asarray(q.p0, dtype=dt)), np.ascontiguousarray(np.asarray(q.p1, dtype=dt))

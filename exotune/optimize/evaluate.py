@@ -1,0 +1,238 @@
+"""Exact evaluation of a population of candidate designs: constraints, violation, objective.
+
+Every candidate is analysed by :func:`exotune.analysis.analyze_batch` (whole populations in one
+call). The latency-margin constraint ``latency_margin_s ≥ m`` is imposed during the search by
+requiring the delay-sensitive verdicts (cuff-free exoskeleton, environments, every human family
+robust over its range — the loops of :func:`exotune.analysis.margins.latency_margin`) also at the
+delays T + Δ for the extra delays Δ of :meth:`OptimizeSpec.checked_delays` (m·k/K, k = 1..K):
+the candidates are repeated once per extra delay and analysed in one batch. The objective
+``latency_margin_s`` is estimated per candidate from the same verdicts: a ladder of extra delays
+(:data:`LADDER_S`) gives the first failing level, then three rounds of 7-point multisection of
+that bracket (geometric) give a value within ≈ 0.2 % below the first destabilizing extra delay
+found on the ladder; the optimizer evaluates the final short list with the exact margin.
+
+References
+----------
+docs/optimize-spec.md; paper §V (robust stability, delay in the actuator path).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .peak import amplification_peak
+from .spec import CONSTRAINTS, OBJECTIVES, OptimizeSpec
+
+__all__ = ["evaluate", "delay_verdicts", "latency_ladder", "LADDER_S", "robust_fraction", "delay_sensitive_ok"]
+
+#: extra delays [s] of the latency-objective ladder (the estimate is capped at the last one)
+LADDER_S = np.geomspace(1e-5, 0.2, 12)
+_LADDER_ROUNDS = 3
+_LADDER_POINTS = 7
+
+
+def _log_fraction(ivs, lo, hi) -> float:
+    if hi <= lo:
+        return 1.0 if ivs else 0.0
+    f = (lambda x: math.log(x)) if lo > 0 else (lambda x: x)
+    return sum(f(b) - f(a) for a, b in ivs) / (f(hi) - f(lo))
+
+
+def robust_fraction(cfg, cols) -> np.ndarray:
+    """Smallest, over the human families, stable log-fraction of the family's range (1: robust)."""
+    n = len(np.asarray(cols["free_stable"]))
+    frac = np.ones(n)
+    fam_keys = [k[: -len("_robust")] for k in cols if k.startswith("human") and k.endswith("_robust")]
+    for i, key in enumerate(fam_keys):
+        fam = cfg.humans[i]
+        fr = np.array([_log_fraction(iv, fam.lo, fam.hi) for iv in cols[key + "_stable_intervals"]])
+        fr = np.where(np.asarray(cols[key + "_robust"], bool), 1.0, np.minimum(fr, 1.0 - 1e-9))
+        frac = np.minimum(frac, fr)
+    return frac
+
+
+def delay_sensitive_ok(cols) -> np.ndarray:
+    """The loops of the latency margin all stable: free, every environment, every human family."""
+    keys = [k for k in cols if k == "free_stable"
+            or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable")))]
+    return np.logical_and.reduce([np.asarray(cols[k], bool) for k in keys])
+
+
+def _overrides(spec, X, rep: int = 1) -> dict:
+    return {p: np.repeat(X[:, j], rep) for j, p in enumerate(spec.free)}
+
+
+def _delays(spec, X) -> np.ndarray:
+    paths = list(spec.free)
+    if "implementation.delay_s" in paths:
+        return X[:, paths.index("implementation.delay_s")].astype(float)
+    return np.full(X.shape[0], float(spec.cfg.implementation.delay_s))
+
+
+def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tuple[np.ndarray, dict]:
+    """Delay-sensitive verdicts of the rows of X at T + extra[i, l] (one batch).
+
+    Returns (ok of shape ``extra.shape``, the batch columns)."""
+    from ..analysis import analyze_batch
+    from ..config import batch_config
+
+    X = np.atleast_2d(X)
+    extra = np.asarray(extra, float).reshape(X.shape[0], -1)
+    L = extra.shape[1]
+    ov = _overrides(spec, X, L)
+    ov["implementation.delay_s"] = (_delays(spec, X)[:, None] + extra).ravel()
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        cols = analyze_batch(batch_config(spec.cfg, ov))
+    return delay_sensitive_ok(cols).reshape(X.shape[0], L), cols
+
+
+def latency_ladder(spec: OptimizeSpec, X: np.ndarray) -> np.ndarray:
+    """Estimated latency margin [s] of the rows of X (module docstring): a value at which every
+    delay-sensitive verdict still holds, within ≈ 0.2 % of the first failing extra delay of the
+    ladder; capped at the last ladder level (no failure up to it)."""
+    X = np.atleast_2d(X)
+    n = X.shape[0]
+    if n == 0:
+        return np.zeros(0)
+    ok, _ = delay_verdicts(spec, X, np.broadcast_to(LADDER_S, (n, LADDER_S.size)))
+    fail = ~ok
+    first = np.where(fail.any(1), fail.argmax(1), LADDER_S.size)
+    lo = np.where(first == 0, 0.0, LADDER_S[np.maximum(first - 1, 0)])
+    hi = np.where(first < LADDER_S.size, LADDER_S[np.minimum(first, LADDER_S.size - 1)], np.nan)
+    todo = np.nonzero(np.isfinite(hi))[0]
+    t = np.arange(1, _LADDER_POINTS + 1) / (_LADDER_POINTS + 1)
+    for _ in range(_LADDER_ROUNDS):
+        if todo.size == 0:
+            break
+        a, b = lo[todo], hi[todo]
+        geo = a > 0
+        P = np.where(geo[:, None], np.where(geo, a, 1.0)[:, None] * (b / np.where(geo, a, 1.0))[:, None] ** t[None, :],
+                     a[:, None] + (b - a)[:, None] * t[None, :])
+        okp, _ = delay_verdicts(spec, X[todo], P)
+        # first failing interior point: the bracket ends there, starts at the point before it
+        f = ~okp
+        k = np.where(f.any(1), f.argmax(1), t.size)
+        new_lo = np.where(k == 0, a, P[np.arange(todo.size), np.maximum(k - 1, 0)])
+        new_hi = np.where(k < t.size, P[np.arange(todo.size), np.minimum(k, t.size - 1)], b)
+        lo[todo], hi[todo] = new_lo, new_hi
+    return lo
+
+
+def _verdict_violation(spec, cols, frac):
+    """Violation and broken flags of the boolean stability constraints at the nominal delay."""
+    n = frac.size
+    viol = np.zeros(n)
+    broken = {}
+    if spec.constraints["robust"]:
+        v = 1.0 - frac
+        viol += v
+        broken["robust"] = v > 0
+    for name in ("free_stable", "locked_stable"):
+        if spec.constraints[name]:
+            bad = ~np.asarray(cols[name], bool)
+            viol += bad
+            broken[name] = bad
+    if spec.constraints["locked_stable"]:
+        for k in (k for k in cols if k.startswith("env") and k.endswith(("_stable", "_robust"))):
+            bad = ~np.asarray(cols[k], bool)
+            viol += bad
+            broken[k] = bad
+    return viol, broken
+
+
+def _latency_violation(spec, X, cols, frac):
+    """Violation and broken flag of ``latency_margin_s ≥ m`` (the checked extra delays)."""
+    deltas = spec.checked_delays()
+    n = X.shape[0]
+    if deltas.size == 0:
+        return np.zeros(n), np.zeros(n, bool)
+    nominal = delay_sensitive_ok(cols)
+    viol = np.where(nominal, 0.0, 2.0)  # not stable at T: its margin is 0
+    broken = ~nominal
+    sel = np.nonzero(nominal)[0]
+    if sel.size:
+        ok, dcols = delay_verdicts(spec, X[sel], np.broadcast_to(deltas, (sel.size, deltas.size)))
+        fr = robust_fraction(spec.cfg, dcols).reshape(sel.size, deltas.size)
+        viol[sel] = np.mean(~ok + (1.0 - fr), axis=1)
+        broken[sel] = ~ok.all(1)
+    return viol, broken
+
+
+def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
+    """Analyse the candidate designs of the rows of X exactly (module docstring).
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The problem.
+    X : numpy.ndarray
+        One candidate per row, columns in ``spec.free`` order, natural units.
+
+    Returns
+    -------
+    dict
+        ``X``, ``columns`` (the batch columns, plus ``amplification_peak_db``/``_hz`` when that
+        constraint is set), ``violation`` (0 for feasible rows, else the total normalized
+        violation), ``feasible``, ``broken`` (constraint name → bool per row), ``objective`` and
+        ``robust_fraction``.
+
+    References
+    ----------
+    docs/optimize-spec.md; paper §V.
+    """
+    from ..analysis import analyze_batch
+    from ..config import batch_config
+
+    X = np.atleast_2d(np.asarray(X, float))
+    paths = list(spec.free)
+    cfg_b = batch_config(spec.cfg, _overrides(spec, X))
+    cols = analyze_batch(cfg_b)
+    if "amplification_peak_db" in spec.constraints:
+        cols["amplification_peak_db"], cols["amplification_peak_hz"] = amplification_peak(cfg_b)
+    frac = robust_fraction(spec.cfg, cols)
+    viol, broken = _verdict_violation(spec, cols, frac)
+    for name, (col, op, _unit) in CONSTRAINTS.items():
+        if name not in spec.constraints or name == "latency_margin_s":
+            continue
+        b = spec.constraints[name]
+        val = np.asarray(cols[col], float)
+        val = np.where(np.isnan(val), -np.inf if op == ">=" else np.inf, val)
+        gap = (b - val) if op == ">=" else (val - b)
+        v = np.clip(gap / max(abs(b), 1e-12), 0.0, 10.0)
+        v = np.where(np.isfinite(v), v, 10.0)
+        viol += v
+        broken[name] = gap > 0
+    if spec.constraints["nominal_passive"]:
+        short, b_over_kc = _nominal_shortage(cfg_b, X.shape[0])
+        v = np.clip(short / b_over_kc, 0.0, 10.0)
+        viol += v
+        broken["nominal_passive"] = short > 0
+    if spec.constraints.get("latency_margin_s", 0.0) > 0:
+        v, bad = _latency_violation(spec, X, cols, frac)
+        viol += v
+        broken["latency_margin_s"] = bad
+    what = OBJECTIVES[spec.objective][0]
+    if what in paths:
+        obj = X[:, paths.index(what)]
+    elif what == "latency_margin_s":
+        obj = np.full(X.shape[0], np.nan)
+        sel = np.nonzero(viol == 0)[0]
+        obj[sel] = latency_ladder(spec, X[sel])
+        cols["latency_margin_s"] = obj
+    else:
+        obj = np.asarray(cols[what], float)
+    return {"X": X, "columns": cols, "violation": viol, "feasible": viol == 0, "broken": broken,
+            "objective": obj, "robust_fraction": frac}
+
+
+def _nominal_shortage(c, n):
+    """Closed-form nominal passivity shortage of a batch (:func:`exotune.analysis.nominal_shortage`)
+    and its normalization B̂_m/(Ĵ_m K_c) (the shortage when ζ̂ = 0)."""
+    from ..analysis import nominal_shortage
+
+    d, pl = c.design, c.plant
+    short = nominal_shortage(d.amplification, d.felt_inertia, d.felt_damping, pl.K_c, d.zeta_hat)
+    b_over_kc = np.asarray(d.felt_damping, float) / np.asarray(d.felt_inertia, float) / np.asarray(pl.K_c, float)
+    return np.broadcast_to(short, (n,)), np.broadcast_to(b_over_kc, (n,))

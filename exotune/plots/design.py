@@ -1,0 +1,80 @@
+"""Bode plots of ``exotune design --plots DIR``: the nominal C4, C5, Ĉ5, C7 and G_v, and C5 against
+the virtual motor Ĉ5. The numbers come from :func:`exotune.analysis.nominal.design_bode_figures`;
+this module only draws them (magnitude in dB, phase in deg vs Hz) and renders PNG bytes in memory.
+"""
+
+from __future__ import annotations
+
+__all__ = ["design_plots", "bode_png"]
+
+
+def bode_png(curves, title: str, ylabel: str) -> bytes:
+    """One Bode figure rendered to PNG bytes (Agg).
+
+    Parameters
+    ----------
+    curves : list of (label, f_hz, magnitude_db, phase_deg)
+        As returned by :func:`exotune.analysis.nominal.bode_curves`.
+    title : str
+        Figure title.
+    ylabel : str
+        Unit of the magnitude (the dB reference).
+
+    Returns
+    -------
+    bytes
+        The PNG image.
+
+    References
+    ----------
+    docs/cli.md#design.
+    """
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    try:
+        for label, f, mag_db, phase_deg in curves:
+            ax1.semilogx(f, mag_db, label=label)
+            ax2.semilogx(f, phase_deg, label=label)
+        ax1.set_ylabel(f"|·| [dB re 1 {ylabel}]")
+        ax2.set_ylabel("phase [deg]")
+        ax2.set_xlabel("frequency [Hz]")
+        ax1.set_title(title)
+        for ax in (ax1, ax2):
+            ax.grid(True, which="major", alpha=0.3)
+        if len(curves) > 1:
+            ax1.legend()
+        fig.subplots_adjust(left=0.13, right=0.97, top=0.94, bottom=0.09, hspace=0.08)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=110)
+        return buf.getvalue()
+    finally:
+        plt.close(fig)
+
+
+def design_plots(cfg) -> dict[str, bytes]:
+    """The Bode figures of a design, rendered in memory (nothing is written).
+
+    Parameters
+    ----------
+    cfg : exotune.config.design.DesignConfig
+        A loaded design file.
+
+    Returns
+    -------
+    dict
+        ``{file name: PNG bytes}``: ``bode_C4.png``, ``bode_C5.png``, ``bode_C5_hat.png``,
+        ``bode_C7_nominal.png``, ``bode_G_v.png`` and ``bode_C5_vs_C5_hat.png``.
+
+    References
+    ----------
+    Paper §III–§IV; docs/cli.md#design.
+    """
+    from ..analysis.nominal import design_bode_figures
+
+    return {name: bode_png(curves, title, unit) for name, (title, unit, curves) in design_bode_figures(cfg).items()}

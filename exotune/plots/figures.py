@@ -1,0 +1,49 @@
+"""Figures of the typed results (docs/api.md): each draws given numbers into an ``ax`` and
+returns its matplotlib ``Figure``; none computes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["bode_magnitude", "compliance_phase"]
+
+
+def _axes(ax, nrows: int = 1):
+    if ax is not None:
+        return ax.figure, ax
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.0, 4.2 * nrows / 1.5 if nrows > 1 else 4.2), layout="constrained")
+    return fig, fig.add_subplot(1, 1, 1)
+
+
+def bode_magnitude(curves, ax=None, title: str = ""):
+    """Magnitude (dB) of named frequency responses ``[(label, f_hz, H), …]`` on a log axis."""
+    fig, ax = _axes(ax)
+    for label, f, H in curves:
+        ax.semilogx(f, 20.0 * np.log10(np.abs(H)), label=label.replace("_", " "))
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("magnitude [dB]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+def compliance_phase(f_hz, H, bands=(), ax=None, title: str = ""):
+    """Phase of a compliance C(j2πf) [deg] with the passivity limits of s·C (−180°…0°) drawn and
+    the non-passive ``bands`` [Hz] shaded."""
+    fig, ax = _axes(ax)
+    ax.semilogx(f_hz, np.degrees(np.unwrap(np.angle(H))), label="phase of C7")
+    for lim in (-180.0, 0.0):
+        ax.axhline(lim, color="k", lw=0.8, ls="--")
+    for i, (a, b) in enumerate(bands):
+        ax.axvspan(a, b, color="tab:red", alpha=0.2, label="non-passive band" if i == 0 else None)
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("phase [deg]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title)
+    return fig

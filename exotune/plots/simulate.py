@@ -1,0 +1,125 @@
+"""Figures of ``exotune simulate`` runs: physical names and units on every axis, a symmetric-log
+axis where values span decades (a growing run), legends in words, the motor limit drawn."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+__all__ = ["plot_simulation", "RUN_LABELS"]
+
+RUN_LABELS = {"controller": "exported controller", "without_dob": "without the DOB",
+              "without_clamp": "runtime without its clamp: windup", "frictionless": "no friction, reference",
+              "without_backlash": "no backlash, reference",
+              "with_controller_file": "exported controller"}
+
+
+_MAIN_LABEL = {"without_backlash": "with backlash", "frictionless": "with friction and the DOB",
+               "without_clamp": "runtime with its clamp"}
+
+
+def _label(key: str, runs=()) -> str:
+    if key == "controller":
+        for other, text in _MAIN_LABEL.items():
+            if other in runs:
+                return text
+    return RUN_LABELS.get(key, key.replace("_", " "))
+
+
+def _symlog_if_decades(ax, *arrays) -> None:
+    """Symmetric-log y axis when the values span more than three decades (a growing run); the
+    linear band is the run's initial scale (its first 5 %)."""
+    arrs = [np.asarray(a, float).ravel() for a in arrays if np.size(a)]
+    if not arrs:
+        return
+    v = np.abs(np.concatenate(arrs))
+    v = v[np.isfinite(v)]
+    early = np.abs(np.concatenate([a[: max(1, a.size // 20)] for a in arrs]))
+    early = early[np.isfinite(early) & (early > 0)]
+    lin = float(early.max()) if early.size else float(np.median(v[v > 0])) if np.any(v > 0) else 1.0
+    if v.size and v.max() > 1e3 * lin:
+        ax.set_yscale("symlog", linthresh=lin)
+
+
+def _locked(axs, rep, alpha):
+    for key, sim in rep["runs"].items():
+        s, lab = sim["series"], _label(key, rep["runs"])
+        axs[0].plot(s["t"], -s["tau_s"], label=f"spring torque −τ_s ({lab})")
+        axs[0].plot(s["t"], (alpha - 1.0) * s["tau_c"], "--", label=f"(α − 1)·τ_c, α = {alpha:g} ({lab})")
+        axs[1].plot(s["t"], s["tau_m"], label=f"motor torque τ_m ({lab})")
+    lim = rep["nonlinearities"]["saturation_nm"]
+    if np.isfinite(lim):
+        for sgn in (1, -1):
+            axs[1].axhline(sgn * lim, color="k", lw=0.8, ls=":", label="motor limit" if sgn > 0 else None)
+    _symlog_if_decades(axs[1], *[r["series"]["tau_m"] for r in rep["runs"].values()])
+    _symlog_if_decades(axs[0], *[l.get_ydata() for l in axs[0].get_lines()])
+    axs[0].set_ylabel("torque [N·m]")
+    axs[1].set_ylabel("motor torque τ_m [N·m]")
+
+
+def _free(axs, rep):
+    for key, sim in rep["runs"].items():
+        s, lab = sim["series"], _label(key, rep["runs"])
+        if rep["scenario"] == "dob-friction":
+            axs[0].plot(s["t"], s["theta_j"], label=f"joint angle θ_j ({lab})")
+        else:
+            axs[0].plot(s["t"], s["theta_h"] - s["theta_j"], label=f"cuff deflection θ_h − θ_j ({lab})")
+        if "friction_estimate" in s:
+            axs[1].plot(s["t"], s["friction"], label="true friction F_c·tanh(θ̇_m/ε)")
+            axs[1].plot(s["t"], s["friction_estimate"], "--", label="DOB's estimate")
+        elif rep["scenario"] != "dob-friction":
+            axs[1].plot(s["t"], s["tau_m"], label=f"motor torque τ_m ({lab})")
+    _symlog_if_decades(axs[0], *[l.get_ydata() for l in axs[0].get_lines()])
+    axs[0].set_ylabel("joint angle θ_j [rad]" if rep["scenario"] == "dob-friction" else "cuff deflection [rad]")
+    axs[1].set_ylabel("friction torque [N·m]" if rep["scenario"] == "dob-friction" else "motor torque τ_m [N·m]")
+    if rep["scenario"] != "dob-friction":
+        _symlog_if_decades(axs[1], *[r["series"]["tau_m"] for r in rep["runs"].values()])
+
+
+def plot_simulation(rep: dict) -> dict[str, bytes]:
+    """PNG figure of a scenario's runs (:func:`exotune.simulate.run_scenario`).
+
+    Locked output: the spring torque −τ_s against (α − 1)·τ_c (the amplification test of the
+    paper's time-domain figure) and the motor torque with its limit. Free output: the cuff
+    deflection (or, with friction, the joint angle with and without the DOB and the frictionless
+    reference) and the motor torque (or the true friction and the DOB's estimate).
+
+    Parameters
+    ----------
+    rep : dict
+        A scenario report with its ``runs``.
+
+    Returns
+    -------
+    dict
+        ``{"simulate_<scenario>.png": bytes}``.
+
+    References
+    ----------
+    Paper §VII (time-domain amplification and friction tests); docs/cli.md#simulate.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axs = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
+    sm = rep["summary"]
+    if rep["runs"] and next(iter(rep["runs"].values()))["locked"]:
+        alpha = float(rep.get("design_alpha") or sm.get("delivered_amplification", {}).get("design_alpha") or 1.0)
+        _locked(axs, rep, alpha)
+    else:
+        _free(axs, rep)
+    axs[1].set_xlabel("time t [s]")
+    for a in axs:
+        a.grid(True, alpha=0.3)
+        a.legend(fontsize=7)
+    g = sm["envelope_growth_rate"]["value"]
+    fig.suptitle(f"exotune simulate — {rep['scenario']} at {rep['sample_rate_hz']:g} Hz: {sm['verdict']}"
+                 + (f" (envelope growth {g:.3g} 1/s)" if g is not None and np.isfinite(g) else ""), fontsize=10)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    return {f"simulate_{rep['scenario']}.png": buf.getvalue()}

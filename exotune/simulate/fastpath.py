@@ -1,0 +1,127 @@
+"""Fast linear stretches: where the joint is linear and no limit is reached, a run is one linear
+recursion w[k+1] = M w[k] + N τ_h[k] on w = [plant state; runtime filter states; past commands].
+
+The runtime's part of M is read off the reference runtime itself (its step is affine in its
+filter states and inputs: one step per unit vector), so a fast stretch computes what stepping
+:class:`~exotune.controllerfile.runtime.Runtime` computes, to rounding. The engine runs a chunk
+this way, checks it (no command or applied torque at the motor limit, the angles within the
+state bound), keeps it up to the first sample that fails the check and continues from there
+sample by sample.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..controllerfile import Runtime
+
+__all__ = ["runtime_state", "set_runtime_state", "runtime_matrices", "LinearLoop"]
+
+SIGNALS = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
+
+
+def _filters(rt: Runtime) -> list:
+    return [f for _, f in rt.filters] + list(rt.loop)
+
+
+def runtime_state(rt: Runtime) -> np.ndarray:
+    """The runtime's filter states as one vector."""
+    zs = [f.z.ravel() for f in _filters(rt)]
+    return np.concatenate(zs) if zs else np.zeros(0)
+
+
+def set_runtime_state(rt: Runtime, z: np.ndarray) -> None:
+    """Load the runtime's filter states from one vector (the inverse of :func:`runtime_state`)."""
+    off = 0
+    for f in _filters(rt):
+        k = f.z.size
+        f.z[:] = np.asarray(z[off:off + k]).reshape(f.z.shape)
+        off += k
+
+
+def runtime_matrices(doc: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, C, D) with z' = A z + B y, τ_cmd = C z + D y (y in ``SIGNALS`` order), read off one
+    step of an unlimited reference runtime per unit state and unit input."""
+    rt = Runtime(doc)
+    nz = runtime_state(rt).size
+    A, B = np.zeros((nz, nz)), np.zeros((nz, len(SIGNALS)))
+    C, D = np.zeros(nz), np.zeros(len(SIGNALS))
+    zero = dict.fromkeys(SIGNALS, 0.0)
+    for i in range(nz):
+        e = np.zeros(nz)
+        e[i] = 1.0
+        set_runtime_state(rt, e)
+        C[i] = rt.step(zero)
+        A[:, i] = runtime_state(rt)
+    for j, s in enumerate(SIGNALS):
+        set_runtime_state(rt, np.zeros(nz))
+        D[j] = rt.step({**zero, s: 1.0})
+        B[:, j] = runtime_state(rt)
+    return A, B, C, D
+
+
+class LinearLoop:
+    """The linear recursion of a run in one affine plant mode (see the module docstring).
+
+    Parameters
+    ----------
+    plant : JointPlant
+        The joint (its mode (1, 0): spring in contact, no friction term).
+    doc : dict
+        The controller file (for :func:`runtime_matrices`).
+    Ts, f : float
+        Sample period [s] and fractional delay.
+    d : int
+        Whole samples of delay.
+    """
+
+    def __init__(self, plant, doc: dict, Ts: float, f: float, d: int):
+        Ar, Br, Cr, Dr = runtime_matrices(doc)
+        mode = (1, 0)
+        Cy = np.zeros((5, 6))  # the sampled signals as rows over the plant state
+        Cy[0, 0] = Cy[1, 1] = 1.0
+        Cy[2, 0] = -plant.Ks
+        Cy[3, 1] = -plant.Ks
+        if not plant.locked:
+            Cy[2, 2] = plant.Ks
+        if not plant.locked:
+            Cy[3, 3] = plant.Ks
+        Cy[4, 4] = plant.Kc
+        if not plant.locked:
+            Cy[4, 2] = -plant.Kc
+        self.Cy = Cy
+        P1, G1 = plant.propagator(mode, (1.0 - f) * Ts)
+        if f:
+            P0, G0 = plant.propagator(mode, f * Ts)
+            Phi, g_old, g_cur, g_push = P1 @ P0, P1 @ G0[:, 0], G1[:, 0], P1 @ G0[:, 1] + G1[:, 1]
+        else:
+            Phi, g_old, g_cur, g_push = P1, np.zeros(6), G1[:, 0], G1[:, 1]
+        nz, ns = Ar.shape[0], d + 1
+        self.nz, self.ns, self.d = nz, ns, d
+        N = 6 + nz + ns
+        u = np.zeros(N)  # τ_cmd[k] as a row over w
+        u[:6] = Dr @ Cy
+        u[6:6 + nz] = Cr
+        s0 = 6 + nz  # shift state j holds τ_cmd[k−1−j]
+        cur = u if d == 0 else np.eye(N)[s0 + d - 1]
+        old = np.eye(N)[s0 + d]
+        M = np.zeros((N, N))
+        M[:6, :6] = Phi
+        M[:6] += np.outer(g_cur, cur) + np.outer(g_old, old)
+        M[6:6 + nz, :6] = Br @ Cy
+        M[6:6 + nz, 6:6 + nz] = Ar
+        M[s0] = u
+        for j in range(1, ns):
+            M[s0 + j, s0 + j - 1] = 1.0
+        self.M, self.Npush, self.u_row, self.cur_row = M, np.zeros(N), u, cur
+        self.Npush[:6] = g_push
+
+    def run(self, w: np.ndarray, push: np.ndarray) -> np.ndarray:
+        """States w[k] for k = 0 … len(push) (row k+1 after the push of sample k)."""
+        out = np.empty((push.size + 1, w.size))
+        out[0] = w
+        M, Np = self.M, self.Npush
+        for k in range(push.size):
+            w = M @ w + Np * push[k]
+            out[k + 1] = w
+        return out

@@ -1,0 +1,93 @@
+"""What ``exotune simulate`` runs: a controller file as it is (refused when it fails certify's
+consistency checks), or a design file exported in memory at a sample rate."""
+
+from __future__ import annotations
+
+from ..config import read_yaml
+from ..controllerfile import build_export, design_at_rate, load_controller
+from ..controllerfile.certify import certify
+from ..errors import ConfigError
+from .plant import MIN_HUMAN_INERTIA
+
+__all__ = ["load_for_simulation", "check_consistent", "number_option"]
+
+
+def number_option(name: str, text, positive: bool = False) -> float | None:
+    """A numeric command-line value: None stays None; otherwise a finite number (> 0 when
+    ``positive``), else :class:`ConfigError` naming the option.
+
+    References
+    ----------
+    docs/cli.md#simulate.
+    """
+    if text is None:
+        return None
+    try:
+        v = float(text)
+    except (TypeError, ValueError):
+        raise ConfigError(name, f"expected a number, got {text!r}") from None
+    if v != v or v in (float("inf"), float("-inf")):
+        raise ConfigError(name, f"must be a finite number, got {text!r}")
+    if positive and not v > 0:
+        raise ConfigError(name, f"must be > 0, got {text!r}")
+    if name == "--human-inertia" and v < MIN_HUMAN_INERTIA:
+        raise ConfigError(name, f"{text!r} kg·m² is below {MIN_HUMAN_INERTIA:g} kg·m²: the cuff mode √(K_c/m) "
+                          "is then "
+                          "beyond double precision (the sampled-data model overflows)")
+    return v
+
+
+def check_consistent(doc: dict) -> None:
+    """Refuse a controller file that fails ``exotune certify``'s consistency checks: its golden
+    vectors must be reproduced by the reference runtime and its predicted sampled-data results
+    (free and locked verdicts and spectral radii, every family's stable intervals) must be those
+    of its own plant, controller, sample rate and delay — an edited sample rate, delay or gain
+    changes them. (An unstable but consistent file is simulated: that is what simulate is for.)
+
+    Raises
+    ------
+    ConfigError
+        Naming the first inconsistent field.
+
+    References
+    ----------
+    docs/cli.md#certify.
+    """
+    rep = certify(doc)
+    mism = rep.get("prediction_mismatches") or []
+    if mism:
+        raise ConfigError(mism[0].split(" ")[0], "disagrees with the sampled-data analysis of the file's own plant, "
+                          "controller, sample_rate_hz and delay_s (was the file edited? re-export it; "
+                          "`exotune certify` lists every mismatch)")
+    bad = [p for p in rep.get("problems", []) if "golden vectors" in p]
+    if bad:
+        raise ConfigError("golden.tau_cmd", bad[0])
+
+
+def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool = True) -> dict:
+    """A controller file as is (checked by :func:`check_consistent` unless ``check`` is False), or
+    a design file exported in memory at ``sample_rate_hz`` (or at its own
+    ``implementation.sample_rate_hz``).
+
+    References
+    ----------
+    docs/cli.md#simulate.
+    """
+    raw = read_yaml(path)
+    if isinstance(raw, dict) and "schema" in raw:
+        if sample_rate_hz is not None:
+            raise ConfigError("--sample-rate-hz", "a controller file carries the sample rate it was certified at; "
+                              "the option applies to design files only")
+        doc = load_controller(path)
+        if check:
+            check_consistent(doc)
+        return doc
+    fs = sample_rate_hz
+    if fs is None and isinstance(raw, dict) and isinstance(raw.get("implementation"), dict):
+        fs = raw["implementation"].get("sample_rate_hz")
+    if fs is None:
+        raise ConfigError("--sample-rate-hz", "a design file needs a sample rate to be simulated (give "
+                          "--sample-rate-hz or implementation.sample_rate_hz, or simulate an exported controller file)")
+    cfg = design_at_rate(raw, fs, str(path))
+    fs = float(cfg.implementation.sample_rate_hz)
+    return build_export(cfg, fs, source=str(path))

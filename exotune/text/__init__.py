@@ -1,0 +1,1 @@
+"""Text views of exotune's results: every formatter, one number formatter."""

@@ -1,0 +1,53 @@
+"""Text of ``exotune certify``: the verdicts of the sampled-data analysis of a controller file."""
+
+from __future__ import annotations
+
+__all__ = ["format_certify"]
+
+
+def _fmt_ivs(ivs) -> str:
+    return ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in ivs) if ivs else "nowhere"
+
+
+def format_certify(rep: dict) -> str:
+    """Readable text for ``exotune certify``.
+
+    Parameters
+    ----------
+    rep : dict
+        The result of :func:`exotune.controllerfile.certify.certify`.
+
+    Returns
+    -------
+    str
+        The report, ending with ``CERTIFIED`` or ``NOT CERTIFIED:`` and the reasons.
+
+    References
+    ----------
+    Paper §V (sampled-data implementation); docs/cli.md#certify.
+    """
+    sa = rep["sampled"]
+    lines = [f"exotune certify — {rep['schema']}, {rep['sample_rate_hz']['value']:g} Hz, "
+             f"delay {rep['delay_s'] * 1e3:.6g} ms",
+             f"  golden vectors: {rep['golden']['samples']} samples, max error "
+             f"{rep['golden']['max_abs_error']['value']:.3g} N·m",
+             f"  free (cuff free): {'stable' if sa['free_stable'] else 'UNSTABLE'} (spectral radius "
+             f"{sa['free_spectral_radius']:.9f})",
+             f"  locked joint:     {'stable' if sa['locked_stable'] else 'UNSTABLE'} (spectral radius "
+             f"{sa['locked_spectral_radius']:.9f})"]
+    for e in rep.get("gain_schedule", []):
+        lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
+                     + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
+    for h in sa["humans"] + sa["environment"]:
+        head = f"  {h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
+        if "skipped" in h:
+            lines.append(head + "skipped (" + h["skipped"] + ")")
+        else:
+            lines.append(head + ("robust" if h["robust"] else "NOT robust") + f"; stable in {_fmt_ivs(h['stable_intervals'])}")
+    lines.append("  method: " + rep["method"])
+    if rep["certified"]:
+        lines.append("CERTIFIED")
+    else:
+        lines.append("NOT CERTIFIED:")
+        lines += [f"  - {p}" for p in rep["problems"]]
+    return "\n".join(lines)

@@ -1,0 +1,31 @@
+"""Text of ``exotune export``: the one-line summary of a written controller file."""
+
+from __future__ import annotations
+
+__all__ = ["format_export"]
+
+
+def format_export(doc: dict, out) -> str:
+    """One line: where the controller file went, its rate, filters and sampled-data verdicts.
+
+    Parameters
+    ----------
+    doc : dict
+        The exported controller document (:func:`exotune.controllerfile.export_design`).
+    out : str or os.PathLike
+        The path it was written to.
+
+    Returns
+    -------
+    str
+        ``wrote OUT: F Hz, N sos filters, sampled-data loop free …, locked …; run `exotune certify OUT```.
+
+    References
+    ----------
+    Paper §V (sampled-data implementation); docs/cli.md#export.
+    """
+    sa = doc["predicted"]["sampled"]
+    n = len(doc["controller"]["filters"])
+    return (f"wrote {out}: {doc['sample_rate_hz']['value']:g} Hz, {n} sos filters, "
+            f"sampled-data loop free {'stable' if sa['free_stable'] else 'UNSTABLE'}, "
+            f"locked {'stable' if sa['locked_stable'] else 'UNSTABLE'}; run `exotune certify {out}`")

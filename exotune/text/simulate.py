@@ -1,0 +1,70 @@
+"""Text of ``exotune simulate``: the summary of a nonlinear time-domain run."""
+
+from __future__ import annotations
+
+__all__ = ["format_simulation"]
+
+
+def _num(v, fmt: str = ".6g") -> str:
+    return "null" if v is None else format(v, fmt)
+
+
+def _line(k: str, v, indent: str = "  ") -> str:
+    if isinstance(v, dict) and "value" in v:
+        extra = {x: y for x, y in v.items() if x not in ("value", "unit")}
+        tail = "".join(f"; {x.replace('_', ' ')} {_num(y) if isinstance(y, float) or y is None else y}"
+                       for x, y in extra.items())
+        return f"{indent}{k.replace('_', ' ')}: {_num(v['value'])} {v['unit']}{tail}"
+    return f"{indent}{k.replace('_', ' ')}: {v}"
+
+
+def format_simulation(rep: dict) -> str:
+    """Readable text for ``exotune simulate``.
+
+    Parameters
+    ----------
+    rep : dict
+        The result of :func:`exotune.simulate.run_scenario`.
+
+    Returns
+    -------
+    str
+        The scenario, the sample rate and delay, the verdict with the envelope's growth rate and
+        the linearized loop's spectral radius, one line per metric (with its unit; null with the
+        reason for a growing run), and the scenario's own measurements (windup recovery, limit
+        cycle, the DOB's friction estimate, friction sensitivity).
+
+    References
+    ----------
+    docs/cli.md#simulate.
+    """
+    sm = rep["summary"]
+    out = [f"exotune simulate — {rep['scenario']}: {rep['description']}",
+           f"  sample rate {rep['sample_rate_hz']:g} Hz, delay {rep['delay_samples']:.4g} samples, start {sm['start']}",
+           f"  verdict: {sm['verdict']}"]
+    out += [_line(k, v) for k, v in sm.items() if k not in ("start", "verdict")]
+    w = rep.get("windup_recovery")
+    if w:
+        out.append(f"  windup recovery after the release at {w['release_at']['value']:g} s:")
+        for label in ("with_clamp", "without_clamp"):
+            out.append(f"    {label.replace('_', ' ')}:")
+            out += [_line(k, v, "      ") for k, v in w[label].items()]
+    lc = rep.get("limit_cycle")
+    if lc:
+        state = {True: "present", False: "absent", None: "undefined (growing run)"}[lc["present"]]
+        out.append(f"  limit cycle: {state}")
+        out += [_line(k, v, "    ") for k, v in lc.items() if k not in ("present", "without_backlash")]
+        wb = lc.get("without_backlash")
+        if wb:
+            out.append(f"    the same run without backlash: {wb['verdict']} (envelope growth "
+                       f"{_num(wb['envelope_growth_rate']['value'], '.4g')} 1/s)")
+    fe = rep.get("friction_estimate")
+    if fe:
+        out.append("  the DOB's friction estimate:")
+        out += [_line(k, v, "    ") for k, v in fe.items()]
+    for k, v in rep.get("friction_sensitivity", {}).items():
+        out.append(f"  friction sensitivity {k.replace('_', ' ')}: {_num(v['value'], '.4g')} {v['unit']}")
+    if "summary_without_dob" in rep:
+        out.append("  without the DOB:")
+        out += [_line(k, v, "    ") for k, v in rep["summary_without_dob"].items()]
+    return "\n".join(out)

@@ -1,0 +1,151 @@
+"""The public API (exotune/__init__.py, exotune/api.py, exotune/results.py) and its python-control
+interop, checked against the command line's JSON and against python-control built independently
+from the physical equations."""
+
+from __future__ import annotations
+
+import doctest
+import importlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+
+import exotune
+from exotune.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER = ROOT / "examples" / "paper.yaml"
+
+
+def _cli_json(*args) -> dict:
+    p = subprocess.run([sys.executable, "-m", "exotune", *args, "--json"], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode in (0, 1), p.stderr
+    return json.loads(p.stdout)
+
+
+def test_public_names_and_cheap_import():
+    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "simulate"):
+        assert name in exotune.__all__ and callable(getattr(exotune, name))
+    code = "import sys, exotune; print(sorted(m for m in sys.modules if m.startswith(('exotune.', 'control', 'cvxpy', 'matplotlib'))))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
+    assert out.strip() == "['exotune.version']"
+    with pytest.raises(AttributeError):
+        exotune.no_such_thing  # noqa: B018
+
+
+def test_load_design_accepts_path_mapping_and_object():
+    import yaml
+
+    a = exotune.load_design(PAPER)
+    b = exotune.load_design(str(PAPER))
+    c = exotune.load_design(yaml.safe_load(PAPER.read_text()))
+    assert exotune.load_design(a) is a
+    assert a.design == b.design == c.design and a.plant == c.plant
+    with pytest.raises(TypeError):
+        exotune.load_design(3.0)
+    with pytest.raises(ConfigError) as e:
+        exotune.load_design({"plant": {}})
+    assert str(e.value).startswith("plant")
+
+
+def test_design_result_is_the_cli_json():
+    d = exotune.design(PAPER)
+    rec = d.to_dict()
+    cli = _cli_json("design", str(PAPER))
+    assert json.loads(d.to_json()) == cli
+    assert d.gains == rec["gains"] and d.units["B2"].startswith("s")
+    assert d.to_text().splitlines()[0] and "K2_hat" in d.to_text()
+    rec["gains"]["K1"] = 99.0  # to_dict is a copy
+    assert d.gains["K1"] != 99.0 and d.to_dict()["gains"]["K1"] != 99.0
+
+
+def test_transfer_functions_against_python_control_closed_loop():
+    """C5 (paper eq. (8)) from the design equals the joint compliance θ_j/τ_c of the python-control
+    plant (Plant.to_control) closed by the nominal SEA law τ_m = −(K1 + B1 s)θ_m + (K2 + B2 s)τ_s."""
+    d = exotune.design(PAPER)
+    tfs = d.transfer_functions()
+    assert set(tfs) == {"C4", "C5", "C5_hat", "C7_nominal", "G_v"}
+    assert all(isinstance(t, control.TransferFunction) for t in tfs.values())
+    P = exotune.load_design(PAPER).plant.to_control()
+    assert P.ninputs == 2 and P.noutputs == 3 and P.nstates == 4
+    g = d.gains
+    s = control.TransferFunction.s
+    Kth = -(g["K1"] + g["B1"] * s)
+    Ktau = g["K2"] + g["B2"] * s
+    G = control.ss2tf(P)
+    # u = τ_m = Kth θ_m + Ktau τ_s with θ_m = G[0,0]u + G[0,1]τ_c, τ_s = G[2,0]u + G[2,1]τ_c
+    loop = Kth * G[0, 0] + Ktau * G[2, 0]
+    u_per_tc = (Kth * G[0, 1] + Ktau * G[2, 1]) / (1 - loop)
+    C5_ref = G[1, 0] * u_per_tc + G[1, 1]
+    w = np.geomspace(0.5, 2000.0, 40)
+    ref = C5_ref(1j * w)
+    got = tfs["C5"](1j * w)
+    np.testing.assert_allclose(got, ref, rtol=1e-8)
+    # descending coefficients, as python-control: the leading num/den coefficient is s^n
+    num = np.ravel(tfs["C5_hat"].num[0][0])
+    den = np.ravel(tfs["C5_hat"].den[0][0])
+    assert num.tolist() == [1.0] and den[-1] == 0.0 and den[0] > 0  # 1/(Ĵ s² + B̂ s)
+
+
+def test_controller_blocks_convert_exactly():
+    from exotune.model.controller import build_controller
+
+    cfg = exotune.load_design(PAPER)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    blocks = cs.to_control()
+    assert blocks["delay_s"] == cfg.implementation.delay_s
+    s = 2j * np.pi * np.geomspace(0.1, 400.0, 25)
+    for key, r in (("G_theta", cs.motor_position), ("G_s", cs.spring_torque), ("G_c", cs.cuff_torque), ("Q", cs.dob_q)):
+        np.testing.assert_allclose(blocks[key](s), np.ravel(r(s[None, :])), rtol=1e-12)
+
+
+def test_analyze_result_matches_cli_and_carries_margins():
+    r = exotune.analyze(PAPER)
+    cli = _cli_json("analyze", str(PAPER))
+    assert json.loads(r.to_json()) == cli  # to_dict keeps Python floats (nan, inf); JSON maps them
+    assert r.free_stable is True and r.robust is False
+    mass = next(h for h in r.humans if h.kind == "mass")
+    assert mass.robust is False and mass.unit == "kg·m²" and mass.stable_intervals[0][1] == 1.0
+    assert r.dob.phase_margin_deg == pytest.approx(51.2, abs=0.05)
+    assert r.amplification.dc == pytest.approx(8.0, rel=1e-9)
+    assert r.latency_margin_s == 0.0  # not robust at the nominal delay
+    assert "latency" in r.to_text()
+
+
+def test_plots_return_figures_and_draw_into_given_axes():
+    from matplotlib.figure import Figure
+
+    r = exotune.analyze(PAPER)
+    fig = r.plot()
+    assert isinstance(fig, Figure) and fig.axes
+    fig2 = Figure()
+    ax = fig2.add_subplot()
+    assert r.plot(ax=ax) is fig2 and ax.lines
+    assert isinstance(exotune.design(PAPER).plot(), Figure)
+
+
+def test_export_then_certify_round_trip(tmp_path):
+    out = tmp_path / "c.yaml"
+    cf = exotune.export(PAPER, 1000.0, out)
+    assert out.exists() and cf.sample_rate_hz == 1000.0 and cf.path == str(out)
+    c1 = exotune.certify(cf)
+    c2 = exotune.certify(out)
+    c3 = exotune.certify(cf.to_dict())
+    assert c1.to_json() == c2.to_json() == c3.to_json()
+    assert json.loads(c1.to_json()) == _cli_json("certify", str(out))
+    assert c1.certified == c1.to_dict()["certified"]
+    assert "certif" in c1.to_text().lower()
+
+
+@pytest.mark.parametrize("module", ["exotune.api", "exotune.model.interop", "exotune.numerics.poly",
+                                    "exotune.analysis.responses", "exotune.model.plant"])
+def test_docstring_examples_run(module, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    res = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert res.failed == 0
+    assert res.attempted > 0
