@@ -1,6 +1,6 @@
 """The per-design python-control workflow the benchmarks compare against.
 
-For one design (plain dicts, no exotune code): the gains and the default G_c,impl from the SPEC §3–§4
+For one design (plain dicts, no exotune code): the gains and the default G_c,impl from the docs/method.md#controller, docs/method.md#double-compliance-shaping
 formulas (tests/reference_model.py), then
 
 * free-cuff closed-loop poles (state space with an 8th-order Padé delay, python-control ``ss``);

@@ -3,7 +3,7 @@ workflow, in the same process.
 
     python benchmarks/analyze.py [--designs 2000] [--control-designs 20] [--seed 0]
 
-exotune: ``analyze_batch`` on N random designs around examples/paper.yaml (every SPEC §5 metric:
+exotune: ``analyze_batch`` on N random designs around examples/paper.yaml (every docs/method.md#analyses-and-metrics metric:
 free stability, exact stable intervals of the three human families, locked output, passivity of
 C7, DOB margins with the exact delay, amplification). two python-control
 per-design workflows on a sample of the designs: the minimal one (benchmarks/_percontrol.py:
@@ -77,7 +77,7 @@ def main() -> None:
     print(f"exotune {__import__('exotune').__version__}, python {sys.version.split()[0]}, {os.cpu_count()} CPUs "
           f"(all measured on one core, in this process)")
     print(f"exotune analyze_batch          : {args.designs:6d} designs in {t_ex:8.3f} s = {rate_ex:10.1f} designs/s "
-          f"({1e3 / rate_ex:.3f} ms/design; every SPEC §5 metric, exact intervals, exact delay)")
+          f"({1e3 / rate_ex:.3f} ms/design; every docs/method.md#analyses-and-metrics metric, exact intervals, exact delay)")
     print(f"python-control, minimal       : {n_c:6d} designs, {rate_c:10.2f} designs/s "
           f"({1e3 / rate_c:.1f} ms/design; 101 eigen-solves + stability_margins, Padé(8) delay)")
     print(f"python-control, same outputs  : {n_c:6d} designs, {rate_f:10.2f} designs/s "

@@ -1,4 +1,4 @@
-"""``python -m exotune`` runs the command line (SPEC §8)."""
+"""``python -m exotune`` runs the command line (docs/cli.md)."""
 
 from exotune.cli import main
 

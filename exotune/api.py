@@ -18,6 +18,7 @@ import os
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from .numerics.engine import numpy_engine
 from .results import (
     Certificate,
     ControllerFile,
@@ -101,7 +102,8 @@ def design(source) -> DesignSummary:
     from .analysis import design_report
 
     cfg = load_design(source)
-    return DesignSummary.from_record(design_report(cfg), cfg)
+    with numpy_engine():
+        return DesignSummary.from_record(design_report(cfg), cfg)
 
 
 def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
@@ -133,11 +135,12 @@ def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
     from .analysis import analyze_with_margins
 
     cfg = load_design(source)
-    rec = analyze_with_margins(cfg)
-    if cross_check:
-        from .analysis import pade_crosscheck
+    with numpy_engine():
+        rec = analyze_with_margins(cfg)
+        if cross_check:
+            from .analysis import pade_crosscheck
 
-        rec["cross_check"] = pade_crosscheck(cfg)
+            rec["cross_check"] = pade_crosscheck(cfg)
     return DesignAnalysis.from_record(rec, cfg)
 
 
@@ -166,7 +169,7 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     ----------
     docs/sweep-spec.md.
     """
-    from .sweep import run_sweep
+    from .sweeps import run_sweep
 
     run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
               chunk_size=chunk_size, progress=progress)
@@ -185,7 +188,7 @@ def report(sweep_dir, out=None) -> Path:
     ----------
     docs/sweep-spec.md#report.
     """
-    from .sweep import make_report
+    from .sweeps import make_report
 
     where = make_report(sweep_dir, out)
     return Path(where) if where is not None else Path(sweep_dir) / "report"
@@ -199,7 +202,7 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     ----------
     docs/optimize-spec.md.
     """
-    from .optimize import run_optimize
+    from .optimization import run_optimize
 
     return OptimizeResult.from_record(run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv), out)
 
@@ -226,7 +229,8 @@ def export(source, sample_rate_hz: float, out) -> ControllerFile:
     path = source if isinstance(source, (str, os.PathLike)) else getattr(source, "source", None)
     if path is None:
         raise TypeError("export needs the design file (a path, or a design loaded from a file)")
-    return ControllerFile.from_record(export_design(path, sample_rate_hz, out), out)
+    with numpy_engine():
+        return ControllerFile.from_record(export_design(path, sample_rate_hz, out), out)
 
 
 def certify(source) -> Certificate:
@@ -247,7 +251,8 @@ def certify(source) -> Certificate:
     if isinstance(source, ControllerFile):
         source = source.path if source.path is not None else source.to_dict()
     doc = load_controller(source) if isinstance(source, (str, os.PathLike)) else dict(source)
-    return Certificate.from_record(_certify(doc))
+    with numpy_engine():
+        return Certificate.from_record(_certify(doc))
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
@@ -266,7 +271,8 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     ----------
     docs/cli.md#simulate; paper §V (experiments).
     """
-    from .simulate import load_for_simulation, run_scenario
+    from .simulation import load_for_simulation, run_scenario
 
-    doc = load_for_simulation(source, sample_rate_hz)
-    return SimulationRun.from_report(run_scenario(doc, scenario, human_inertia=human_inertia))
+    with numpy_engine():
+        doc = load_for_simulation(source, sample_rate_hz)
+        return SimulationRun.from_report(run_scenario(doc, scenario, human_inertia=human_inertia))

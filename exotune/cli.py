@@ -1,8 +1,8 @@
 """The ``exotune`` command line: a thin layer over the library.
 
 Each command parses its arguments, makes one library call (:mod:`exotune.analysis`,
-:mod:`exotune.sweep`, :mod:`exotune.optimize`, :mod:`exotune.controllerfile`,
-:mod:`exotune.simulate`), formats the result (:mod:`exotune.text`, or strict JSON with
+:mod:`exotune.sweeps`, :mod:`exotune.optimization`, :mod:`exotune.controllerfile`,
+:mod:`exotune.simulation`), formats the result (:mod:`exotune.text`, or strict JSON with
 :func:`exotune.jsonio.dumps`), writes the requested files (:mod:`exotune.plots`, written by
 :func:`exotune.jsonio.write_files`) and maps the outcome to an exit code. Library modules are
 imported lazily, so ``exotune --help`` stays fast.
@@ -33,13 +33,16 @@ class InputError(click.ClickException):
 
     exit_code = 2
 
-    def __init__(self, message: str, exit_code: int | None = None):
+    def __init__(self, message: str, exit_code: int | None = None, more=()):
         super().__init__(message)
         if exit_code is not None:
             self.exit_code = exit_code
+        self.more = list(more)
 
     def show(self, file=None) -> None:
         click.echo(f"exotune: error: {self.format_message()}", err=True)
+        for line in self.more:  # the file's further errors, one per line
+            click.echo(line, err=True)
 
 
 def _usage_line(e: click.UsageError) -> str:
@@ -96,7 +99,7 @@ class _Group(click.Group):
         except click.UsageError as e:
             raise InputError(_usage_line(e), e.exit_code) from None
         except ExotuneError as e:
-            raise InputError(str(e), e.exit_code) from None
+            raise InputError(str(e), e.exit_code, getattr(e, "more", ())) from None
         except ValueError as e:
             raise InputError(" ".join(str(e).split()) or type(e).__name__) from None
         except OSError as e:  # an unwritable output (a directory, a missing parent, no permission)
@@ -104,11 +107,58 @@ class _Group(click.Group):
             raise InputError(f"{where}: {e.strerror or e}") from None
 
 
+def _spec_base(spec_file):
+    """The design file a sweep or optimization spec names as its ``base`` (resolved against the
+    spec's directory), or None: an input that no output may overwrite. Reading errors are left
+    to the command itself (which reports them in its own words)."""
+    import os
+
+    from .config import read_yaml
+
+    try:
+        base = read_yaml(spec_file).get("base")
+    except ExotuneError:
+        return None
+    if not isinstance(base, str) or not base:
+        return None
+    return base if os.path.isabs(base) else os.path.join(os.path.dirname(os.path.abspath(spec_file)), base)
+
+
+def _note_first_compile() -> None:
+    """One stderr line while the compiled kernels are built for this machine (first batch run)."""
+    from .numerics.engine import compiled, kernels_cached
+
+    if compiled() and not kernels_cached():
+        click.echo("exotune: compiling the analysis kernels for this machine (first run only, about a minute; "
+                   "later runs start at once)", err=True)
+
+
+SINGLE_DESIGN_COMMANDS = ("design", "sea", "analyze", "export", "certify", "simulate", "init")
+
+
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, "--version", prog_name="exotune")
-def cli():
+@click.pass_context
+def cli(ctx):
     """exotune: robust stability analysis and tuning of strength-amplification exoskeletons
-    (double compliance shaping, Thomas, Coholich & Sentis). Gains are in torque units (SPEC §4)."""
+    (double compliance shaping, Thomas, Coholich & Sentis). Gains are in torque units (docs/method.md#double-compliance-shaping)."""
+    if ctx.invoked_subcommand in SINGLE_DESIGN_COMMANDS:
+        # one design: the numpy engine answers at once; compiling the kernels pays only for batches
+        from .numerics.engine import numpy_engine
+
+        ctx.with_resource(numpy_engine())
+
+
+@cli.command("init")
+@click.argument("directory", metavar="DIR", default=".")
+def init_cmd(directory):
+    """Write commented starting files into DIR (default: here): design.yaml (docs/design-file.md),
+    sweep.yaml (docs/sweep-spec.md) and optimize.yaml (docs/optimize-spec.md). Never overwrites."""
+    from .starter import write_templates
+
+    for p in write_templates(directory):
+        click.echo(f"wrote {p}")
+    click.echo(f"next: exotune analyze {directory.rstrip('/') + '/' if directory != '.' else ''}design.yaml")
 
 
 @cli.command("design")
@@ -116,13 +166,14 @@ def cli():
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write Bode plots (PNG) of C4, C5, Ĉ5, C7, G_v.")
 def design_cmd(design_file, as_json, plots_dir):
-    """Gains and nominal transfer functions of a design file (paper §IV, SPEC §4)."""
+    """Gains and nominal transfer functions of a design file (paper §IV, docs/method.md#double-compliance-shaping)."""
     from .analysis import design_report
     from .config import load_design
-    from .jsonio import dumps, write_files
+    from .jsonio import check_outputs, dumps, write_files
     from .plots.design import design_plots
     from .text.design import format_design
 
+    check_outputs([design_file], out_dirs={"--plots": plots_dir})
     cfg = load_design(design_file)
     rep = design_report(cfg)
     text = dumps(rep) if as_json else format_design(rep)
@@ -150,11 +201,13 @@ def sea_cmd(sea_file, as_json):
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write the analysis plots to DIR.")
 @click.option("--cross-check", "cross_check", is_flag=True,
-              help="Also compare the exact verdicts with closed-loop roots of two Padé models (SPEC §5).")
+              help="Also compare the exact verdicts with closed-loop roots of two Padé models (docs/method.md#analyses-and-metrics).")
 def analyze_cmd(design_file, as_json, plots_dir, cross_check):
-    """Stability, passivity, DOB margins and amplification of a design (SPEC §5, §8)."""
+    """Stability, passivity, DOB margins and amplification of a design (docs/method.md#analyses-and-metrics, docs/cli.md)."""
     from .config import load_design
+    from .jsonio import check_outputs
 
+    check_outputs([design_file], out_dirs={"--plots": plots_dir})
     cfg = load_design(design_file)  # input errors first, whatever the state of the analysis engine
     from .api import analyze
     from .jsonio import staged_dir
@@ -177,11 +230,14 @@ def analyze_cmd(design_file, as_json, plots_dir, cross_check):
 @click.option("--seed", type=int, default=None, metavar="S", help="Seed for --sample.")
 @click.option("--chunk-size", type=click.IntRange(min=1), default=None, metavar="N", help="Design points per chunk.")
 def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_size):
-    """Vectorized, chunked, resumable parameter sweep (SPEC §6)."""
+    """Vectorized, chunked, resumable parameter sweep (docs/sweep-spec.md)."""
     import sys
 
-    from .sweep import TqdmProgress, run_sweep
+    from .jsonio import check_outputs
+    from .sweeps import TqdmProgress, run_sweep
 
+    check_outputs([spec_file, _spec_base(spec_file)], out_dirs={"-o": out_dir})
+    _note_first_compile()
     run_sweep(
         spec_file,
         out_dir,
@@ -196,12 +252,26 @@ def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_siz
 
 @cli.command("report")
 @click.argument("sweep_dir", metavar="DIR")
-@click.option("-o", "--out", "out", default=None, metavar="OUT", help="Where to write the report.")
+@click.option("-o", "--out", "out", default=None, metavar="OUT",
+              help="Directory to write the report into (default: DIR/report).")
 def report_cmd(sweep_dir, out):
-    """Stability maps and summary tables of a sweep (SPEC §6)."""
-    from .sweep import make_report
+    """Stability maps and summary tables of a sweep (docs/sweep-spec.md).
 
-    make_report(sweep_dir, out)
+    Reads the sweep directory DIR written by `exotune sweep` and writes summary.md, one CSV table
+    per axis (axis_<path>.csv) and the PNG maps into OUT (default DIR/report); prints where.
+    """
+    import os
+
+    from .jsonio import check_outputs
+    from .sweeps import make_report
+
+    check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"-o": out},
+                  protected_dirs=[os.path.join(sweep_dir, "chunks")])
+    where = make_report(sweep_dir, out)
+    summary = where / "summary.md"
+    n_maps = sum(1 for line in summary.read_text(encoding="utf-8").splitlines()
+                 if line.startswith("- [") and ".png]" in line)
+    click.echo(f"wrote report to {where} ({n_maps} map{'' if n_maps == 1 else 's'}, summary.md)")
 
 
 @cli.command("optimize")
@@ -217,9 +287,11 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
     DOB-margin and amplification constraints; by default the design keeps a latency margin of one
     sample period (0.5 ms without a sample rate). Exit code 1 when no feasible design exists in
     the bounds (the broken constraints of the best design are listed)."""
-    from .jsonio import dumps
-    from .optimize import format_optimize, run_optimize
+    from .jsonio import check_outputs, dumps
+    from .optimization import format_optimize, run_optimize
 
+    check_outputs([spec_file, _spec_base(spec_file)], outputs={"-o": out, "--pareto": pareto_csv})
+    _note_first_compile()
     r = run_optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv)
     click.echo(dumps(r) if as_json else format_optimize(r))
     if not r["feasible"]:
@@ -231,10 +303,12 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
 @click.option("--sample-rate-hz", "sample_rate_hz", required=True, metavar="F", help="Runtime sample rate [Hz].")
 @click.option("-o", "--out", "out", required=True, metavar="CONTROLLER.yaml", help="Controller file to write.")
 def export_cmd(design_file, sample_rate_hz, out):
-    """Export the discrete-time runtime controller as YAML (SPEC §7)."""
+    """Export the discrete-time runtime controller as YAML (docs/controller-file.md)."""
     from .controllerfile import export_design
+    from .jsonio import check_outputs
     from .text.export import format_export
 
+    check_outputs([design_file], outputs={"-o": out})
     doc = export_design(design_file, sample_rate_hz, out)
     click.echo(format_export(doc, out))
 
@@ -244,7 +318,7 @@ def export_cmd(design_file, sample_rate_hz, out):
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.pass_context
 def certify_cmd(ctx, controller_file, as_json):
-    """Exact sampled-data analysis of an exported controller file (SPEC §7). Exit code 0: certified,
+    """Exact sampled-data analysis of an exported controller file (docs/controller-file.md). Exit code 0: certified,
     1: analysed but not certified (the reasons are listed), 2: invalid file."""
     from .controllerfile.certify import certify
     from .controllerfile import load_controller
@@ -280,9 +354,12 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
 
     from .jsonio import dumps, write_files
     from .plots.simulate import plot_simulation
-    from .simulate import load_for_simulation, number_option, run_scenario
+    from .simulation import load_for_simulation, number_option, run_scenario
     from .text.simulate import format_simulation
 
+    from .jsonio import check_outputs
+
+    check_outputs([input_file], out_dirs={"--plots": plots_dir})
     human_inertia = number_option("--human-inertia", human_inertia, positive=True)
     duration = number_option("--duration", duration, positive=True)
     joint_angle = number_option("--joint-angle", joint_angle)

@@ -1,4 +1,4 @@
-"""Exceptions raised for bad user input (SPEC §8: "one clear message naming the field and the
+"""Exceptions raised for bad user input (docs/cli.md: "one clear message naming the field and the
 reason").
 
 :class:`ConfigError` carries the offending field as a dotted path into the input file
@@ -9,7 +9,15 @@ file-level problems (unreadable file, invalid YAML), the file name. ``str(err)``
 
 from __future__ import annotations
 
-__all__ = ["ExotuneError", "ConfigError", "RunFailed"]
+__all__ = ["ExotuneError", "ConfigError", "RunFailed", "combine_errors"]
+
+
+MAX_FIELD_CHARS = 300  # the longest field (a path) an error line carries
+MAX_REASON_CHARS = 1000  # the longest reason
+
+
+def _cap(text: str, limit: int) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}… (cut; {len(text)} characters)"
 
 
 class ExotuneError(Exception):
@@ -30,16 +38,44 @@ class RunFailed(ExotuneError):
 
 class ConfigError(ExotuneError):
     """Invalid user input: ``field`` (dotted path or file name) and a human-readable ``reason``.
-    Exit code 2."""
+    Exit code 2.
 
-    def __init__(self, field: str, reason: str):
-        self.field = str(field)
-        # keep every message on one line (the CLI contract is a one-line error)
-        self.reason = " ".join(str(reason).split())
+    ``more`` lists the file's further problems, each ``"<field>: <reason>"`` on one line: the
+    command line prints ``str(error)`` as its first line ``exotune: error: …`` and then one line
+    per item of ``more`` (docs/cli.md#errors)."""
+
+    def __init__(self, field: str, reason: str, more=()):
+        # keep every message on one line (the CLI contract is a one-line error), and short: an
+        # error never quotes a whole input file
+        self.field = _cap(" ".join(str(field).split()), MAX_FIELD_CHARS)
+        self.reason = _cap(" ".join(str(reason).split()), MAX_REASON_CHARS)
+        self.more = [_cap(" ".join(str(m).split()), MAX_FIELD_CHARS + MAX_REASON_CHARS) for m in more]
         super().__init__(self.field, self.reason)
 
     def __str__(self) -> str:
         return f"{self.field}: {self.reason}" if self.field else self.reason
 
     def __reduce__(self):  # picklable across process pools (sweeps)
-        return (type(self), (self.field, self.reason))
+        return (type(self), (self.field, self.reason, tuple(self.more)))
+
+
+def combine_errors(errors) -> ConfigError:
+    """One :class:`ConfigError` for several: the first, with the others (and their own ``more``)
+    as its ``more`` lines.
+
+    Parameters
+    ----------
+    errors : sequence of ConfigError
+        At least one error, in the order they are to be printed.
+
+    Returns
+    -------
+    ConfigError
+        The first error's field and reason; ``more`` holds every other line.
+    """
+    first, *rest = errors
+    more = list(first.more)
+    for e in rest:
+        more.append(str(e))
+        more.extend(e.more)
+    return ConfigError(first.field, first.reason, more)

@@ -1,4 +1,4 @@
-"""JSON conventions of exotune's outputs (SPEC §8) and atomic file writes.
+"""JSON conventions of exotune's outputs (docs/cli.md) and atomic file writes.
 
 * :func:`to_jsonable` turns results into plain JSON types: numpy scalars/arrays become Python
   numbers/lists, dataclasses become objects (their fields), tuples become lists, complex numbers
@@ -6,11 +6,14 @@
   ``"-inf"``; NaN (an undefined quantity) is written as ``null``.** Every other float is written
   with full (round-trip) precision.
 * :func:`write_atomic` writes a file through a temporary file in the same directory followed by
-  :func:`os.replace`, so a reader never sees a half-written output (SPEC §6, §8: "nothing
+  :func:`os.replace`, so a reader never sees a half-written output (docs/sweep-spec.md, docs/cli.md: "nothing
   half-written").
-* :func:`write_files` writes several outputs (each atomically) under one directory, and
-  :func:`staged_dir` lets a producer write into a temporary directory whose files are copied to
-  the destination only when the producer succeeds (a failing run leaves nothing behind).
+* :func:`write_files` writes several outputs under one directory, all or none, and
+  :func:`staged_dir` lets a producer write into a temporary directory next to the destination
+  whose files are renamed into place only when the producer succeeds (a failing run leaves
+  nothing behind).
+* :func:`check_outputs` refuses, before any work, an output that is (the same file as) an
+  input, a file output that names a directory, or an output that cannot be written.
 * :func:`dumps` is the JSON text of every ``--json`` output.
 """
 
@@ -28,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["to_jsonable", "dumps", "write_atomic", "write_files", "staged_dir"]
+__all__ = ["to_jsonable", "dumps", "write_atomic", "write_files", "staged_dir", "check_outputs"]
 
 
 def _float(x: float):
@@ -127,15 +130,42 @@ def dumps(obj) -> str:
     return json.dumps(to_jsonable(obj), indent=2, ensure_ascii=False, allow_nan=False)
 
 
-def write_files(dest, files: dict[str, bytes]) -> None:
-    """Write ``files`` (relative path → content) under the directory ``dest``, each atomically.
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
+def _make_parents(path: str) -> list[str]:
+    """Create the missing directories of ``path`` (itself included); return those created,
+    deepest first (to remove them again when a staged write fails)."""
+    missing = []
+    cur = os.path.abspath(path)
+    while not os.path.isdir(cur):
+        missing.append(cur)
+        parent = os.path.dirname(cur)
+        if parent == cur:
+            break
+        cur = parent
+    for d in reversed(missing):
+        os.mkdir(d)
+    return missing
+
+
+def staged_dir(dest, produce) -> None:
+    """Run ``produce(tmpdir)``; only if it succeeds, move what it wrote into ``dest``.
+
+    The temporary directory is made next to ``dest`` (same file system), so that publishing is
+    a rename per file — no copying, no space needed — or, when ``dest`` does not exist yet, one
+    rename of the whole directory. A failing producer (a plot error, a full disk) leaves ``dest``
+    untouched, not even created.
 
     Parameters
     ----------
     dest : str or os.PathLike
-        Destination directory (created with its missing parents).
-    files : dict
-        Relative path → bytes (or text).
+        Destination directory.
+    produce : callable
+        Called with the path of a fresh temporary directory, which is removed afterwards.
 
     Raises
     ------
@@ -148,36 +178,150 @@ def write_files(dest, files: dict[str, bytes]) -> None:
     """
     from .errors import ConfigError
 
+    dest = os.fspath(dest)
+    parent = os.path.dirname(os.path.abspath(dest))
+    created: list[str] = []
+    tmp = None
     try:
-        for rel, data in files.items():
-            write_atomic(os.path.join(dest, rel), data)
-    except OSError as e:
-        raise ConfigError(dest, f"cannot write output: {e.strerror or e}") from None
+        created = _make_parents(parent)
+        # stage inside an existing destination (its parent may be read-only), else next to it
+        tmp = tempfile.mkdtemp(prefix=".exotune-stage-", dir=dest if os.path.isdir(dest) else parent)
+        produce(tmp)
+        if not os.path.lexists(dest):
+            os.chmod(tmp, 0o777 & ~_umask())
+            os.rename(tmp, dest)
+            tmp = None
+            return
+        for root, _dirs, names in os.walk(tmp):
+            rel = os.path.relpath(root, tmp)  # (the staging directory itself is never a target)
+            target = dest if rel == "." else os.path.join(dest, rel)
+            os.makedirs(target, exist_ok=True)
+            for nm in names:
+                os.replace(os.path.join(root, nm), os.path.join(target, nm))
+    except BaseException as e:  # leave nothing behind: the staging directory, created parents
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+            tmp = None
+        for d in created if not os.path.isdir(dest) else []:
+            try:
+                os.rmdir(d)
+            except OSError:
+                pass
+        if isinstance(e, OSError):
+            raise ConfigError(dest, f"cannot write output: {e.strerror or e}") from None
+        raise
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
-def staged_dir(dest, produce) -> None:
-    """Run ``produce(tmpdir)``; only if it succeeds, copy what it wrote into ``dest``.
+def write_files(dest, files: dict[str, bytes]) -> None:
+    """Write ``files`` (relative path → content) under the directory ``dest``, all or none.
 
     Parameters
     ----------
     dest : str or os.PathLike
-        Destination directory. A failing producer leaves it untouched (not even created).
-    produce : callable
-        Called with the path of a fresh temporary directory, which is removed afterwards.
+        Destination directory (created with its missing parents).
+    files : dict
+        Relative path → bytes (or text).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        ``<dest>: cannot write output: <reason>`` when a file cannot be written; then no file of
+        ``files`` is written (they are staged by :func:`staged_dir`).
 
     References
     ----------
     docs/cli.md#outputs.
     """
-    tmp = tempfile.mkdtemp(prefix="exotune-stage-")
+
+    def produce(tmp):
+        for rel, data in files.items():
+            write_atomic(os.path.join(tmp, rel), data)
+
+    staged_dir(dest, produce)
+
+
+def _same(a: str, b: str) -> bool:
+    """Whether the paths ``a`` and ``b`` name the same file (same inode when both exist)."""
     try:
-        produce(tmp)
-        files = {}
-        for root, _dirs, names in os.walk(tmp):
-            for nm in names:
-                full = os.path.join(root, nm)
-                with open(full, "rb") as fh:
-                    files[os.path.relpath(full, tmp)] = fh.read()
-        write_files(dest, files)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if os.path.exists(a) and os.path.exists(b):
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _check_parent(label: str, path: str) -> None:
+    """The nearest existing ancestor of ``path`` (``path`` itself when it is an existing
+    directory) must be a writable directory."""
+    from .errors import ConfigError
+
+    cur = os.path.abspath(path) if os.path.isdir(path) else os.path.dirname(os.path.abspath(path))
+    while not os.path.lexists(cur):
+        cur = os.path.dirname(cur)
+    if not os.path.isdir(cur):
+        raise ConfigError(path, f"cannot write output ({label}): {cur} is not a directory")
+    if not os.access(cur, os.W_OK | os.X_OK):
+        raise ConfigError(path, f"cannot write output ({label}): no permission to write into {cur}")
+
+
+def _inside(path: str, directory: str) -> bool:
+    p, d = os.path.realpath(path), os.path.realpath(directory)
+    return p == d or p.startswith(d.rstrip(os.sep) + os.sep)
+
+
+def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> None:
+    """Refuse, before any work, outputs that cannot be written or would overwrite an input.
+
+    Parameters
+    ----------
+    inputs : sequence of str or os.PathLike
+        The files (or directories) the command reads; ``None`` items are ignored.
+    outputs : dict, optional
+        Option label (``"-o"``, ``"--pareto"``) → path of a *file* to write (``None``: not given).
+    out_dirs : dict, optional
+        Option label (``"--plots"``) → path of a *directory* to write into (``None``: not given).
+    protected_dirs : sequence of str or os.PathLike
+        Directories no output may be in (a sweep's ``chunks``).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        ``<path>: …`` (the option named in the reason) when an output is (or is the same file as,
+        by inode) an input or another output, when a file output names a directory (an
+        existing one, or a path ending in ``/``), when a directory output is an existing file,
+        or when the nearest existing ancestor of an output is not a writable directory.
+
+    References
+    ----------
+    docs/cli.md#outputs.
+    """
+    from .errors import ConfigError
+
+    ins = [os.fspath(p) for p in inputs if p is not None]
+    seen: list[tuple[str, str]] = []
+    items = [(lbl, os.fspath(p), False) for lbl, p in (outputs or {}).items() if p is not None]
+    items += [(lbl, os.fspath(p), True) for lbl, p in (out_dirs or {}).items() if p is not None]
+    for label, path, is_dir in items:
+        if not path:
+            raise ConfigError(label, "an empty path")
+        for inp in ins:
+            if _same(path, inp):
+                raise ConfigError(path, f"the {label} output is the same file as the input {inp}; refusing to "
+                                        f"overwrite an input (choose another {label} path)")
+        for other_label, other in seen:
+            if _same(path, other):
+                raise ConfigError(path, f"the {label} output is the same path as the {other_label} output")
+        for d in protected_dirs:
+            if _inside(path, os.fspath(d)):
+                raise ConfigError(path, f"the {label} output is inside {os.fspath(d)}, which holds inputs; "
+                                        "choose another path")
+        if is_dir:
+            if os.path.lexists(path) and not os.path.isdir(path):
+                raise ConfigError(path, f"exists and is not a directory ({label} needs a directory)")
+        elif path.endswith(("/", os.sep)) or os.path.isdir(path):
+            raise ConfigError(path, f"is a directory; {label} needs a file path")
+        _check_parent(label, path)
+        seen.append((label, path))

@@ -325,7 +325,7 @@ class OptimizeResult(Result):
                    None if path is None or not rec["feasible"] else str(path))
 
     def to_text(self) -> str:
-        from .optimize import format_optimize
+        from .optimization import format_optimize
 
         return format_optimize(self.to_dict())
 

@@ -8,8 +8,8 @@ try:
     try:
         __version__ = _dist_version("exotune")
     except PackageNotFoundError:  # running from a source tree that is not installed
-        __version__ = "0.6.0"
+        __version__ = "0.7.0"
 except ImportError:  # pragma: no cover - importlib.metadata is stdlib on every supported Python
-    __version__ = "0.6.0"
+    __version__ = "0.7.0"
 
 __all__ = ["__version__"]

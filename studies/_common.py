@@ -29,7 +29,7 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from exotune.jsonio import write_atomic  # noqa: E402
-from exotune.sweep import TqdmProgress, load_manifest, load_results, make_report, run_sweep, value_runs  # noqa: E402
+from exotune.sweeps import TqdmProgress, load_manifest, load_results, make_report, run_sweep, value_runs  # noqa: E402
 
 
 def parse_args(name: str, doc: str):
@@ -67,7 +67,7 @@ def run_study(name: str, spec: str, doc: str, extra) -> Path:
 
 
 def robust_of(df) -> np.ndarray:
-    from exotune.sweep import robust_mask
+    from exotune.sweeps import robust_mask
 
     cols = {c: df[c].to_numpy() for c in df.columns}
     return robust_mask({c: v for c, v in cols.items() if c == "free_stable" or (

@@ -45,7 +45,7 @@ def extra(df, manifest, out: Path) -> None:
     locked = df["locked_stable"].to_numpy(bool)
 
     fig, ax = p.subplots(figsize=(8, 5.6))
-    ax.axhspan(0.06, 0.15, color="tab:green", alpha=0.15, label="forearm + hand, 0.06–0.15 kg·m² (SPEC §2)")
+    ax.axhspan(0.06, 0.15, color="tab:green", alpha=0.15, label="forearm + hand, 0.06–0.15 kg·m² (docs/method.md#physical-model)")
     ax.axhline(1e-3, color="k", lw=0.8, ls=":", label="light objects on the cuff ≈ 10⁻³ kg·m²")
     for a in A:
         sel = aa == a
@@ -93,7 +93,7 @@ def extra(df, manifest, out: Path) -> None:
     L.append("")
     L.append(f"Grid: K_c ∈ [{K.min():g}, {K.max():g}] N·m/rad ({K.size} log-spaced values) × α ∈ "
              f"{{{', '.join(f'{a:g}' for a in A)}}} = {len(df)} designs. The controller gain B̂2 = (2ζ̂√(αK_cĴ_m) − "
-             "B̂_m)/K_c is recomputed for every K_c (SPEC §4). *Lightest stable inertia* = the lower end of the exact "
+             "B̂_m)/K_c is recomputed for every K_c (docs/method.md#double-compliance-shaping). *Lightest stable inertia* = the lower end of the exact "
              "stable interval containing 1 kg·m² (inertias between it and 1 kg·m² are all stable; lighter ones may "
              "destabilise the loop — the paper's \"destabilization by light inertias\").")
     L.append("")

@@ -108,7 +108,7 @@ def extra(df, manifest, out: Path) -> None:
     L.append("")
     L.append(f"Grid: DOB cutoff f_q ∈ [{F.min():g}, {F.max():g}] Hz ({F.size} log-spaced values) × T ∈ "
              f"[0, {T.max() * 1e3:g}] ms ({T.size} values) = {len(df)} designs. The DOB margins are those of "
-             "L_dob(s) = Q(s) e^{−sT}/(1 − Q(s)) (SPEC §3, §5); the delay margin is the extra delay on top of T "
+             "L_dob(s) = Q(s) e^{−sT}/(1 − Q(s)) (docs/method.md#controller, docs/method.md#analyses-and-metrics); the delay margin is the extra delay on top of T "
              "(minimum over all gain crossovers).")
     L.append("")
     L.append(f"{int(dob_unstable.sum())} designs have an unstable closed DOB loop with their delay "

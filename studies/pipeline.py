@@ -24,9 +24,9 @@ from exotune.controllerfile.certify import certify  # noqa: E402
 from exotune.text.certify import format_certify  # noqa: E402
 from exotune.controllerfile import export_design, load_controller  # noqa: E402
 from exotune.jsonio import write_atomic  # noqa: E402
-from exotune.optimize import format_optimize, run_optimize  # noqa: E402
+from exotune.optimization import format_optimize, run_optimize  # noqa: E402
 from exotune.plots.simulate import plot_simulation  # noqa: E402
-from exotune.simulate import SCENARIOS, run_scenario  # noqa: E402
+from exotune.simulation import SCENARIOS, run_scenario  # noqa: E402
 from exotune.text.simulate import format_simulation  # noqa: E402
 
 

@@ -9,6 +9,7 @@
 #          (c) cuff_inertia — cuff stiffness K_c × lightest stable human inertia
 #          (d) sample_rate  — controller sample rate × lightest stable inertia (sampled-data model)
 #          (e) pipeline     — optimize → export → certify → simulate on one design
+#          (f) paper        — the paper's Table II and Figs. 4, 5, 6, 8, 9 reproduced, with comparison pages
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PYTHON="${PYTHON:-python}"
@@ -20,4 +21,6 @@ echo "== studies/sample_rate.py" >&2
 "$PYTHON" studies/sample_rate.py   # no sweep: sampled-data verdicts by bisection (seconds)
 echo "== studies/pipeline.py" >&2
 "$PYTHON" studies/pipeline.py
-echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate,pipeline}/" >&2
+echo "== studies/paper_figures.py" >&2
+"$PYTHON" studies/paper_figures.py   # no sweep: analysis + two 1 kHz simulations (about 20 s)
+echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate,pipeline,paper}/" >&2

@@ -1,4 +1,4 @@
-"""Independent reference model of the closed-loop exoskeleton (SPEC §2-§3), for tests only.
+"""Independent reference model of the closed-loop exoskeleton (docs/method.md#physical-model, docs/method.md#controller), for tests only.
 
 This module rebuilds the coupled linear system *directly from the physical equations* as a
 state-space model (numpy matrices wrapped in a python-control ``StateSpace``) and returns its
@@ -7,7 +7,7 @@ eigenvalues. It deliberately shares no code with ``exotune.analysis`` (nor with
 G_c and the DOB are taken as plain numbers / coefficient arrays, and everything else
 (physics, signal routing, realizations of the rational blocks, Padé delay) is written out here.
 
-Conventions (SPEC §2, paper eq. model) -- all joint-reflected, SI units
+Conventions (docs/method.md#physical-model, paper eq. (5) -- all joint-reflected, SI units
 -------------------------------------------------------------------------
     τ_s = K_s (θ_j − θ_m)                          spring torque (sensed)
     J_m θ̈_m + B_m θ̇_m = τ_s + τ_m + δ_f            motor (δ_f: transmission disturbance input)
@@ -22,7 +22,7 @@ Conventions (SPEC §2, paper eq. model) -- all joint-reflected, SI units
         {kind: spring|mass|msd, value: k or m, damping: b[, stiffness: k, inertia: m]} giving
         τ_env = τ_env,in − (m_e θ̈_j + b_e θ̇_j + k_e θ_j)   (m_e rigidly added to J_j).
 
-Controller (SPEC §3), torque units:
+Controller (docs/method.md#controller), torque units:
     τ_cmd = −(K1 θ_m + B1 θ̇_m) + (K2 τ_s + B2 τ̇_s) + G_c(s) τ_c − δ̂,    τ_m = e^{−sT} τ_cmd
     θ̇_m and τ̇_s = K_s(θ̇_j − θ̇_m) are the exact plant states (ideal velocity measurement).
     DOB (optional): δ̂ = Q(s)[(J_m s² + B_m s) θ_m − τ_s − τ_cmd],
@@ -79,10 +79,10 @@ RIGID_BODY_RTOL = 1e-6
 
 
 # ----------------------------------------------------------------------------------------------
-# Gains and G_c from SPEC §3-§4, written out independently of exotune
+# Gains and G_c from docs/method.md#controller, docs/method.md#double-compliance-shaping, written out independently of exotune
 # ----------------------------------------------------------------------------------------------
 def reference_gains(plant: dict, design: dict) -> dict:
-    """Double compliance shaping gains (SPEC §4, torque units) and shape parameters.
+    """Double compliance shaping gains (docs/method.md#double-compliance-shaping, torque units) and shape parameters.
 
     design: amplification α, felt_inertia Ĵ_m/α, felt_damping B̂_m/α, zeta ζ, zeta_hat ζ̂.
     """
@@ -111,7 +111,7 @@ def reference_gains(plant: dict, design: dict) -> dict:
 
 
 def reference_gc(plant: dict, design: dict, gv_filter: dict, derivative_filter: dict):
-    """SPEC §3 default G_c,impl as ascending (num, den), built here with numpy.polynomial:
+    """docs/method.md#controller default G_c,impl as ascending (num, den), built here with numpy.polynomial:
 
     G_c,impl = (J_m/Ĵ_m)[1 + (J_j/K_s) F_v s (s² + B̃2 s + K̃2)/(s + B̃1)] (K̂2 + B̂2 s F_d),
     F_v = ω_v²/(s² + 2ζ_v ω_v s + ω_v²), F_d = ω_d/(s + ω_d), ω = 2π·cutoff_hz.

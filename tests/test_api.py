@@ -36,6 +36,15 @@ def test_public_names_and_cheap_import():
     assert out.strip() == "['exotune.version']"
     with pytest.raises(AttributeError):
         exotune.no_such_thing  # noqa: B018
+    # no subpackage shadows an API function once imported (import exotune.<sub> sets the attribute)
+    code = ("import importlib, pkgutil, exotune\n"
+            "for m in pkgutil.walk_packages(exotune.__path__, 'exotune.'):\n"
+            "    importlib.import_module(m.name)\n"
+            "bad = [n for n in exotune.__all__ if n != '__version__' and not (callable(getattr(exotune, n)) "
+            "and not isinstance(getattr(exotune, n), type(exotune)))]\n"
+            "print(bad)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
+    assert out.strip() == "[]"
 
 
 def test_load_design_accepts_path_mapping_and_object():

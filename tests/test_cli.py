@@ -1,4 +1,4 @@
-"""The command-line contract (SPEC §8): outputs with units, JSON conventions, and the error
+"""The command-line contract (docs/cli.md): outputs with units, JSON conventions, and the error
 contract (one line naming the field, exit code 2, no traceback, nothing written)."""
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ def design_json():
 
 
 def test_design_gains_match_spec_formulas(design_json):
-    """Independent evaluation of the SPEC §4 formulas for the §9 example."""
+    """Independent evaluation of the docs/method.md#double-compliance-shaping formulas for the §9 example."""
     J_m, B_m, K_s, K_c = 0.44, 17.9, 1180.0, 300.0  # the gains do not depend on J_j
     a, fi, fd, z, zh = 8.0, 0.25, 1.0, 0.7, 0.7
     Jh, Bh = a * fi, a * fd
@@ -126,7 +126,7 @@ def test_design_approximation(design_json):
 
     assert e(f) == pytest.approx(0.1, abs=1e-7)
     assert all(e(x) < 0.1 for x in np.geomspace(f / 1e4, f * 0.999, 200))
-    # J_j/(Ĵ_m + J_j) = 12.7 % > 10 %: the approximation warning must be raised (SPEC §4)
+    # J_j/(Ĵ_m + J_j) = 12.7 % > 10 %: the approximation warning must be raised (docs/method.md#double-compliance-shaping)
     assert any("J_m_hat/J_j" in w and "12.7" in w for w in design_json["warnings"])
 
 
@@ -302,7 +302,7 @@ def test_sea_fields(sea_json):
         assert k in sea_json["units"]
     assert sea_json["gains_torque"]["K2"] == pytest.approx(-41690.0 / 1180.0)
 
-    # resonance: brute force over a fine grid of |C5(jω)| (paper eq. total_compliance)
+    # resonance: brute force over a fine grid of |C5(jω)| (paper eq. (10)
     w = np.geomspace(1.0, 1e4, 400001)
     s = 1j * w
     num = s * s + B2t * s + K2t
@@ -426,3 +426,29 @@ def test_analyze_with_sample_rate_text_and_json(tmp_path):
     sd = d["sampled_data"]
     assert sd["sample_rate_hz"] == 1000.0 and sd["free_stable"] is True
     assert [h["kind"] for h in sd["humans"]] == ["mass", "spring", "complex_stiffness"]
+
+
+def test_report_says_where_it_wrote_and_sweep_says_workers_unused(tmp_path):
+    """Issue 17: ``exotune report DIR`` prints where it wrote (its --help says the default place);
+    a sweep with a single chunk says --workers is not used; the per-axis columns' names carry the
+    unit of their values (``dob_delay_margin_ms … [ms]``, not ``dob_delay_margin_s … [ms]``)."""
+    import yaml
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({"base": str(PAPER), "axes": {"design.amplification": [2.0, 8.0]}}))
+    out = tmp_path / "sw"
+    res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(out), "--workers", "2"])
+    assert res.exit_code == 0, res.output
+    notes = [ln for ln in res.stderr.splitlines() if "--workers 2 not used" in ln]
+    assert len(notes) == 1 and "in-process" in notes[0], res.stderr
+    res = run("report", out)
+    assert res.exit_code == 0, res.output
+    assert res.stdout == f"wrote report to {out / 'report'} (1 map, summary.md)\n"
+    with open(out / "report" / "axis_design.amplification.csv", encoding="utf-8") as fh:
+        head = fh.readline()
+    assert '"dob_delay_margin_ms_min [ms]"' in head and "dob_delay_margin_s_" not in head
+    md = (out / "report" / "summary.md").read_text(encoding="utf-8")
+    assert "dob_delay_margin_ms min [ms]" in md and "`dob_delay_margin_ms` | ms" in md
+    assert "dob_delay_margin_s" not in md
+    helptext = run("report", "--help").stdout
+    assert "DIR/report" in " ".join(helptext.split())

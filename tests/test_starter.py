@@ -26,7 +26,7 @@ def test_templates_are_written_and_load(tmp_path):
 
 
 def test_sweep_and_optimize_templates_validate(tmp_path):
-    from exotune.optimize import load_optimize_spec
+    from exotune.optimization import load_optimize_spec
 
     write_templates(tmp_path)
     spec = load_optimize_spec(tmp_path / "optimize.yaml")
@@ -49,3 +49,16 @@ def test_unknown_template_and_file_in_the_way(tmp_path):
     f.write_text("x")
     with pytest.raises(ConfigError, match="not a directory"):
         write_templates(f)
+
+
+def test_init_command(tmp_path):
+    from click.testing import CliRunner
+
+    from exotune.cli import cli
+
+    r = CliRunner().invoke(cli, ["init", str(tmp_path / "proj")])
+    assert r.exit_code == 0, r.output
+    assert sorted(p.name for p in (tmp_path / "proj").iterdir()) == ["design.yaml", "optimize.yaml", "sweep.yaml"]
+    assert "next: exotune analyze" in r.output
+    again = CliRunner().invoke(cli, ["init", str(tmp_path / "proj")])
+    assert again.exit_code == 2 and "already exists" in again.output

@@ -6,9 +6,9 @@ The modules, lowest first (each imports only the ones above it):
 ``counting``            exact right-half-plane root counts (argument principle), batched
 ``brackets``            refinement of crossing brackets, compiled or numpy
 ``intervals``           exact stable intervals of an impedance family (human, environment)
-``phase_excess``        phase excess and non-passive bands of C7 = Δ10/Δ00 (paper §VI-C)
+``phase_excess``        phase excess and non-passive bands of C7 = Δ10/Δ00 (paper §IV-A)
 ``dob``                 margins of the disturbance-observer loop
-``amplification_ratio`` DC value, bandwidth and minimum phase of C6/C5 (paper §III-E)
+``amplification_ratio`` DC value, bandwidth and minimum phase of C6/C5 (paper §II-D)
 ``batch``               every metric for a batch of designs (the sweep columns)
 ``kyp``                 KYP passivity certificates of the rational models of C7 (cvxpy)
 ``design``              the single-design report (``exotune analyze``)
@@ -25,6 +25,7 @@ from .nominal import design_report
 from .dob import dob_margins
 from .intervals import MAX_FAMILY_PIECES, family_intervals
 from .margins import LatencyMargin, LoopMargin, analyze_with_margins, latency_margin
+from .plant_margin import LoopPlantMargin, PlantMargin, PlantWitness, plant_loops, plant_uncertainty_margin
 from .kyp import (
     KypCertificate,
     admittance_certificate,
@@ -37,6 +38,11 @@ from .phase_excess import BAND_MIN_EXCESS_DEG, c7_response, passivity
 from .sea import sea_report
 
 __all__ = [
+    "LoopPlantMargin",
+    "PlantMargin",
+    "PlantWitness",
+    "plant_loops",
+    "plant_uncertainty_margin",
     "LatencyMargin",
     "LoopMargin",
     "analyze_with_margins",

@@ -1,4 +1,4 @@
-"""Strength amplification C6/C5 (output locked, paper §III-E): DC value, −3 dB bandwidth,
+"""Strength amplification C6/C5 (output locked, paper §II-D): DC value, −3 dB bandwidth,
 minimum phase, with the DOB-modified delay.
 
 C6/C5 = 1 + K_s E_eff G_c / (K_s + J_m s² + B_m s − E_eff (G_θ − K_s G_s)), E_eff the DOB-modified
@@ -6,7 +6,7 @@ delay; the denominator is the output-locked characteristic function.
 
 References
 ----------
-Paper §III-E (amplification); docs/method.md#amplification.
+Paper §II-D (amplification); docs/method.md#amplification.
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ def dc_and_bandwidth(num: QP, den: QP, per_decade: int = 2):
 
     References
     ----------
-    Paper §III-E (amplification); docs/method.md#amplification.
+    Paper §II-D (amplification); docs/method.md#amplification.
     """
     N = num.n
     rows = np.arange(N)
@@ -103,7 +103,7 @@ def dc_and_bandwidth(num: QP, den: QP, per_decade: int = 2):
 
 
 def amplification(plant: Plant, cs: ControllerStructure, N: int):
-    """DC value, −3 dB bandwidth [Hz] and minimum-phase flag of C6/C5 (SPEC §5), plus the
+    """DC value, −3 dB bandwidth [Hz] and minimum-phase flag of C6/C5 (docs/method.md#analyses-and-metrics), plus the
     output-locked stability verdict (the denominator's RHP count)."""
     num, den = amplification_qps(plant, cs, N)
     Nz, rz, okz = rhp_count(num)

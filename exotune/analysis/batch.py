@@ -28,9 +28,9 @@ GAIN_NAMES = ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat")
 
 
 def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
-    """Every SPEC §5 metric for a batch configuration (fields may be arrays of length N).
+    """Every docs/method.md#analyses-and-metrics metric for a batch configuration (fields may be arrays of length N).
 
-    Returns a dict of columns named as in SPEC §6: numpy arrays (one entry per design) and, for
+    Returns a dict of columns named as in docs/sweep-spec.md: numpy arrays (one entry per design) and, for
     interval-valued metrics, lists of lists of [lo, hi].
 
     ``verify`` > 0 additionally counts RHP roots exactly at that many log-spaced values of every

@@ -12,11 +12,11 @@ coefficient arrays for a batch of designs, in "grounded" form so that the rigid-
 s = 0 of the free exoskeleton (K1 = 0) is an *exact* zero coefficient that is divided out
 structurally — never a rounding decision. C7(jω) = Δ10/Δ00 is the operator-side compliance
 (:mod:`exotune.analysis.passivity`); :func:`amplification_qps` gives the output-locked ratio C6/C5
-(paper §III-E), with the DOB-modified delay.
+(paper §II-D), with the DOB-modified delay.
 
 References
 ----------
-Paper §V (characteristic function), §III-E (amplification); docs/method.md#one-characteristic-function.
+Paper §V (characteristic function), §II-D (amplification); docs/method.md#one-characteristic-function.
 """
 
 from __future__ import annotations

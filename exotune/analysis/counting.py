@@ -36,7 +36,7 @@ class RootCounter:
     """Collects RHP-count tasks of several analyses and runs them in one vectorized call.
 
     Every task is stripped of its *exact* common low-order zero coefficients first (the rigid-body
-    root at s = 0, SPEC §4); the number stripped is returned as ``rigid_body_roots``. Tasks of the
+    root at s = 0, docs/method.md#double-compliance-shaping); the number stripped is returned as ``rigid_body_roots``. Tasks of the
     hysteretic human carry a real "regularized" twin (k instead of k(1 + jη)) whose value at
     ω = 0 is used as Δ(j0) (see :func:`exotune.quasipoly.count_rhp`).
     """

@@ -1,6 +1,6 @@
-"""Second opinion on the exact-delay verdicts by an independent root finder (SPEC §5).
+"""Second opinion on the exact-delay verdicts by an independent root finder (docs/method.md#analyses-and-metrics).
 
-SPEC §5: "count encirclements with the Nyquist criterion on an indented contour ... and
+docs/method.md#analyses-and-metrics: "count encirclements with the Nyquist criterion on an indented contour ... and
 cross-check with closed-loop eigenvalues of a rational (Padé or sampled-data) model". For one
 design, :func:`pade_crosscheck` looks for right-half-plane roots of every characteristic
 quasi-polynomial Δ = P0 + P1 e^{−sT} of :mod:`exotune.analysis` that exotune reports a verdict for

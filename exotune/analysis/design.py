@@ -39,7 +39,7 @@ VERIFY_POINTS = 64
 
 
 def analyze_design(cfg) -> dict:
-    """All SPEC §5 metrics for one design, as a JSON-ready dict (SPEC §8 ``analyze --json``).
+    """All docs/method.md#analyses-and-metrics metrics for one design, as a JSON-ready dict (docs/cli.md ``analyze --json``).
     Overflow in an extreme design is reported through the inconclusive flags and warnings of
     the result, not as numpy's floating-point warnings."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -165,7 +165,7 @@ def _analyze_design(cfg) -> dict:
                         "adaptive search that spent its per-task budget, or a human range with more than "
                         f"{MAX_FAMILY_PIECES} critical values: extreme parameters): treated as NOT stable")
     return {
-        "model": "continuous-time, exact delay e^{-sT} (SPEC §3); verdicts by the argument principle on the closed-loop characteristic quasi-polynomial",
+        "model": "continuous-time, exact delay e^{-sT} (docs/method.md#controller); verdicts by the argument principle on the closed-loop characteristic quasi-polynomial",
         "structure": cfg.implementation.structure,
         "delay_s": float(np.asarray(cfg.implementation.delay_s)),
         "gain_convention": "torque",
@@ -175,7 +175,7 @@ def _analyze_design(cfg) -> dict:
         "free": {
             "stable": bool(cols["free_stable"][0]),
             "rigid_body_roots": int(cols["free_rigid_body_roots"][0]),
-            "note": "the rigid-body root at s = 0 (K1 = 0, cuff free) is physical and removed exactly (SPEC §4)",
+            "note": "the rigid-body root at s = 0 (K1 = 0, cuff free) is physical and removed exactly (docs/method.md#double-compliance-shaping)",
         },
         "locked_stable": bool(cols["locked_stable"][0]),
         "humans": humans,

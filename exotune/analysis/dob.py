@@ -21,7 +21,7 @@ __all__ = ["dob_margins", "dob_margins_rows"]
 
 
 def dob_margins(cs: ControllerStructure, N: int):
-    """Gain [dB], phase [deg] and delay [s] margins of L_dob = Q e^{−sT}/(1 − Q) (SPEC §5), and
+    """Gain [dB], phase [deg] and delay [s] margins of L_dob = Q e^{−sT}/(1 − Q) (docs/method.md#analyses-and-metrics), and
     whether the closed DOB loop is stable (delay margin 0 when it is not).
 
     Gain crossovers are the positive real roots of |n_q(jω)|² − |(d_q − n_q)(jω)|² (a polynomial
@@ -46,7 +46,7 @@ def dob_margins(cs: ControllerStructure, N: int):
 
 
 def _dob_margins_standard(nq, dq, T):
-    """Closed forms for the standard Q = ω_q²/(s² + 2ζω_q s + ω_q²) (SPEC §3):
+    """Closed forms for the standard Q = ω_q²/(s² + 2ζω_q s + ω_q²) (docs/method.md#controller):
     L_dob = ω_q² e^{−sT}/(s (s + a)), a = 2ζω_q, has monotone gain and phase, one gain crossover
     ω_c = ω_q √(√(4ζ⁴ + 1) − 2ζ²), unwrapped PM = π/2 − atan(ω_c/a) − ω_c T, and the smallest gain
     margin at the first −180° crossing, π/2 − atan(ω/a) − ωT = 0 (bisected on [0, π/(2T)])."""
@@ -168,7 +168,7 @@ def dob_margins_rows(nq, dq, T):
     if rr.size:
         np.minimum.at(gm, rr, -20 * np.log10(mag(rr, 0.5 * (a + b))))
     # closed DOB loop 1 + L_dob ∝ (d_q − n_q) + n_q e^{−sT}: if it is already unstable the loop
-    # tolerates no extra delay — the wrapped PM_k/ω_k of SPEC §5 would read as a (misleading)
+    # tolerates no extra delay — the wrapped PM_k/ω_k of docs/method.md#analyses-and-metrics would read as a (misleading)
     # positive margin, so the delay margin is 0 then
     Nd, rd, okd = rhp_count(QP(trim_poly(m), trim_poly(nq), T))
     stable = okd & (Nd == 0) & (rd == 0)

@@ -1,13 +1,13 @@
 """Passivity certificates of the rational operator-side compliance by the KYP lemma (cvxpy).
 
-Paper §VI-C "Passivity of the Operator Compliance": "while the nominal operator compliance can be
+Paper §IV-A "Passivity of the Operator Compliance": "while the nominal operator compliance can be
 made passive, the phase lag in the cuff feedback signal make it impractical to actually achieve
-this". SPEC §5 defines passivity of C7 as Re{jω C7(jω)} ≥ 0 for all ω, i.e. the operator-side
-*admittance* Y(s) = s·C7(s) is positive real; SPEC §7 names "passivity/KYP certificates of the
+this". docs/method.md#analyses-and-metrics defines passivity of C7 as Re{jω C7(jω)} ≥ 0 for all ω, i.e. the operator-side
+*admittance* Y(s) = s·C7(s) is positive real; docs/controller-file.md names "passivity/KYP certificates of the
 rational model" as the convex sub-problem for cvxpy. This module computes that certificate for the
 two rational models of a design:
 
-``nominal``     the paper's nominal C7 (eq. nominal_C7, zero delay, no filters, no DOB);
+``nominal``     the paper's nominal C7 (eq. (16), zero delay, no filters, no DOB);
 ``delay_free``  the implemented controller structure (G_v and derivative filters, DOB) with T = 0,
                 C7 = Δ10/Δ00 of :mod:`exotune.analysis` at e^{−sT} = 1.
 
@@ -161,7 +161,7 @@ def realization_error(A, B, C, num_desc, den_desc, poles) -> float:
 
     References
     ----------
-    Paper §VI-C; docs/method.md#passivity-of-the-operator-compliance.
+    Paper §IV-A; docs/method.md#passivity-of-the-operator-compliance.
     """
     s = 1j * _test_frequencies(poles, 400)
     ref = np.polyval(num_desc, s) / np.polyval(den_desc, s)
@@ -341,7 +341,7 @@ def nominal_shortage(alpha, felt_inertia, felt_damping, K_c, zeta_hat):
 
     monotone in ν² between ω²/(K_c b) (ν = 0) and (2ζ̂ω − b)/K_c (ν → ∞): the nominal C7 is passive
     iff 2ζ̂ω ≥ b, and the shortage is max(0, (b − 2ζ̂ω)/K_c) [rad/(N·m·s)]. Ĵ_m = α·felt_inertia,
-    B̂_m = α·felt_damping (SPEC §4). Since B̂2 = (2ζ̂√(αK_cĴ_m) − B̂_m)/K_c (paper eq. for B̂2), this is
+    B̂_m = α·felt_damping (docs/method.md#double-compliance-shaping). Since B̂2 = (2ζ̂√(αK_cĴ_m) − B̂_m)/K_c (paper eq. for B̂2), this is
     max(0, −B̂2/Ĵ_m): the nominal C7 is passive iff the cuff-torque-rate gain B̂2 ≥ 0."""
     a = np.asarray(alpha, float)
     Jh = a * np.asarray(felt_inertia, float)
@@ -360,7 +360,7 @@ def operator_certificates(cfg, tol: float = TOL) -> dict:
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     c7 = nominal_transfer_functions(cfg.plant, cfg.design, ds)["C7_nominal"]
     nom = compliance_certificate(np.ravel(np.atleast_2d(c7.num)[0]), np.ravel(np.atleast_2d(c7.den)[0]),
-                                 model="nominal C7 (paper eq. nominal_C7: no delay, no filters, no DOB)", tol=tol)
+                                 model="nominal C7 (paper eq. (16): no delay, no filters, no DOB)", tol=tol)
     ct = char_terms(cfg.plant, cs, 1)
     d00 = padd(ct.qp("00").p0, ct.qp("00").p1)[0]
     d10 = padd(ct.qp("10").p0, ct.qp("10").p1)[0]

@@ -442,7 +442,9 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
 
 def analyze_with_margins(cfg) -> dict:
     """The single-design analysis (``exotune analyze --json``) with its ``margins`` section first:
-    the latency margin of :func:`latency_margin` as a mapping with units.
+    the latency margin of :func:`latency_margin` and the plant-uncertainty margin of
+    :func:`exotune.analysis.plant_margin.plant_uncertainty_margin` (weights from the design's
+    ``uncertainty`` section, 1 each when absent), as mappings with units.
 
     Parameters
     ----------
@@ -460,7 +462,13 @@ def analyze_with_margins(cfg) -> dict:
     """
     from .design import analyze_design
 
+    from .plant_margin import plant_uncertainty_margin
+
+    from .batch import analyze_batch
+
     rec = analyze_design(cfg)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        lm = latency_margin(cfg)
-    return {"margins": {"latency": lm.to_dict()}, **rec}
+        cols = analyze_batch(cfg)  # the nominal verdicts, shared by both margins
+        lm = latency_margin(cfg, nominal=cols)
+        pm = plant_uncertainty_margin(cfg, getattr(cfg, "uncertainty", None), nominal=cols)
+    return {"margins": {"latency": lm.to_dict(), "plant_uncertainty": pm.to_dict()}, **rec}

@@ -36,20 +36,20 @@ __all__ = [
 ]
 
 TF_INFO = {
-    "C4": ("θ_j/τ_s", "closed-loop SEA compliance (paper eq. motspring)", "rad/(N·m)"),
-    "C5": ("θ_j/τ_j", "joint (virtual motor) compliance (paper eq. total_compliance)", "rad/(N·m)"),
+    "C4": ("θ_j/τ_s", "closed-loop SEA compliance (paper eq. (8)", "rad/(N·m)"),
+    "C5": ("θ_j/τ_j", "joint (virtual motor) compliance (paper eq. (10)", "rad/(N·m)"),
     "C5_hat": ("θ_j/τ_j", "desired virtual motor compliance 1/(Ĵ_m s² + B̂_m s) (paper §III)", "rad/(N·m)"),
     "C7_nominal": (
         "θ_h/τ_c",
-        "nominal operator-side compliance (paper eq. nominal_C7, middle term 2ζ̂√(αK_c/Ĵ_m)·s per SPEC §4 erratum)",
+        "nominal operator-side compliance (paper eq. (16), middle term 2ζ̂√(αK_c/Ĵ_m)·s per docs/method.md#double-compliance-shaping erratum)",
         "rad/(N·m)",
     ),
-    "G_v": ("τ_3/τ̂_m", "cuff-path compensator G_v(s) (paper §III, SPEC §3; improper, filtered in the implementation)", "1"),
+    "G_v": ("τ_3/τ̂_m", "cuff-path compensator G_v(s) (paper §III, docs/method.md#controller; improper, filtered in the implementation)", "1"),
 }
 APPROX_TOL = 0.1
 GAIN_CONVENTION_NOTE = (
-    "torque units (SPEC §4): K2, B2 multiply the spring torque τ_s and K2_hat, B2_hat the cuff torque "
-    "τ_c, so K2, K2_hat are dimensionless and B2, B2_hat are in s; the paper's eq. (extracted) gives K2, "
+    "torque units (docs/method.md#double-compliance-shaping): K2, B2 multiply the spring torque τ_s and K2_hat, B2_hat the cuff torque "
+    "τ_c, so K2, K2_hat are dimensionless and B2, B2_hat are in s; the paper's eq. (9) gives K2, "
     "B2 as spring-deflection gains, which are K_s times larger"
 )
 
@@ -307,7 +307,7 @@ def resonance(num, den):
 
     References
     ----------
-    Paper eq. (total_compliance); docs/method.md#controller.
+    Paper eq. (10); docs/method.md#controller.
     """
     from scipy.optimize import minimize_scalar
 
@@ -442,7 +442,7 @@ def design_report(cfg) -> dict:
         "shape_units": dict(SHAPE_UNITS),
         "transfer_functions": {name: _describe_tf(name, tf.num, tf.den) for name, tf in tfs.items()},
         "transfer_function_notes": (
-            "nominal: zero delay, no filters, no DOB (SPEC §4); poles and zeros in rad/s "
+            "nominal: zero delay, no filters, no DOB (docs/method.md#double-compliance-shaping); poles and zeros in rad/s "
             "(re, im), natural_frequency_hz = |p|/2π, damping_ratio = −re/|p| (null for a root at 0); "
             "num_ascending/den_ascending are coefficients in ascending powers of s after cancelling "
             "common exact roots at s = 0"

@@ -1,8 +1,8 @@
-"""Passivity of the operator-side compliance C7 = Δ10/Δ00 with the exact delay (paper §VI-C).
+"""Passivity of the operator-side compliance C7 = Δ10/Δ00 with the exact delay (paper §IV-A).
 
 References
 ----------
-Paper §VI-C "Passivity of the Operator Compliance"; docs/method.md#passivity-of-the-operator-compliance.
+Paper §IV-A "Passivity of the Operator Compliance"; docs/method.md#passivity-of-the-operator-compliance.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ BAND_MIN_EXCESS_DEG = 0.1
 
 
 def passivity(side: FamilySide):
-    """max_phase_excess_deg and nonpassive_band_hz of C7 = Δ10/Δ00 (SPEC §5).
+    """max_phase_excess_deg and nonpassive_band_hz of C7 = Δ10/Δ00 (docs/method.md#analyses-and-metrics).
 
     Passive phase band: arg C7 ∈ [−180°, 0°] ⇔ Im C7(jω) ≤ 0. The excess is the angular distance
     of the (wrapped) phase from that band, min(φ, 180° − φ) for φ ∈ (0°, 180°); its maximum is

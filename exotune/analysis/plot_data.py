@@ -26,6 +26,7 @@ __all__ = [
     "second_delay",
     "compliance_responses",
     "nyquist_values",
+    "box_edge_families",
     "human_loops",
     "dob_loop",
     "amplification_at_delays",
@@ -138,7 +139,7 @@ def compliance_responses(cfg, result: dict) -> dict:
 
     References
     ----------
-    Paper §V (characteristic function), §III-E (amplification); docs/cli.md#analyze.
+    Paper §V (characteristic function), §II-D (amplification); docs/cli.md#analyze.
     """
     from .charfun import amplification_qps, char_terms
 
@@ -213,6 +214,71 @@ def _neg_real_crossings(L: np.ndarray) -> np.ndarray:
     return x[x < 0]
 
 
+def box_edge_families(h: dict) -> list[dict]:
+    """The edges of an msd box family as one-parameter family entries (a plain family: itself).
+
+    Parameters
+    ----------
+    h : dict
+        One entry of ``result["humans"]``; a box has ``box`` and ``edges`` (each edge: ``parameter``,
+        ``range``, ``at`` — the other ranged parameters at a corner — and ``stable_intervals``).
+
+    Returns
+    -------
+    list of dict
+        Per edge: ``kind``, ``parameter``, ``unit``, ``range``, ``stable_intervals``, ``critical``
+        (none: the edges carry no boundary list), ``fixed`` (the family's fixed parameters and the
+        edge's corner values) and ``edge``: ``{"index", "count", "at"}``; ``[h]`` for a family
+        that is not a box.
+
+    References
+    ----------
+    Paper §V (coupled stability); docs/method.md (msd boxes: the Edge Theorem); docs/cli.md#analyze.
+    """
+    from ..model.humans import PARAM_UNITS
+
+    edges = h.get("edges") or []
+    if not (h.get("box") and edges):
+        return [h]
+    return [{"kind": h["kind"], "parameter": e["parameter"], "unit": PARAM_UNITS[e["parameter"]],
+             "range": e["range"], "stable_intervals": e["stable_intervals"], "critical": [],
+             "fixed": {**(h.get("fixed") or {}), **e["at"]},
+             "edge": {"index": k, "count": len(edges), "at": dict(e["at"])}}
+            for k, e in enumerate(edges)]
+
+
+def _family_loop(h: dict, ct, w: np.ndarray, C7: np.ndarray) -> dict:
+    """The Nyquist curves and critical points of one one-parameter family (see :func:`human_loops`)."""
+    from ..model.humans import family_split
+
+    kind, param = h["kind"], h["parameter"]
+    fixed = {k: float(v) for k, v in (h.get("fixed") or {}).items() if finite(v)}
+    eta = fixed.pop("eta", 0.0)
+    z0, phi, factor = family_split(kind, param, fixed, eta)
+    s = 1j * w
+    z0v = z0[0] + z0[1] * s + z0[2] * s**2
+    phiv = (phi[0] + phi[1] * s + phi[2] * s**2) * factor
+    curves = []
+    for v, role in nyquist_values(h):
+        L = (z0v + v * phiv) * C7
+        if role == "critical":
+            state = "critical"
+        else:
+            state = "stable" if _is_stable(v, h) else "UNSTABLE"
+        curves.append((v, role, state, L, _neg_real_crossings(L)))
+    crit = []
+    for c in h.get("critical") or []:
+        if not (finite(c.get("value")) and finite(c.get("frequency_hz"))):
+            continue
+        wc = 2 * np.pi * float(c["frequency_hz"])
+        sc = 1j * wc
+        Lc = (z0[0] + z0[1] * sc + z0[2] * sc**2 + float(c["value"]) * (phi[0] + phi[1] * sc + phi[2] * sc**2) * factor) * (
+            _qp_response(ct.qp("10"), np.array([wc])) / _qp_response(ct.qp("00"), np.array([wc]))
+        )[0]
+        crit.append((c, Lc))
+    return {"h": h, "fixed": fixed, "eta": eta, "curves": curves, "critical": crit, "edge": h.get("edge")}
+
+
 def human_loops(cfg, result: dict) -> list[dict]:
     """The coupled loops L(jω) = Z_h(jω)·C7(jω) of every human family (Δ = Δ00 (1 + L)).
 
@@ -226,17 +292,18 @@ def human_loops(cfg, result: dict) -> list[dict]:
     Returns
     -------
     list of dict
-        Per family: ``h`` (its result entry), ``fixed`` (the other parameters), ``eta``, ``curves``
-        — a list of ``(value, role, state, L, crossings)`` for the values of :func:`nyquist_values`
-        on 0.01 Hz – 10 kHz (``state`` "critical", "stable" or "UNSTABLE"; ``crossings`` the
-        negative-real-axis crossings) — and ``critical``: ``(entry, L(jω_c))`` at each critical
-        value and frequency.
+        Per one-parameter family — an msd box contributes one entry per edge
+        (:func:`box_edge_families`): ``h`` (its result entry, or the edge's), ``fixed`` (the other
+        parameters), ``eta``, ``edge`` (None, or the edge's index, count and corner values),
+        ``curves`` — a list of ``(value, role, state, L, crossings)`` for the values of
+        :func:`nyquist_values` on 0.01 Hz – 10 kHz (``state`` "critical", "stable" or "UNSTABLE"
+        from the exact stable intervals; ``crossings`` the negative-real-axis crossings) — and
+        ``critical``: ``(entry, L(jω_c))`` at each critical value and frequency.
 
     References
     ----------
     Paper §V (coupled stability); docs/cli.md#analyze.
     """
-    from ..model.humans import family_split
     from .charfun import char_terms
 
     cs, _ds = _controller(cfg)
@@ -245,35 +312,7 @@ def human_loops(cfg, result: dict) -> list[dict]:
     w = 2 * np.pi * f
     d00 = _qp_response(ct.qp("00"), w)
     C7 = _qp_response(ct.qp("10"), w) / d00
-    out = []
-    for h in result["humans"]:
-        kind, param = h["kind"], h["parameter"]
-        fixed = {k: float(v) for k, v in (h.get("fixed") or {}).items() if finite(v)}
-        eta = fixed.pop("eta", 0.0)
-        z0, phi, factor = family_split(kind, param, fixed, eta)
-        s = 1j * w
-        z0v = z0[0] + z0[1] * s + z0[2] * s**2
-        phiv = (phi[0] + phi[1] * s + phi[2] * s**2) * factor
-        curves = []
-        for v, role in nyquist_values(h):
-            L = (z0v + v * phiv) * C7
-            if role == "critical":
-                state = "critical"
-            else:
-                state = "stable" if _is_stable(v, h) else "UNSTABLE"
-            curves.append((v, role, state, L, _neg_real_crossings(L)))
-        crit = []
-        for c in h.get("critical") or []:
-            if not (finite(c.get("value")) and finite(c.get("frequency_hz"))):
-                continue
-            wc = 2 * np.pi * float(c["frequency_hz"])
-            sc = 1j * wc
-            Lc = (z0[0] + z0[1] * sc + z0[2] * sc**2 + float(c["value"]) * (phi[0] + phi[1] * sc + phi[2] * sc**2) * factor) * (
-                _qp_response(ct.qp("10"), np.array([wc])) / _qp_response(ct.qp("00"), np.array([wc]))
-            )[0]
-            crit.append((c, Lc))
-        out.append({"h": h, "fixed": fixed, "eta": eta, "curves": curves, "critical": crit})
-    return out
+    return [_family_loop(fh, ct, w, C7) for h in result["humans"] for fh in box_edge_families(h)]
 
 
 def dob_loop(cfg, result: dict) -> dict:
@@ -342,7 +381,7 @@ def amplification_at_delays(cfg, result: dict) -> tuple[np.ndarray, list[dict]]:
 
     References
     ----------
-    Paper §III-E; docs/cli.md#analyze.
+    Paper §II-D; docs/cli.md#analyze.
     """
     from .amplification_ratio import amplification
     from .charfun import amplification_qps

@@ -1,7 +1,7 @@
 """Numbers of ``exotune sea``: a plain SEA compliance-shaping controller (paper §II-B).
 
 The compliance shape of the gains, the closed-loop low-frequency stiffness, the resonance and the
-poles of C5 = θ_j/τ_j (paper eq. total_compliance), the nominal passivity conditions and the phase
+poles of C5 = θ_j/τ_j (paper eq. (10), the nominal passivity conditions and the phase
 extremes of C4(jω).
 """
 
@@ -44,7 +44,7 @@ def _notes(K1t, rigid, stable, res_hz, max_ph) -> list[str]:
 def sea_report(cfg) -> dict:
     """Everything ``exotune sea`` prints, as a dict.
 
-    Compliance shape, closed-loop stiffness, resonance of C5 (paper eq. total_compliance), nominal
+    Compliance shape, closed-loop stiffness, resonance of C5 (paper eq. (10), nominal
     passivity conditions and the phase extremes of C4(jω) (a compliance is passive where its phase
     is in [−180°, 0°]).
 
@@ -60,7 +60,7 @@ def sea_report(cfg) -> dict:
 
     References
     ----------
-    Paper §II-B (SEA compliance shaping), eq. (total_compliance); docs/method.md#passivity.
+    Paper §II-B (SEA compliance shaping), eq. (10); docs/method.md#passivity.
     """
     import numpy as np
 

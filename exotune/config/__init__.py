@@ -2,7 +2,7 @@
 :mod:`.schema`), the validated configurations (:mod:`.design`) and batches for sweeps
 (:mod:`.batch`)."""
 
-from .batch import OVERRIDABLE, batch_config
+from .batch import OVERRIDABLE, OVERRIDE_LIMITS, batch_config
 from .design import (
     DesignConfig,
     SeaConfig,
@@ -12,11 +12,12 @@ from .design import (
     load_sea,
     parse_env,
     parse_human,
+    refuse_other_kind,
     sea_from_mapping,
 )
 from .schema import ENV_KINDS, HUMAN_KINDS
-from .validate import MAX_DELAY_SAMPLES, check_analysis_filters, check_delay_samples
-from .yamlio import load_yaml_text, read_yaml
+from .validate import LIMITS, MAX_DELAY_SAMPLES, check_analysis_filters, check_delay_samples, check_limit
+from .yamlio import MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES, MAX_YAML_NODES, load_yaml_text, read_json_guarded, read_yaml
 
 __all__ = [
     "DesignConfig",
@@ -29,12 +30,21 @@ __all__ = [
     "parse_env",
     "batch_config",
     "hash_mapping",
+    "refuse_other_kind",
     "read_yaml",
+    "read_json_guarded",
+    "MAX_YAML_BYTES",
+    "MAX_JSON_BYTES",
+    "MAX_DEPTH",
+    "MAX_YAML_NODES",
     "load_yaml_text",
     "check_analysis_filters",
     "check_delay_samples",
+    "check_limit",
     "MAX_DELAY_SAMPLES",
     "OVERRIDABLE",
+    "OVERRIDE_LIMITS",
+    "LIMITS",
     "HUMAN_KINDS",
     "ENV_KINDS",
 ]

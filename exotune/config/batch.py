@@ -16,9 +16,9 @@ from ..errors import ConfigError
 from ..model.plant import Plant
 from ..model.shaping import DesignParams
 from .design import DesignConfig
-from .validate import FILTER_KEYS, check_delay_samples, fmt_value
+from .validate import FILTER_KEYS, check_delay_samples, fmt_value, limit_text, LIMITS
 
-__all__ = ["OVERRIDABLE", "batch_config"]
+__all__ = ["OVERRIDABLE", "OVERRIDE_LIMITS", "batch_config"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -45,6 +45,27 @@ OVERRIDABLE: dict[str, tuple[str, float]] = {
     "implementation.velocity_filter.cutoff_hz": (">", 0.0),
 }
 
+#: The accepted range (a key of :data:`exotune.config.validate.LIMITS`) of each overridable path.
+OVERRIDE_LIMITS: dict[str, str] = {
+    "plant.motor_inertia": "inertia",
+    "plant.motor_damping": "damping",
+    "plant.sea_stiffness": "stiffness",
+    "plant.joint_inertia": "inertia",
+    "plant.cuff_stiffness": "stiffness",
+    "design.amplification": "amplification",
+    "design.felt_inertia": "inertia",
+    "design.felt_damping": "felt_damping",
+    "design.zeta": "damping_ratio",
+    "design.zeta_hat": "damping_ratio",
+    "implementation.delay_s": "delay",
+    "implementation.gv_filter.cutoff_hz": "frequency",
+    "implementation.gv_filter.damping": "damping_ratio",
+    "implementation.derivative_filter.cutoff_hz": "frequency",
+    "implementation.dob.cutoff_hz": "frequency",
+    "implementation.dob.damping": "damping_ratio",
+    "implementation.velocity_filter.cutoff_hz": "frequency",
+}
+
 
 def _override_values(path: str, values: Any) -> np.ndarray:
     try:
@@ -67,6 +88,13 @@ def _override_values(path: str, values: Any) -> np.ndarray:
         i = int(bad[0])
         neg = "<=" if op == ">" else "<"
         raise ConfigError(path, f"value {arr[i]:g} at index {i} is {neg} {bound:g} (must be {op} {bound:g})")
+    kind = OVERRIDE_LIMITS[path]
+    lo, lo_open, hi, _unit = LIMITS[kind]
+    bad = np.flatnonzero(~(((arr > lo) if lo_open else (arr >= lo)) & (arr <= hi)))
+    if bad.size:
+        i = int(bad[0])
+        raise ConfigError(path, f"value {fmt_value(float(arr[i]))} at index {i} is out of the accepted range "
+                                f"{limit_text(kind)} (docs/design-file.md#input-limits-and-accepted-ranges)")
     return arr
 
 

@@ -1,7 +1,7 @@
-"""Strict loading and validation of design files (SPEC §9) and SEA files (``exotune sea``).
+"""Strict loading and validation of design files (docs/design-file.md) and SEA files (``exotune sea``).
 
-Design file sections (SPEC §2–§4, §9): ``plant``, ``design``, ``implementation``, ``humans``,
-``environment``. Validation is strict (SPEC §8): unknown keys, missing parameters, non-numbers,
+Design file sections (docs/method.md#physical-model, docs/method.md#controller, docs/method.md#double-compliance-shaping, docs/design-file.md): ``plant``, ``design``, ``implementation``, ``humans``,
+``environment``. Validation is strict (docs/cli.md): unknown keys, missing parameters, non-numbers,
 NaN/inf and out-of-range values are all errors, reported as a :class:`~exotune.errors.ConfigError`
 naming the field as a dotted path (``design.amplification``, ``humans[0].inertia``) and the reason.
 
@@ -18,13 +18,13 @@ design ``amplification`` α              ≥ 1
 design ``felt_inertia`` Ĵ_m/α           > 0 [kg·m²]
 design ``felt_damping`` B̂_m/α           > 0 [N·m·s/rad] — *strictly*: B̂_m = 0 gives B̃1 = 0, so
                                         C4 gets a double pole at s = 0 and the reduced G_v of
-                                        SPEC §3 (denominator s + B̃1) becomes a pure integrator
+                                        docs/method.md#controller (denominator s + B̃1) becomes a pure integrator
                                         in the controller (unbounded output for a constant cuff
                                         torque, and C7 gets a double integrator).
 design ``zeta`` ζ, ``zeta_hat`` ζ̂       > 0
 implementation ``delay_s`` T            ≥ 0 [s] (default 0)
 implementation ``sample_rate_hz``       null (continuous-time analysis, default) or > 0 [Hz];
-                                        delay_s · sample_rate_hz ≤ 1000 (one state per sample)
+                                        delay_s · sample_rate_hz ≤ 200 (one state per sample)
 filter ``cutoff_hz``                    > 0 [Hz], and < sample_rate_hz/2 (Nyquist) when a
                                         sample rate is set
 filter ``damping``                      > 0
@@ -35,7 +35,12 @@ human/environment ``damping``           ≥ 0 (default 0) [N·m·s/rad]
 complex_stiffness ``eta`` η             0 ≤ η < 10
 ====================================  =======================================================
 
-Human families (SPEC §2): ``mass`` (``inertia`` range, ``damping``), ``spring`` (``stiffness``
+Besides these sign rules, every number must lie within the accepted range of its kind
+(:data:`exotune.config.validate.LIMITS`: inertias in [1e-9, 1e6] kg·m², stiffnesses in
+[1e-6, 1e9] N·m/rad, frequencies in [0.001, 1e7] Hz, delays in [0, 1] s, …;
+docs/design-file.md#input-limits-and-accepted-ranges).
+
+Human families (docs/method.md#physical-model): ``mass`` (``inertia`` range, ``damping``), ``spring`` (``stiffness``
 range, ``damping``), ``msd`` (``inertia``, ``damping``, ``stiffness``: each a number or a range,
 at least one a range — several make a box; missing ones are 0, but the inertia must be > 0), ``complex_stiffness``
 (``stiffness`` range, ``eta``). Environments: ``locked``, ``free``, ``spring`` (``stiffness``
@@ -56,7 +61,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, combine_errors
 from ..model.controller import FirstOrderFilter, Implementation, SecondOrderFilter
 from ..model.humans import EnvModel, HumanFamily
 from ..model.plant import Plant
@@ -83,6 +88,7 @@ __all__ = [
     "parse_human",
     "parse_env",
     "hash_mapping",
+    "refuse_other_kind",
 ]
 
 
@@ -91,7 +97,7 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class DesignConfig:
-    """A validated design file (SPEC §9).
+    """A validated design file (docs/design-file.md).
 
     ``raw`` is the validated, normalized mapping (defaults filled in, ranges as ``[lo, hi]``
     lists, every number a float); it is JSON-serializable and is what :func:`hash_mapping`
@@ -105,6 +111,7 @@ class DesignConfig:
     environment: tuple[EnvModel, ...]
     raw: dict
     source: str | None = None
+    uncertainty: dict | None = None  # relative range per plant parameter (None: weight 1 each)
 
 
 @dataclass(frozen=True)
@@ -222,25 +229,91 @@ def _implementation(impl: ImplementationIn) -> Implementation:
     )
 
 
+def refuse_other_kind(mapping: Any, expected: str, source: str | None) -> None:
+    """Refuse a file of another kind than ``expected`` with the command that fits it.
+
+    Parameters
+    ----------
+    mapping : Any
+        The file's top-level mapping.
+    expected : str
+        ``"design"`` (``design``, ``analyze``, ``export``), ``"sea"`` (``sea``) or
+        ``"controller"`` (``certify``).
+    source : str or None
+        The file's name, for the message and the suggested command.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        ``<file>: this is an SEA file: use `exotune sea <file>``` and the like.
+
+    References
+    ----------
+    docs/cli.md (which command reads which file).
+    """
+    if not isinstance(mapping, dict):
+        return
+    name = source or "<input>"
+    kind = ("controller" if "schema" in mapping else "sea" if "gains" in mapping and "design" not in mapping
+            else "design" if "design" in mapping and "gains" not in mapping else None)
+    if kind is None or kind == expected:
+        return
+    hint = {
+        "controller": "this is a controller file (written by `exotune export`): use `exotune certify` or "
+                      "`exotune simulate` on it",
+        "sea": f"this is an SEA file: use `exotune sea {name}`",
+        "design": (f"this is a design file: export it first with `exotune export {name} --sample-rate-hz F "
+                   "-o CONTROLLER.yaml`, then certify the controller file" if expected == "controller"
+                   else f"this is a design file: use `exotune design {name}` or `exotune analyze {name}`"),
+    }[kind]
+    raise ConfigError(name, hint)
+
+
+def _attempt(errors: list, fn, *args):
+    """``fn(*args)``, or None with its :class:`ConfigError` appended to ``errors``."""
+    try:
+        return fn(*args)
+    except ConfigError as e:
+        errors.append(e)
+        return None
+
+
+def _entries(mapping: dict, key: str, validated) -> list:
+    """The ``humans``/``environment`` entries to parse: the validated list, or (the top level
+    being invalid) the raw list when it is one, so that their errors are listed too."""
+    if validated is not None:
+        return list(getattr(validated, key) or [])
+    items = mapping.get(key)
+    return list(items) if isinstance(items, list) else []
+
+
 def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfig:
-    """Validate a design mapping (SPEC §9) and build the model objects. Raises ConfigError."""
+    """Validate a design mapping (docs/design-file.md) and build the model objects.
+
+    Every error of the file is reported: the :class:`ConfigError` raised names the first, its
+    ``more`` lines the others (top-level fields, then the humans and environments)."""
     if not isinstance(mapping, dict):
         raise ConfigError(source or "<design>", f"expected a mapping at the top level, got {kind_of(mapping)}")
-    top = validate_model(DesignFileIn, mapping)
-    impl_in = top.implementation if top.implementation is not None else ImplementationIn()
-    _check_nyquist(impl_in)
-    humans_in = top.humans or []
-    env_in = top.environment or []
-    humans, humans_raw = [], []
-    for i, item in enumerate(humans_in):
-        fam, raw = parse_human(i, item)
-        humans.append(fam)
-        humans_raw.append(raw)
-    envs, envs_raw = [], []
-    for i, item in enumerate(env_in):
-        env, raw = parse_env(i, item)
-        envs.append(env)
-        envs_raw.append(raw)
+    refuse_other_kind(mapping, "design", source)
+    errors: list[ConfigError] = []
+    top = _attempt(errors, validate_model, DesignFileIn, mapping)
+    impl_in = None
+    if top is not None:
+        impl_in = top.implementation if top.implementation is not None else ImplementationIn()
+        _attempt(errors, _check_nyquist, impl_in)
+    humans, humans_raw, envs, envs_raw = [], [], [], []
+    for i, item in enumerate(_entries(mapping, "humans", top)):
+        parsed = _attempt(errors, parse_human, i, item)
+        if parsed is not None:
+            humans.append(parsed[0])
+            humans_raw.append(parsed[1])
+    for i, item in enumerate(_entries(mapping, "environment", top)):
+        parsed = _attempt(errors, parse_env, i, item)
+        if parsed is not None:
+            envs.append(parsed[0])
+            envs_raw.append(parsed[1])
+    if errors:
+        raise combine_errors(errors)
     p, d = top.plant, top.design
     plant = Plant(p.motor_inertia, p.motor_damping, p.sea_stiffness, p.joint_inertia, p.cuff_stiffness)
     design = DesignParams(d.amplification, d.felt_inertia, d.felt_damping, d.zeta, d.zeta_hat)
@@ -253,12 +326,19 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
     }
     if top.transmission is not None:  # only when given, so that existing spec hashes are unchanged
         raw["transmission"] = top.transmission.model_dump()
+    unc = None
+    if top.uncertainty is not None:  # likewise
+        raw["uncertainty"] = top.uncertainty.model_dump()
+        given = {k: v for k, v in raw["uncertainty"].items() if v is not None}
+        if given and not any(v > 0 for v in given.values()):
+            raise ConfigError("uncertainty", "every given relative range is 0: at least one plant parameter must be uncertain")
+        unc = {k: given.get(k, 0.0) for k in raw["uncertainty"]} if given else None
     _check_gains_finite(plant, design)
-    return DesignConfig(plant, design, _implementation(impl_in), tuple(humans), tuple(envs), raw, source)
+    return DesignConfig(plant, design, _implementation(impl_in), tuple(humans), tuple(envs), raw, source, unc)
 
 
 def _check_gains_finite(plant, design) -> None:
-    """Extreme but valid numbers (e.g. ζ = 1e300) can overflow a gain of the shaping (SPEC §4): the
+    """Extreme but valid numbers (e.g. ζ = 1e300) can overflow a gain of the shaping (docs/method.md#double-compliance-shaping): the
     design is refused rather than analysed with infinite gains."""
     from ..model.shaping import double_compliance_shaping
 
@@ -267,12 +347,12 @@ def _check_gains_finite(plant, design) -> None:
     for k in ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat"):
         v = float(np.ravel(getattr(g, k))[0])
         if not math.isfinite(v):
-            raise ConfigError("design", f"the shaping gives the gain {k} = {v!r} (SPEC §4): the plant and design "
+            raise ConfigError("design", f"the shaping gives the gain {k} = {v!r} (docs/method.md#double-compliance-shaping): the plant and design "
                                         "numbers are too extreme for floating point")
 
 
 def load_design(path) -> DesignConfig:
-    """Read and validate a design file (SPEC §9). Every problem raises :class:`ConfigError`."""
+    """Read and validate a design file (docs/design-file.md). Every problem raises :class:`ConfigError`."""
     name = os.fspath(path)
     return design_from_mapping(read_yaml(name), source=name)
 
@@ -283,11 +363,12 @@ def load_design(path) -> DesignConfig:
 def sea_from_mapping(mapping: dict, source: str | None = None) -> SeaConfig:
     """Validate an SEA mapping ``{plant: {...}, gains: {K1, B1, K2, B2, units}}``.
 
-    ``units`` is required: ``deflection`` (paper eq. extracted, K2 [N·m/rad], B2 [N·m·s/rad]) or
-    ``torque`` (K2 [–], B2 [s]); the two differ by the factor K_s (SPEC §4), so guessing is unsafe.
+    ``units`` is required: ``deflection`` (paper eq. (9), K2 [N·m/rad], B2 [N·m·s/rad]) or
+    ``torque`` (K2 [–], B2 [s]); the two differ by the factor K_s (docs/method.md#double-compliance-shaping), so guessing is unsafe.
     """
     if not isinstance(mapping, dict):
         raise ConfigError(source or "<sea>", f"expected a mapping at the top level, got {kind_of(mapping)}")
+    refuse_other_kind(mapping, "sea", source)
     top = validate_model(SeaFileIn, mapping)
     p, g = top.plant, top.gains
     plant = Plant(p.motor_inertia, p.motor_damping, p.sea_stiffness, p.joint_inertia, p.cuff_stiffness)

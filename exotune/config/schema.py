@@ -9,12 +9,32 @@ error names the entry. :class:`SeaFileIn` is an SEA file (``exotune sea``).
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Optional
+from typing import Any, Literal, Optional
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, field_validator
+from pydantic import BaseModel, ConfigDict, field_validator
 
 from ..model.controller import STRUCTURES
-from .validate import Alpha, Eta, FeltDamping, NonNeg, Pos, Range, Real, fmt_value, range_or_number
+from .validate import (
+    RelativeRange,
+    Amplification,
+    Angle,
+    Damping,
+    DampingRatio,
+    Delay,
+    Eta,
+    FeltDamping,
+    Frequency,
+    Inertia,
+    InertiaRange,
+    MsdDamping,
+    MsdInertia,
+    MsdStiffness,
+    Ratio,
+    SeaGain,
+    Stiffness,
+    StiffnessRange,
+    fmt_value,
+)
 
 __all__ = [
     "HUMAN_KINDS",
@@ -45,37 +65,37 @@ class _Strict(BaseModel):
 # Schema
 # --------------------------------------------------------------------------------------------
 class PlantIn(_Strict):
-    motor_inertia: Pos
-    motor_damping: NonNeg
-    sea_stiffness: Pos
-    joint_inertia: Pos
-    cuff_stiffness: Pos
+    motor_inertia: Inertia
+    motor_damping: Damping
+    sea_stiffness: Stiffness
+    joint_inertia: Inertia
+    cuff_stiffness: Stiffness
 
 
 class SeaPlantIn(PlantIn):
-    cuff_stiffness: Pos = 300.0
+    cuff_stiffness: Stiffness = 300.0
 
 
 class DesignIn(_Strict):
-    amplification: Alpha
-    felt_inertia: Pos
+    amplification: Amplification
+    felt_inertia: Inertia
     felt_damping: FeltDamping
-    zeta: Pos
-    zeta_hat: Pos
+    zeta: DampingRatio
+    zeta_hat: DampingRatio
 
 
 class Filter2In(_Strict):
-    cutoff_hz: Pos
-    damping: Pos
+    cutoff_hz: Frequency
+    damping: DampingRatio
 
 
 class Filter1In(_Strict):
-    cutoff_hz: Pos
+    cutoff_hz: Frequency
 
 
 class ImplementationIn(_Strict):
-    delay_s: NonNeg = 0.0
-    sample_rate_hz: Optional[Pos] = None
+    delay_s: Delay = 0.0
+    sample_rate_hz: Optional[Frequency] = None
     gv_filter: Optional[Filter2In] = None
     derivative_filter: Optional[Filter1In] = None
     dob: Optional[Filter2In] = None
@@ -95,8 +115,8 @@ class TransmissionIn(_Strict):
     the transmission Jacobian is ``ratio[i]`` times the one the plant section is reflected with,
     so the joint-reflected motor inertia, motor damping and SEA stiffness scale with ratio²."""
 
-    joint_angle_rad: list[Real]
-    ratio: list[Pos]
+    joint_angle_rad: list[Angle]
+    ratio: list[Ratio]
 
     @field_validator("joint_angle_rad")
     @classmethod
@@ -116,6 +136,18 @@ class TransmissionIn(_Strict):
         return v
 
 
+class UncertaintyIn(_Strict):
+    """Relative uncertainty of each plant parameter (a fraction: 0.1 is ±10 %), the unit of the
+    plant-uncertainty margin (docs/method.md#plant-uncertainty-margin); a parameter left out is
+    certain (0). Without the section every parameter has weight 1."""
+
+    motor_inertia: Optional[RelativeRange] = None
+    motor_damping: Optional[RelativeRange] = None
+    sea_stiffness: Optional[RelativeRange] = None
+    joint_inertia: Optional[RelativeRange] = None
+    cuff_stiffness: Optional[RelativeRange] = None
+
+
 class DesignFileIn(_Strict):
     plant: PlantIn
     design: DesignIn
@@ -123,30 +155,31 @@ class DesignFileIn(_Strict):
     humans: Optional[list[Any]] = None
     environment: Optional[list[Any]] = None
     transmission: Optional[TransmissionIn] = None
+    uncertainty: Optional[UncertaintyIn] = None
 
 
 class HumanMassIn(_Strict):
     kind: Literal["mass"]
-    inertia: Range
-    damping: NonNeg = 0.0
+    inertia: InertiaRange
+    damping: Damping = 0.0
 
 
 class HumanSpringIn(_Strict):
     kind: Literal["spring"]
-    stiffness: Range
-    damping: NonNeg = 0.0
+    stiffness: StiffnessRange
+    damping: Damping = 0.0
 
 
 class HumanMsdIn(_Strict):
     kind: Literal["msd"]
-    inertia: Annotated[Any, BeforeValidator(range_or_number)] = None
-    damping: Annotated[Any, BeforeValidator(range_or_number)] = None
-    stiffness: Annotated[Any, BeforeValidator(range_or_number)] = None
+    inertia: MsdInertia = None
+    damping: MsdDamping = None
+    stiffness: MsdStiffness = None
 
 
 class HumanComplexIn(_Strict):
     kind: Literal["complex_stiffness"]
-    stiffness: Range
+    stiffness: StiffnessRange
     eta: Eta
 
 
@@ -160,14 +193,14 @@ class EnvFreeIn(_Strict):
 
 class EnvSpringIn(_Strict):
     kind: Literal["spring"]
-    stiffness: Range
-    damping: NonNeg = 0.0
+    stiffness: StiffnessRange
+    damping: Damping = 0.0
 
 
 class EnvMassIn(_Strict):
     kind: Literal["mass"]
-    inertia: Range
-    damping: NonNeg = 0.0
+    inertia: InertiaRange
+    damping: Damping = 0.0
 
 
 HUMAN_MODELS = {"mass": HumanMassIn, "spring": HumanSpringIn, "msd": HumanMsdIn, "complex_stiffness": HumanComplexIn}
@@ -175,10 +208,10 @@ ENV_MODELS = {"locked": EnvLockedIn, "free": EnvFreeIn, "spring": EnvSpringIn, "
 
 
 class SeaGainsIn(_Strict):
-    K1: Real
-    B1: Real
-    K2: Real
-    B2: Real
+    K1: SeaGain
+    B1: SeaGain
+    K2: SeaGain
+    B2: SeaGain
     units: str
 
     @field_validator("units", mode="before")
@@ -186,7 +219,7 @@ class SeaGainsIn(_Strict):
     def _units(cls, v):
         if v not in ("deflection", "torque"):
             raise ValueError(
-                f"must be 'deflection' (paper eq. extracted: K2 [N·m/rad], B2 [N·m·s/rad]) or "
+                f"must be 'deflection' (paper eq. (9): K2 [N·m/rad], B2 [N·m·s/rad]) or "
                 f"'torque' (K2 [–], B2 [s]), got {fmt_value(v)}"
             )
         return v

@@ -17,15 +17,17 @@ from typing import Annotated, Any, Callable
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ValidationError
 
-from ..errors import ConfigError
+from ..errors import ConfigError, combine_errors
 
 __all__ = [
+    "excerpt",
     "fmt_value",
     "to_number",
     "range_pair",
     "range_or_number",
     "kind_of",
     "join_path",
+    "did_you_mean",
     "validate_model",
     "check_delay_samples",
     "check_analysis_filters",
@@ -38,6 +40,26 @@ __all__ = [
     "Eta",
     "Range",
     "FeltDamping",
+    "LIMITS",
+    "fmt_limit",
+    "limit_text",
+    "in_limits",
+    "check_limit",
+    "Inertia",
+    "Damping",
+    "Stiffness",
+    "Amplification",
+    "DampingRatio",
+    "Delay",
+    "Frequency",
+    "SeaGain",
+    "Ratio",
+    "Angle",
+    "InertiaRange",
+    "StiffnessRange",
+    "MsdInertia",
+    "MsdDamping",
+    "MsdStiffness",
 ]
 
 FILTER_KEYS = ("gv_filter", "derivative_filter", "dob", "velocity_filter")  # the optional filters of an implementation
@@ -46,6 +68,31 @@ FILTER_KEYS = ("gv_filter", "derivative_filter", "dob", "velocity_filter")  # th
 # --------------------------------------------------------------------------------------------
 # Number and range validators (uniform, human-readable reasons)
 # --------------------------------------------------------------------------------------------
+EXCERPT_CHARS = 80  # error messages quote at most this many characters of a user's text
+
+
+def excerpt(text: str, limit: int = EXCERPT_CHARS) -> str:
+    """``text`` cut to ``limit`` characters (an ellipsis and the total length mark a cut), so an
+    error never prints a whole file (``base: /etc/passwd`` read as a YAML string).
+
+    Parameters
+    ----------
+    text : str
+        A text taken from the user's input.
+    limit : int
+        The most characters kept.
+
+    Returns
+    -------
+    str
+        The excerpt.
+    """
+    text = str(text)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}… ({len(text)} characters)"
+
+
 def fmt_value(x: Any) -> str:
     """A value as the error messages show it: ``g`` format for finite floats, ``repr`` for
     non-finite ones and strings, ``null``/``true``/``false`` for YAML's null and booleans.
@@ -63,12 +110,12 @@ def fmt_value(x: Any) -> str:
     if isinstance(x, float):
         return repr(x) if not math.isfinite(x) else f"{x:g}"
     if isinstance(x, str):
-        return repr(x)
+        return repr(x) if len(x) <= EXCERPT_CHARS else f"{x[:EXCERPT_CHARS]!r}… ({len(x)} characters)"
     if x is None:
         return "null"
     if isinstance(x, bool):
         return "true" if x else "false"
-    return repr(x)
+    return excerpt(repr(x))
 
 
 def to_number(v: Any) -> float:
@@ -78,14 +125,14 @@ def to_number(v: Any) -> float:
             try:
                 float(v)
             except ValueError:
-                raise ValueError(f"expected a number, got the string {v!r}") from None
-            raise ValueError(f"expected a number, got the string {v!r} (a quoted number? remove the quotes)")
+                raise ValueError(f"expected a number, got the string {fmt_value(v)}") from None
+            raise ValueError(f"expected a number, got the string {fmt_value(v)} (a quoted number? remove the quotes)")
         if v is None:
             raise ValueError("expected a number, got null")
         if isinstance(v, bool):
             raise ValueError(f"expected a number, got {fmt_value(v)}")
         if isinstance(v, (list, tuple)):
-            raise ValueError(f"expected a number, got a list {v!r}")
+            raise ValueError(f"expected a number, got a list {excerpt(repr(v))}")
         if isinstance(v, dict):
             raise ValueError("expected a number, got a mapping")
         raise ValueError(f"expected a number, got {type(v).__name__}")
@@ -107,17 +154,90 @@ def _bound_check(x: float, gt=None, ge=None, lt=None) -> None:
         raise ValueError(f"must be < {lt:g}, got {fmt_value(x)}")
 
 
-def _number(gt=None, ge=None, lt=None) -> Callable[[Any], float]:
+# --------------------------------------------------------------------------------------------
+# Accepted magnitudes (physically meaningful, and safe for every kernel)
+# --------------------------------------------------------------------------------------------
+#: The accepted range of each kind of number: ``kind -> (lo, lo_open, hi, unit)``, i.e. the
+#: interval ``[lo, hi]`` (``(lo, hi]`` when ``lo_open``). SI units, joint-reflected. Values
+#: outside are refused at validation, naming the field and the range
+#: (docs/design-file.md#input-limits-and-accepted-ranges); inside, no kernel overflows.
+LIMITS: dict[str, tuple[float, bool, float, str]] = {
+    "inertia": (1e-9, False, 1e6, "kg·m²"),
+    "damping": (0.0, False, 1e7, "N·m·s/rad"),
+    "felt_damping": (1e-6, False, 1e7, "N·m·s/rad"),
+    "stiffness": (1e-6, False, 1e9, "N·m/rad"),
+    "amplification": (1.0, False, 1e4, "–"),
+    "damping_ratio": (1e-3, False, 1e3, "–"),
+    "delay": (0.0, False, 1.0, "s"),
+    "frequency": (1e-3, False, 1e7, "Hz"),
+    "sea_gain": (-1e9, False, 1e9, ""),  # K1, B1, K2, B2 of an SEA file, in their units
+    "ratio": (1e-3, False, 1e3, "–"),
+    "angle": (-100.0, False, 100.0, "rad"),
+}
+
+
+def fmt_limit(x: float) -> str:
+    """A limit as the messages print it: ``0``, ``0.001``, ``1e-9``, ``1e6``, ``-1e9``."""
+    if x == 0:
+        return "0"
+    if 1e-3 <= abs(x) < 1e4:
+        return f"{x:g}"
+    m, e = f"{x:e}".split("e")
+    m = m.rstrip("0").rstrip(".")
+    return f"{m}e{int(e)}"
+
+
+def limit_text(kind: str) -> str:
+    """The accepted range of ``kind`` (a key of :data:`LIMITS`) as text: ``[1e-9, 1e6] kg·m²``."""
+    lo, lo_open, hi, unit = LIMITS[kind]
+    return f"{'(' if lo_open else '['}{fmt_limit(lo)}, {fmt_limit(hi)}] {unit}".rstrip()
+
+
+def in_limits(x: float, kind: str) -> bool:
+    """Whether ``x`` lies in the accepted range of ``kind`` (:data:`LIMITS`)."""
+    lo, lo_open, hi, _unit = LIMITS[kind]
+    return (x > lo if lo_open else x >= lo) and x <= hi
+
+
+def check_limit(x: float, kind: str) -> float:
+    """``x`` if it lies in the accepted range of ``kind``, else ValueError naming the range.
+
+    Parameters
+    ----------
+    x : float
+        A finite number.
+    kind : str
+        A key of :data:`LIMITS` (``"inertia"``, ``"frequency"``, …).
+
+    Returns
+    -------
+    float
+        ``x``.
+
+    References
+    ----------
+    docs/design-file.md#input-limits-and-accepted-ranges.
+    """
+    if not in_limits(x, kind):
+        raise ValueError(f"out of the accepted range: must be in {limit_text(kind)}, got {fmt_value(x)} "
+                         "(docs/design-file.md#input-limits-and-accepted-ranges)")
+    return x
+
+
+def _number(gt=None, ge=None, lt=None, limit: str | None = None) -> Callable[[Any], float]:
     def check(v: Any) -> float:
         x = to_number(v)
         _bound_check(x, gt=gt, ge=ge, lt=lt)
+        if limit is not None:
+            check_limit(x, limit)
         return x
 
     return check
 
 
-def range_pair(v: Any) -> tuple[float, float]:
-    """``[lo, hi]`` with 0 < lo <= hi; a single number v means [v, v]."""
+def range_pair(v: Any, limit: str | None = None) -> tuple[float, float]:
+    """``[lo, hi]`` with 0 < lo <= hi (both within the accepted range of ``limit``, a key of
+    :data:`LIMITS`, when given); a single number v means [v, v]."""
     if isinstance(v, (list, tuple)):
         if len(v) != 2:
             raise ValueError(f"a range must be a list [lo, hi] of two numbers, got {len(v)} item(s)")
@@ -132,25 +252,44 @@ def range_pair(v: Any) -> tuple[float, float]:
             raise ValueError(f"range lo must be > 0, got {fmt_value(lo)}")
         if lo > hi:
             raise ValueError(f"malformed range: lo = {lo:g} > hi = {hi:g}")
+        if limit is not None:
+            for name, x in (("lo", lo), ("hi", hi)):
+                try:
+                    check_limit(x, limit)
+                except ValueError as e:
+                    raise ValueError(f"range {name}: {e}") from None
         return (lo, hi)
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         x = to_number(v)
         if not x > 0:
             raise ValueError(f"must be > 0, got {fmt_value(x)}")
+        if limit is not None:
+            check_limit(x, limit)
         return (x, x)
     if isinstance(v, str) or v is None or isinstance(v, (bool, dict)):
         raise ValueError(f"expected a range [lo, hi] (or a single number), got {fmt_value(v) if not isinstance(v, dict) else 'a mapping'}")
     raise ValueError(f"expected a range [lo, hi], got {type(v).__name__}")
 
 
-def range_or_number(v: Any):
-    """For msd parameters: a list is a range (tuple), a number is a fixed value (float >= 0)."""
+def range_or_number(v: Any, limit: str | None = None):
+    """For msd parameters: a list is a range (tuple), a number is a fixed value (float >= 0;
+    a nonzero one within the accepted range of ``limit``, a key of :data:`LIMITS`, when given)."""
     if isinstance(v, (list, tuple)):
-        return range_pair(v)
+        return range_pair(v, limit)
     x = to_number(v)
     if not x >= 0:
         raise ValueError(f"must be >= 0, got {fmt_value(x)}")
+    if limit is not None and x != 0:
+        check_limit(x, limit)
     return x
+
+
+def _ranged(limit: str):
+    return lambda v: range_pair(v, limit)
+
+
+def _range_or_number(limit: str):
+    return lambda v: range_or_number(v, limit)
 
 
 Pos = Annotated[float, BeforeValidator(_number(gt=0.0))]
@@ -159,6 +298,22 @@ Alpha = Annotated[float, BeforeValidator(_number(ge=1.0))]
 Real = Annotated[float, BeforeValidator(_number())]
 Eta = Annotated[float, BeforeValidator(_number(ge=0.0, lt=10.0))]
 Range = Annotated[tuple[float, float], BeforeValidator(range_pair)]
+Inertia = Annotated[float, BeforeValidator(_number(gt=0.0, limit="inertia"))]
+Damping = Annotated[float, BeforeValidator(_number(ge=0.0, limit="damping"))]
+Stiffness = Annotated[float, BeforeValidator(_number(gt=0.0, limit="stiffness"))]
+Amplification = Annotated[float, BeforeValidator(_number(ge=1.0, limit="amplification"))]
+DampingRatio = Annotated[float, BeforeValidator(_number(gt=0.0, limit="damping_ratio"))]
+Delay = Annotated[float, BeforeValidator(_number(ge=0.0, limit="delay"))]
+Frequency = Annotated[float, BeforeValidator(_number(gt=0.0, limit="frequency"))]
+SeaGain = Annotated[float, BeforeValidator(_number(limit="sea_gain"))]
+Ratio = Annotated[float, BeforeValidator(_number(gt=0.0, limit="ratio"))]
+Angle = Annotated[float, BeforeValidator(_number(limit="angle"))]
+RelativeRange = Annotated[float, BeforeValidator(_number(ge=0.0, lt=1.0))]  # ±fraction of a plant parameter
+InertiaRange = Annotated[tuple[float, float], BeforeValidator(_ranged("inertia"))]
+StiffnessRange = Annotated[tuple[float, float], BeforeValidator(_ranged("stiffness"))]
+MsdInertia = Annotated[Any, BeforeValidator(_range_or_number("inertia"))]
+MsdDamping = Annotated[Any, BeforeValidator(_range_or_number("damping"))]
+MsdStiffness = Annotated[Any, BeforeValidator(_range_or_number("stiffness"))]
 
 
 def _felt_damping(v: Any) -> float:
@@ -168,7 +323,7 @@ def _felt_damping(v: Any) -> float:
             f"must be > 0, got {fmt_value(x)} (B̂_m = 0 makes B̃1 = 0: C4 gets a double pole at s = 0 "
             "and the cuff compensator G_v an integrator)"
         )
-    return x
+    return check_limit(x, "felt_damping")
 
 
 FeltDamping = Annotated[float, BeforeValidator(_felt_damping)]
@@ -187,7 +342,7 @@ def kind_of(v: Any) -> str:
     if isinstance(v, (int, float)):
         return f"the number {fmt_value(v)}"
     if isinstance(v, str):
-        return f"the string {v!r}"
+        return f"the string {fmt_value(v)}"
     if isinstance(v, list):
         return "a list"
     if isinstance(v, dict):
@@ -240,37 +395,57 @@ def _model_at(model: type[BaseModel], loc: tuple):
     return cur if isinstance(cur, type) and issubclass(cur, BaseModel) else None
 
 
-def _convert(err: ValidationError, model: type[BaseModel], prefix: str) -> ConfigError:
-    errors = err.errors(include_url=False)
-    e = errors[0]
+def did_you_mean(key: Any, allowed) -> str:
+    """``"; did you mean motor_inertia?"`` when ``key`` is close to one of ``allowed`` (difflib),
+    else ``""``."""
+    import difflib
+
+    if not isinstance(key, str):
+        return ""
+    close = difflib.get_close_matches(key, list(allowed), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]}?" if close else ""
+
+
+def _reason(e: dict, model: type[BaseModel]) -> str:
     loc = tuple(e.get("loc", ()))
-    field = join_path(prefix, loc) or prefix or "<input>"
     typ = e.get("type", "")
     ctx = e.get("ctx") or {}
     if typ == "extra_forbidden":
         parent = _model_at(model, loc[:-1])
-        allowed = ", ".join(parent.model_fields) if parent is not None else ""
-        reason = "unknown key" + (f" (allowed keys: {allowed})" if allowed else "")
-    elif typ == "missing":
-        reason = "required parameter is missing"
-    elif typ == "value_error":
-        reason = str(ctx.get("error", e.get("msg", "invalid value")))
-    elif typ in ("model_type", "model_attributes_type", "dict_type"):
-        reason = f"expected a mapping, got {kind_of(e.get('input'))}"
-    elif typ == "list_type":
-        reason = f"expected a list, got {kind_of(e.get('input'))}"
-    elif typ == "literal_error":
-        reason = f"must be {ctx.get('expected', '')}, got {fmt_value(e.get('input'))}"
-    else:
-        reason = e.get("msg", "invalid value")
-    if len(errors) > 1:
-        reason += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
-    return ConfigError(field, reason)
+        allowed = list(parent.model_fields) if parent is not None else []
+        hint = did_you_mean(loc[-1] if loc else None, allowed)
+        if hint:
+            return "unknown key" + hint
+        return "unknown key" + (f" (allowed keys: {', '.join(allowed)})" if allowed else "")
+    if typ == "missing":
+        return "required parameter is missing"
+    if typ == "value_error":
+        return str(ctx.get("error", e.get("msg", "invalid value")))
+    if typ in ("model_type", "model_attributes_type", "dict_type"):
+        return f"expected a mapping, got {kind_of(e.get('input'))}"
+    if typ == "list_type":
+        return f"expected a list, got {kind_of(e.get('input'))}"
+    if typ == "literal_error":
+        return f"must be {ctx.get('expected', '')}, got {fmt_value(e.get('input'))}"
+    return excerpt(e.get("msg", "invalid value"))
+
+
+def _convert(err: ValidationError, model: type[BaseModel], prefix: str) -> ConfigError:
+    """Every error of ``err`` as one :class:`ConfigError`: unknown keys first (a misspelt key
+    also makes its correct spelling "missing"), then in pydantic's order; the first is the
+    error, the others its ``more`` lines."""
+    errors = err.errors(include_url=False)
+    errors = sorted(errors, key=lambda e: e.get("type") != "extra_forbidden")  # stable
+    out = []
+    for e in errors:
+        field = join_path(prefix, tuple(e.get("loc", ()))) or prefix or "<input>"
+        out.append(ConfigError(field, _reason(e, model)))
+    return combine_errors(out)
 
 
 def validate_model(model: type[BaseModel], data: Any, prefix: str = ""):
-    """``model.model_validate(data)``, its first error raised as a :class:`ConfigError` naming the
-    field under ``prefix`` (e.g. ``humans[0]``)."""
+    """``model.model_validate(data)``; its errors raised as one :class:`ConfigError` naming the
+    first field under ``prefix`` (e.g. ``humans[0]``), the other errors in its ``more`` lines."""
     try:
         return model.model_validate(data)
     except ValidationError as err:
@@ -281,7 +456,7 @@ def validate_model(model: type[BaseModel], data: Any, prefix: str = ""):
 # Checks of single fields
 # --------------------------------------------------------------------------------------------
 def check_delay_samples(delay_s: float, fs: float, field: str) -> None:
-    """The exact sampled-data model (SPEC §5) represents the delay by ⌈T·f_s⌉ shift states, in dense
+    """The exact sampled-data model (docs/method.md#analyses-and-metrics) represents the delay by ⌈T·f_s⌉ shift states, in dense
     matrices: more than MAX_DELAY_SAMPLES of them (e.g. 1 ms at 1 GHz: a million) is refused
     up front rather than running out of memory."""
     n = float(delay_s) * float(fs)
@@ -295,9 +470,9 @@ MAX_DELAY_SAMPLES = 200  # the sampled-data model holds one shift state per samp
 
 
 def check_analysis_filters(impl, prefix: str = "") -> None:
-    """The analysis needs the G_v and derivative filters (SPEC §3): without them the cuff path
+    """The analysis needs the G_v and derivative filters (docs/method.md#controller): without them the cuff path
     G_v(s)(K̂2 + B̂2 s) is improper. ``prefix`` names where the implementation sits (``base.``)."""
     for key in ("gv_filter", "derivative_filter"):
         if getattr(impl, key) is None:
             raise ConfigError(f"{prefix}implementation.{key}",
-                              "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (SPEC §3)")
+                              "required for analysis: the ideal cuff path G_v(s)(K̂2 + B̂2 s) is improper (docs/method.md#controller)")

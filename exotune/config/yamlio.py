@@ -1,26 +1,148 @@
-"""Reading YAML: a safe loader with YAML 1.2 numbers and booleans, duplicate keys rejected.
+"""Reading YAML and JSON input files through one guarded path: size, file type, nesting depth and
+alias expansion bounded; YAML 1.2 numbers and booleans; duplicate keys rejected.
 
 YAML is read with a safe loader only (PyYAML's SafeLoader with YAML 1.2 floats, so ``1e-3`` is a
 number); duplicate keys (which PyYAML would otherwise silently resolve to the last value) are
-rejected. Every problem of a file (unreadable, not UTF-8, invalid YAML, not a mapping) raises a
-:class:`~exotune.errors.ConfigError` naming the file.
+rejected. Every problem of a file (unreadable, not a regular file, too large, too deeply nested,
+an alias bomb, not UTF-8, invalid YAML, not a mapping) raises a
+:class:`~exotune.errors.ConfigError` naming the file; errors quote at most a short excerpt of it.
+
+Limits (docs/design-file.md#input-limits-and-accepted-ranges):
+
+* only regular files are read (a directory, a FIFO or a device such as ``/dev/zero`` is refused
+  before anything is read, so nothing blocks);
+* a YAML file holds at most :data:`MAX_YAML_BYTES` (1 MiB), a JSON file (a sweep manifest) at most
+  :data:`MAX_JSON_BYTES` (16 MiB);
+* mappings and lists nest at most :data:`MAX_DEPTH` (64) levels deep;
+* a YAML document expands (aliases counted as copies of what they name) to at most
+  :data:`MAX_YAML_NODES` (250 000) nodes; a recursive alias is refused.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
+import stat
 from typing import Any
 
 import yaml
 
 from ..errors import ConfigError
-from .validate import join_path, kind_of
+from .validate import excerpt, join_path, kind_of
 
-__all__ = ["load_yaml_text", "read_yaml"]
+__all__ = ["load_yaml_text", "read_yaml", "read_json_guarded", "read_guarded",
+           "MAX_YAML_BYTES", "MAX_JSON_BYTES", "MAX_DEPTH", "MAX_YAML_NODES"]
+
+MAX_YAML_BYTES = 1 << 20  # 1 MiB: the largest controller file exotune writes is ~40 kB
+MAX_JSON_BYTES = 16 << 20  # 16 MiB: a sweep manifest of ~10^5 chunks
+MAX_DEPTH = 64  # nesting levels of mappings/lists (exotune's files use at most 8)
+MAX_YAML_NODES = 250_000  # nodes of a YAML document once its aliases are expanded
 
 
-def _check_duplicate_keys(node, path: str = "") -> None:
+def _mib(n: int) -> str:
+    return f"{n / (1 << 20):g} MiB"
+
+
+def _file_kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def read_guarded(path, what: str = "file", max_bytes: int = MAX_YAML_BYTES) -> bytes:
+    """The bytes of the regular file ``path``, at most ``max_bytes`` of them.
+
+    The file type is checked with :func:`os.stat` before opening and again on the open
+    descriptor (opened with ``O_NONBLOCK``), so a FIFO, a device (``/dev/zero``) or a directory is
+    refused at once, never read or waited on.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to read.
+    what : str
+        What the file is, for the message (``"sweep manifest"``).
+    max_bytes : int
+        The size limit; a larger file is refused without reading it whole.
+
+    Returns
+    -------
+    bytes
+        The file's content.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        ``<path>: cannot read the <what>: <reason>`` (missing, unreadable, not a regular file,
+        too large).
+
+    References
+    ----------
+    docs/design-file.md#input-limits-and-accepted-ranges.
+    """
+    name = os.fspath(path)
+    where = f"cannot read the {what}" if what != "file" else "cannot read file"
+
+    def refuse(reason: str):
+        return ConfigError(name, f"{where}: {reason}")
+
+    try:
+        st = os.stat(name)
+        if not stat.S_ISREG(st.st_mode):
+            raise refuse(f"{_file_kind(st.st_mode)}, not a regular file")
+        if st.st_size > max_bytes:
+            raise refuse(f"too large ({st.st_size} bytes; the limit is {_mib(max_bytes)})")
+        fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        try:
+            st = os.fstat(fd)
+            if not stat.S_ISREG(st.st_mode):  # replaced between stat and open
+                raise refuse(f"{_file_kind(st.st_mode)}, not a regular file")
+            chunks, total = [], 0
+            while total <= max_bytes:
+                b = os.read(fd, min(1 << 20, max_bytes + 1 - total))
+                if not b:
+                    break
+                chunks.append(b)
+                total += len(b)
+        finally:
+            os.close(fd)
+    except OSError as e:
+        raise refuse(e.strerror or str(e)) from None
+    data = b"".join(chunks)
+    if len(data) > max_bytes:
+        raise refuse(f"too large (more than {max_bytes} bytes; the limit is {_mib(max_bytes)})")
+    return data
+
+
+def _short_path(segments) -> str:
+    """The field path of ``segments``, shortened to its first and last three levels when long."""
+    if len(segments) <= 8:
+        return join_path("", tuple(segments)) or "<top level>"
+    return f"{join_path('', tuple(segments[:3]))}…{join_path('', tuple(segments[-3:]))}"
+
+
+def _depth_error(name: str, segments) -> ConfigError:
+    return ConfigError(name, f"nested more than {MAX_DEPTH} levels deep at {_short_path(segments)} "
+                             f"(the limit is {MAX_DEPTH} levels)")
+
+
+def _check_duplicate_keys(node, path: str = "", seen_nodes: set | None = None) -> None:
+    """Refuse a mapping with a repeated key. A node reached again through an alias was already
+    checked and is not walked again (aliases are never expanded here)."""
+    if seen_nodes is None:
+        seen_nodes = set()
+    if id(node) in seen_nodes:
+        return
+    seen_nodes.add(id(node))
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, int] = {}
         for k, v in node.value:
@@ -32,10 +154,10 @@ def _check_duplicate_keys(node, path: str = "") -> None:
                         sub, f"duplicate key (line {k.start_mark.line + 1}; first at line {seen[key] + 1})"
                     )
                 seen[key] = k.start_mark.line
-            _check_duplicate_keys(v, sub)
+            _check_duplicate_keys(v, sub, seen_nodes)
     elif isinstance(node, yaml.SequenceNode):
         for i, v in enumerate(node.value):
-            _check_duplicate_keys(v, f"{path}[{i}]")
+            _check_duplicate_keys(v, f"{path}[{i}]", seen_nodes)
 
 
 class _Loader(yaml.SafeLoader):
@@ -57,6 +179,55 @@ class _Loader(yaml.SafeLoader):
         if v.startswith("0x"):
             return int(v[2:], 16)
         return int(v, 10)
+
+    # -- bounded composition: nesting depth and alias expansion (billion laughs) ------------------
+    source_name = "<input>"
+
+    def compose_document(self):
+        self._depth = 0
+        self._segments: list = []
+        self._sizes: dict[int, int] = {}
+        return super().compose_document()
+
+    def compose_node(self, parent, index):
+        """Compose one node, refusing nesting deeper than :data:`MAX_DEPTH` levels (before the
+        recursion goes deeper) and documents that expand, aliases counted as copies, to more than
+        :data:`MAX_YAML_NODES` nodes. Each node's expanded size is kept, so an alias costs O(1)."""
+        if self.check_event(yaml.AliasEvent):
+            anchor = self.peek_event().anchor
+            node = self.anchors.get(anchor)
+            if node is not None and id(node) not in self._sizes:
+                mark = self.peek_event().start_mark
+                raise ConfigError(self.source_name, f"recursive alias *{excerpt(anchor, 40)} at line {mark.line + 1} "
+                                                    "(an alias inside the node it names)")
+            return super().compose_node(parent, index)
+        if isinstance(index, int):
+            seg = index
+        elif isinstance(index, yaml.ScalarNode):
+            seg = excerpt(str(index.value), 40)
+        else:
+            seg = "?" if isinstance(parent, yaml.MappingNode) else None
+        self._segments.append(seg)
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH and (self.check_event(yaml.SequenceStartEvent)
+                                            or self.check_event(yaml.MappingStartEvent)):
+                raise _depth_error(self.source_name, [x for x in self._segments if x is not None])
+            node = super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+            self._segments.pop()
+        if isinstance(node, yaml.SequenceNode):
+            size = 1 + sum(self._sizes.get(id(c), 1) for c in node.value)
+        elif isinstance(node, yaml.MappingNode):
+            size = 1 + sum(self._sizes.get(id(k), 1) + self._sizes.get(id(v), 1) for k, v in node.value)
+        else:
+            size = 1
+        if size > MAX_YAML_NODES:
+            raise ConfigError(self.source_name, f"the document expands to more than {MAX_YAML_NODES} values once its "
+                                                "aliases are expanded (an alias bomb?)")
+        self._sizes[id(node)] = size
+        return node
 
 
 _YAML11 = ("tag:yaml.org,2002:float", "tag:yaml.org,2002:int", "tag:yaml.org,2002:bool")
@@ -82,42 +253,138 @@ _Loader.add_implicit_resolver(
 _Loader.add_constructor("tag:yaml.org,2002:int", _Loader.construct_yaml_int)
 
 
-def load_yaml_text(text: str):
-    """Parse YAML text with exotune's safe loader (:class:`_Loader`, a ``yaml.SafeLoader``
-    subclass: what ``yaml.safe_load`` does, with YAML 1.2 numbers and booleans)."""
+def _compose_construct(text: str, name: str):
+    """Compose (bounded), check duplicate keys, construct: one parse of ``text``."""
     loader = _Loader(text)
+    loader.source_name = name
     try:
-        return loader.get_single_data()
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_duplicate_keys(node)
+        return loader.construct_document(node)
     finally:
         loader.dispose()
 
 
-def read_yaml(path) -> dict:
-    """Read a YAML mapping from ``path`` with exotune's safe loader (YAML 1.2 numbers, duplicate
-    keys rejected; file-level errors -> :class:`ConfigError` naming the file)."""
+def load_yaml_text(text: str, name: str = "<input>"):
+    """Parse YAML text with exotune's safe loader (:class:`_Loader`, a ``yaml.SafeLoader``
+    subclass: what ``yaml.safe_load`` does, with YAML 1.2 numbers and booleans, nesting depth and
+    alias expansion bounded and duplicate keys refused — :class:`ConfigError` naming ``name``)."""
+    return _compose_construct(text, name)
+
+
+def read_yaml(path, max_bytes: int = MAX_YAML_BYTES) -> dict:
+    """Read a YAML mapping from ``path`` through the guarded path.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A regular file of at most ``max_bytes`` bytes, UTF-8.
+    max_bytes : int
+        The size limit (:data:`MAX_YAML_BYTES`, 1 MiB).
+
+    Returns
+    -------
+    dict
+        The top-level mapping (YAML 1.2 numbers and booleans).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        Naming the file: not a regular file, too large, not UTF-8, invalid YAML, nested deeper
+        than :data:`MAX_DEPTH`, an alias bomb, a duplicate key (naming the key's path), not a
+        mapping.
+
+    References
+    ----------
+    docs/design-file.md#input-limits-and-accepted-ranges.
+    """
     name = os.fspath(path)
+    data = read_guarded(name, "file", max_bytes)
     try:
-        with open(name, "rb") as fh:
-            data = fh.read()
         text = data.decode("utf-8")
     except UnicodeDecodeError as e:
         raise ConfigError(name, f"cannot read file: not UTF-8 text ({e.reason} at byte {e.start})") from None
-    except OSError as e:
-        raise ConfigError(name, f"cannot read file: {e.strerror or e}") from None
+    if "\x00" in text:
+        raise ConfigError(name, "cannot read file: not a text file (it contains NUL bytes)")
     try:
-        _check_duplicate_keys(yaml.compose(text, Loader=_Loader))
-        mapping = load_yaml_text(text)
+        mapping = _compose_construct(text, name)
     except ConfigError:
         raise
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         problem = getattr(e, "problem", None) or str(e)
-        raise ConfigError(name, f"invalid YAML: {problem}{where}") from None
+        raise ConfigError(name, f"invalid YAML: {excerpt(problem)}{where}") from None
+    except RecursionError:  # defensive: the composer bounds the depth before Python's stack does
+        raise ConfigError(name, f"nested too deeply (the limit is {MAX_DEPTH} levels)") from None
     except (ValueError, KeyError, AttributeError, TypeError, OverflowError) as e:
         # an explicit tag whose text does not fit it (``!!bool maybe``, ``!!timestamp abc``,
         # ``!!int 0b11``): PyYAML's constructors raise plain Python errors
-        raise ConfigError(name, f"invalid YAML: a value does not fit its explicit tag ({type(e).__name__}: {e})") from None
+        raise ConfigError(name, f"invalid YAML: a value does not fit its explicit tag "
+                                f"({type(e).__name__}: {excerpt(str(e))})") from None
     if not isinstance(mapping, dict):
         raise ConfigError(name, f"expected a YAML mapping at the top level, got {kind_of(mapping)}")
     return mapping
+
+
+def _json_depth_path(obj) -> list | None:
+    """The path to the first value nested deeper than :data:`MAX_DEPTH` (iterative), else None."""
+    stack = [(obj, [])]
+    while stack:
+        cur, segs = stack.pop()
+        if isinstance(cur, (dict, list)) and len(segs) >= MAX_DEPTH:
+            return segs
+        if isinstance(cur, dict):
+            stack.extend((v, segs + [excerpt(str(k), 40)]) for k, v in cur.items())
+        elif isinstance(cur, list):
+            stack.extend((v, segs + [i]) for i, v in enumerate(cur))
+    return None
+
+
+def read_json_guarded(path, what: str = "JSON file", max_bytes: int = MAX_JSON_BYTES):
+    """Read a JSON document from ``path`` through the guarded path (manifests of sweeps).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A regular file of at most ``max_bytes`` bytes, UTF-8 JSON.
+    what : str
+        What the file is, for the messages: ``cannot read the <what>: <reason>``.
+    max_bytes : int
+        The size limit (:data:`MAX_JSON_BYTES`, 16 MiB).
+
+    Returns
+    -------
+    object
+        The decoded document (any JSON value; the caller checks its shape).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        Naming the file: missing or unreadable (a missing file included — test
+        :func:`os.path.lexists` first to word that case differently), not a regular file
+        (a FIFO, a device, a directory: refused without reading), too large, not UTF-8, invalid
+        JSON, nested deeper than :data:`MAX_DEPTH` levels (with the field path).
+
+    References
+    ----------
+    docs/design-file.md#input-limits-and-accepted-ranges.
+    """
+    name = os.fspath(path)
+    data = read_guarded(name, what, max_bytes)
+    try:
+        doc = json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise ConfigError(name, f"cannot read the {what}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    except RecursionError:
+        raise ConfigError(name, f"cannot read the {what}: nested more than {MAX_DEPTH} levels deep "
+                                f"(the limit is {MAX_DEPTH} levels)") from None
+    except ValueError as e:
+        raise ConfigError(name, f"cannot read the {what}: invalid JSON ({excerpt(str(e))})") from None
+    segs = _json_depth_path(doc)
+    if segs is not None:
+        raise ConfigError(name, f"cannot read the {what}: nested more than {MAX_DEPTH} levels deep at "
+                                f"{_short_path(segs)} (the limit is {MAX_DEPTH} levels)")
+    return doc

@@ -1,4 +1,4 @@
-"""``exotune certify CONTROLLER.yaml`` (SPEC §7): the sampled-data analysis of an exported file.
+"""``exotune certify CONTROLLER.yaml`` (docs/controller-file.md): the sampled-data analysis of an exported file.
 
 Everything comes from the file itself — its plant, its gains and sos filters (rebuilt as one state
 space by :func:`exotune.export.discrete_from_file`), its sample rate and delay — never from the
@@ -32,7 +32,8 @@ import numpy as np
 
 from ..sampled import loop_eigenvalues, loop_stable
 
-__all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify"]
+__all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify", "design_mismatches",
+           "check_built_from_design", "hand_tuned"]
 
 POINTS = 96
 CHORD = 1.0  # over a resolved cell every eigenvalue moves ≤ CHORD × its distance to |z| = 1
@@ -312,12 +313,149 @@ def _unresolved(sa: dict, where: str) -> list[str]:
     return out
 
 
+_SIX = ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat")
+_GAIN_RTOL = 1e-9  # the file's gains are the recomputed ones to the last bits (same formulas)
+_DC_RTOL = 1e-6  # a Tustin filter keeps its DC gain up to rounding
+
+
+def _dc_gain(sos) -> float:
+    num, den = 1.0, 1.0
+    for b0, b1, b2, _a0, a1, a2 in sos:
+        num *= b0 + b1 + b2
+        den *= 1.0 + a1 + a2
+    return num / den if den != 0.0 else math.inf
+
+
+def _close(a: float, b: float, rtol: float) -> bool:
+    return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-300)
+
+
+def _one_controller(design: dict, view: dict, where: str) -> list[str]:
+    """Mismatches of one controller (its plant, six gains and filters) against the design."""
+    from ..model.shaping import DesignParams, double_compliance_shaping
+    from .fileio import plant_from_file
+
+    plant = plant_from_file(view)
+    ds = double_compliance_shaping(plant, DesignParams(**{k: np.asarray(v) for k, v in design.items()}))
+    want = {k: float(np.ravel(getattr(ds.gains, k))[0]) for k in _SIX}
+    out = [f"{where}gains.{k}: the file has {view['gains'][k]['value']!r}, its design section and plant give {want[k]!r}"
+           for k in _SIX if not _close(float(view["gains"][k]["value"]), want[k], _GAIN_RTOL)]
+    dc = {"cuff_path": plant.J_m / float(np.ravel(ds.J_m_hat)[0]) * want["K2_hat"],
+          "motor_position": -want["K1"], "spring_torque": want["K2"]}
+    for i, f in enumerate(view["controller"]["filters"]):
+        if f["name"] in dc and not _close(_dc_gain(f["sos"]), dc[f["name"]], _DC_RTOL):
+            out.append(f"{where}controller.filters[{i}] ({f['name']}): DC gain {_dc_gain(f['sos']):.6g}, its design "
+                       f"section and plant give {dc[f['name']]:.6g}")
+    return out
+
+
+def design_mismatches(doc: dict) -> list[str]:
+    """Where the controller of a file differs from the one its design section and plant build.
+
+    The six gains of double compliance shaping are recomputed from ``design`` and ``plant`` (and
+    from each gain-schedule entry's plant) and compared with the file's six-gain summaries (which
+    the file checks tie to the static gains); the DC gains of the filters that carry them (the cuff
+    path: J_m/Ĵ_m · K̂2 for either controller structure; the motor-position and spring-torque
+    filters of a velocity filter: −K1 and K2) are compared with the recomputed ones.
+
+    Parameters
+    ----------
+    doc : dict
+        A validated controller file.
+
+    Returns
+    -------
+    list of str
+        One line per mismatch (empty: the controller was built from the design section).
+
+    References
+    ----------
+    Paper §IV (double compliance shaping: the gains from α, Ĵ_m/α, B̂_m/α, ζ, ζ̂ and the plant);
+    docs/controller-file.md (certify: the design check).
+    """
+    from .fileio import schedule_entry_doc
+
+    design = {k: float(q["value"]) for k, q in doc["design"].items()}
+    out = _one_controller(design, doc, "")
+    for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries", [])):
+        out += _one_controller(design, schedule_entry_doc(doc, e), f"gain_schedule.entries[{j}].")
+    return out
+
+
+def hand_tuned(doc: dict) -> bool:
+    """Whether the file declares a hand-tuned controller (``provenance.hand_tuned: true``); any
+    other value than true/false is a ConfigError."""
+    from ..errors import ConfigError
+
+    v = (doc.get("provenance") or {}).get("hand_tuned", False)
+    if not isinstance(v, bool):
+        raise ConfigError("provenance.hand_tuned", f"expected true or false, got {v!r}")
+    return v
+
+
+def check_built_from_design(doc: dict) -> None:
+    """Refuse (ConfigError) a file whose controller was not built from its design section and plant
+    (:func:`design_mismatches`), unless it declares itself hand-tuned (:func:`hand_tuned`).
+
+    Parameters
+    ----------
+    doc : dict
+        A validated controller file.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``design.amplification`` when the controller's K̂2 is that of another α, else
+        ``design``.
+
+    References
+    ----------
+    docs/controller-file.md (certify: the design check).
+    """
+    from ..errors import ConfigError
+
+    if hand_tuned(doc):
+        return
+    try:
+        bad = design_mismatches(doc)
+    except (KeyError, TypeError, ValueError, ZeroDivisionError, FloatingPointError) as e:
+        raise ConfigError("design", f"cannot rebuild the controller from the design section and plant ({type(e).__name__}: "
+                                    f"{str(e)[:120]})") from None
+    if not bad:
+        return
+    alpha = float(doc["design"]["amplification"]["value"])
+    k2_hat = float(doc["gains"]["K2_hat"]["value"])
+    field = "design"
+    if not _close(k2_hat + 1.0, alpha, _GAIN_RTOL):  # K̂2 = α − 1: the controller names the α it was built for
+        field = "design.amplification"
+        bad = [f"its K2_hat = {k2_hat!r} is that of amplification {k2_hat + 1.0!r}, not {alpha!r}"] + bad
+    more = f"; and {len(bad) - 2} more" if len(bad) > 2 else ""
+    raise ConfigError(field, f"the controller in this file was not built from its design section and plant "
+                             f"({'; '.join(bad[:2])}{more}); export the file again from its design, or declare a "
+                             "hand-tuned controller with provenance.hand_tuned: true (certify then certifies only "
+                             "the controller)")
+
+
+_HAND_TUNED_NOTE = ("hand-tuned controller (provenance.hand_tuned: true): this certifies only the controller as it is "
+                    "in the file, not that it implements the file's design section; ")
+
+
 def certify(doc: dict) -> dict:
     """Re-run the sampled-data analysis of a validated controller file and check its golden
     vectors and predictions (see the module docstring). An overflowing controller (e.g. a gain of
-    1e308) fails on its verdicts and golden vectors, without numpy's warnings on the terminal."""
+    1e308) fails on its verdicts and golden vectors, without numpy's warnings on the terminal.
+
+    A file whose controller was not built from its design section and plant is refused first
+    (:func:`check_built_from_design`, a ConfigError: exit 2), unless it declares itself hand-tuned:
+    its report then says that only the controller is certified (``scope``, and the method line).
+    """
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return _certify(doc)
+        check_built_from_design(doc)
+        rep = _certify(doc)
+    if hand_tuned(doc):
+        rep["scope"] = "controller only (hand-tuned: the design section is not checked against the controller)"
+        rep["method"] = _HAND_TUNED_NOTE + rep["method"]
+    return rep
 
 
 def _certify(doc: dict) -> dict:

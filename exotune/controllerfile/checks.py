@@ -142,7 +142,7 @@ def _check_dob_section(dob, controllers) -> None:
 
 
 # the six gains that act as static gains on a sensed signal when no filter carries them
-# (sign: τ_cmd = −K1 θ_m − B1 θ̇_m + K2 τ_s + B2 τ̇_s + …, SPEC §3)
+# (sign: τ_cmd = −K1 θ_m − B1 θ̇_m + K2 τ_s + B2 τ̇_s + …, docs/method.md#controller)
 _SIX_ON_SIGNAL = {"K1": ("theta_m", -1.0, "motor_position"), "B1": ("omega_m", -1.0, "motor_position"),
                   "K2": ("tau_s", 1.0, "spring_torque"), "B2": ("dtau_s", 1.0, "spring_torque")}
 _CARRIER_INPUT = {"motor_position": "theta_m", "spring_torque": "tau_s"}  # exotune.sampled.controller_blocks

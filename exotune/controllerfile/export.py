@@ -1,7 +1,7 @@
-"""Export of the runtime controller file (SPEC §7 ``exotune export``).
+"""Export of the runtime controller file (docs/controller-file.md ``exotune export``).
 
 The file is what a real-time runtime loads: at ``sample_rate_hz`` it reads the sampled signals
-θ_m [rad], θ̇_m [rad/s], τ_s [N·m], τ̇_s [N·m/s], τ_c [N·m] and computes (SPEC §3)
+θ_m [rad], θ̇_m [rad/s], τ_s [N·m], τ̇_s [N·m/s], τ_c [N·m] and computes (docs/method.md#controller)
 
     τ_cmd[k] = Σ_signals gain · signal[k] + Σ_filters filter(input)[k]
 
@@ -16,7 +16,7 @@ here through zeros/poles (``scipy.signal.bilinear_zpk`` → ``zpk2sos``); the an
 (:func:`exotune.sampled.discretize`) goes through state space, and the tests check that both agree.
 
 Every number carries its unit ({value, unit}, or a ``unit`` next to a list). The file also holds
-the plant, the design, the delay it was designed for, the predicted metrics (continuous SPEC §5
+the plant, the design, the delay it was designed for, the predicted metrics (continuous docs/method.md#analyses-and-metrics
 analysis and the sampled-data intervals that ``exotune certify`` recomputes from this file), the
 human/environment families to certify against, golden input/output vectors of the reference
 runtime, and provenance. Its JSON Schema ships as ``exotune/schemas/controller.schema.json``
@@ -59,7 +59,7 @@ __all__ = [
 _FILTER_DOC = {
     "motor_position": "proper part of G_θ (velocity filter)",
     "spring_torque": "proper part of G_s (velocity filter)",
-    "cuff_path": "G_c: the filtered cuff compensator G_v (K̂2 + B̂2 s) (SPEC §3)",
+    "cuff_path": "G_c: the filtered cuff compensator G_v (K̂2 + B̂2 s) (docs/method.md#controller)",
     "dob_motor": "−Q(s)(J_m s² + B_m s): the DOB's inverse motor model on θ_m",
     "dob_spring": "+Q(s) on τ_s",
     "dob_command": "+Q(s) on τ_cmd itself (the DOB's algebraic loop, see runtime)",
@@ -150,7 +150,7 @@ def _gain_schedule(cfg, fs: float, doc: dict) -> dict:
 
 
 def _predicted(cfg) -> dict:
-    """The continuous SPEC §5 metrics of the design (exotune.analysis), with units."""
+    """The continuous docs/method.md#analyses-and-metrics metrics of the design (exotune.analysis), with units."""
     import dataclasses
 
     from ..analysis import analyze_design
@@ -201,7 +201,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
                     "note": "total measured-to-applied latency the controller was designed and certified for"},
         "plant": {k: _q(v, PLANT_UNITS[k]) for k, v in raw["plant"].items()},
         "design": {k: _q(v, DESIGN_UNITS[k]) for k, v in raw["design"].items()},
-        "gains": {**gains, "convention": "torque units (SPEC §4): K2, B2 act on τ_s, K2_hat, B2_hat on τ_c"},
+        "gains": {**gains, "convention": "torque units (docs/method.md#double-compliance-shaping): K2, B2 act on τ_s, K2_hat, B2_hat on τ_c"},
         "signals": {"inputs": {s: SIGNAL_UNITS[s] for s in Measured}, "output": {"tau_cmd": "N·m"}},
         "controller": {
             "equation": "tau_cmd[k] = sum(gain * signal[k]) + sum(filter(input)[k]); sos rows [b0, b1, b2, a0, a1, a2] "

@@ -13,18 +13,57 @@ from .checks import check_controller_file
 from .schema import validate_controller
 from .sos import sos_ss
 
-__all__ = ["load_controller", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc"]
+__all__ = ["load_controller", "check_file_limits", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc"]
 
 
 def load_controller(path) -> dict:
     """Read (safe YAML loader) and validate a controller file (schema, then
     :func:`check_controller_file`); returns the mapping."""
-    from ..config import read_yaml
+    from ..config import read_yaml, refuse_other_kind
 
     doc = read_yaml(path)
+    refuse_other_kind(doc, "controller", str(path))
     validate_controller(doc, str(path))
+    check_file_limits(doc)
     check_controller_file(doc)
     return doc
+
+
+def check_file_limits(doc: dict) -> None:
+    """Refuse a (schema-valid) controller file whose plant, design, sample rate or delay lies
+    outside the ranges exotune analyses meaningfully, naming the field and the range, before any
+    number reaches a kernel.
+
+    Parameters
+    ----------
+    doc : dict
+        A controller file that passed :func:`exotune.controllerfile.schema.validate_controller`.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        ``<section>.<key>.value: out of the accepted range: …``.
+
+    References
+    ----------
+    docs/design-file.md#input-limits-and-accepted-ranges.
+    """
+    from ..config import OVERRIDE_LIMITS, check_limit
+    from ..errors import ConfigError
+
+    checks = [(f"{sec}.{k}.value", OVERRIDE_LIMITS.get(f"{sec}.{k}"), q)
+              for sec in ("plant", "design") for k, q in doc[sec].items()]
+    checks += [("sample_rate_hz.value", "frequency", doc["sample_rate_hz"]), ("delay_s.value", "delay", doc["delay_s"])]
+    for i, e in enumerate((doc.get("gain_schedule") or {}).get("entries", [])):
+        checks += [(f"gain_schedule.entries[{i}].plant.{k}.value", OVERRIDE_LIMITS.get(f"plant.{k}"), q)
+                   for k, q in e["plant"].items()]
+    for field, kind, q in checks:
+        if kind is None:
+            continue
+        try:
+            check_limit(float(q["value"]), kind)
+        except ValueError as err:
+            raise ConfigError(field, str(err)) from None
 
 
 def write_controller(doc: dict, out) -> None:

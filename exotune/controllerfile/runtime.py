@@ -1,4 +1,4 @@
-"""Reference runtime (SPEC §7): loads a controller file and steps it sample by sample.
+"""Reference runtime (docs/controller-file.md): loads a controller file and steps it sample by sample.
 
 Deliberately plain — a loop over second-order sections in direct form II transposed, the form a
 C/C++ runtime would use — so that it documents the file's semantics and gives the golden vectors

@@ -196,7 +196,7 @@ class Transmission(_S):
 
 
 class ControllerFile(_S):
-    """The controller file (SPEC §7). Extra keys are refused; numbers are finite."""
+    """The controller file (docs/controller-file.md). Extra keys are refused; numbers are finite."""
 
     schema_: Literal["exotune.controller/1"] = Field(alias="schema")
     sample_rate_hz: SampleRate

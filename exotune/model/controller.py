@@ -1,15 +1,15 @@
-"""The controller the runtime executes, as an explicit, swappable structure (SPEC §3, paper §III-V).
+"""The controller the runtime executes, as an explicit, swappable structure (docs/method.md#controller, paper §III-V).
 
 A :class:`ControllerStructure` is a set of rational blocks acting on the three sensed signals plus
 an optional transmission disturbance observer and the actuation delay:
 
     τ_cmd = G_θ(s) θ_m + G_s(s) τ_s + G_c(s) τ_c − δ̂,      τ_m(t) = τ_cmd(t − T)
-    δ̂ = Q(s) [ (J_m s² + B_m s) θ_m − τ_s − τ_cmd ]              (paper eq. dob_eq)
+    δ̂ = Q(s) [ (J_m s² + B_m s) θ_m − τ_s − τ_cmd ]              (paper eq. (15)
 
 The analysis engine (:mod:`exotune.analysis`) works on *any* such structure; this module builds
 the named structures from a plant, a design and an implementation:
 
-``"default"``   SPEC §3: G_c,impl = (J_m/Ĵ_m)[1 + (J_j/K_s) F_v s(s²+B̃2 s+K̃2)/(s+B̃1)] (K̂2 + B̂2 s F_d)
+``"default"``   docs/method.md#controller: G_c,impl = (J_m/Ĵ_m)[1 + (J_j/K_s) F_v s(s²+B̃2 s+K̃2)/(s+B̃1)] (K̂2 + B̂2 s F_d)
 ``"full_filter"``  the paper's prediction-step structure (paper §IV): the whole improper
                 cuff path G_v (K̂2 + B̂2 s) is multiplied by F_v F_d (one filter on the signal).
 
@@ -57,7 +57,7 @@ class FirstOrderFilter:
 
 @dataclass(frozen=True)
 class Implementation:
-    """What the runtime really does (SPEC §3, config ``implementation:``)."""
+    """What the runtime really does (docs/method.md#controller, config ``implementation:``)."""
 
     delay_s: np.ndarray = 0.0
     sample_rate_hz: float | None = None
@@ -124,7 +124,7 @@ def _sea_blocks(g: Gains, impl: Implementation) -> tuple[Rational, Rational]:
 
 
 def _cuff_default(plant: Plant, ds: DoubleShaping, impl: Implementation) -> Rational:
-    """SPEC §3 default G_c,impl (uses K̃1 = 0)."""
+    """docs/method.md#controller default G_c,impl (uses K̃1 = 0)."""
     if impl.gv_filter is None or impl.derivative_filter is None:
         raise ValueError(
             "implementation.gv_filter and implementation.derivative_filter are required: the ideal "

@@ -1,4 +1,4 @@
-"""Human and environment models (SPEC §2 "Human and environment models").
+"""Human and environment models (docs/method.md#physical-model "Human and environment models").
 
 A human attaches at θ_h with impedance Z_h(s) (torque on the cuff = −Z_h θ_h):
 

@@ -2,7 +2,7 @@
 
 Two representations live here:
 
-* :class:`Plant` — the joint-reflected parameters of SPEC §2 (all fields numpy-broadcastable, so
+* :class:`Plant` — the joint-reflected parameters of docs/method.md#physical-model (all fields numpy-broadcastable, so
   one object can hold a million designs).
 * :class:`Tf` and :class:`CompliancePair` — transfer functions as *exact frequency-response
   expressions*: a ``Tf`` is evaluated at any array of complex ``s`` by composing the
@@ -13,7 +13,7 @@ Two representations live here:
 
 Sign conventions (paper Table II): ``τ_m = G_θ θ_m + τ_2``, ``τ_2 = G_s τ_s + τ_3``,
 ``τ_3 = G_c τ_c + τ_6``; with the compliance-shaping controller ``G_θ = −(K1 + B1 s)`` and
-``G_s = K2 + B2 s`` (torque units, SPEC §4).
+``G_s = K2 + B2 s`` (torque units, docs/method.md#double-compliance-shaping).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Plant:
-    """Joint-reflected plant parameters (SPEC §2). Units: kg·m², N·m·s/rad, N·m/rad.
+    """Joint-reflected plant parameters (docs/method.md#physical-model). Units: kg·m², N·m·s/rad, N·m/rad.
 
     Every field may be a scalar or a numpy array (a batch of plants).
     """
@@ -238,7 +238,7 @@ def seven_systems(
     """Paper Table II: S1…S7 (and Ŝ5 when ``J_m_hat``/``B_m_hat`` are given).
 
     ``actuator`` replaces the pure delay e^{-sT} in H1 when given (e.g. the DOB-modified
-    actuator path of SPEC §3); by default H1 = e^{-sT}/(J_m s² + B_m s).
+    actuator path of docs/method.md#controller); by default H1 = e^{-sT}/(J_m s² + B_m s).
     """
     s = Tf.s()
     M = plant.J_m * s * s + plant.B_m * s

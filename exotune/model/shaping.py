@@ -1,8 +1,8 @@
-"""SEA compliance shaping and double compliance shaping (paper §II-B, §IV; SPEC §4).
+"""SEA compliance shaping and double compliance shaping (paper §II-B, §IV; docs/method.md#double-compliance-shaping).
 
-Two gain-unit conventions exist in the paper (SPEC §4 errata):
+Two gain-unit conventions exist in the paper (docs/method.md#double-compliance-shaping errata):
 
-* ``"deflection"`` — paper eq. (extracted): the spring gains multiply the spring *deflection*
+* ``"deflection"`` — paper eq. (9): the spring gains multiply the spring *deflection*
   θ_s, so K2 [N·m/rad] and B2 [N·m·s/rad].
 * ``"torque"`` — the double-compliance-shaping formulas: the spring gains multiply the spring
   *torque* τ_s = K_s θ_s, so K2 [–] and B2 [s]. exotune uses torque units everywhere else.
@@ -32,7 +32,7 @@ GAIN_UNITS_TORQUE = {
     "K2_hat": "1 (N·m/N·m, cuff-torque feedback)",
     "B2_hat": "s (cuff-torque-rate feedback)",
 }
-#: Units of the SEA gains in the paper's eq. (extracted) (deflection) convention.
+#: Units of the SEA gains in the paper's eq. (9) (deflection) convention.
 GAIN_UNITS_DEFLECTION = {
     "K1": "N·m/rad",
     "B1": "N·m·s/rad",
@@ -70,7 +70,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class DesignParams:
-    """The design parameters of double compliance shaping (SPEC §4, config ``design:``)."""
+    """The design parameters of double compliance shaping (docs/method.md#double-compliance-shaping, config ``design:``)."""
 
     amplification: np.ndarray  # α ≥ 1 [–]
     felt_inertia: np.ndarray  # Ĵ_m/α [kg·m²]
@@ -81,7 +81,7 @@ class DesignParams:
 
 @dataclass(frozen=True)
 class SeaShape:
-    """Compliance shape of C4(s) = (s² + B̃2 s + K̃2) / (K_s (s² + B̃1 s + K̃1)) (paper eq. motspring)."""
+    """Compliance shape of C4(s) = (s² + B̃2 s + K̃2) / (K_s (s² + B̃1 s + K̃1)) (paper eq. (8)."""
 
     K1_tilde: np.ndarray  # [1/s²]
     B1_tilde: np.ndarray  # [1/s]
@@ -103,7 +103,7 @@ class SeaGains:
 
 @dataclass(frozen=True)
 class Gains:
-    """The six gains of SPEC §3 in torque units (see :data:`GAIN_UNITS_TORQUE`)."""
+    """The six gains of docs/method.md#controller in torque units (see :data:`GAIN_UNITS_TORQUE`)."""
 
     K1: np.ndarray
     B1: np.ndarray
@@ -129,14 +129,14 @@ def to_torque_units(plant: Plant, g: SeaGains) -> SeaGains:
 
 
 def to_deflection_units(plant: Plant, g: SeaGains) -> SeaGains:
-    """Convert SEA gains to the paper's eq. (extracted) deflection convention (× K_s)."""
+    """Convert SEA gains to the paper's eq. (9) deflection convention (× K_s)."""
     if g.units == "deflection":
         return g
     return SeaGains(g.K1, g.B1, g.K2 * plant.K_s, g.B2 * plant.K_s, "deflection")
 
 
 def sea_gains_from_shape(plant: Plant, shape: SeaShape, units: GainUnits = "torque") -> SeaGains:
-    """Compliance shape → gains, paper eq. (extracted) (deflection units), converted if asked.
+    """Compliance shape → gains, paper eq. (9) (deflection units), converted if asked.
 
     K1 = J_m K̃1, K2 = J_m (K̃2 − K̃1) − K_s, B1 = J_m B̃1 − B_m, B2 = J_m (B̃2 − B̃1).
     """
@@ -152,7 +152,7 @@ def sea_gains_from_shape(plant: Plant, shape: SeaShape, units: GainUnits = "torq
 
 
 def sea_shape_from_gains(plant: Plant, gains: SeaGains) -> SeaShape:
-    """Gains → compliance shape (inverse of eq. extracted; from eq. long_actuator_compliance):
+    """Gains → compliance shape (inverse of eq. (9); from eq. (7):
     K̃1 = K1/J_m, K̃2 = (K_s + K1 + K2)/J_m, B̃1 = (B_m + B1)/J_m, B̃2 = (B_m + B1 + B2)/J_m with
     K2, B2 in deflection units."""
     g = to_deflection_units(plant, gains)
@@ -177,7 +177,7 @@ class DoubleShaping:
 
 
 def double_compliance_shaping(plant: Plant, design: DesignParams) -> DoubleShaping:
-    """Double compliance shaping (paper §IV, verified form of SPEC §4).
+    """Double compliance shaping (paper §IV, verified form of docs/method.md#double-compliance-shaping).
 
     K̃1 = 0, K̃2 = K_s/Ĵ_m, B̃1 = B̂_m/Ĵ_m, B̃2 = 2ζ√(K_s/Ĵ_m);
     K1 = 0, B1 = J_m B̃1 − B_m, K2 = J_m/Ĵ_m − 1 [–], B2 = (B̃2 − B̃1) J_m/K_s [s];
@@ -239,8 +239,8 @@ def _assumption_warnings(plant: Plant, gains: Gains, J_m_hat, zeta, zeta_hat) ->
 def nominal_transfer_functions(plant: Plant, design: DesignParams, ds: DoubleShaping) -> dict[str, Rational]:
     """The nominal (zero delay, no filters) transfer functions of the design, as rationals:
 
-    C4 (paper eq. motspring), C5 (eq. total_compliance), Ĉ5 = 1/(Ĵ_m s² + B̂_m s), nominal C7
-    (eq. nominal_C7 with the erratum fixed: the middle term is 2ζ̂√(αK_c/Ĵ_m)·s) and G_v.
+    C4 (paper eq. (8), C5 (eq. (10), Ĉ5 = 1/(Ĵ_m s² + B̂_m s), nominal C7
+    (eq. (16) with the erratum fixed: the middle term is 2ζ̂√(αK_c/Ĵ_m)·s) and G_v.
     """
     sh = ds.shape
     K_s, J_j, K_c = plant.K_s, plant.J_j, plant.K_c

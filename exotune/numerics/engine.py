@@ -1,25 +1,65 @@
 """The one switch between the compiled (numba) kernels and the numpy reference engine.
 
 ``EXOTUNE_NUMPY_ONLY=1`` (or numba missing) selects numpy everywhere; both engines give the same
-verdicts (the tests compare them with relative tolerances).
+verdicts (the tests compare them with relative tolerances). Work on a single design runs inside
+:func:`numpy_engine`: compiling the kernels (about half a minute on a fresh machine) pays only for
+batches, so ``exotune design/analyze/export/certify/simulate`` never wait on the JIT
+(docs/architecture.md#engines). Sweeps and optimization use the compiled kernels; the command line
+says so once while they compile for the first time (:func:`kernels_cached`).
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
+from pathlib import Path
 
-__all__ = ["compiled", "resolve_engine"]
+__all__ = ["compiled", "resolve_engine", "numpy_engine", "kernels_cached"]
+
+_PREFERRED: contextvars.ContextVar[str | None] = contextvars.ContextVar("exotune_engine", default=None)
 
 
 def resolve_engine(engine: str | None) -> str:
-    """``engine`` if given, else "numba" when the compiled kernels are usable, else "numpy"."""
-    from . import kernels
-
+    """``engine`` if given, else "numba" when the compiled kernels are usable (numba installed,
+    ``EXOTUNE_NUMPY_ONLY`` unset, not inside :func:`numpy_engine`), else "numpy"."""
     if engine is None:
-        engine = "numba" if (kernels.AVAILABLE and not os.environ.get("EXOTUNE_NUMPY_ONLY")) else "numpy"
+        if _PREFERRED.get() == "numpy" or os.environ.get("EXOTUNE_NUMPY_ONLY"):
+            return "numpy"
+        from . import kernels
+
+        engine = "numba" if kernels.AVAILABLE else "numpy"
     return engine
 
 
 def compiled() -> bool:
-    """Whether the compiled (numba) kernels are in use (numba installed, EXOTUNE_NUMPY_ONLY unset)."""
+    """Whether the compiled (numba) kernels are in use here."""
     return resolve_engine(None) == "numba"
+
+
+@contextlib.contextmanager
+def numpy_engine():
+    """Run the enclosed work on the numpy engine (single designs: no JIT compilation to wait for).
+
+    Examples
+    --------
+    >>> with numpy_engine():
+    ...     compiled()
+    False
+    """
+    token = _PREFERRED.set("numpy")
+    try:
+        yield
+    finally:
+        _PREFERRED.reset(token)
+
+
+def kernels_cached() -> bool:
+    """Whether compiled kernels for this machine are already in numba's on-disk cache (beside the
+    kernel modules, or under ``NUMBA_CACHE_DIR``); False when numba is not in use."""
+    if not compiled():
+        return False
+    env = os.environ.get("NUMBA_CACHE_DIR")
+    # numba keeps its cache under NUMBA_CACHE_DIR when set, else beside the kernel modules
+    place = Path(env) if env else Path(__file__).resolve().parent / "kernels" / "__pycache__"
+    return place.is_dir() and any(place.rglob("phase.*.nbi"))

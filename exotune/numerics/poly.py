@@ -7,7 +7,7 @@ Conventions used throughout exotune's numerics:
   Leading dimensions index designs (or tasks); every operation is vectorized over them.
 * Products and sums are formed coefficient-wise without any rounding tricks, so a structural zero
   coefficient (e.g. the constant term of ``J_m s^2 + B_m s``) stays *exactly* ``0.0``. The analysis
-  relies on this to remove the rigid-body root at ``s = 0`` exactly (SPEC §4), never by a tolerance.
+  relies on this to remove the rigid-body root at ``s = 0`` exactly (docs/method.md#double-compliance-shaping), never by a tolerance.
 
 These are tiny kernels (degrees <= ~16) applied to large batches, in numpy; the product of large
 real batches runs compiled (:func:`exotune._fastphase.pmul_rows`, same accumulation order, same
@@ -145,7 +145,7 @@ def strip_common_low_zeros(*polys: np.ndarray, max_strip: int | None = None):
     """Divide every polynomial of a group by ``s**r``, r = the common number of *exactly* zero
     low-order coefficients (per row). Returns ``(r, stripped_polys)``.
 
-    Used to take out the structural root at s = 0 (rigid-body mode, SPEC §4) exactly.
+    Used to take out the structural root at s = 0 (rigid-body mode, docs/method.md#double-compliance-shaping) exactly.
     """
     n = max(p.shape[-1] for p in polys)
     lead = np.broadcast_shapes(*[p.shape[:-1] for p in polys])
@@ -176,7 +176,7 @@ class Rational:
     """A batch of rational transfer functions num(s)/den(s), ascending coefficients.
 
     ``num`` has shape (N, m+1) and ``den`` shape (N, n+1) (or broadcastable). Used for every
-    controller block of the implementation structure (SPEC §3).
+    controller block of the implementation structure (docs/method.md#controller).
     """
 
     num: np.ndarray

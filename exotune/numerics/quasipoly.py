@@ -1,4 +1,4 @@
-"""Quasi-polynomials Δ(s) = P0(s) + P1(s)·e^{−sT} and exact root counting (SPEC §5).
+"""Quasi-polynomials Δ(s) = P0(s) + P1(s)·e^{−sT} and exact root counting (docs/method.md#analyses-and-metrics).
 
 Every closed loop exotune analyses (any controller structure, any rational human or environment,
 the DOB, the exact delay) has a characteristic function of this form with a *single* delay:

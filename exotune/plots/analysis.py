@@ -9,7 +9,7 @@ dict of :func:`exotune.analysis.analyze_design`:
     delay and the implemented filters. The passive phase band [−180°, 0°] is shaded and the
     non-passive bands of C7 (``passivity.nonpassive_band_hz``) are highlighted.
 ``nyquist_humans.png``
-    One panel per human family: Nyquist curves of L(jω) = Z_h(jω)·C7(jω) (Δ = Δ00 (1 + L), so the
+    One panel per human family (per edge of an msd box): Nyquist curves of L(jω) = Z_h(jω)·C7(jω) (Δ = Δ00 (1 + L), so the
     critical point is −1) for the range ends, each critical value and a value inside each stable
     interval. The view is a fixed linear window around −1; the curves continue outside it.
 ``dob_loop.png`` (only with a DOB)
@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.plot_data import F_MAX_HZ, F_MIN_HZ, db, finite, phase_deg
+from ..model.humans import PARAM_UNITS
 
 __all__ = ["write_analysis_plots", "render_analysis_plots"]
 
@@ -164,6 +165,9 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
         ax.axvline(0, color="0.6", lw=0.6)
         ax.plot([-1], [0], marker="+", color="red", ms=14, mew=2, ls="none", label="−1 (critical point)", zorder=5)
         sym = _SYMBOL.get(param, param)
+        edge = loop.get("edge")
+        # an edge of an msd box: every member is named by both (all) its ranged parameters
+        at = "".join(f", {_SYMBOL.get(q, q)} = {x:.4g} {PARAM_UNITS.get(q, '')}" for q, x in edge["at"].items()) if edge else ""
         crossing_labelled = False
         ymax = 0.0
         for j, (v, role, state, L, x) in enumerate(curves):
@@ -172,7 +176,7 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
             ymax = max(ymax, _nyq_extent(L))
             inview = np.any((L.real > NYQ_XLIM[0]) & (L.real < NYQ_XLIM[1]) & (np.abs(L.imag) < NYQ_YMAX))
             ax.plot(L.real, L.imag, color=col, ls=ls, lw=1.3,
-                    label=f"{sym} = {v:.4g} {h['unit']} ({state})" + ("" if inview else " — outside the view"))
+                    label=f"{sym} = {v:.4g} {h['unit']}{at} ({state})" + ("" if inview else " — outside the view"))
             ax.plot(L.real, -L.imag, color=col, ls=ls, lw=0.7, alpha=0.35)  # ω < 0 (mirror image)
             x = x[(x > NYQ_XLIM[0]) & (x < NYQ_XLIM[1])]
             if x.size:
@@ -196,8 +200,10 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
             "complex_stiffness": "Z = k (1 + jη sign ω)",
         }.get(kind, kind)
         fx = ", ".join(f"{_SYMBOL.get(k, k) if k != 'eta' else 'η'} = {v:.4g}" for k, v in {**fixed, **({"eta": eta} if kind == "complex_stiffness" else {})}.items() if k != param)
-        iv = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in h.get("stable_intervals") or []) or "none"
-        ax.set_title(f"{kind}: {zdesc}  ({fx})\n{sym} ∈ [{h['range'][0]:.4g}, {h['range'][1]:.4g}] {h['unit']}; stable on {iv}",
+        iv = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in h.get("stable_intervals") or [])
+        iv = f"{iv} {h['unit']}" if iv else "none"
+        head = f"{kind} box, edge {edge['index'] + 1} of {edge['count']}" if edge else kind
+        ax.set_title(f"{head}: {zdesc}  ({fx})\n{sym} ∈ [{h['range'][0]:.4g}, {h['range'][1]:.4g}] {h['unit']}; stable on {iv}",
                      fontsize=8.5)
         ax.legend(loc="lower left", fontsize=7)
     for ax in axes[n:]:

@@ -78,7 +78,7 @@ def _free(axs, rep):
 
 
 def plot_simulation(rep: dict) -> dict[str, bytes]:
-    """PNG figure of a scenario's runs (:func:`exotune.simulate.run_scenario`).
+    """PNG figure of a scenario's runs (:func:`exotune.simulation.run_scenario`).
 
     Locked output: the spring torque −τ_s against (α − 1)·τ_c (the amplification test of the
     paper's time-domain figure) and the motor torque with its limit. Free output: the cuff
@@ -97,7 +97,7 @@ def plot_simulation(rep: dict) -> dict[str, bytes]:
 
     References
     ----------
-    Paper §VII (time-domain amplification and friction tests); docs/cli.md#simulate.
+    Paper §V (time-domain amplification and friction tests); docs/cli.md#simulate.
     """
     import matplotlib
 

@@ -1,4 +1,4 @@
-"""Sampled-data closed loop: a discrete controller on the continuous plant (SPEC §3 "Discrete
+"""Sampled-data closed loop: a discrete controller on the continuous plant (docs/method.md#controller "Discrete
 implementation", §5 cross-check, the engine of a future ``exotune certify``).
 
 What the runtime does at sample rate f_s = 1/T_s: the sensors are sampled at t = kT_s, the
@@ -15,13 +15,13 @@ matrix; the sampled-data loop is stable iff its eigenvalues lie inside the unit 
 rigid-body mode of the free exoskeleton is the eigenvalue z = 1, tolerated like s = 0 in the
 continuous analysis).
 
-The plant is written here from the physical equations (SPEC §2), independently of the transfer
+The plant is written here from the physical equations (docs/method.md#physical-model), independently of the transfer
 function algebra of :mod:`exotune.model` / :mod:`exotune.analysis`, so that the continuous analysis
 and this model check each other. The discrete controller comes from a
 :class:`~exotune.controller.ControllerStructure` (:func:`discretize`): every proper block by the
 Tustin (bilinear) transform, optionally prewarped at a frequency per block; the improper parts
 K + B s of the SEA blocks act on the sampled positions and ideal sampled velocities (plant states),
-as in the continuous analysis (SPEC §3); the DOB's algebraic loop through Q's feed-through is
+as in the continuous analysis (docs/method.md#controller); the DOB's algebraic loop through Q's feed-through is
 solved exactly.
 """
 
@@ -49,7 +49,7 @@ def plant_ss(plant, human: dict | None = None, env: str | dict = "free"):
     Input τ_m [N·m]; outputs :data:`Measured` = θ_m [rad], θ̇_m [rad/s], τ_s [N·m], τ̇_s [N·m/s],
     τ_c [N·m]. ``human``: None (cuff free, τ_c ≡ 0) or {inertia, damping, stiffness} (any subset;
     no inertia = a massless spring-damper node). ``env``: "free", "locked" (θ_j ≡ 0) or
-    {inertia, damping, stiffness} acting on θ_j (SPEC §2).
+    {inertia, damping, stiffness} acting on θ_j (docs/method.md#physical-model).
 
         J_m θ̈_m + B_m θ̇_m = τ_s + τ_m,   τ_s = K_s (θ_j − θ_m)
         J_j θ̈_j = τ_c − τ_s + τ_env,      τ_c = K_c (θ_h − θ_j)
@@ -199,7 +199,7 @@ class Block:
 
 
 def controller_blocks(cs, plant) -> tuple[np.ndarray, list[Block]]:
-    """The runtime form of a single-design :class:`ControllerStructure` (SPEC §3):
+    """The runtime form of a single-design :class:`ControllerStructure` (docs/method.md#controller):
 
         τ_cmd = G_θ θ_m + G_s τ_s + G_c τ_c − δ̂,   δ̂ = Q (J_m s² + B_m s) θ_m − Q (τ_s + τ_cmd)
 
@@ -357,7 +357,7 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
 
 
 def default_prewarp(impl) -> dict:
-    """Prewarp frequencies [Hz] per block (SPEC §3: Tustin prewarped at the cutoff): G_c at the
+    """Prewarp frequencies [Hz] per block (docs/method.md#controller: Tustin prewarped at the cutoff): G_c at the
     G_v filter cutoff, the DOB blocks at the Q cutoff, the SEA blocks at the velocity-filter cutoff
     when there is one."""
     f = lambda x: float(np.ravel(x)[0])  # noqa: E731
@@ -427,7 +427,7 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
     out = {
         "sample_rate_hz": fs,
         "method": ("plant (+ human) discretized exactly with a zero-order hold, delay as "
-                   f"{q:.4g} samples (shift states, fractional part exact); controller blocks by "
+                   f"{q:.4g} sample{'' if q == 1 else 's'} (shift states, fractional part exact); controller blocks by "
                    "Tustin prewarped at " + ", ".join(f"{k}: {v:g} Hz" for k, v in pw.items())
                    + ("; velocities by the discretized velocity filter" if cfg.implementation.velocity_filter is not None
                       else "; ideal sampled velocities") + "; DOB algebraic loop solved"),

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 from ..analysis import format_certificates
+from ..model.humans import PARAM_UNITS
 from .margins import format_margins
+from .numbers import unit_text
 
 __all__ = ["format_report", "TEXT_LIST_MAX"]
 
@@ -14,22 +16,29 @@ TEXT_LIST_MAX = 12  # the text report lists at most this many intervals / bounda
 def _fmt_iv(iv, unit):
     if not iv:
         return "none"
-    s = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in iv[:TEXT_LIST_MAX]) + f" {unit}"
+    s = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in iv[:TEXT_LIST_MAX]) + (f" {unit}" if unit else "")
     if len(iv) > TEXT_LIST_MAX:
         s += f" … ({len(iv)} intervals in all; --json lists every one)"
     return s
+
+
+def _box_lines(h: dict, yn) -> list[str]:
+    """The lines of an msd box family: its ranges with units, the verdict and every edge."""
+    box = ", ".join(f"{q} in [{a:.6g}, {b:.6g}] {PARAM_UNITS[q]}" for q, (a, b) in h["box"].items())
+    L = [f"  {h['kind']:17s} box {box}: robust {yn(h['robust'])} (Edge Theorem, {len(h['edges'])} edges)"]
+    for e in h["edges"]:
+        at = ", ".join(f"{q} = {v:.6g} {PARAM_UNITS[q]}" for q, v in e["at"].items())
+        whole = " (the whole edge)" if e["stable_intervals"] == [e["range"]] else ""
+        L.append(f"    edge {e['parameter']} at {at}: stable on "
+                 f"{_fmt_iv(e['stable_intervals'], PARAM_UNITS[e['parameter']])}{whole}")
+    return L
 
 
 def _human_lines(h: dict, yn) -> list[str]:
     """The lines of one human family (or box) of the report."""
     L = []
     if h.get("box"):
-        box = ", ".join(f"{q} in [{a:.6g}, {b:.6g}]" for q, (a, b) in h["box"].items())
-        L.append(f"  {h['kind']:17s} box {box}: robust {yn(h['robust'])} (Edge Theorem, {len(h['edges'])} edges)")
-        for e in h["edges"]:
-            if e["stable_intervals"] != [e["range"]]:
-                at = ", ".join(f"{q} = {v:.6g}" for q, v in e["at"].items())
-                L.append(f"    edge {e['parameter']} at {at}: stable on {_fmt_iv(e['stable_intervals'], '')}")
+        L += _box_lines(h, yn)
         return L
     L.append(f"  {h['kind']:17s} {h['parameter']} in [{h['range'][0]:.6g}, {h['range'][1]:.6g}] {h['unit']}: robust {yn(h['robust'])}")
     L.append(f"    stable on {_fmt_iv(h['stable_intervals'], h['unit'])}")
@@ -60,7 +69,9 @@ def _sampled_and_crosscheck_lines(r: dict, yn) -> list[str]:
                          f"{len(h['disagreements'])} disagreement(s) with the continuous intervals")
                 for b in h["boundaries"]:
                     moved = "not found within a factor 2" if b["sampled"] is None else f"{b['sampled']:.5g}"
-                    L.append(f"    boundary {h['parameter']} = {b['continuous']:.5g} (continuous) -> {moved} (sampled)")
+                    u = PARAM_UNITS.get(h["parameter"], "")
+                    L.append(f"    boundary {h['parameter']} = {b['continuous']:.5g} {u} (continuous) -> {moved}"
+                             + (f" {u}" if b["sampled"] is not None else "") + " (sampled)")
     cc = r.get("cross_check")
     if cc:
         L.append(
@@ -83,9 +94,9 @@ def format_report(r: dict) -> str:
     if r.get("margins"):
         L += format_margins(r["margins"])
         L.append("")
-    L.append("Gains (torque units, SPEC §4):")
+    L.append("Gains (torque units, docs/method.md#double-compliance-shaping):")
     for k, v in r["gains"].items():
-        L.append(f"  {k:7s} = {v:12.6g}  [{r['units'][k]}]")
+        L.append(f"  {k:7s} = {v:12.6g}  [{unit_text(r['units'][k])}]")
     L.append("")
     L.append(f"Free exoskeleton (cuff free) stable: {yn(r['free_stable'])} (rigid-body roots at s=0 removed: {r['free']['rigid_body_roots']})")
     L.append(f"Output locked stable:               {yn(r['locked_stable'])}")
@@ -93,7 +104,9 @@ def format_report(r: dict) -> str:
         if "stable" in e:
             L.append(f"Environment {e['kind']}: stable {yn(e['stable'])}")
         else:
-            L.append(f"Environment {e['kind']} {e['parameter']} {e['range']}: robust {yn(e['robust'])}, stable on {_fmt_iv(e['stable_intervals'], '')}")
+            u = PARAM_UNITS[e["parameter"]]
+            L.append(f"Environment {e['kind']} {e['parameter']} in [{e['range'][0]:.6g}, {e['range'][1]:.6g}] {u}: "
+                     f"robust {yn(e['robust'])}, stable on {_fmt_iv(e['stable_intervals'], u)}")
     L.append("")
     L.append("Coupled stability with the human models:")
     for h in r["humans"]:

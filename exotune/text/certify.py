@@ -2,11 +2,24 @@
 
 from __future__ import annotations
 
+from ..model.humans import PARAM_UNITS
+from .numbers import interval_text
+
 __all__ = ["format_certify"]
 
 
-def _fmt_ivs(ivs) -> str:
-    return ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in ivs) if ivs else "nowhere"
+def _family_line(h: dict) -> str:
+    """One human or environment family: its range(s) with units and its verdict."""
+    head = f"  {h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}"
+    for q, (a, b) in (h.get("box") or {}).items():
+        head += f" × {q} [{a:g}, {b:g}] {PARAM_UNITS.get(q, '')}".rstrip()
+    head += ": "
+    if "skipped" in h:
+        return head + "skipped (" + h["skipped"] + ")"
+    if "not_certifiable" in h:
+        return head + "not certifiable (" + h["not_certifiable"] + ")"
+    return (head + ("robust" if h["robust"] else "NOT robust")
+            + f"; stable in {interval_text(h['stable_intervals'], h['unit'], empty='nowhere')}")
 
 
 def format_certify(rep: dict) -> str:
@@ -38,12 +51,7 @@ def format_certify(rep: dict) -> str:
     for e in rep.get("gain_schedule", []):
         lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
                      + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
-    for h in sa["humans"] + sa["environment"]:
-        head = f"  {h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
-        if "skipped" in h:
-            lines.append(head + "skipped (" + h["skipped"] + ")")
-        else:
-            lines.append(head + ("robust" if h["robust"] else "NOT robust") + f"; stable in {_fmt_ivs(h['stable_intervals'])}")
+    lines += [_family_line(h) for h in sa["humans"] + sa["environment"]]
     lines.append("  method: " + rep["method"])
     if rep["certified"]:
         lines.append("CERTIFIED")

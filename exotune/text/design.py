@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from .numbers import fmt_num
+from .numbers import fmt_num, unit_text
 
 __all__ = ["format_design", "format_roots"]
 
@@ -59,20 +59,20 @@ def format_design(rep: dict) -> str:
     out = []
     src = f" — {rep['source']}" if rep.get("source") else ""
     out.append(f"exotune {rep['exotune_version']} design{src}")
-    out.append("Double compliance shaping (paper §IV, SPEC §4).")
+    out.append("Double compliance shaping (paper §IV, docs/method.md#double-compliance-shaping).")
     out.append("Gain convention: " + rep["gain_convention_note"] + ".")
     out.append("")
     out.append("Controller gains")
     for k, v in rep["gains"].items():
-        out.append(f"  {k:<8} {fmt_num(v):>14}  {rep['units'][k]}")
+        out.append(f"  {k:<8} {fmt_num(v):>14}  {unit_text(rep['units'][k])}")
     out.append("")
     out.append("Compliance shape  C4(s) = (s² + B̃2 s + K̃2) / (K_s (s² + B̃1 s + K̃1)), virtual motor Ĵ_m, B̂_m")
     for k, v in rep["shape"].items():
-        out.append(f"  {k:<9} {fmt_num(v):>13}  {rep['shape_units'][k]}")
+        out.append(f"  {k:<9} {fmt_num(v):>13}  {unit_text(rep['shape_units'][k])}")
     out.append("")
     out.append("Nominal transfer functions (zero delay, no filters); poles and zeros in rad/s")
     for name, tf in rep["transfer_functions"].items():
-        out.append(f"  {name} = {tf['transfer']} [{tf['units']}]: {tf['description']}")
+        out.append(f"  {name} = {tf['transfer']} [{unit_text(tf['units'])}]: {tf['description']}")
         for label in ("poles", "zeros"):
             rows = format_roots(tf[label])
             out.append(f"    {label}: {rows[0]}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from .numbers import fmt_num
+from .numbers import count_text, fmt_num
 
 __all__ = ["format_margins"]
 
@@ -28,7 +28,7 @@ def format_margins(margins: dict | None) -> list[str]:
         s = f"  latency margin: {_delay(lm['extra_delay_s'])} of extra delay on top of T = {lm['delay_s'] * 1e3:.4g} ms"
         n = lm.get("extra_delay_samples")
         if n is not None and math.isfinite(n):
-            s += f" ({fmt_num(n, 4)} samples)"
+            s += f" ({count_text(n, 'sample')})"
         L.append(s)
         c = lm.get("critical")
         if c:
@@ -44,9 +44,16 @@ def format_margins(margins: dict | None) -> list[str]:
             L.append("    confirmed by the exact verdicts just below and above the margin")
     pm = margins.get("plant_uncertainty")
     if pm:
-        L.append(f"  plant-uncertainty margin: k* in [{fmt_num(pm['lower'], 4)}, {fmt_num(pm['upper'], 4)}] "
-                 "× the declared relative uncertainty (lower bound certified)")
+        up = "∞" if pm["upper"] is None or (isinstance(pm["upper"], float) and math.isinf(pm["upper"])) else fmt_num(pm["upper"], 4)
+        L.append(f"  plant-uncertainty margin: {fmt_num(pm['lower'], 4)} ≤ k* ≤ {up} × the declared relative "
+                 "plant uncertainty (lower bound certified, upper bound witnessed)")
         w = pm.get("witness")
         if w:
-            L.append(f"    witness just above: {w.get('summary', '')}")
+            dev = ", ".join(f"{k} {v * 100:+.3g} %" for k, v in (w.get("deviations") or {}).items() if v)
+            member = f" at {w['parameter']} = {fmt_num(w['value'], 6)} {w['unit']}" if w.get("value") is not None else ""
+            root = w.get("rightmost_root")
+            where = f", root {fmt_num(root['re'], 4)} {'+' if root['im'] >= 0 else '−'} {fmt_num(abs(root['im']), 6)}j rad/s" if root else ""
+            L.append(f"    witness (unstable at k = {fmt_num(w['k'], 4)}): {w['loop']}{member}; plant {dev or 'nominal'}{where}")
+        if pm.get("note"):
+            L.append(f"    note: {pm['note']}")
     return L

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["fmt_num"]
+__all__ = ["fmt_num", "unit_text", "count_text", "interval_text"]
 
 
 def fmt_num(x, digits=6) -> str:
@@ -40,3 +40,90 @@ def fmt_num(x, digits=6) -> str:
     if isinstance(x, float) and math.isnan(x):
         return "—"
     return f"{x:.{digits}g}"
+
+
+def unit_text(unit: str) -> str:
+    """A unit as the text views print it: dimensionless ``"1"`` becomes ``"–"``.
+
+    Parameters
+    ----------
+    unit : str
+        A unit string of the JSON results (``"1"`` and ``"1 (explanation)"`` mean dimensionless).
+
+    Returns
+    -------
+    str
+        ``"–"`` (or ``"– (explanation)"``) for a dimensionless unit, else ``unit`` unchanged.
+
+    References
+    ----------
+    docs/cli.md#output.
+
+    Examples
+    --------
+    >>> unit_text("1"), unit_text("1 (relative)"), unit_text("1/s")
+    ('–', '– (relative)', '1/s')
+    """
+    if unit == "1":
+        return "–"
+    if isinstance(unit, str) and unit.startswith("1 ("):
+        return "–" + unit[1:]
+    return unit
+
+
+def count_text(n, noun: str, digits: int = 4) -> str:
+    """A count with its noun, singular for exactly one: ``"1 sample"``, ``"2.5 samples"``.
+
+    Parameters
+    ----------
+    n : int or float
+        The count.
+    noun : str
+        The singular noun (the plural adds "s").
+    digits : int
+        Significant digits of :func:`fmt_num`.
+
+    Returns
+    -------
+    str
+        The count and the noun.
+
+    References
+    ----------
+    docs/cli.md#output.
+
+    Examples
+    --------
+    >>> count_text(1.0, "sample"), count_text(3, "sample")
+    ('1 sample', '3 samples')
+    """
+    return f"{fmt_num(n, digits)} {noun}{'' if n == 1 else 's'}"
+
+
+def interval_text(intervals, unit: str, digits: int = 6, empty: str = "none") -> str:
+    """Intervals with their unit: ``"[a, b], [c, d] unit"``.
+
+    Parameters
+    ----------
+    intervals : sequence of (float, float)
+        The intervals.
+    unit : str
+        Their unit (passed through :func:`unit_text`).
+    digits : int
+        Significant digits.
+    empty : str
+        The text without intervals.
+
+    Returns
+    -------
+    str
+        The intervals joined by ", " followed by the unit, or ``empty``.
+
+    References
+    ----------
+    docs/cli.md#output.
+    """
+    if not intervals:
+        return empty
+    u = unit_text(unit)
+    return ", ".join(f"[{a:.{digits}g}, {b:.{digits}g}]" for a, b in intervals) + (f" {u}" if u else "")

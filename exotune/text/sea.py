@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .design import format_roots
-from .numbers import fmt_num
+from .numbers import fmt_num, unit_text
 
 __all__ = ["format_sea"]
 
@@ -33,22 +33,22 @@ def format_sea(rep: dict) -> str:
     out.append(f"Gains (input given in {rep['input_gain_units']} units)")
     for k in ("K1", "B1", "K2", "B2"):
         out.append(
-            f"  {k:<3} {fmt_num(rep['gains_torque'][k]):>13}  {rep['gains_torque_units'][k]:<40}"
-            f" = {fmt_num(rep['gains_deflection'][k])} {rep['gains_deflection_units'][k]}"
+            f"  {k:<3} {fmt_num(rep['gains_torque'][k]):>13}  {unit_text(rep['gains_torque_units'][k]):<40}"
+            f" = {fmt_num(rep['gains_deflection'][k])} {unit_text(rep['gains_deflection_units'][k])}"
         )
     out.append("")
     out.append("Compliance shape  C4(s) = (s² + B̃2 s + K̃2) / (K_s (s² + B̃1 s + K̃1))")
     for k, v in rep["shape"].items():
-        out.append(f"  {k:<9} {fmt_num(v):>13}  {rep['shape_units'][k]}")
+        out.append(f"  {k:<9} {fmt_num(v):>13}  {unit_text(rep['shape_units'][k])}")
     out.append("")
     st = rep["low_frequency_stiffness"]
     extra = " (K1 = 0: no position feedback, zero static stiffness)" if st == 0 else ""
     out.append(f"Low-frequency stiffness 1/C4(0) = K_s K̃1/K̃2: {fmt_num(st)} N·m/rad{extra}")
     if rep["resonance_hz"] is None:
-        out.append("Resonance of C5 = θ_j/τ_j (paper eq. total_compliance): none (no peak of |C5(jω)|)")
+        out.append("Resonance of C5 = θ_j/τ_j (paper eq. (10): none (no peak of |C5(jω)|)")
     else:
         out.append(
-            f"Resonance of C5 = θ_j/τ_j (paper eq. total_compliance): {fmt_num(rep['resonance_hz'], 5)} Hz, "
+            f"Resonance of C5 = θ_j/τ_j (paper eq. (10): {fmt_num(rep['resonance_hz'], 5)} Hz, "
             f"peak |C5| = {fmt_num(rep['resonance_peak_compliance'], 4)} rad/(N·m)"
         )
     out.append(f"C5 poles ({'stable' if rep['c5_stable'] else 'UNSTABLE'}):")

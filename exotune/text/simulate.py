@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from .numbers import count_text, unit_text
+
 __all__ = ["format_simulation"]
 
 
@@ -14,7 +16,7 @@ def _line(k: str, v, indent: str = "  ") -> str:
         extra = {x: y for x, y in v.items() if x not in ("value", "unit")}
         tail = "".join(f"; {x.replace('_', ' ')} {_num(y) if isinstance(y, float) or y is None else y}"
                        for x, y in extra.items())
-        return f"{indent}{k.replace('_', ' ')}: {_num(v['value'])} {v['unit']}{tail}"
+        return f"{indent}{k.replace('_', ' ')}: {_num(v['value'])} {unit_text(v['unit'])}{tail}"
     return f"{indent}{k.replace('_', ' ')}: {v}"
 
 
@@ -24,7 +26,7 @@ def format_simulation(rep: dict) -> str:
     Parameters
     ----------
     rep : dict
-        The result of :func:`exotune.simulate.run_scenario`.
+        The result of :func:`exotune.simulation.run_scenario`.
 
     Returns
     -------
@@ -40,7 +42,7 @@ def format_simulation(rep: dict) -> str:
     """
     sm = rep["summary"]
     out = [f"exotune simulate — {rep['scenario']}: {rep['description']}",
-           f"  sample rate {rep['sample_rate_hz']:g} Hz, delay {rep['delay_samples']:.4g} samples, start {sm['start']}",
+           f"  sample rate {rep['sample_rate_hz']:g} Hz, delay {count_text(rep['delay_samples'], 'sample')}, start {sm['start']}",
            f"  verdict: {sm['verdict']}"]
     out += [_line(k, v) for k, v in sm.items() if k not in ("start", "verdict")]
     w = rep.get("windup_recovery")
@@ -63,7 +65,7 @@ def format_simulation(rep: dict) -> str:
         out.append("  the DOB's friction estimate:")
         out += [_line(k, v, "    ") for k, v in fe.items()]
     for k, v in rep.get("friction_sensitivity", {}).items():
-        out.append(f"  friction sensitivity {k.replace('_', ' ')}: {_num(v['value'], '.4g')} {v['unit']}")
+        out.append(f"  friction sensitivity {k.replace('_', ' ')}: {_num(v['value'], '.4g')} {unit_text(v['unit'])}")
     if "summary_without_dob" in rep:
         out.append("  without the DOB:")
         out += [_line(k, v, "    ") for k, v in rep["summary_without_dob"].items()]

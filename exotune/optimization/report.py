@@ -1,0 +1,162 @@
+"""Text of an optimization result and the ``exotune optimize`` command (write the design file).
+
+References
+----------
+docs/optimize-spec.md#result.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .search import optimize
+from .spec import load_optimize_spec, optimized_design_mapping
+
+__all__ = ["format_optimize", "run_optimize"]
+
+
+def _ms(v) -> str:
+    return "unbounded" if v is None or not math.isfinite(v) else f"{v * 1e3:.6g} ms"
+
+
+#: the unit of the ranged parameter of a one-parameter human kind (an msd family names it in its key)
+_KIND_UNITS = {"mass": "kg·m²", "spring": "N·m/rad", "complex_stiffness": "N·m/rad"}
+
+
+def _unit(unit: str) -> str:
+    """A unit as the text prints it: dimensionless "1" as "–" (as :func:`exotune.text.numbers.unit_text`)."""
+    return "–" + unit[1:] if unit == "1" or unit.startswith("1 (") else unit
+
+
+def _intervals(key: str, iv) -> str:
+    """Stable intervals of a family column ``human<i>_<kind>_stable_intervals`` with their unit."""
+    if not iv:
+        return "none"
+    kind = key.split("_", 1)[1].removesuffix("_stable_intervals") if "_" in key else ""
+    unit = _KIND_UNITS.get(kind, "")
+    return ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in iv) + (f" {unit}" if unit else "")
+
+
+def _violation_lines(r: dict) -> list[str]:
+    lines = []
+    for v in r.get("violations", []):
+        if v["constraint"] == "robust":
+            unst = v.get("unstable")
+            part = (", unstable for " + ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unst) + f" {_unit(v['unit'])}") if unst else ""
+            lines.append(f"  robust: {v['family']} not stable over {v['parameter']} ∈ "
+                         f"[{v['range'][0]:.6g}, {v['range'][1]:.6g}] {_unit(v['unit'])}{part}")
+        elif "bound" in v:
+            val = "n/a" if v["value"] is None else f"{v['value']:.6g}"
+            u = _unit(v["unit"])
+            lines.append(f"  {v['constraint']}: {val} {u}, needed {v['op']} {v['bound']:.6g} {u}")
+        else:
+            lines.append(f"  {v['constraint']}: false, needed true")
+    return lines
+
+
+def _bound_lines(r: dict) -> list[str]:
+    if not r.get("at_bounds"):
+        return []
+    return ["  at their bounds: " + ", ".join(f"{b['parameter']} = {b['value']:.6g} ({b['bound']})" for b in r["at_bounds"])]
+
+
+def _latency_line(r: dict) -> str:
+    lm = r["latency_margin"]
+    ach = lm["achieved_s"]
+    req = lm["required_s"]
+    n = lm.get("achieved_samples")
+    smp = f" = {n:.3g} sample{'' if n == 1 else 's'}" if n is not None else ""
+    need = f"required ≥ {_ms(req)} ({lm['required_from']})" if req > 0 else f"none required ({lm['required_from']})"
+    return f"  latency margin (exact): {_ms(ach)}{smp}; {need}"
+
+
+def format_optimize(r: dict) -> str:
+    """The text of ``exotune optimize`` for a result of :func:`optimize`."""
+    if not r["feasible"]:
+        lines = ["NO FEASIBLE DESIGN found in the bounds after "
+                 f"{r['evaluated']} exact analyses; the best one breaks: {', '.join(r['broken'])}"]
+        lines += [f"  {p} = {v:.6g}" for p, v in r["x"].items()]
+        lines += _violation_lines(r) + _bound_lines(r)
+        return "\n".join(lines)
+    o = r["objective"]
+    lines = [f"optimum ({r['evaluated']} designs analysed exactly): {o['name']} = {o['value']:.6g} {_unit(o['unit'])} ({o['sense']}imized)"]
+    lines += [f"  {p} = {v:.6g}" for p, v in r["x"].items()]
+    lines.append("  active constraints (binding at the optimum): " + (", ".join(r["active_constraints"]) or "none"))
+    lines += _bound_lines(r)
+    if r.get("near_binding"):
+        lines.append("  within 1 % of their bound: " + ", ".join(r["near_binding"]))
+    if "latency_margin" in r:
+        lines.append(_latency_line(r))
+    for k, m in r["metrics"].items():
+        if k == "human_stable_intervals":
+            for fk, iv in m.items():
+                lines.append(f"  {fk}: {_intervals(fk, iv)}")
+        else:
+            at = f" at {m['frequency_hz']:.6g} Hz" if m.get("frequency_hz") else ""
+            lines.append(f"  {k}: {m['value']:.6g} {_unit(m['unit'])}{at}")
+    from ..analysis import format_certificates
+
+    lines += format_certificates(r.get("passivity_certificates"))
+    if r.get("certificate_warning"):
+        lines.append("  WARNING: " + r["certificate_warning"])
+    if r.get("latency_warning"):
+        lines.append("  WARNING: " + r["latency_warning"])
+    for w in r.get("sampled_data_warnings", []):
+        lines.append("  WARNING: " + w + " (the search itself is continuous-time: tighten the human ranges or the "
+                     "delay, then export and certify)")
+    if "pareto" in r:
+        lines.append(f"  Pareto front (objective vs robust fraction): {len(r['pareto'])} designs")
+    return "\n".join(lines)
+
+
+def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> dict:
+    """``exotune optimize``: load, search, write the optimized design file (validated, atomically)
+    and, on request, the Pareto front as CSV.
+
+    Parameters
+    ----------
+    spec_file : str, os.PathLike or dict
+        The optimization spec.
+    out : str or os.PathLike
+        Design file to write (only when a feasible design is found).
+    seed : int, optional
+        Overrides the spec's seed.
+    pareto_csv : str or os.PathLike, optional
+        Where to write the Pareto front.
+
+    Returns
+    -------
+    dict
+        The result of :func:`optimize` (``feasible`` false: nothing written).
+
+    Raises
+    ------
+    ConfigError
+        For bad input.
+
+    References
+    ----------
+    docs/optimize-spec.md.
+    """
+    import yaml
+
+    from ..config import design_from_mapping
+    from ..jsonio import write_atomic
+
+    spec = load_optimize_spec(spec_file, seed=seed)
+    r = optimize(spec, pareto=pareto_csv is not None)
+    if not r["feasible"]:
+        return r
+    mapping = optimized_design_mapping(spec, r)
+    design_from_mapping(mapping)  # the written file must load
+    o = r["objective"]
+    lm = r["latency_margin"]
+    head = (f"# exotune optimize: {o['name']} = {o['value']:.6g} {_unit(o['unit'])} ({o['sense']}imized), "
+            f"active: {', '.join(r['active_constraints']) or 'none'}; latency margin {_ms(lm['achieved_s'])} "
+            f"(required {_ms(lm['required_s'])}); seed {spec.seed}\n")
+    write_atomic(out, head + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True))
+    if pareto_csv is not None:
+        cols = ["objective", "robust_fraction", *spec.free]
+        text = ",".join(cols) + "\n" + "".join(",".join(repr(float(row[c])) for c in cols) + "\n" for row in r["pareto"])
+        write_atomic(pareto_csv, text)
+    return r

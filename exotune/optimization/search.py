@@ -1,0 +1,257 @@
+"""The search of ``exotune optimize`` (method: the package docstring).
+
+References
+----------
+docs/optimize-spec.md#method.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .diagnose import at_bounds, binding, exact_latency_margin, latency_record, violations
+from .peak import amplification_peak
+from .space import Archive, from_unit, polish_boundary, polish_pattern, ray_max
+from .spec import CONSTRAINTS, LATENCY_CHECKS, OBJECTIVES, OptimizeSpec, optimized_design_mapping
+
+__all__ = ["optimize", "GLOBAL_SHARE", "TIGHTEN_ROUNDS"]
+
+#: share of the budget spent by the global stage (the rest: local polish)
+GLOBAL_SHARE = 0.5
+#: rounds of tightening the checked extra delays when the exact margin falls short
+TIGHTEN_ROUNDS = 3
+_SHORTLIST = 3
+
+
+def _global(ar: Archive, spec: OptimizeSpec):
+    import scipy.optimize
+
+    D = len(ar.paths)
+    budget = max(50, int(spec.budget * GLOBAL_SHARE))
+    popsize = max(5, int(round(min(60, budget / 20) / max(D, 1))))
+    S = popsize * D
+    maxiter = max(1, budget // S - 1)
+    return scipy.optimize.differential_evolution(
+        lambda U: ar.score(ar.evaluate(np.asarray(U).T)), [(0.0, 1.0)] * D, vectorized=True,
+        updating="deferred", seed=spec.seed, popsize=popsize, maxiter=maxiter, polish=False, tol=1e-6,
+        init="latinhypercube")
+
+
+def _local(ar: Archive, u: np.ndarray, value: float, budget: int, rng, h: float) -> np.ndarray:
+    """Polish from u, then take back the best feasible design evaluated (and, when the objective
+    is a parameter, push it to its boundary once more)."""
+    if ar.j is not None:
+        polish_boundary(ar, u, budget, rng, h)
+    else:
+        polish_pattern(ar, u, value, budget, rng, h)
+    best = ar.best_feasible()
+    u = best[1]
+    if ar.j is not None:
+        u = ray_max(ar, u[None, :])[0]
+    return u
+
+
+def _shortlist_latency(ar: Archive, spec: OptimizeSpec, u: np.ndarray):
+    """Objective latency_margin_s: the exact margin of the best few designs; the best exact wins."""
+    cands = np.vstack([u[None, :], ar.top_feasible(_SHORTLIST)])
+    _, first = np.unique(np.round(cands, 12), axis=0, return_index=True)
+    cands = cands[np.sort(first)][:_SHORTLIST]
+    best = None
+    for c in cands:
+        lm = exact_latency_margin(spec, from_unit(spec, c[None, :])[0])
+        if best is None or lm.extra_delay_s > best[1].extra_delay_s:
+            best = (c, lm)
+    return best
+
+
+def _tightened(spec: OptimizeSpec, achieved: float) -> OptimizeSpec:
+    """More checked extra delays: twice as many on [0, m], plus one just past the shortfall."""
+    m = float(spec.constraints["latency_margin_s"])
+    K = max(LATENCY_CHECKS, len(spec.checked_delays())) * 2
+    d = set(np.round(m * np.arange(1, K + 1) / K, 15).tolist()) | set(spec.checked_delays().tolist())
+    if 0 < achieved < m:
+        d |= {achieved * (1 + 1e-6), 0.5 * (achieved + m)}
+    return dataclasses.replace(spec, latency_deltas=tuple(sorted(d)))
+
+
+def _search(spec: OptimizeSpec, rng):
+    """Global stage + polish + exact latency check (tightening on a shortfall).
+    Returns (archive, u, latency margin, de result, spec used, tightening rounds) or an
+    infeasible marker (archive, None, ...)."""
+    ar = Archive(spec)
+    res = _global(ar, spec)
+    best = ar.best_feasible()
+    if best is None:
+        return ar, None, None, res, spec, 0
+    total = max(spec.budget, ar.count + 40 * len(ar.paths) + 200)
+    u = _local(ar, best[1], best[0], total, rng, 0.1)
+    m = float(spec.constraints.get("latency_margin_s", 0.0))
+    rounds = 0
+    while True:
+        if spec.objective == "latency_margin_s":
+            u, lm = _shortlist_latency(ar, spec, u)
+        else:
+            lm = exact_latency_margin(spec, from_unit(spec, u[None, :])[0])
+        if m <= 0 or lm.extra_delay_s >= m or rounds >= TIGHTEN_ROUNDS:
+            return ar, u, lm, res, spec, rounds
+        rounds += 1
+        spec = _tightened(spec, float(lm.extra_delay_s))
+        old = ar
+        ar = Archive(spec)
+        ar.count, ar.history = old.count, old.history + old.evs
+        ev = ar.evaluate(old.top_feasible(64))
+        b = ar.best_feasible([ev])
+        if b is None:
+            return ar, None, None, res, spec, rounds
+        u = _local(ar, b[1], b[0], ar.count + 40 * len(ar.paths) + 200, rng, 0.02)
+
+
+def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
+    """Run the search of the package docstring.
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The problem (:func:`load_optimize_spec`).
+    pareto : bool
+        Also return the non-dominated (objective, robust fraction) designs evaluated.
+
+    Returns
+    -------
+    dict
+        JSON-ready result: ``feasible``; for a feasible problem ``objective``, ``x``,
+        ``active_constraints`` (binding), ``binding`` (how each was found), ``at_bounds``,
+        ``latency_margin`` (required and achieved, exact, with units), ``metrics``, …; for an
+        infeasible one the best design's ``x``, ``broken``, ``violations`` and ``at_bounds``.
+
+    References
+    ----------
+    docs/optimize-spec.md; paper §V, §IV-A.
+    """
+    rng = np.random.default_rng(spec.seed)
+    ar, u, lm, res, used, rounds = _search(spec, rng)
+    if u is None:
+        return _infeasible(ar, spec)
+    final = ar.evaluate(u[None, :])
+    assert bool(final["feasible"][0]), "the optimum must be feasible"
+    x = final["X"][0]
+    what, sense, unit = OBJECTIVES[spec.objective]
+    achieved = float(lm.extra_delay_s)
+    names, details = binding(ar, u, final, achieved)
+    bounds = at_bounds(spec, u, x)
+    if ar.j is not None and any(b["parameter"] == what for b in bounds):
+        lo, hi, _sc = spec.free[what]
+        names = names + [f"bound {what} ≤ {hi:g}" if sense == "max" else f"bound {what} ≥ {lo:g}"]
+    near = [n for n, (col, op, _u) in CONSTRAINTS.items()
+            if n in spec.constraints and n != "latency_margin_s" and _rel_slack(spec, final, n) < 0.01]
+    value = achieved if spec.objective == "latency_margin_s" else float(final["objective"][0])
+    out = {
+        "feasible": True,
+        "objective": {"name": spec.objective, "sense": sense, "value": value, "unit": unit},
+        "x": dict(zip(ar.paths, x.tolist())),
+        "active_constraints": names,
+        "binding": details,
+        "at_bounds": bounds,
+        "near_binding": near,
+        "evaluated": int(ar.count),
+        "de_message": str(res.message),
+        "latency_margin": {**latency_record(used, lm), "tightening_rounds": rounds},
+        "metrics": _metrics(spec, final),
+        "robust_fraction": float(final["robust_fraction"][0]),
+        "spec": spec.raw,
+    }
+    if not names:
+        out["note"] = ("no constraint is binding (metric objective): a local optimum of the search"
+                       + (", limited by the parameter bounds listed in at_bounds" if bounds else ""))
+    if not out["latency_margin"]["met"]:
+        out["latency_warning"] = (f"the exact latency margin {achieved * 1e3:.6g} ms is below the required "
+                                  f"{out['latency_margin']['required_s'] * 1e3:.6g} ms after {rounds} tightening rounds")
+    _certificates(spec, out)
+    if pareto:
+        out["pareto"] = _pareto(spec, ar)
+    return out
+
+
+def _rel_slack(spec, final, name) -> float:
+    col, op, _u = CONSTRAINTS[name]
+    b = spec.constraints[name]
+    v = float(np.asarray(final["columns"][col])[0])
+    return ((v - b) if op == ">=" else (b - v)) / max(abs(b), 1e-12)
+
+
+def _infeasible(ar: Archive, spec: OptimizeSpec) -> dict:
+    U, _v = ar.least_violation()
+    ev = ar.evaluate(U[None, :])
+    x = ev["X"][0]
+    lm = exact_latency_margin(spec, x, ev, 0) if ev["broken"].get("latency_margin_s", [False])[0] else None
+    achieved = None if lm is None else float(lm.extra_delay_s)
+    return {"feasible": False, "evaluated": int(ar.count), "x": dict(zip(ar.paths, x.tolist())),
+            "broken": sorted(k for k, v in ev["broken"].items() if v[0]),
+            "violations": violations(spec, ev, 0, achieved),
+            "at_bounds": at_bounds(spec, U, x), "spec": spec.raw}
+
+
+def _certificates(spec, out) -> None:
+    from ..analysis import analyze_design, kyp_certificates
+    from ..config import design_from_mapping
+
+    opt_cfg = design_from_mapping(optimized_design_mapping(spec, out))
+    if spec.cfg.implementation.sample_rate_hz is not None:
+        # the search is continuous-time (exact delay); with a sample rate, check the optimum's
+        # sampled-data loop too and say where sampling breaks what the search accepted
+        rep = analyze_design(opt_cfg)
+        out["sampled_data_warnings"] = [w for w in rep.get("warnings", []) if "sampled-data" in w]
+        certs = rep["passivity"]["kyp"]
+    else:
+        certs = kyp_certificates(opt_cfg)
+    # the convex sub-problem: KYP certificates of the optimum's rational C7 models (cvxpy)
+    out["passivity_certificates"] = certs
+    nom = certs.get("nominal") or {}
+    if spec.constraints["nominal_passive"] and nom.get("passive") is not True:
+        out["certificate_warning"] = ("the KYP certificate does not confirm the closed-form nominal passivity of the "
+                                      f"optimum: {nom.get('reason', certs.get('error'))}")
+
+
+def _metrics(spec, final) -> dict:
+    from ..config import batch_config
+
+    cols = final["columns"]
+    g = lambda k: float(np.asarray(cols[k])[0])  # noqa: E731
+    cfg1 = batch_config(spec.cfg, {p: final["X"][:, j] for j, p in enumerate(spec.free)})
+    pk_db, pk_hz = amplification_peak(cfg1)
+    return {
+        "passivity_max_phase_excess_deg": {"value": g("passivity_max_phase_excess_deg"), "unit": "deg"},
+        "dob_phase_margin_deg": {"value": g("dob_phase_margin_deg"), "unit": "deg"},
+        "dob_gain_margin_db": {"value": g("dob_gain_margin_db"), "unit": "dB"},
+        "dob_delay_margin_s": {"value": g("dob_delay_margin_s"), "unit": "s"},
+        "amplification_bandwidth_hz": {"value": g("amplification_bandwidth_hz"), "unit": "Hz"},
+        "amplification_peak_db": {"value": float(pk_db[0]), "unit": "dB", "frequency_hz": float(pk_hz[0])},
+        "human_stable_intervals": {k: cols[k][0] for k in cols if k.startswith("human") and k.endswith("_stable_intervals")},
+    }
+
+
+def _pareto(spec, ar: Archive) -> list[dict]:
+    """Non-dominated (objective, robust fraction) among designs meeting every other constraint
+    (the latency margin, which needs robustness, excepted)."""
+    what, sense, _ = OBJECTIVES[spec.objective]
+    rows = []
+    for ev in ar.history + ar.evs:
+        other = np.ones(ev["X"].shape[0], bool)
+        for n, v in ev["broken"].items():
+            if n not in ("robust", "latency_margin_s"):
+                other &= ~v
+        for i in np.nonzero(other)[0]:
+            o = float(ev["objective"][i])
+            if math.isfinite(o):
+                rows.append((o if sense == "max" else -o, float(ev["robust_fraction"][i]), ev["X"][i]))
+    rows.sort(key=lambda r: (-r[0], -r[1]))
+    front, best_r = [], -1.0
+    for o, r, x in rows:
+        if r > best_r:
+            front.append({"objective": o if sense == "max" else -o, "robust_fraction": r,
+                          **dict(zip(spec.free, x.tolist()))})
+            best_r = r
+    return front

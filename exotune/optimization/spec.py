@@ -1,0 +1,249 @@
+"""The optimization spec of ``exotune optimize``: objectives, constraints, validation.
+
+References
+----------
+docs/optimize-spec.md (the spec file); paper §V (robust stability), §IV-A (passivity).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = ["OBJECTIVES", "CONSTRAINTS", "DEFAULT_LATENCY_MARGIN_S", "LATENCY_CHECKS", "OptimizeSpec",
+           "load_optimize_spec", "default_budget", "optimized_design_mapping"]
+
+#: objective name → (what: a dotted parameter path or an analyze_batch column, sense, unit)
+OBJECTIVES = {
+    "amplification": ("design.amplification", "max", "1"),
+    "felt_inertia": ("design.felt_inertia", "min", "kg·m²"),
+    # "felt compliance": the operator feels C7 ≈ 1/(Ĵ_m/α s² + B̂_m/α s) at low frequency, so
+    # the most compliant (lightest-feeling) exoskeleton has the smallest felt inertia
+    "felt_compliance": ("design.felt_inertia", "min", "kg·m² (felt inertia, minimized)"),
+    "amplification_bandwidth_hz": ("amplification_bandwidth_hz", "max", "Hz"),
+    "dob_delay_margin_s": ("dob_delay_margin_s", "max", "s"),
+    "passivity_max_phase_excess_deg": ("passivity_max_phase_excess_deg", "min", "deg"),
+    # the latency margin (exotune.analysis.margins): a verdict ladder during the search, exact at the end
+    "latency_margin_s": ("latency_margin_s", "max", "s"),
+}
+#: bound constraints: name → (column, ">=" | "<=", unit)
+CONSTRAINTS = {
+    "max_phase_excess_deg": ("passivity_max_phase_excess_deg", "<=", "deg"),
+    "dob_phase_margin_deg": ("dob_phase_margin_deg", ">=", "deg"),
+    "dob_gain_margin_db": ("dob_gain_margin_db", ">=", "dB"),
+    "dob_delay_margin_s": ("dob_delay_margin_s", ">=", "s"),
+    "amplification_bandwidth_hz": ("amplification_bandwidth_hz", ">=", "Hz"),
+    "amplification_peak_db": ("amplification_peak_db", "<=", "dB"),
+    "latency_margin_s": ("latency_margin_s", ">=", "s"),
+}
+#: recognized names whose computation is not available yet (a clear ConfigError)
+PENDING = {"plant_uncertainty_margin": "the plant-uncertainty margin is not implemented yet"}
+BOOL = ("robust", "free_stable", "locked_stable", "nominal_passive")
+BOOL_DEFAULT = {"robust": True, "free_stable": True, "locked_stable": True, "nominal_passive": False}
+KEYS = ("base", "objective", "free", "constraints", "seed", "budget")
+#: default latency margin without a sample rate [s] (with one: one sample period)
+DEFAULT_LATENCY_MARGIN_S = 0.0005
+#: extra delays m·k/K (k = 1..K) checked per candidate for the constraint latency_margin_s ≥ m
+LATENCY_CHECKS = 3
+
+
+@dataclass(frozen=True)
+class OptimizeSpec:
+    """A validated optimization problem (:func:`load_optimize_spec`).
+
+    ``constraints["latency_margin_s"]`` is always present (0: no latency margin required);
+    ``latency_default`` says where its value comes from when the spec did not set it;
+    ``latency_deltas`` are the extra delays [s] checked per candidate (empty: m·k/K, k = 1..K)."""
+
+    cfg: object  # DesignConfig of the base
+    free: dict  # path → (lo, hi, "log"|"lin")
+    objective: str
+    constraints: dict  # name → bound (float) or bool
+    seed: int = 0
+    budget: int = 3000
+    source: str | None = None
+    raw: dict = field(default_factory=dict)
+    latency_default: str | None = None
+    latency_deltas: tuple = ()
+
+    def checked_delays(self) -> np.ndarray:
+        """The extra delays [s] at which the delay-sensitive verdicts must hold (latency margin)."""
+        m = float(self.constraints.get("latency_margin_s", 0.0))
+        if m <= 0:
+            return np.zeros(0)
+        if self.latency_deltas:
+            return np.asarray(self.latency_deltas, float)
+        return m * np.arange(1, LATENCY_CHECKS + 1) / LATENCY_CHECKS
+
+
+def default_budget(n_free: int) -> int:
+    """Default number of exact analyses: 1500 per free parameter, at least 3000."""
+    return max(3000, 1500 * int(n_free))
+
+
+def _num(field_: str, v) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
+        raise ConfigError(field_, f"expected a finite number, got {v!r}")
+    return float(v)
+
+
+def _read(spec):
+    from ..config import read_yaml
+
+    if isinstance(spec, (str, os.PathLike)):
+        mapping = read_yaml(os.fspath(spec))
+        root, source = os.path.dirname(os.path.abspath(os.fspath(spec))), os.fspath(spec)
+    elif isinstance(spec, dict):
+        mapping, root, source = spec, os.getcwd(), None
+    else:
+        raise ConfigError("<spec>", f"expected a spec file path or a mapping, got {type(spec).__name__}")
+    if not isinstance(mapping, dict):
+        raise ConfigError(source or "<spec>", "expected a mapping at the top level")
+    for k in mapping:
+        if k not in KEYS:
+            raise ConfigError(str(k), f"unknown key in an optimization spec (allowed: {', '.join(KEYS)})")
+    if "base" not in mapping:
+        raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
+    return mapping, root, source
+
+
+def _free(cfg, free_in) -> dict:
+    from ..config import OVERRIDABLE, batch_config
+
+    if not isinstance(free_in, dict) or not free_in:
+        raise ConfigError("free", "required: a mapping of dotted parameter paths to bounds [lo, hi]")
+    free = {}
+    for path, b in free_in.items():
+        f = f"free.{path}"
+        if path not in OVERRIDABLE:
+            raise ConfigError(f, "unknown or non-overridable parameter (the paths of sweep axes)")
+        scale = None
+        if isinstance(b, dict):
+            extra = set(b) - {"lo", "hi", "scale"}
+            if extra:
+                raise ConfigError(f"{f}.{sorted(extra)[0]}", "unknown key (allowed: lo, hi, scale)")
+            if "lo" not in b or "hi" not in b:
+                raise ConfigError(f, "needs lo and hi")
+            lo, hi, scale = _num(f"{f}.lo", b["lo"]), _num(f"{f}.hi", b["hi"]), b.get("scale")
+            if scale not in (None, "lin", "log"):
+                raise ConfigError(f"{f}.scale", f"expected lin or log, got {scale!r}")
+        elif isinstance(b, (list, tuple)) and len(b) == 2:
+            lo, hi = _num(f"{f}[0]", b[0]), _num(f"{f}[1]", b[1])
+        else:
+            raise ConfigError(f, f"expected bounds [lo, hi] or {{lo, hi, scale}}, got {b!r}")
+        if not lo < hi:
+            raise ConfigError(f, f"lower bound {lo:g} must be below the upper bound {hi:g}")
+        try:
+            batch_config(cfg, {path: np.array([lo, hi])})
+        except ConfigError as e:
+            raise ConfigError(f, e.reason) from None
+        if scale == "log" and lo <= 0:
+            raise ConfigError(f"{f}.scale", "log scale needs a positive lower bound")
+        if scale is None:
+            scale = "log" if lo > 0 and hi / lo > 10 else "lin"
+        free[path] = (lo, hi, scale)
+    return free
+
+
+def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
+    cons_in = {} if cons_in is None else cons_in  # an empty `constraints:` key: the defaults
+    if not isinstance(cons_in, dict):
+        raise ConfigError("constraints", f"expected a mapping of constraint names to bounds, got {cons_in!r}")
+    cons = dict(BOOL_DEFAULT)
+    for k, v in cons_in.items():
+        if k in BOOL:
+            if not isinstance(v, bool):
+                raise ConfigError(f"constraints.{k}", f"expected true or false, got {v!r}")
+            cons[k] = v
+        elif k in CONSTRAINTS:
+            cons[k] = _num(f"constraints.{k}", v)
+            if k == "max_phase_excess_deg" and cons[k] < 0:
+                raise ConfigError(f"constraints.{k}", f"must be >= 0 (the phase excess is never negative), got {v!r}")
+            if k == "latency_margin_s" and cons[k] < 0:
+                raise ConfigError(f"constraints.{k}", f"must be >= 0 s (0 disables the latency margin), got {v!r}")
+        elif k in PENDING:
+            raise ConfigError(f"constraints.{k}", f"not available yet: {PENDING[k]}")
+        else:
+            raise ConfigError(f"constraints.{k}", f"unknown constraint (known: {', '.join(BOOL + tuple(CONSTRAINTS))})")
+    if cons["robust"] and not cfg.humans:
+        raise ConfigError("constraints.robust", "the base design has no human families to be robust against")
+    how = None
+    if "latency_margin_s" not in cons:
+        # the default keeps a margin only where every delay-sensitive verdict is required
+        if cons["free_stable"] and cons["locked_stable"] and (cons["robust"] or not cfg.humans):
+            fs = cfg.implementation.sample_rate_hz
+            if fs:
+                cons["latency_margin_s"], how = 1.0 / float(fs), f"default: one sample period at {float(fs):g} Hz"
+            else:
+                cons["latency_margin_s"], how = DEFAULT_LATENCY_MARGIN_S, "default: 0.5 ms (no sample rate set)"
+        else:
+            cons["latency_margin_s"], how = 0.0, "default: none (a stability constraint is disabled)"
+    return cons, how
+
+
+def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
+    """Read and validate an optimization spec (a YAML path or a mapping).
+
+    Parameters
+    ----------
+    spec : str, os.PathLike or dict
+        The spec (docs/optimize-spec.md); a ``base`` path is relative to the spec file.
+    seed : int, optional
+        Overrides the spec's ``seed`` (the command line's ``--seed``).
+
+    Returns
+    -------
+    OptimizeSpec
+        With the latency-margin default resolved (one sample period when the base design has
+        ``implementation.sample_rate_hz``, else 0.5 ms; ``latency_margin_s: 0`` disables it) and
+        the default budget (1500 analyses per free parameter, at least 3000).
+
+    Raises
+    ------
+    ConfigError
+        For every problem, naming the field.
+
+    References
+    ----------
+    docs/optimize-spec.md; paper §V.
+    """
+    from ..sweeps import load_base
+
+    mapping, root, source = _read(spec)
+    cfg, _ = load_base(mapping["base"], root)
+    objective = mapping.get("objective", "amplification")
+    if not isinstance(objective, str) or objective not in OBJECTIVES:
+        raise ConfigError("objective", f"unknown objective {objective!r} (known: {', '.join(OBJECTIVES)})")
+    free = _free(cfg, mapping.get("free"))
+    what = OBJECTIVES[objective][0]
+    if what.startswith(("design.", "plant.", "implementation.")) and what not in free:
+        raise ConfigError("objective", f"{objective} is the parameter {what}: list it under free with its bounds")
+    cons, how = _constraints(cfg, mapping.get("constraints"))
+    s = mapping.get("seed", 0) if seed is None else seed
+    if isinstance(s, bool) or not isinstance(s, int) or s < 0:
+        raise ConfigError("seed", f"expected a non-negative integer, got {s!r}")
+    budget = mapping.get("budget", default_budget(len(free)))
+    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 50:
+        raise ConfigError("budget", f"expected an integer ≥ 50, got {budget!r}")
+    raw = {"objective": objective, "free": {p: list(v) for p, v in free.items()}, "constraints": cons,
+           "seed": s, "budget": budget}
+    return OptimizeSpec(cfg, free, objective, cons, s, budget, source, raw, how)
+
+
+def optimized_design_mapping(spec: OptimizeSpec, result: dict) -> dict:
+    """The base design mapping with the optimized values (``result["x"]``) written in."""
+    import copy
+
+    raw = copy.deepcopy(spec.cfg.raw)
+    for path, v in result["x"].items():
+        node = raw
+        keys = path.split(".")
+        for k in keys[:-1]:
+            node = node[k]
+        node[keys[-1]] = float(v)
+    return raw

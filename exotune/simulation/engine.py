@@ -1,0 +1,272 @@
+"""One time-domain run: the exported runtime controller stepped once per sample on the joint.
+
+The controller is the reference runtime (:class:`exotune.controllerfile.runtime.Runtime`), stepped
+exactly as a real-time port would. Its command is applied through a zero-order hold after the
+file's total latency T = (d + f)·T_s (d whole samples; for the fraction f of each period the
+previous command is still applied) and clipped to the motor limit. The joint is integrated by
+:class:`~exotune.simulation.plant.JointPlant`: exactly (matrix exponential) where it is linear, so
+a run without nonlinearities equals the sampled-data model of :mod:`exotune.sampled` sample by
+sample. Where the joint is linear and no limit is reached, chunks of ``CHUNK`` samples run as one
+linear recursion whose runtime part is read off the runtime's step (:mod:`.fastpath`; the same
+numbers to rounding, about as fast as a plain linear simulation); a chunk that reaches a limit is
+continued sample by sample from where it reached the limit (``SLOW_RUN`` samples, then fast again).
+
+Start: ``"zero"`` (every controller state and past command zero) or ``"bumpless"`` (every filter
+at the steady state of its initial input, the DOB at a zero disturbance estimate — the command
+τ_0 = −τ_s(0) that holds the motor still against the measured spring torque — and the delay line
+holding τ_0).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import replace
+from typing import Callable
+
+import numpy as np
+
+from ..controllerfile import Runtime
+from .fastpath import LinearLoop, runtime_state, set_runtime_state
+from .plant import JointPlant
+
+__all__ = ["simulate", "bumpless_start", "strip_dob", "STATE_BOUND", "STARTS", "CHUNK"]
+
+CHUNK = 1000  # samples per fast linear stretch
+SLOW_RUN = 50  # samples stepped one by one from where a fast stretch reached a limit
+STATE_BOUND = 1e6  # an angle beyond this bound [rad] ends the run as diverged
+STARTS = ("bumpless", "zero")
+SERIES = ("t", "theta_m", "omega_m", "theta_j", "theta_h", "tau_s", "dtau_s", "tau_c", "tau_cmd", "tau_m", "push",
+          "friction")
+
+
+def _sos_steady(sos, x: float) -> tuple[list, float]:
+    """DF-II-T states of a cascade at the steady state of a constant input ``x`` (a section with a
+    pole at z = 1 and a non-zero input has none: ValueError)."""
+    states = []
+    for b0, b1, b2, _a0, a1, a2 in sos:
+        den = 1.0 + a1 + a2
+        if abs(den) <= 1e-12 * (1.0 + abs(a1) + abs(a2)):
+            if x != 0.0:
+                raise ValueError("integrating section")
+            y = 0.0
+        else:
+            y = (b0 + b1 + b2) / den * x
+        states.append((y - b0 * x, b2 * x - a2 * y))
+        x = y
+    return states, x
+
+
+def bumpless_start(rt: Runtime, y0: dict) -> tuple[float, str]:
+    """Set the runtime's filter states for a bumpless start with the measurements ``y0``.
+
+    Parameters
+    ----------
+    rt : Runtime
+        A freshly built runtime (its states are overwritten).
+    y0 : dict
+        The initial sampled signals.
+
+    Returns
+    -------
+    (float, str)
+        The command τ_0 [N·m] the delay line holds, and a note ("" or which filter had no
+        steady state and started at zero).
+
+    References
+    ----------
+    docs/method.md#simulation.
+    """
+    note = []
+    tau0 = -float(y0["tau_s"])  # the motor at rest against the spring: zero disturbance estimate
+    if rt.limit_nm is not None:
+        tau0 = min(rt.limit_nm, max(-rt.limit_nm, tau0))
+    pairs = [(f, float(y0[s])) for s, f in rt.filters] + [(f, tau0) for f in rt.loop]
+    for f, x in pairs:
+        try:
+            states, _ = _sos_steady(f.sos, x)
+        except ValueError:
+            f.reset()
+            note.append("a filter integrates its input and starts at zero")
+            continue
+        for z, (z0, z1) in zip(f.z, states):
+            z[0], z[1] = z0, z1
+    if not rt.loop:  # without a DOB: the controller's steady command for y0
+        tau0 = sum(g * float(y0[s]) for s, g in rt.gains.items()) + sum(f.peek(float(y0[s])) for s, f in rt.filters)
+        if rt.limit_nm is not None:
+            tau0 = min(rt.limit_nm, max(-rt.limit_nm, tau0))
+    return tau0, "; ".join(sorted(set(note)))
+
+
+def strip_dob(doc: dict) -> dict:
+    """A copy of the controller file ``doc`` without the DOB (its filters and ``dob`` section)."""
+    doc = copy.deepcopy(doc)
+    names = set((doc.get("dob") or {}).get("filters") or [])
+    doc["controller"]["filters"] = [f for f in doc["controller"]["filters"]
+                                    if f["name"] not in names and not f["name"].startswith("dob_")]
+    doc["dob"] = None
+    return doc
+
+
+def simulate(doc: dict, scenario, without_dob: bool = False, duration_s: float | None = None,
+             start: str = "bumpless", clamp: bool = True,
+             progress: Callable[[float], None] | None = None, fast: bool = True) -> dict:
+    """Run ``scenario`` with the controller file ``doc``.
+
+    Parameters
+    ----------
+    doc : dict
+        A validated controller-file mapping.
+    scenario : Scenario
+        What to run (:data:`exotune.simulation.SCENARIOS`).
+    without_dob : bool
+        Remove the DOB's filters from the controller.
+    duration_s : float, optional
+        Run length [s] (default: the scenario's).
+    start : {"bumpless", "zero"}
+        Initial controller state (see the module docstring).
+    clamp : bool
+        Give the runtime the motor limit (it clamps its command before the DOB sees it); False:
+        the runtime does not know the limit (the motor still saturates).
+    progress : callable, optional
+        Called with the completed fraction (0–1) after every chunk of ``CHUNK`` samples.
+    fast : bool
+        Run linear stretches by the linear recursion of :mod:`.fastpath` (same result to
+        rounding); False: every sample through the runtime's step.
+
+    Returns
+    -------
+    dict
+        ``series`` (per-sample arrays), ``sample_rate_hz``, ``delay_samples``, ``locked``,
+        ``start``, ``diverged`` (None, or why the run stopped: an angle beyond ``STATE_BOUND``, a
+        non-finite state or command), ``nonlinear_intervals`` (plant intervals integrated by
+        ``solve_ivp``), ``fast_samples`` (samples run by the linear recursion).
+
+    References
+    ----------
+    Paper §V (sampled-data loop), §V (experiments); docs/method.md#simulation.
+    """
+    if start not in STARTS:
+        raise ValueError(f"start must be one of {', '.join(STARTS)}, got {start!r}")
+    if without_dob:
+        doc = strip_dob(doc)
+    sc = scenario if duration_s is None else replace(scenario, duration_s=float(duration_s))
+    run = _Run(doc, sc, clamp)
+    note = ""
+    if start == "bumpless":
+        tau0, note = bumpless_start(run.rt, run.plant.measure(run.x))
+        run.past = [tau0] * len(run.past)
+    n = max(1, int(round(sc.duration_s * run.fs)))
+    run.rec = {k: np.empty(n) for k in SERIES}
+    k = 0
+    with np.errstate(over="ignore", invalid="ignore"):
+        while k < n and run.diverged is None:
+            k1 = run.fast(k, min(n, k + CHUNK)) if fast and run.linear() else k
+            if k1 < n and (k1 == k or k1 < min(n, k + CHUNK)):  # at a limit: sample by sample for a while
+                k1 = run.slow(k1, min(n, k1 + SLOW_RUN))
+            k = k1
+            if progress is not None:
+                progress(k / n)
+    for key in run.rec:
+        run.rec[key] = run.rec[key][:k]
+    return {"series": run.rec, "sample_rate_hz": run.fs, "delay_samples": run.q, "locked": sc.locked,
+            "start": start + (f" ({note})" if note else ""), "diverged": run.diverged,
+            "nonlinear_intervals": run.plant.nonlinear_intervals, "fast_samples": run.fast_samples,
+            "duration_s": sc.duration_s}
+
+
+class _Run:
+    """The state of one run (plant state, runtime, delay line, records) and its two steppers."""
+
+    def __init__(self, doc: dict, sc, clamp: bool):
+        self.doc, self.sc = doc, sc
+        self.fs = float(doc["sample_rate_hz"]["value"])
+        self.Ts = 1.0 / self.fs
+        self.q = float(doc["delay_s"]["value"]) * self.fs
+        self.d = int(math.floor(self.q + 1e-9))
+        self.f = self.q - self.d if self.q - self.d > 1e-9 else 0.0
+        self.sat = float(sc.nonlinear.saturation_nm)
+        self.plant = JointPlant({k: v["value"] for k, v in doc["plant"].items()}, sc.human, sc.locked, sc.nonlinear)
+        self.rt = Runtime(doc, limit_nm=self.sat if (clamp and math.isfinite(self.sat)) else None)
+        self.x = np.zeros(6)
+        self.x[4] = sc.theta_h0
+        self.past = [0.0] * (self.d + 1)  # τ_cmd[k−1], …, τ_cmd[k−d−1]
+        self.rec: dict = {}
+        self.diverged = None
+        self.fast_samples = 0
+        self._loop = None
+
+    def clip(self, v: float) -> float:
+        return max(-self.sat, min(self.sat, v)) if math.isfinite(self.sat) else v
+
+    def linear(self) -> bool:
+        """Whether the joint is linear (no friction, no backlash): fast chunks may be tried."""
+        return not self.plant.Fc and not self.plant.half_gap
+
+    def _bad(self, x) -> bool:
+        return not np.all(np.isfinite(x)) or max(abs(x[0]), abs(x[2]), abs(x[4])) > STATE_BOUND
+
+    def slow(self, k0: int, k1: int) -> int:
+        """Samples k0 … k1−1 one by one (runtime step, exact or adaptive plant interval); returns
+        the sample reached (earlier when the run diverges)."""
+        sc, rec, plant, Ts, f, d = self.sc, self.rec, self.plant, self.Ts, self.f, self.d
+        for k in range(k0, k1):
+            t = k * Ts
+            y = plant.measure(self.x)
+            try:
+                u = self.rt.step(y)
+            except ValueError as e:  # an overflowing command: the loop has diverged
+                self.diverged = f"the runtime refused its inputs at t = {t:.6g} s ({e})"
+                return k
+            cur = u if d == 0 else self.past[d - 1]
+            old = self.past[d]
+            push = sc.push(t)
+            x = self.x
+            rec["t"][k], rec["theta_m"][k], rec["omega_m"][k] = t, x[0], x[1]
+            rec["theta_j"][k] = 0.0 if sc.locked else x[2]
+            rec["theta_h"][k], rec["tau_s"][k], rec["tau_c"][k] = x[4], y["tau_s"], y["tau_c"]
+            rec["dtau_s"][k] = y["dtau_s"]
+            rec["tau_cmd"][k], rec["tau_m"][k], rec["push"][k] = u, self.clip(cur), push
+            rec["friction"][k] = plant.friction(x)
+            if f:  # the first f·T_s still applies τ_cmd[k−d−1], the rest τ_cmd[k−d]
+                x = plant.advance(x, self.clip(old), push, f * Ts)
+            self.x = plant.advance(x, self.clip(cur), push, (1.0 - f) * Ts)
+            self.past = [u] + self.past[:-1]
+            if self._bad(self.x):
+                self.diverged = f"an angle exceeded {STATE_BOUND:g} rad at t = {t + Ts:.6g} s"
+                return k + 1
+        return k1
+
+    def fast(self, k0: int, k1: int) -> int:
+        """Samples k0 … k1−1 by the linear recursion (:mod:`.fastpath`), up to the first sample
+        whose command or applied torque reaches the motor limit or whose next state is not finite
+        or beyond the state bound; returns the sample reached (k0: nothing changed)."""
+        if self._loop is None:
+            self._loop = LinearLoop(self.plant, self.doc, self.Ts, self.f, self.d)
+        L = self._loop
+        t = np.arange(k0, k1) * self.Ts
+        push = np.array([self.sc.push(v) for v in t])
+        W = L.run(np.concatenate([self.x, runtime_state(self.rt), self.past]), push)
+        U, cur = W[:-1] @ L.u_row, W[:-1] @ L.cur_row
+        s0 = 6 + L.nz
+        ok = np.isfinite(U) & np.all(np.isfinite(W[1:]), axis=1)
+        ok &= np.max(np.abs(W[1:, [0, 2, 4]]), axis=1) <= STATE_BOUND
+        if math.isfinite(self.sat):
+            ok &= (np.abs(U) < self.sat) & (np.max(np.abs(W[:-1, s0:]), axis=1) < self.sat)
+        m = int(np.argmin(ok)) if not ok.all() else ok.size  # accepted samples: the prefix before a failure
+        if m == 0:
+            return k0
+        k1 = k0 + m
+        X = W[:m, :6]
+        Y = X @ L.Cy.T
+        rec = self.rec
+        rec["t"][k0:k1], rec["theta_m"][k0:k1], rec["omega_m"][k0:k1] = t[:m], X[:, 0], X[:, 1]
+        rec["theta_j"][k0:k1] = 0.0 if self.sc.locked else X[:, 2]
+        rec["theta_h"][k0:k1], rec["tau_s"][k0:k1], rec["dtau_s"][k0:k1] = X[:, 4], Y[:, 2], Y[:, 3]
+        rec["tau_c"][k0:k1], rec["tau_cmd"][k0:k1], rec["tau_m"][k0:k1] = Y[:, 4], U[:m], cur[:m]
+        rec["push"][k0:k1], rec["friction"][k0:k1] = push[:m], 0.0
+        self.x = W[m, :6].copy()
+        set_runtime_state(self.rt, W[m, 6:s0])
+        self.past = [float(v) for v in W[m, s0:]]
+        self.fast_samples += m
+        return k1

@@ -1,0 +1,276 @@
+"""``run_scenario``: a scenario's runs and what they show (verdict, metrics, the scenario's own
+measurements: windup recovery, limit cycle, the DOB's friction estimate)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Callable
+
+import numpy as np
+
+from ..controllerfile import Runtime
+from .engine import bumpless_start, simulate, strip_dob
+from .scenarios import SCENARIOS, Nonlinearities, Scenario
+from .verdict import (FIT_FRACTION, MARGINAL_TOL, classify, dominant_frequency, envelope_growth,
+                      loop_spectral_radius)
+
+__all__ = ["run_scenario", "summarize"]
+
+LIMIT_CYCLE_NM = 1e-3  # a sustained spring-torque swing above this × max(|push|, 1 N·m) is a limit cycle
+
+
+def _q(value, unit: str, **extra) -> dict:
+    return {"value": value, "unit": unit, **extra}
+
+
+def _judge(sim: dict, sc: Scenario) -> dict:
+    """Verdict of a run from the envelopes of τ_s and τ_c: a live oscillation outranks one that died
+    out (the latest death outranks earlier ones); then the faster-growing one decides."""
+    s = sim["series"]
+    lag = int(round(sim["sample_rate_hz"] / sc.push_hz)) if sc.push_hz > 0 else 1
+    if s["t"].size < 2 * lag + 16:  # shorter than two push periods: the sample-to-sample change
+        lag = 1
+    best = None
+    for key in ("tau_s", "tau_c"):
+        g, died = envelope_growth(s["t"], s[key], lag=lag)
+        rank = (died is None, -math.inf if died is None else died, -math.inf if g is None else g)
+        if best is None or rank > best[0]:
+            best = (rank, key, g, died)
+    _, key, g, died = best
+    return {"verdict": classify(g, died, sim["diverged"] is not None), "growth": g, "died": died is not None,
+            "signal": key, "lag": lag}
+
+
+def _tail(n: int) -> slice:
+    return slice(int((1.0 - 0.2) * n), n)
+
+
+def _metrics(sim: dict, sc: Scenario, alpha: float) -> dict:
+    s = sim["series"]
+    n = s["t"].size
+    out = {}
+    tail = _tail(n)
+    if sc.locked and not math.isfinite(sc.release_at_s):  # (after a release τ_c → 0: see windup_recovery)
+        tc = float(np.mean(s["tau_c"][tail]))
+        ts = float(np.mean(s["tau_s"][tail]))
+        ratio = (tc - ts) / tc if tc != 0 else None
+        out["steady_cuff_torque"] = _q(tc, "N·m")
+        out["steady_output_torque"] = _q(tc - ts, "N·m (τ_c − τ_s on the locked output)")
+        out["delivered_amplification"] = _q(ratio, "1", design_alpha=alpha)
+        out["amplification_error"] = _q((ratio - alpha) / alpha if ratio is not None else None, "1 (relative)")
+    if not sc.locked and sc.push_nm == 0:
+        w = s["theta_h"] - s["theta_j"]
+        out["cuff_oscillation_start_rad"] = _q(float(np.max(np.abs(w[: max(1, n // 5)]))), "rad")
+        out["cuff_oscillation_end_rad"] = _q(float(np.max(np.abs(w[tail] - np.mean(w[tail])))), "rad")
+    out["peak_motor_torque"] = _q(float(np.max(np.abs(s["tau_m"]))), "N·m")
+    out["peak_command"] = _q(float(np.max(np.abs(s["tau_cmd"]))), "N·m")
+    return out
+
+
+def summarize(sim: dict, sc: Scenario, alpha: float, rho: float | None) -> dict:
+    """Summary of one run.
+
+    Parameters
+    ----------
+    sim : dict
+        A run (:func:`exotune.simulation.simulate`).
+    sc : Scenario
+        Its scenario.
+    alpha : float
+        The design's amplification α.
+    rho : float or None
+        The linearized sampled-data loop's spectral radius (reported beside the verdict).
+
+    Returns
+    -------
+    dict
+        Samples, duration, start, ``verdict`` (growing / decaying / marginal) with its envelope
+        growth rate and ρ, ``diverged`` (verdict growing), ``stopped`` (why a run ended early)
+        and the metrics — null, with ``metrics_null_reason``, for a growing run (a steady value
+        or a peak of an unstable run is an artefact of its duration).
+
+    References
+    ----------
+    docs/cli.md#simulate.
+    """
+    s = sim["series"]
+    n = s["t"].size
+    fs = sim["sample_rate_hz"]
+    j = _judge(sim, sc)
+    out = {"samples": int(n), "duration_s": _q(float(n / fs), "s"), "start": sim["start"], "verdict": j["verdict"],
+           "diverged": j["verdict"] == "growing",
+           "envelope_growth_rate": _q(j["growth"], "1/s", signal=j["signal"], tolerance=MARGINAL_TOL,
+                                      fitted_over=f"the last {FIT_FRACTION:.0%} of the run"
+                                      + (f" (change over one push period, {j['lag'] / fs:g} s)" if j["lag"] > 1 else "")
+                                      + (" (the oscillation decayed to rounding level)" if j["died"] else "")),
+           "loop_spectral_radius": _q(rho, "1", growth_rate_per_s=(fs * math.log(rho) if rho and math.isfinite(rho)
+                                                                  else None),
+                                      note="linearized sampled-data loop (nonlinearities off)")}
+    if sim["diverged"]:
+        out["stopped"] = sim["diverged"]
+    m = _metrics(sim, sc, alpha)
+    if j["verdict"] == "growing":
+        why = sim["diverged"] or (f"the oscillation of {j['signal']} grows at {j['growth']:.4g} 1/s")
+        m = {k: {**v, "value": None} for k, v in m.items()}
+        out["metrics_null_reason"] = f"growing run: {why}"
+    out.update(m)
+    return out
+
+
+def _windup(sim: dict, sc: Scenario, alpha: float) -> dict:
+    """Recovery after the push is released: how long the motor stays saturated, the peak command
+    and the RMS amplification error (τ_c − τ_s) − α τ_c after the release."""
+    s = sim["series"]
+    t = s["t"]
+    lim = sc.nonlinear.saturation_nm
+    after = t >= sc.release_at_s
+    sat = np.abs(s["tau_m"]) >= lim * (1 - 1e-12)
+    idx = np.flatnonzero(sat & after)
+    err = (s["tau_c"] - s["tau_s"]) - alpha * s["tau_c"]
+    return {"peak_command": _q(float(np.max(np.abs(s["tau_cmd"]))), "N·m"),
+            "saturated_after_release": _q(float(t[idx[-1]] - sc.release_at_s + 1.0 / sim["sample_rate_hz"])
+                                          if idx.size else 0.0, "s"),
+            "rms_amplification_error_after_release": _q(float(np.sqrt(np.mean(err[after] ** 2))) if after.any()
+                                                        else None, "N·m ((τ_c − τ_s) − α τ_c)")}
+
+
+def _limit_cycle(sim: dict, sc: Scenario, verdict: str, linear: dict) -> dict:
+    """A limit cycle: a sustained oscillation (marginal verdict) of the spring torque above
+    ``LIMIT_CYCLE_NM`` × max(|push|, 1 N·m) peak to peak that crosses the dead zone (τ_s = 0 or a
+    sign change in the last half of the run: the backlash takes part); its frequency is the
+    spectral peak of τ_s. ``linear``: the summary of the same run without backlash."""
+    s = sim["series"]
+    n = s["t"].size
+    part = slice(int((1 - FIT_FRACTION) * n), n)
+    ts = s["tau_s"][part]
+    swing = float(np.ptp(ts)) if ts.size else 0.0
+    crosses = bool(ts.size and (np.any(ts == 0.0) or np.any(np.signbit(ts[1:]) != np.signbit(ts[:-1]))))
+    present = verdict == "marginal" and crosses and swing > LIMIT_CYCLE_NM * max(abs(sc.push_nm), 1.0)
+    return {"present": None if verdict == "growing" else bool(present),
+            "frequency": _q(dominant_frequency(s["t"][part], ts) if present else None, "Hz"),
+            "spring_torque_swing": _q(swing, "N·m peak to peak, last half of the run"),
+            "crosses_dead_zone": crosses,
+            "without_backlash": {"verdict": linear["verdict"], "envelope_growth_rate": linear["envelope_growth_rate"]},
+            "rule": f"sustained (|growth| ≤ {MARGINAL_TOL} 1/s), crossing the dead zone, and a spring-torque swing "
+                    f"above {LIMIT_CYCLE_NM:g} × max(|push|, 1 N·m)"}
+
+
+def dob_estimate(doc: dict, sim: dict) -> np.ndarray | None:
+    """The DOB's friction estimate per sample (the sum of its filters' outputs, which the runtime
+    adds to its command), replayed from the run's signals with the runtime's filters."""
+    names = set((doc.get("dob") or {}).get("filters") or [])
+    if not names:
+        return None
+    s = sim["series"]
+    rt = Runtime(doc)
+    if sim["start"].startswith("bumpless"):
+        bumpless_start(rt, {k: float(s[k][0]) for k in ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")})
+    fl = doc["controller"]["filters"]
+    sensed = [f["name"] for f in fl if f["input"] != "tau_cmd"]
+    loop = [f["name"] for f in fl if f["input"] == "tau_cmd"]
+    used = [(s[inp], filt) for name, (inp, filt) in zip(sensed, rt.filters) if name in names]
+    used += [(s["tau_cmd"], filt) for name, filt in zip(loop, rt.loop) if name in names]
+    est = np.zeros(s["t"].size)
+    for k in range(est.size):
+        est[k] = sum(filt.step(float(sig[k])) for sig, filt in used)
+    return est
+
+
+def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None = None,
+                 duration_s: float | None = None, start: str = "bumpless",
+                 progress: Callable[[float], None] | None = None) -> dict:
+    """Run a scenario and summarize it.
+
+    Parameters
+    ----------
+    doc : dict
+        A validated controller-file mapping.
+    name : str or Scenario
+        A key of :data:`SCENARIOS` or a :class:`Scenario`.
+    human_inertia : float, optional
+        Human inertia [kg·m²] instead of the scenario's.
+    duration_s : float, optional
+        Run length [s] instead of the scenario's.
+    start : {"bumpless", "zero"}
+        Initial controller state.
+    progress : callable, optional
+        Called with the completed fraction of the main run.
+
+    Returns
+    -------
+    dict
+        ``scenario``, ``description``, ``human``, ``nonlinearities``, ``sample_rate_hz``,
+        ``delay_samples``, ``summary`` and the scenario's measurements (``windup_recovery``,
+        ``limit_cycle``, ``friction_estimate``, ``friction_sensitivity``), and ``runs`` (the time
+        series, keyed ``controller``, ``without_dob``, ``without_clamp``).
+
+    References
+    ----------
+    Paper §V; docs/cli.md#simulate.
+    """
+    if isinstance(name, Scenario):
+        sc = name
+    elif name in SCENARIOS:
+        sc = SCENARIOS[name]
+    else:
+        raise ValueError(f"unknown scenario {name!r} (known: {', '.join(SCENARIOS)})")
+    if human_inertia is not None:
+        sc = replace(sc, human={**sc.human, "inertia": float(human_inertia)})
+    if duration_s is not None:
+        sc = replace(sc, duration_s=float(duration_s))
+    alpha = float(doc["design"]["amplification"]["value"])
+    sim = simulate(doc, sc, start=start, progress=progress)
+    rho = loop_spectral_radius(doc, sc.human, sc.locked)
+    nl = sc.nonlinear
+    rep = {"scenario": sc.name, "description": sc.description, "human": sc.human,
+           "nonlinearities": {"coulomb_nm": nl.coulomb_nm, "backlash_rad": nl.backlash_rad,
+                              "saturation_nm": nl.saturation_nm,
+                              "units": {"coulomb_nm": "N·m", "backlash_rad": "rad", "saturation_nm": "N·m"}},
+           "sample_rate_hz": sim["sample_rate_hz"], "delay_samples": sim["delay_samples"], "design_alpha": alpha,
+           "summary": summarize(sim, sc, alpha, rho), "runs": {"controller": sim}}
+    verdict = rep["summary"]["verdict"]
+    if math.isfinite(nl.saturation_nm) and math.isfinite(sc.release_at_s):
+        free = simulate(doc, sc, start=start, clamp=False)
+        rep["runs"]["without_clamp"] = free
+        rep["windup_recovery"] = {"release_at": _q(sc.release_at_s, "s"), "with_clamp": _windup(sim, sc, alpha),
+                                  "without_clamp": _windup(free, sc, alpha)}
+    if nl.backlash_rad > 0:
+        lin = simulate(doc, replace(sc, nonlinear=replace(nl, backlash_rad=0.0)), start=start)
+        rep["runs"]["without_backlash"] = lin
+        rep["limit_cycle"] = _limit_cycle(sim, sc, verdict, summarize(lin, sc, alpha, None))
+    if nl.coulomb_nm > 0:
+        est = dob_estimate(doc, sim)
+        if est is not None:
+            sim["series"]["friction_estimate"] = est
+            fr = sim["series"]["friction"]
+            rms = float(np.sqrt(np.mean(fr ** 2)))
+            e = float(np.sqrt(np.mean((est - fr) ** 2)))
+            rep["friction_estimate"] = {"rms_friction": _q(rms, "N·m"), "rms_error": _q(e, "N·m"),
+                                        "relative_error": _q(e / rms if rms > 0 else None, "1"),
+                                        "note": "the DOB's estimate (the sum of its filters' outputs) against the "
+                                                "true friction F_c·tanh(θ̇_m/ε)"}
+    if sc.compare_without_dob and (doc.get("dob") or {}).get("filters"):
+        _friction_sensitivity(doc, sc, sim, rep, alpha, start)
+    return rep
+
+
+def _friction_sensitivity(doc, sc, sim, rep, alpha, start) -> None:
+    """The joint trajectory with friction against the same controller's frictionless one, with
+    the file's controller (DOB) and with its DOB filters removed."""
+    clean = replace(sc, nonlinear=Nonlinearities())
+    sens = {}
+    for label, wo in (("with_dob", False), ("without_dob", True)):
+        fr = sim if not wo else simulate(doc, sc, without_dob=True, start=start)
+        ref = simulate(doc, clean, without_dob=wo, start=start)
+        a, b = fr["series"]["theta_j"], ref["series"]["theta_j"]
+        m = min(a.size, b.size)
+        sens[label] = _q(float(np.sqrt(np.mean((a[:m] - b[:m]) ** 2)) / max(np.sqrt(np.mean(b[:m] ** 2)), 1e-300)),
+                         "1 (RMS joint-angle change due to friction / RMS joint angle)")
+        if wo:
+            rho = loop_spectral_radius(strip_dob(doc), sc.human, sc.locked)
+            rep["summary_without_dob"] = summarize(fr, sc, alpha, rho)
+            rep["runs"]["without_dob"] = fr
+        else:
+            rep["runs"]["frictionless"] = ref
+    rep["friction_sensitivity"] = sens

@@ -1,0 +1,152 @@
+"""Reading a sweep back: the verified manifest (:func:`verified_manifest`), the finished chunks as
+one Arrow table (:func:`read_tables`) or a :class:`pandas.DataFrame` (:func:`load_results`).
+
+Reading verifies every chunk against the manifest (:mod:`exotune.sweeps.integrity`) and records
+valid chunks the manifest missed; a manifest left ``running`` by a killed run (no run holds the
+directory lock) becomes ``interrupted`` (or ``complete`` when every chunk is on disk).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+
+from ..errors import ConfigError
+from .integrity import scan_chunks
+from .manifest import MANIFEST, load_manifest, try_lock, write_manifest
+from .plan import SweepPlan
+
+__all__ = ["verified_manifest", "read_tables", "load_results"]
+
+
+def plan_of(out_dir: str, m: dict) -> SweepPlan:
+    """The :class:`SweepPlan` of a loaded manifest (its spec is validated again)."""
+    try:
+        return SweepPlan(m["spec"])
+    except ConfigError as e:
+        raise ConfigError(f"{os.path.join(out_dir, MANIFEST)}: spec.base.{e.field}", e.reason) from None
+    except (KeyError, TypeError, ValueError) as e:
+        raise ConfigError(f"{os.path.join(out_dir, MANIFEST)}: spec", f"damaged manifest ({type(e).__name__}: "
+                                                                      f"{str(e)[:120]}); use a new directory") from None
+
+
+def verified_manifest(out_dir) -> dict:
+    """The manifest of a sweep directory with every chunk verified and the valid chunks on disk
+    recorded (written back when no run holds the directory and it is writable).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The sweep directory.
+
+    Returns
+    -------
+    dict
+        The manifest; ``chunks`` has one entry per chunk, in order.
+
+    Raises
+    ------
+    ConfigError
+        Not a sweep directory, a damaged or edited manifest, a symbolic link, or a chunk file that
+        is not the one recorded (naming the chunk).
+
+    References
+    ----------
+    docs/sweep-spec.md (integrity, reconciliation).
+    """
+    out_dir = os.fspath(out_dir)
+    m = load_manifest(out_dir)
+    plan = plan_of(out_dir, m)
+    res = scan_chunks(out_dir, m, plan, strict=True)
+    changed = res["changed"]
+    lock = try_lock(out_dir)
+    if lock is None:
+        return m
+    try:
+        all_done = all(c["status"] == "done" for c in m["chunks"])
+        if m.get("status") == "running" or (m.get("status") == "interrupted" and all_done):
+            m["status"] = "complete" if all_done else "interrupted"
+            changed = True
+        if changed:
+            with contextlib.suppress(OSError):
+                write_manifest(out_dir, m)
+    finally:
+        lock.close()
+    return m
+
+
+def read_tables(out_dir: str, columns=None, allow_partial: bool = False, manifest: dict | None = None):
+    """(manifest, the finished chunks concatenated as one Arrow table or None, missing chunk indices);
+    ConfigError for a bad chunk (:func:`verified_manifest`, skipped when the caller passes the
+    ``manifest`` it returned), or for missing chunks unless ``allow_partial``."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out_dir = os.fspath(out_dir)
+    m = verified_manifest(out_dir) if manifest is None else manifest
+    tables, missing = [], []
+    for c in m["chunks"]:
+        path = os.path.join(out_dir, c["file"])
+        if c.get("status") != "done":
+            missing.append(c["index"])
+            continue
+        try:
+            tables.append(pq.read_table(path, columns=columns))
+        except (OSError, pa.ArrowException) as e:
+            raise ConfigError(path, f"unreadable chunk ({' '.join(str(e).split())}); rerun "
+                                    "`exotune sweep` with the same spec to recompute it") from None
+    if missing and not allow_partial:
+        raise ConfigError(
+            out_dir, f"the sweep is incomplete ({len(missing)} of {len(m['chunks'])} chunks missing); rerun `exotune sweep`"
+        )
+    if not tables:
+        return m, None, missing
+    return m, pa.concat_tables(tables), missing
+
+
+def load_results(out_dir, columns: list[str] | None = None, allow_partial: bool = False, nested: str = "list"):
+    """All chunk files of a sweep, in row order, as a :class:`pandas.DataFrame`.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The sweep directory.
+    columns : list of str, optional
+        The columns to read (default all).
+    allow_partial : bool
+        Read the finished chunks of an incomplete sweep instead of raising.
+    nested : {"list", "raw"}
+        ``list<list<double>>`` columns become Python lists of ``[a, b]`` lists (``"list"``, the
+        format of :func:`~exotune.analysis.analyze_batch`) or are left as pandas/pyarrow objects
+        (``"raw"``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per design, ``point_index`` first.
+
+    Raises
+    ------
+    ConfigError
+        Not a sweep directory, an unreadable chunk, or an incomplete sweep (unless
+        ``allow_partial``).
+
+    References
+    ----------
+    docs/sweep.md (output directory, columns).
+    """
+    import pandas as pd
+    import pyarrow as pa
+
+    out_dir = os.fspath(out_dir)
+    m, table, _ = read_tables(out_dir, columns, allow_partial)
+    if table is None:
+        names = columns if columns is not None else [c[0] for c in (m.get("columns") or [])]
+        return pd.DataFrame({c: [] for c in names})
+    data = {}
+    for name, col in zip(table.column_names, table.columns):
+        if nested == "list" and pa.types.is_list(col.type):
+            data[name] = pd.Series(col.to_pylist(), dtype=object)
+        else:
+            data[name] = col.to_numpy()
+    return pd.DataFrame(data)

@@ -1,0 +1,232 @@
+"""Reading and validating a sweep spec into a :class:`~exotune.sweeps.plan.SweepPlan`.
+
+The spec format (``base``, ``axes``, ``chunk_size``, ``verify_points``) and every validation rule
+are described in the :mod:`exotune.sweeps` package docstring; every problem is a
+:class:`~exotune.errors.ConfigError` naming the field.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+
+from ..config import batch_config, check_analysis_filters, design_from_mapping, read_yaml
+from ..errors import ConfigError
+from .plan import SweepPlan
+
+__all__ = ["load_spec", "load_base", "is_number", "int_option", "DEFAULT_CHUNK_SIZE", "MAX_VERIFY_POINTS",
+           "MAX_AXIS_VALUES"]
+
+DEFAULT_CHUNK_SIZE = 10000
+_SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points")
+_AXIS_KEYS = ("start", "stop", "num", "scale")
+_MAX_POINTS = 2**62
+MAX_VERIFY_POINTS = 1000  # spec key verify_points (the single-design report uses 64)
+MAX_AXIS_VALUES = 100_000  # per axis: the values are listed in the manifest (a 10⁵ × 10⁵ grid is fine)
+
+
+# ---------------------------------------------------------------------------------------------
+# Spec parsing and validation
+# ---------------------------------------------------------------------------------------------
+def is_number(v: Any) -> bool:
+    """True for an int or float (numpy scalars included), False for bools and everything else."""
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+def _number(field: str, v: Any) -> float:
+    if not is_number(v):
+        kind = "null" if v is None else f"the string {v!r}" if isinstance(v, str) else type(v).__name__
+        raise ConfigError(field, f"expected a number, got {kind}")
+    try:
+        x = float(v)
+    except OverflowError:
+        raise ConfigError(field, f"the integer {str(v)[:12]}… ({len(str(v))} digits) is too large for a float") from None
+    if not math.isfinite(x):
+        raise ConfigError(field, f"must be a finite number, got {x!r}")
+    return x
+
+
+def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
+    field = f"axes.{path}"
+    if isinstance(spec, list):
+        if not spec:
+            raise ConfigError(field, "an axis list needs at least one value")
+        if len(spec) > MAX_AXIS_VALUES:
+            raise ConfigError(field, f"{len(spec)} values; an axis has at most {MAX_AXIS_VALUES}")
+        vals = [_number(f"{field}[{i}]", v) for i, v in enumerate(spec)]
+        seen = {}
+        for i, v in enumerate(vals):
+            if v in seen:
+                raise ConfigError(f"{field}[{i}]", f"duplicate value {v:g} (also at index {seen[v]})")
+            seen[v] = i
+        return vals, "list"
+    if isinstance(spec, dict):
+        unknown = [k for k in spec if k not in _AXIS_KEYS]
+        if unknown:
+            raise ConfigError(f"{field}.{unknown[0]}", f"unknown key (allowed: {', '.join(_AXIS_KEYS)})")
+        for k in ("start", "stop", "num"):
+            if k not in spec:
+                raise ConfigError(f"{field}.{k}", "required key is missing ({start, stop, num[, scale]})")
+        start = _number(f"{field}.start", spec["start"])
+        stop = _number(f"{field}.stop", spec["stop"])
+        num = spec["num"]
+        if isinstance(num, (bool, np.bool_)) or not isinstance(num, (int, np.integer)):
+            if isinstance(num, float) and num.is_integer():
+                num = int(num)
+            else:
+                raise ConfigError(f"{field}.num", f"expected an integer >= 1, got {num!r}")
+        num = int(num)
+        if num < 1:
+            raise ConfigError(f"{field}.num", f"must be >= 1, got {num}")
+        if num > MAX_AXIS_VALUES:
+            raise ConfigError(f"{field}.num", f"{num} values; an axis has at most {MAX_AXIS_VALUES} "
+                                             "(a grid of several axes can still have up to 2^62 points)")
+        scale = spec.get("scale", "lin")
+        if scale not in ("lin", "log"):
+            raise ConfigError(f"{field}.scale", f"must be 'lin' or 'log', got {scale!r}")
+        if num > 1 and start == stop:
+            raise ConfigError(field, f"start = stop = {start:g} with num = {num} gives duplicate values")
+        if scale == "log":
+            for k, v in (("start", start), ("stop", stop)):
+                if not v > 0:
+                    raise ConfigError(f"{field}.{k}", f"must be > 0 for scale: log, got {v:g}")
+            vals = np.geomspace(start, stop, num) if num > 1 else np.array([start])
+        else:
+            vals = np.linspace(start, stop, num) if num > 1 else np.array([start])
+        out = [float(v) for v in vals]
+        if len(set(out)) < len(out):  # start and stop a few ulps apart
+            raise ConfigError(field, f"{num} values from {start!r} to {stop!r} are not distinct in floating point")
+        return out, scale
+    kind = "null" if spec is None else type(spec).__name__
+    raise ConfigError(field, f"expected a list of values or a mapping {{start, stop, num, scale}}, got {kind}")
+
+
+def int_option(field: str, v: Any, minimum: int) -> int:
+    """``v`` as an integer >= ``minimum`` (bools refused); ConfigError naming ``field`` otherwise."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        raise ConfigError(field, f"expected an integer >= {minimum}, got {v!r}")
+    if int(v) < minimum:
+        raise ConfigError(field, f"must be >= {minimum}, got {int(v)}")
+    return int(v)
+
+
+def load_base(base, root: str):
+    """The ``base`` of a sweep or optimization spec: a design file path (relative to ``root``) or
+    an inline design mapping → (validated DesignConfig, source path or None). Errors name
+    ``base``."""
+    if isinstance(base, str):
+        base_path = base if os.path.isabs(base) else os.path.join(root, base)
+        try:
+            base_map = read_yaml(base_path)
+        except ConfigError as e:
+            raise ConfigError(f"base ({e.field})", e.reason) from None
+        try:
+            return design_from_mapping(base_map, source=base_path), base_path
+        except ConfigError as e:
+            raise ConfigError(f"base ({base}): {e.field}", e.reason) from None
+    if isinstance(base, dict):
+        try:
+            return design_from_mapping(base, source="<inline base>"), None
+        except ConfigError as e:
+            raise ConfigError(f"base.{e.field}", e.reason) from None
+    raise ConfigError("base", f"expected a design file path or a mapping, got {'null' if base is None else type(base).__name__}")
+
+
+def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_size: int | None = None) -> "SweepPlan":
+    """Read and validate a sweep spec into a :class:`~exotune.sweeps.plan.SweepPlan`.
+
+    Parameters
+    ----------
+    spec : str, os.PathLike or dict
+        A spec file (a ``base`` path in it is relative to the file) or a mapping (a ``base`` path
+        is relative to the current directory).
+    sample, seed : int, optional
+        ``--sample N --seed S``: a uniform random sample of N grid points (seed default 0).
+    chunk_size : int, optional
+        ``--chunk-size``: overrides the spec's ``chunk_size``.
+
+    Returns
+    -------
+    SweepPlan
+        The normalized spec, its hash and the row → design point mapping.
+
+    Raises
+    ------
+    ConfigError
+        For every problem, naming the field (``axes.<path>[.<key>]``, ``base``, ``sample``, …).
+
+    References
+    ----------
+    docs/sweep.md (the spec file).
+    """
+    if isinstance(spec, (str, os.PathLike)):
+        spec_path = os.fspath(spec)
+        mapping = read_yaml(spec_path)
+        root = os.path.dirname(os.path.abspath(spec_path))
+        source = spec_path
+    elif isinstance(spec, dict):
+        mapping, root, source = spec, os.getcwd(), None
+    else:
+        raise ConfigError("<spec>", f"expected a spec file path or a mapping, got {type(spec).__name__}")
+    unknown = [k for k in mapping if k not in _SPEC_KEYS]
+    if unknown:
+        raise ConfigError(str(unknown[0]), f"unknown key in a sweep spec (allowed: {', '.join(_SPEC_KEYS)})")
+    if "base" not in mapping:
+        raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
+    cfg, base_source = load_base(mapping["base"], root)
+    check_analysis_filters(cfg.implementation, "base.")
+
+    if "axes" not in mapping:
+        raise ConfigError("axes", "required key is missing (a mapping of dotted parameter paths to values)")
+    axes_in = mapping["axes"]
+    if not isinstance(axes_in, dict):
+        raise ConfigError("axes", f"expected a mapping of dotted parameter paths to values, got {type(axes_in).__name__}")
+    if not axes_in:
+        raise ConfigError("axes", "at least one axis is required")
+    axes: dict[str, dict] = {}
+    for path, aspec in axes_in.items():
+        if not isinstance(path, str):
+            raise ConfigError(f"axes.{path}", "an axis name must be a dotted parameter path (a string)")
+        vals, scale = _axis_values(path, aspec)
+        try:  # unknown / non-sweepable paths and rule violations (α < 1, Nyquist, …)
+            batch_config(cfg, {path: np.asarray(vals)})
+        except ConfigError as e:
+            raise ConfigError(f"axes.{path}", e.reason) from None
+        axes[path] = {"values": vals, "scale": scale}
+
+    if chunk_size is None:
+        chunk_size = mapping.get("chunk_size", DEFAULT_CHUNK_SIZE)
+        chunk_size = int_option("chunk_size", chunk_size, 1)
+    else:
+        chunk_size = int_option("chunk_size", chunk_size, 1)
+
+    shape = tuple(len(a["values"]) for a in axes.values())
+    total = 1
+    for n in shape:
+        total *= n
+        if total > _MAX_POINTS:
+            raise ConfigError("axes", f"the grid has more than 2^62 points ({' × '.join(map(str, shape))})")
+    if sample is not None:
+        sample = int_option("sample", sample, 1)
+        if sample > total:
+            raise ConfigError("sample", f"{sample} exceeds the number of grid points ({total})")
+        seed = 0 if seed is None else int_option("seed", seed, 0)
+    elif seed is not None:
+        raise ConfigError("seed", "only meaningful together with --sample")
+
+    verify = int_option("verify_points", mapping.get("verify_points", 0), 0)
+    if verify > MAX_VERIFY_POINTS:
+        raise ConfigError("verify_points", f"{verify} exact counts per family and design; at most {MAX_VERIFY_POINTS}")
+    normalized = {
+        "base": cfg.raw,
+        "axes": axes,
+        "chunk_size": chunk_size,
+        "sample": sample,
+        "seed": seed,
+    }
+    if verify:  # only present when used, so existing spec hashes are unchanged
+        normalized["verify_points"] = verify
+    return SweepPlan(normalized, cfg=cfg, source=source, base_source=base_source)

@@ -1,0 +1,211 @@
+"""Stable intervals (critical values by root-finding + one RHP count per sub-interval) agree with
+direct RHP counts at many sampled parameter values, for every family kind and the environment."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from exotune.analysis import analyze_batch, char_terms, coupled_stable
+from exotune.config import batch_config, load_design
+from exotune.model.controller import build_controller
+from exotune.model.humans import EnvModel, HumanFamily
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
+
+
+def _cfg(n, seed):
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    rng = np.random.default_rng(seed)
+    ov = {
+        "design.amplification": np.exp(rng.uniform(np.log(1.5), np.log(25.0), n)),
+        "design.zeta": rng.uniform(0.3, 1.2, n),
+        "design.zeta_hat": rng.uniform(0.3, 1.2, n),
+        "implementation.delay_s": rng.uniform(0.0, 0.004, n),
+        "plant.cuff_stiffness": np.exp(rng.uniform(np.log(50.0), np.log(3000.0), n)),
+    }
+    cfg = batch_config(base, ov)
+    humans = (
+        HumanFamily("mass", "inertia", 1e-4, 2.0, damping=0.0),
+        HumanFamily("spring", "stiffness", 0.5, 1e5, damping=0.0),
+        HumanFamily("mass", "inertia", 1e-3, 1.0, damping=0.8),
+        HumanFamily("spring", "stiffness", 1.0, 1e4, damping=3.0),
+        HumanFamily("msd", "damping", 0.0, 20.0, inertia=0.05, stiffness=40.0),
+    )
+    env = (EnvModel("spring", "stiffness", 10.0, 1e6, damping=1.0), EnvModel("mass", "inertia", 1e-3, 10.0))
+    return dataclasses.replace(cfg, humans=humans, environment=env)
+
+
+def _inside(iv, p):
+    return any(a <= p <= b for a, b in iv)
+
+
+def _near(iv_list, p, lo, hi, rel=0.005):
+    edges = [x for iv in iv_list for x in iv if lo < x < hi]
+    return any(abs(p - e) <= rel * max(abs(e), 1e-12) for e in edges)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_intervals_match_pointwise_counts(seed):
+    n = 60
+    cfg = _cfg(n, seed)
+    cols = analyze_batch(cfg)
+    cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    rng = np.random.default_rng(seed + 50)
+    checked = 0
+    unstable_seen = stable_seen = 0
+    for i, fam in enumerate(cfg.humans):
+        ivs = cols[f"human{i}_{fam.kind}_stable_intervals"]
+        lo, hi = fam.lo, fam.hi
+        for _ in range(4):
+            if lo > 0:
+                p = np.exp(rng.uniform(np.log(lo), np.log(hi), n))
+            else:
+                p = rng.uniform(lo, hi, n)
+            human = {**fam.fixed(), fam.param: p}
+            res = coupled_stable(cfg.plant, cs, n, human=human)
+            for k in range(n):
+                if _near(ivs[k], p[k], lo, hi) or not res["conclusive"][k]:
+                    continue
+                assert bool(res["stable"][k]) == _inside(ivs[k], p[k]), (fam, k, p[k], ivs[k])
+                checked += 1
+                stable_seen += bool(res["stable"][k])
+                unstable_seen += not bool(res["stable"][k])
+    for j, env in enumerate(cfg.environment):
+        ivs = cols[f"env{j}_{env.kind}_stable_intervals"]
+        for _ in range(3):
+            p = np.exp(rng.uniform(np.log(env.lo), np.log(env.hi), n))
+            e = {"damping": env.damping, env.param: p}
+            res = coupled_stable(cfg.plant, cs, n, human=None, env=e)
+            for k in range(n):
+                if _near(ivs[k], p[k], env.lo, env.hi) or not res["conclusive"][k]:
+                    continue
+                assert bool(res["stable"][k]) == _inside(ivs[k], p[k]), (env, k, p[k], ivs[k])
+                checked += 1
+    assert checked > 1500
+    assert stable_seen > 100 and unstable_seen > 100
+
+
+def test_robust_flag_is_whole_range():
+    cfg = _cfg(40, 3)
+    cols = analyze_batch(cfg)
+    for i, fam in enumerate(cfg.humans):
+        for iv, rob in zip(cols[f"human{i}_{fam.kind}_stable_intervals"], cols[f"human{i}_{fam.kind}_robust"]):
+            assert bool(rob) == (len(iv) == 1 and iv[0] == [fam.lo, fam.hi])
+
+
+def test_critical_values_solve_the_crossing_equation():
+    """Each reported critical value p* at f* is a root on the axis to ≤ 1e-9 relative: the
+    crossing function κ(jω*) = −Δ_0/(φΔ1) is real there and equals p* (docs/method.md#analyses-and-metrics asks ≤ 1e-6)."""
+    cfg = _cfg(60, 4)
+    cols = analyze_batch(cfg)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ct = char_terms(cfg.plant, cs, 60)
+    from exotune.model.humans import family_split
+
+    seen = 0
+    for i, fam in enumerate(cfg.humans):
+        z0, phi, factor = family_split(fam.kind, fam.param, fam.fixed(), fam.eta)
+        D0, D1 = ct.combine("00", "10", z0)
+        for t, crit in enumerate(cols[f"human{i}_{fam.kind}_critical"]):
+            for p, f in crit:
+                if f == 0:
+                    continue
+                w = 2 * np.pi * f
+                a, _ = D0.eval(np.array([t]), np.array([w]), deriv=False)
+                b, _ = D1.eval(np.array([t]), np.array([w]), deriv=False)
+                k = int(np.nonzero(phi)[0][0])
+                kap = -a[0] / (factor * (1j * w) ** k * b[0])
+                assert abs(kap.imag) <= 1e-9 * abs(kap), (fam, t, p, f, kap)
+                assert kap.real == pytest.approx(p, rel=1e-9)
+                seen += 1
+    assert seen >= 20
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_very_light_inertias_down_to_1e6(seed):
+    """Masses down to 10⁻⁶ kg·m² on the cuff: resonances at kHz, where κ hugs the real axis and
+    Im κ ripples with the delay (pairs of crossings inside one frequency interval). Intervals must
+    agree with exact pointwise counts on a dense log grid of inertias."""
+    n = 12
+    cfg = _cfg(n, seed)
+    cfg = dataclasses.replace(cfg, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0, damping=0.0),), environment=())
+    cols = analyze_batch(cfg)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ivs = cols["human0_mass_stable_intervals"]
+    ms = np.geomspace(1e-6, 1.0, 150)
+    checked = 0
+    for m in ms:
+        res = coupled_stable(cfg.plant, cs, n, human={"inertia": np.full(n, m)})
+        for k in range(n):
+            if _near(ivs[k], m, 1e-6, 1.0, rel=1e-3) or not res["conclusive"][k]:
+                continue
+            assert bool(res["stable"][k]) == _inside(ivs[k], m), (k, m, ivs[k])
+            checked += 1
+    assert checked > 0.9 * n * len(ms)
+
+
+def test_paper_design_light_mass_boundary_matches_exact_root():
+    """Regression (found by `exotune analyze --cross-check`): with the §9 design and the mass range
+    extended to 1e-6 kg·m², the boundary at 1.2031e-6 kg·m² (2513 Hz) must be reported; Newton on
+    the exact quasi-polynomial puts the root at Re s = +7.2e-4 for m = 1e-6 (unstable)."""
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    cfg = dataclasses.replace(base, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0, damping=0.0),))
+    iv = analyze_batch(cfg)["human0_mass_stable_intervals"][0]
+    assert not _inside(iv, 1.0e-6) and not _inside(iv, 1.15e-6)
+    assert _inside(iv, 1.25e-6)
+    assert any(abs(a - 1.2030604e-6) < 1e-12 for a, _ in iv)
+
+
+def test_single_design_report_verifies_intervals(monkeypatch):
+    """analyze_design checks the interval structure against exact counts at 64 values per family:
+    with the crossing search sabotaged (no critical values found), the mass family of the §9 file
+    is flagged (mismatches listed, not robust, not conclusive) instead of being reported robust."""
+    import exotune.analysis.intervals as intervals_mod
+    from exotune.analysis import analyze_design
+
+    cfg = load_design(ROOT / "examples" / "paper.yaml")
+    good = analyze_design(cfg)["humans"][0]
+    assert good["verification_mismatches"] == [] and good["verified_points"] == 64
+
+    def no_crossings(Nd, ct_, cp, cw, lo, hi):
+        bv = np.tile([lo, hi], Nd).astype(float)
+        return (bv, np.arange(Nd + 1) * 2), [[] for _ in range(Nd)]
+
+    monkeypatch.setattr(intervals_mod, "_bounds", no_crossings)
+    bad = analyze_design(cfg)["humans"][0]
+    assert bad["kind"] == "mass"
+    assert bad["verification_mismatches"], bad
+    assert bad["robust"] is False and bad["conclusive"] is False
+
+
+def test_msd_box_edge_theorem_matches_grid_counts():
+    """A box of (inertia, damping, stiffness) is robust iff all 12 edges are (Edge Theorem):
+    compare with exact counts on a 7×5×7 grid inside the box for boxes on both sides of the
+    light-inertia boundary, for several designs."""
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    verdicts = set()
+    for alpha, delay in ((8.0, 0.001), (4.0, 0.002), (12.0, 0.0005)):
+        for m_lo in (0.002, 0.03):
+            box = HumanFamily("msd", "inertia", m_lo, 0.15, damping=0.01, stiffness=2.0,
+                              box=(("damping", 0.01, 2.0), ("stiffness", 2.0, 300.0)))
+            cfg = dataclasses.replace(
+                base, humans=(box,), environment=(),
+                design=dataclasses.replace(base.design, amplification=alpha),
+                implementation=dataclasses.replace(base.implementation, delay_s=delay),
+            )
+            robust = bool(analyze_batch(cfg)["human0_msd_robust"][0])
+            cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+            M, B, K = np.meshgrid(np.geomspace(m_lo, 0.15, 7), np.linspace(0.01, 2.0, 5), np.geomspace(2.0, 300.0, 7))
+            n = M.size
+            res = coupled_stable(cfg.plant, cs, n, human={"inertia": M.ravel(), "damping": B.ravel(), "stiffness": K.ravel()})
+            assert res["conclusive"].all()
+            if robust:
+                assert res["stable"].all(), (alpha, delay, m_lo)
+            else:
+                # the box is unstable somewhere: the grid (which includes the corners) sees it here
+                assert not res["stable"].all(), (alpha, delay, m_lo)
+            verdicts.add(robust)
+    assert verdicts == {True, False}

@@ -1,0 +1,181 @@
+"""Latency margin (docs/method.md#latency-margin), checked three independent ways:
+
+1. closed form: Δ(s) = s + a + k e^{−sτ} loses stability at τ* = (π − atan(ω/a))/ω with
+   ω = √(k² − a²) (the classic first-order delay loop), for any nominal delay below τ*;
+2. the exact argument-principle verdicts of the analysis at T + ΔT(1 ∓ 10⁻⁶) — the margin is the
+   first delay at which a verdict changes;
+3. closed-loop eigenvalues of the independent state-space reference (tests/reference_model.py,
+   Padé delay) of the critical family member, just below and above the margin.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from exotune.analysis.margins import family_latency_margin, latency_margin, qp_latency_margin
+from exotune.analysis import analyze_batch
+from exotune.config import batch_config, design_from_mapping, read_yaml
+
+from reference_model import coupled_verdict, reference_gains, reference_gc
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+PAPER_MAP = read_yaml(EXAMPLES / "paper.yaml")
+
+
+def _first_order_margin(a: float, k: float, T: float) -> float:
+    w = math.sqrt(k * k - a * a)
+    return (math.pi - math.atan2(w, a)) / w - T
+
+
+# ---------------------------------------------------------------------------------------------
+# 1. closed form
+# ---------------------------------------------------------------------------------------------
+@settings(deadline=None, max_examples=60)
+@given(a=st.floats(0.1, 100.0), ratio=st.floats(1.05, 50.0), frac=st.floats(0.0, 0.9))
+def test_first_order_loop_closed_form(a, ratio, frac):
+    k = a * ratio
+    tau_star = _first_order_margin(a, k, 0.0)
+    T = frac * tau_star
+    dT, w = qp_latency_margin(np.array([a, 1.0]), np.array([k]), T)
+    assert dT == pytest.approx(tau_star - T, rel=1e-9, abs=1e-12 * tau_star)
+    assert w == pytest.approx(math.sqrt(k * k - a * a), rel=1e-9)
+
+
+def test_no_crossing_means_infinite_margin():
+    # |k| < a: |P0(jω)| = |jω + a| > |k| for every ω, no delay destabilizes (delay-independent stability)
+    dT, w = qp_latency_margin(np.array([2.0, 1.0]), np.array([1.5]), 0.01)
+    assert dT == math.inf and w is None
+
+
+@settings(deadline=None, max_examples=25)
+@given(a=st.floats(0.5, 20.0), k_lo=st.floats(1.05, 3.0), span=st.floats(1.0, 20.0), frac=st.floats(0.0, 0.5))
+def test_family_margin_is_the_dense_member_minimum(a, k_lo, span, frac):
+    """Family Δ = (s + a) + p e^{−sτ}, p ∈ [a·k_lo, a·k_lo·span]: the family margin equals the
+    minimum of the members' closed-form margins (the largest p is critical), never above it."""
+    lo, hi = a * k_lo, a * k_lo * span
+    T = frac * _first_order_margin(a, hi, 0.0)
+    dT, w, p = family_latency_margin([a, 1.0], [0.0], [0.0], [1.0], lo, hi, T, wmax=10 * hi)
+    dense = min(_first_order_margin(a, q, T) for q in np.geomspace(lo, hi, 2001))
+    assert dT <= dense * (1 + 1e-9)
+    assert dT == pytest.approx(dense, rel=1e-6)
+    assert p == pytest.approx(hi, rel=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# 2./3. a design: the analysis verdicts and the reference eigenvalues
+# ---------------------------------------------------------------------------------------------
+def _robust_mapping() -> dict:
+    """The paper's hardware with a mass range the design is robust over (the paper example's
+    lightest inertias are not, so its margin is 0)."""
+    m = copy.deepcopy(PAPER_MAP)
+    m["humans"] = [{"kind": "mass", "inertia": [0.01, 1.0], "damping": 0.0},
+                   {"kind": "spring", "stiffness": [1.0, 10000.0], "damping": 0.0}]
+    return m
+
+
+@pytest.fixture(scope="module")
+def robust_margin():
+    cfg = design_from_mapping(_robust_mapping())
+    return cfg, latency_margin(cfg)
+
+
+def _all_ok(cols: dict, t: int) -> bool:
+    keys = [k for k in cols if k == "free_stable" or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable")))]
+    return all(bool(np.asarray(cols[k])[t]) for k in keys)
+
+
+def test_design_margin_is_where_the_exact_verdicts_change(robust_margin):
+    cfg, m = robust_margin
+    assert 0 < m.extra_delay_s < math.inf and m.verified is True
+    T = cfg.implementation.delay_s
+    assert m.delay_s == T
+    cols = analyze_batch(batch_config(cfg, {"implementation.delay_s": np.array(
+        [T, T + m.extra_delay_s * (1 - 1e-6), T + m.extra_delay_s * (1 + 1e-6)])}))
+    assert [_all_ok(cols, t) for t in range(3)] == [True, True, False]
+    # the design margin is its loops' minimum, the critical loop among them
+    assert m.extra_delay_s == min(lp.extra_delay_s for lp in m.loops)
+    assert m.critical in m.loops
+    d = m.to_dict()
+    assert d["units"]["extra_delay_s"] == "s" and d["extra_delay_s"] == m.extra_delay_s
+
+
+def test_design_margin_against_reference_eigenvalues(robust_margin):
+    """The critical member of the critical family (from the margin) is stable just below the
+    margin and unstable just above it for the independent state-space model (Padé 12)."""
+    cfg, m = robust_margin
+    c = m.critical
+    assert c.loop.startswith("human0_mass") and c.parameter == "inertia" and c.unit == "kg·m²"
+    mp = _robust_mapping()
+    p = mp["plant"]
+    plant = dict(J_m=p["motor_inertia"], B_m=p["motor_damping"], K_s=p["sea_stiffness"], J_j=p["joint_inertia"],
+                 K_c=p["cuff_stiffness"])
+    im = mp["implementation"]
+    gains = reference_gains(plant, mp["design"])
+    gains["Gc"] = reference_gc(plant, mp["design"], im["gv_filter"], im["derivative_filter"])
+    human = {"kind": "mass", "inertia": c.value, "damping": 0.0}
+    T = float(im["delay_s"])
+    below = coupled_verdict(plant, gains, {"T": T + m.extra_delay_s * (1 - 1e-3), "dob": im["dob"]}, human, pade_order=12)
+    above = coupled_verdict(plant, gains, {"T": T + m.extra_delay_s * (1 + 1e-3), "dob": im["dob"]}, human, pade_order=12)
+    assert below[0] is True and above[0] is False
+
+
+def test_not_robust_at_nominal_delay_gives_zero():
+    cfg = design_from_mapping(PAPER_MAP)  # the paper example: lightest inertias unstable
+    m = latency_margin(cfg)
+    assert m.extra_delay_s == 0.0
+    assert m.critical is not None and m.critical.loop.startswith("human0_mass")
+    assert "nominal" in m.note
+
+
+def test_margin_in_samples_when_a_rate_is_set():
+    mp = _robust_mapping()
+    mp["implementation"]["sample_rate_hz"] = 1000.0
+    cfg = design_from_mapping(mp)
+    m = latency_margin(cfg, verify=False)
+    assert m.sample_rate_hz == 1000.0
+    assert m.extra_delay_samples == pytest.approx(m.extra_delay_s * 1000.0, rel=1e-15)
+
+
+# ---------------------------------------------------------------------------------------------
+# the design file's `uncertainty` section and the analyze report
+# ---------------------------------------------------------------------------------------------
+def test_uncertainty_section_gives_the_weights():
+    from exotune.errors import ConfigError
+
+    mp = _robust_mapping()
+    assert design_from_mapping(mp).uncertainty is None  # absent: weight 1 each
+    mp["uncertainty"] = {"motor_inertia": 0.1, "cuff_stiffness": 0.2}
+    cfg = design_from_mapping(mp)
+    assert cfg.uncertainty == {"motor_inertia": 0.1, "motor_damping": 0.0, "sea_stiffness": 0.0,
+                               "joint_inertia": 0.0, "cuff_stiffness": 0.2}  # left out: certain
+    for bad, field in (({"sea_stiffness": 1.5}, "uncertainty.sea_stiffness"), ({"motor_inertia": -0.1}, "uncertainty.motor_inertia"),
+                       ({"motor_inertia": 0.0}, "uncertainty"), ({"motor_inertai": 0.1}, "uncertainty.motor_inertai")):
+        mp["uncertainty"] = bad
+        with pytest.raises(ConfigError) as e:
+            design_from_mapping(mp)
+        assert str(e.value).startswith(field)
+
+
+def test_analyze_reports_both_margins_with_units():
+    from exotune.analysis import analyze_with_margins
+
+    mp = _robust_mapping()
+    mp["uncertainty"] = {"motor_inertia": 0.1, "motor_damping": 0.3, "sea_stiffness": 0.05, "cuff_stiffness": 0.2}
+    rec = analyze_with_margins(design_from_mapping(mp))
+    assert list(rec)[0] == "margins"
+    lat, pm = rec["margins"]["latency"], rec["margins"]["plant_uncertainty"]
+    assert lat["units"]["extra_delay_s"] == "s" and lat["extra_delay_s"] > 0
+    assert pm["weights"] == {"J_m": 0.1, "B_m": 0.3, "K_s": 0.05, "J_j": 0.0, "K_c": 0.2}
+    assert 0 < pm["lower"] <= pm["upper"] <= pm["lower"] * 1.02
+    w = pm["witness"]
+    assert w["confirmed"] is True and w["rightmost_root"]["re"] > 0
+    # the witness deviates only the uncertain parameters, by at most k·w each
+    for sym, dev in w["deviations"].items():
+        assert abs(dev) <= w["k"] * pm["weights"][sym] * (1 + 1e-9)

@@ -1,0 +1,336 @@
+"""Sampled-data model (exotune.sampled.loop) checked two independent ways:
+
+* its pieces: the fractional-delay zero-order-hold discretization against a fine continuous
+  simulation (scipy.signal.lsim with the delayed held input), and the assembled discrete controller
+  against the continuous controller of docs/method.md#controller through the exact Tustin frequency identity
+  H_d(e^{jωT_s}) = H(j (2/T_s) tan(ωT_s/2));
+* its verdicts: at a high sample rate the sampled-data loop agrees with the continuous exact-delay
+  analysis (exotune.analysis.coupled_stable) on random designs, humans and environments, and the
+  light-inertia boundary of the §9 design converges to the continuous one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.signal
+
+from exotune.analysis import analyze_design, coupled_stable
+from exotune.config import load_design
+from exotune.model.controller import build_controller
+from exotune.sampled.loop import Measured, closed_loop_matrix, discretize, plant_ss, sampled_stable, zoh_fractional
+
+ROOT = Path(__file__).resolve().parents[2]
+BASE = load_design(ROOT / "examples" / "paper.yaml")
+
+
+def _cfg(alpha=8.0, delay=0.001, zeta=None, zeta_hat=None, kc=None, dob=True, dob_hz=None):
+    d = dataclasses.replace(BASE.design, amplification=alpha,
+                            **({"zeta": zeta} if zeta is not None else {}),
+                            **({"zeta_hat": zeta_hat} if zeta_hat is not None else {}))
+    im = BASE.implementation
+    q = im.dob if dob else None
+    if q is not None and dob_hz is not None:
+        q = dataclasses.replace(q, cutoff_hz=dob_hz)
+    im = dataclasses.replace(im, delay_s=delay, dob=q)
+    pl = BASE.plant if kc is None else dataclasses.replace(BASE.plant, cuff_stiffness=kc)
+    cfg = dataclasses.replace(BASE, design=d, implementation=im, plant=pl)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    return cfg, cs
+
+
+@pytest.mark.parametrize("f", [0.0, 0.3, 0.75])
+@pytest.mark.parametrize("d", [0, 2])
+def test_fractional_delay_zoh_matches_fine_simulation(d, f):
+    """x[k] from (Φ, Γ0, Γ1) with T = (d + f)T_s equals lsim (zero-order hold between grid
+    points) of the continuous plant driven by the held, delayed command."""
+    A, B, C = plant_ss(BASE.plant, {"inertia": 0.1, "damping": 1.0, "stiffness": 40.0}, "free")
+    Ts = 1e-3
+    K = 40
+    rng = np.random.default_rng(d * 10 + int(10 * f))
+    u = rng.normal(size=K)
+    Phi, G0, G1 = zoh_fractional(A, B, Ts, f)
+    x = np.zeros((K + 1, A.shape[0]))
+    x[0] = rng.normal(size=A.shape[0]) * 1e-3
+    ud = lambda j: u[j] if j >= 0 else 0.0  # noqa: E731
+    for k in range(K):
+        x[k + 1] = Phi @ x[k] + G0[:, 0] * ud(k - d) + G1[:, 0] * ud(k - d - 1)
+    # continuous: τ_m(t) = u[j] on [j T_s + T, (j+1) T_s + T)
+    T = (d + f) * Ts
+    # uniform grid of T_s/20: every switching instant (f is a multiple of 0.05) is a grid point
+    t = np.arange(20 * K + 1) * (Ts / 20)
+    j = np.floor((t - T) / Ts + 1e-9).astype(int)
+    tau = np.where(j >= 0, u[np.clip(j, 0, K - 1)], 0.0)
+    sysc = scipy.signal.StateSpace(A, B, np.eye(A.shape[0]), np.zeros((A.shape[0], 1)))
+    _, _, xs = scipy.signal.lsim(sysc, tau, t, X0=x[0], interp=False)
+    at = np.arange(K + 1) * 20
+    scale = np.max(np.abs(xs))
+    np.testing.assert_allclose(x, xs[at], rtol=0, atol=1e-6 * scale)
+
+
+def _ct(q, s):
+    return np.polyval(np.ravel(q.num)[::-1], s) / np.polyval(np.ravel(q.den)[::-1], s)
+
+
+@pytest.mark.parametrize("dob", [True, False])
+def test_discrete_controller_is_the_tustin_image_of_spec_controller(dob):
+    """Channel by channel, the assembled discrete controller (DOB algebraic loop solved) equals the
+    continuous docs/method.md#controller controller at the Tustin-warped frequency, exactly:
+    τ_cmd = [(G_θ − Q J_m s² − Q B_m s) θ_m + (G_s + Q) τ_s + G_c τ_c] / (1 − Q), the K + B s parts
+    of G_θ and G_s on sampled positions and ideal sampled velocities."""
+    cfg, cs = _cfg(dob=dob, delay=0.0)
+    fs = 2000.0
+    Ts = 1 / fs
+    ctrl = discretize(cs, cfg.plant, fs)
+    w = 2 * np.pi * np.array([0.3, 3.0, 30.0, 150.0, 600.0])
+    z = np.exp(1j * w * Ts)
+    nu = (2 / Ts) * np.tan(w * Ts / 2)  # warped frequency
+    Jm, Bm = float(cfg.plant.J_m), float(cfg.plant.B_m)
+    Q = _ct(cs.dob_q, 1j * nu) if dob else 0.0 * nu
+    K1, B1 = -np.ravel(cs.motor_position.num)[:2]
+    K2, B2 = np.ravel(cs.spring_torque.num)[:2]
+
+    def dtf(i):  # discrete transfer function from input channel i at z
+        out = []
+        for zz in z:
+            r = ctrl.Cc @ np.linalg.solve(zz * np.eye(ctrl.Ac.shape[0]) - ctrl.Ac, ctrl.Bc[:, i]) + ctrl.Dc[0, i]
+            out.append(complex(np.ravel(r)[0]))
+        return np.array(out)
+
+    s = 1j * nu
+    den = 1 - Q
+    Q2 = Q * (Jm * s**2 + Bm * s)
+    np.testing.assert_allclose(dtf(Measured.index("theta_m")), (-K1 - Q2) / den, rtol=1e-8)
+    np.testing.assert_allclose(dtf(Measured.index("omega_m")), (-B1 + 0 * s) / den, rtol=1e-8)
+    np.testing.assert_allclose(dtf(Measured.index("tau_s")), (K2 + Q) / den, rtol=1e-8)
+    np.testing.assert_allclose(dtf(Measured.index("dtau_s")), (B2 + 0 * s) / den, rtol=1e-8)
+    np.testing.assert_allclose(dtf(Measured.index("tau_c")), _ct(cs.cuff_torque, s) / den, rtol=1e-8)
+
+
+def test_prewarped_tustin_is_exact_at_the_prewarp_frequency():
+    """With prewarping at f_p, the discrete G_c equals the continuous one at f_p exactly."""
+    cfg, cs = _cfg(dob=False, delay=0.0)
+    fs, fp = 1000.0, 120.0
+    ctrl = discretize(cs, cfg.plant, fs, prewarp={"tau_c": fp})
+    zz = np.exp(2j * np.pi * fp / fs)
+    i = Measured.index("tau_c")
+    hd = ctrl.Cc @ np.linalg.solve(zz * np.eye(ctrl.Ac.shape[0]) - ctrl.Ac, ctrl.Bc[:, i]) + ctrl.Dc[0, i]
+    np.testing.assert_allclose(complex(np.ravel(hd)[0]), _ct(cs.cuff_torque, 2j * np.pi * fp), rtol=1e-9)
+
+
+def test_badly_scaled_block_prewarped_near_nyquist_is_accurate_and_quiet():
+    """A 4th-order block prewarped at 499 Hz of a 1 kHz controller has a companion realization
+    with ~1e10 coefficients (scipy warns of rcond ~1e-26 while discretizing it): its discrete
+    response still equals H(K (z−1)/(z+1)) to ~1e-11, and no warning reaches the user."""
+    import warnings
+
+    from exotune.sampled import tustin
+
+    num = np.array([2.17411924e10, 1.02444596e10, 7.44571640e8, 8.40258869e6, 1.01233488e5])
+    den = np.array([2.47059005e10, 6.22682763e9, 1.26081987e7, 5.02175179e3, 1.0])
+    Ts, pw = 1e-3, 499.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Ad, Bd, Cd, Dd = tustin(num, den, Ts, pw)
+    K = 2 * np.pi * pw / np.tan(np.pi * pw * Ts)
+    for f in (1.0, 10.0, 100.0, 300.0, 450.0, 499.0):
+        z = np.exp(2j * np.pi * f * Ts)
+        s = K * (z - 1) / (z + 1)
+        h = np.polyval(num[::-1], s) / np.polyval(den[::-1], s)
+        hd = (Cd @ np.linalg.solve(z * np.eye(Ad.shape[0]) - Ad, Bd) + Dd)[0, 0]
+        assert abs(hd - h) <= 1e-9 * abs(h)
+
+
+def _cases(n, seed):
+    rng = np.random.default_rng(seed)
+    humans = [None, "spring", "mass", "msd", "massless_damped"]
+    out = []
+    for i in range(n):
+        h = humans[i % len(humans)]
+        hm = None
+        if h == "spring":
+            hm = {"stiffness": float(np.exp(rng.uniform(0, np.log(3e3))))}
+        elif h == "mass":
+            hm = {"inertia": float(np.exp(rng.uniform(np.log(1e-3), 0.0)))}
+        elif h == "msd":
+            hm = {"inertia": float(np.exp(rng.uniform(np.log(1e-3), 0.0))), "damping": float(rng.uniform(0, 3)),
+                  "stiffness": float(rng.uniform(0, 300))}
+        elif h == "massless_damped":
+            hm = {"damping": float(rng.uniform(0.1, 5)), "stiffness": float(rng.uniform(0, 300))}
+        env = ["free", "free", "locked", {"stiffness": float(rng.uniform(10, 3000))}][i % 4]
+        out.append(dict(alpha=float(np.exp(rng.uniform(np.log(1.5), np.log(25)))), zeta=float(rng.uniform(0.4, 1.1)),
+                        zeta_hat=float(rng.uniform(0.4, 1.1)), delay=float(rng.uniform(0, 0.004)),
+                        kc=float(np.exp(rng.uniform(np.log(100), np.log(2000)))), dob=bool(rng.random() < 0.7),
+                        dob_hz=float(np.exp(rng.uniform(np.log(20), np.log(120)))), human=hm, env=env))
+    return out
+
+
+def test_sampled_data_agrees_with_continuous_at_high_rate():
+    """At 20 kHz (delays of non-integer samples) the sampled-data verdicts equal the continuous
+    exact-delay verdicts wherever the continuous verdict is not at the edge of the sampling
+    perturbation (unchanged between T and T + 1.5 T_s: the zero-order hold adds ≈ T_s/2)."""
+    fs = 20000.0
+    Ts = 1 / fs
+    compared = agree = 0
+    seen = set()
+    for c in _cases(150, 11):
+        cfg, cs = _cfg(c["alpha"], c["delay"], c["zeta"], c["zeta_hat"], c["kc"], c["dob"], c["dob_hz"])
+        env = c["env"]
+        v0 = coupled_stable(cfg.plant, cs, 1, human=c["human"], env=None if env == "free" else env)
+        cfg2, cs2 = _cfg(c["alpha"], c["delay"] + 1.5 * Ts, c["zeta"], c["zeta_hat"], c["kc"], c["dob"], c["dob_hz"])
+        v1 = coupled_stable(cfg2.plant, cs2, 1, human=c["human"], env=None if env == "free" else env)
+        if not (v0["conclusive"][0] and v1["conclusive"][0]) or v0["stable"][0] != v1["stable"][0]:
+            continue
+        s, rho = sampled_stable(cfg.plant, cs, fs, human=c["human"], env=env)
+        if abs(rho - 1.0) < 1e-9:
+            continue  # marginal in floating point
+        compared += 1
+        seen.add(bool(v0["stable"][0]))
+        assert s == bool(v0["stable"][0]), (c, rho)
+        agree += 1
+    assert compared >= 120 and seen == {True, False}, (compared, seen)
+
+
+def test_light_inertia_boundary_converges_to_continuous():
+    """§9 design: the lightest stable human inertia of the sampled-data loop at 20 kHz is within
+    1 % of the exact continuous one (4.79e-3 kg·m²); at 1 kHz sampling moves it up."""
+    r = analyze_design(BASE)
+    m_cont = r["humans"][0]["stable_intervals"][0][0]
+    cfg, cs = _cfg()
+
+    def boundary(fs):
+        lo, hi = 1e-3, 1e-2
+        assert not sampled_stable(cfg.plant, cs, fs, human={"inertia": lo})[0]
+        assert sampled_stable(cfg.plant, cs, fs, human={"inertia": hi})[0]
+        for _ in range(40):
+            m = math.sqrt(lo * hi)
+            if sampled_stable(cfg.plant, cs, fs, human={"inertia": m})[0]:
+                hi = m
+            else:
+                lo = m
+        return hi
+
+    assert abs(boundary(20000.0) / m_cont - 1) < 0.01
+    assert boundary(1000.0) > m_cont * 1.01
+
+
+def test_closed_loop_matrix_shift_register_and_plant_shapes():
+    """Plant state counts per human/environment model and the size of the loop with d whole
+    delay samples (d + 1 shift states)."""
+    assert plant_ss(BASE.plant, None, "free")[0].shape == (4, 4)
+    assert plant_ss(BASE.plant, {"stiffness": 10.0}, "free")[0].shape == (4, 4)
+    assert plant_ss(BASE.plant, {"damping": 1.0}, "free")[0].shape == (5, 5)
+    assert plant_ss(BASE.plant, {"inertia": 0.1}, "locked")[0].shape == (4, 4)
+    cfg, cs = _cfg(delay=0.0035)
+    A, B, C = plant_ss(cfg.plant, {"inertia": 0.1}, "free")
+    ctrl = discretize(cs, cfg.plant, 1000.0)
+    M = closed_loop_matrix(A, B, C, ctrl)
+    assert M.shape[0] == A.shape[0] + ctrl.Ac.shape[0] + 4  # d = 3, f = 0.5
+
+
+def test_analyze_with_sample_rate_reports_the_sampled_data_check():
+    """`analyze` with sample_rate_hz: the §9 design at 1 kHz keeps its free/locked/spring verdicts,
+    but sampling raises the lightest stable inertia by > 5 % — reported as a boundary move and as
+    a warning (the continuous analysis alone would call those inertias stable); at 20 kHz the
+    move is < 1 %. Without a sample rate there is no sampled-data section."""
+    assert analyze_design(BASE)["sampled_data"] is None
+    cfg = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=1000.0))
+    r = analyze_design(cfg)
+    sd = r["sampled_data"]
+    assert sd["sample_rate_hz"] == 1000.0 and sd["free_stable"] and sd["locked_stable"]
+    mass, spring, cplx = sd["humans"]
+    assert spring["stable_points"] == spring["points"] and spring["disagreements"] == []
+    assert "skipped" in cplx
+    (b,) = mass["boundaries"]
+    assert b["sampled"] > 1.05 * b["continuous"]
+    lo, hi = b["sampled_unstable_where_continuous_stable"]
+    assert lo == b["continuous"] and hi == b["sampled"]
+    # the sampled boundary really separates sampled-data verdicts
+    _, cs = _cfg()
+    assert not sampled_stable(cfg.plant, cs, 1000.0, {"inertia": 0.99 * b["sampled"]}, prewarp={"tau_c": 80.0, "dob": 60.0})[0]
+    assert sampled_stable(cfg.plant, cs, 1000.0, {"inertia": 1.01 * b["sampled"]}, prewarp={"tau_c": 80.0, "dob": 60.0})[0]
+    assert any("UNSTABLE for human mass inertia" in w for w in r["warnings"])
+    cfg20 = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=20000.0))
+    b20 = analyze_design(cfg20)["sampled_data"]["humans"][0]["boundaries"][0]
+    assert abs(b20["sampled"] / b20["continuous"] - 1) < 0.01
+
+
+def test_zero_order_hold_acts_like_half_a_sample_of_extra_delay():
+    """Classic sampled-data consistency: at 2 kHz the sampled light-inertia boundary (T = 1 ms)
+    matches the exact continuous boundary with the delay T + T_s/2 within 2 %, while the
+    continuous boundary at T itself is > 3 % lower (so the check can fail)."""
+    fs = 2000.0
+    cfg, cs = _cfg(delay=0.001)
+    pw = {"tau_c": 80.0, "dob": 60.0}
+
+    def bis(stable, lo=2e-3, hi=2e-2):
+        assert not stable(lo) and stable(hi)
+        for _ in range(40):
+            m = math.sqrt(lo * hi)
+            lo, hi = (lo, m) if stable(m) else (m, hi)
+        return hi
+
+    m_s = bis(lambda m: sampled_stable(cfg.plant, cs, fs, {"inertia": m}, prewarp=pw)[0])
+    cfg_h, cs_h = _cfg(delay=0.001 + 0.5 / fs)
+    m_c_half = bis(lambda m: bool(coupled_stable(cfg_h.plant, cs_h, 1, human={"inertia": m})["stable"][0]))
+    m_c = bis(lambda m: bool(coupled_stable(cfg.plant, cs, 1, human={"inertia": m})["stable"][0]))
+    assert abs(m_s / m_c_half - 1) < 0.02, (m_s, m_c_half)
+    assert m_s / m_c > 1.03, (m_s, m_c)
+
+
+def test_sampled_check_covers_environment_ranges():
+    """Environment spring/mass ranges at the joint (cuff free) are checked like the human
+    families: the §9 design with a joint spring range 10–10⁴ N·m/rad and a joint mass range
+    0.01–10 kg·m² at 1 kHz, sampled verdicts against the continuous environment intervals."""
+    from exotune.model.humans import EnvModel
+
+    env = (EnvModel("locked"), EnvModel("spring", "stiffness", 10.0, 1e4), EnvModel("mass", "inertia", 0.01, 10.0))
+    cfg = dataclasses.replace(BASE, environment=env,
+                              implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=1000.0))
+    r = analyze_design(cfg)
+    sd = r["sampled_data"]["environment"]
+    assert [e["kind"] for e in sd] == ["spring", "mass"]
+    cont = {e["kind"]: e for e in r["environment"] if e["kind"] != "locked"}
+    _, cs = _cfg()
+    for e in sd:
+        assert e["points"] == 24 and 0 <= e["stable_points"] <= 24
+        # every reported disagreement is a real sampled-vs-continuous difference
+        for d in e["disagreements"]:
+            assert d["continuous_stable"] == any(a <= d["value"] <= b for a, b in cont[e["kind"]]["stable_intervals"])
+            s, _ = sampled_stable(cfg.plant, cs, 1000.0, env={e["parameter"]: d["value"]},
+                                  prewarp={"tau_c": 80.0, "dob": 60.0})
+            assert s == d["sampled_stable"]
+        for b in e["boundaries"]:
+            assert b["sampled"] is None or 0.5 * b["continuous"] <= b["sampled"] <= 2 * b["continuous"]
+
+
+def test_zoh_and_prewarped_tustin_match_python_control():
+    """exotune's discretizations against python-control on small cases: the zero-order hold of the
+    plant without fractional delay (``control.sample_system(..., 'zoh')``) and each prewarped
+    Tustin controller block (``method='tustin', prewarp_frequency=ω``), compared as frequency
+    responses on the unit circle."""
+    import control
+
+    from exotune.sampled import tustin
+
+    A, B, C = plant_ss(BASE.plant, {"inertia": 0.1, "damping": 2.0, "stiffness": 30.0}, "free")
+    Ts = 1e-3
+    Phi, G0, G1 = zoh_fractional(A, B, Ts, 0.0)
+    ref = control.sample_system(control.ss(A, B, np.eye(A.shape[0]), 0), Ts, "zoh")
+    np.testing.assert_allclose(Phi, ref.A, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(G0, ref.B, rtol=1e-9, atol=1e-12)
+    assert np.all(G1 == 0)
+
+    cfg, cs = _cfg()
+    z = np.exp(1j * 2 * np.pi * np.array([1.0, 10.0, 60.0, 200.0]) * Ts)
+    for blk, fp in ((cs.cuff_torque, 80.0), (cs.dob_q, 60.0)):
+        Ad, Bd, Cd, Dd = tustin(blk.num, blk.den, Ts, fp)
+        mine = np.array([(Cd @ np.linalg.solve(zz * np.eye(Ad.shape[0]) - Ad, Bd) + Dd).item() for zz in z])
+        tf = control.tf(np.ravel(blk.num)[::-1], np.ravel(blk.den)[::-1])
+        d = control.sample_system(tf, Ts, "tustin", prewarp_frequency=2 * np.pi * fp)
+        theirs = np.array([complex(d(zz)) for zz in z])
+        np.testing.assert_allclose(mine, theirs, rtol=1e-8)
