@@ -141,7 +141,16 @@ SINGLE_DESIGN_COMMANDS = ("design", "sea", "analyze", "export", "certify", "simu
 @click.pass_context
 def cli(ctx):
     """exotune: robust stability analysis and tuning of strength-amplification exoskeletons
-    (double compliance shaping, Thomas, Coholich & Sentis). Gains are in torque units (docs/method.md#double-compliance-shaping)."""
+    (double compliance shaping, Thomas, Coholich & Sentis). Gains are in torque units
+    (docs/method.md#double-compliance-shaping).
+
+    \b
+    Inputs: design files (docs/design-file.md), sweep specs (docs/sweep-spec.md),
+    optimize specs (docs/optimize-spec.md), controller files (docs/controller-file.md);
+    `exotune init DIR` writes commented templates of the first three.
+    Outputs: reports on stdout (--json: one JSON object); files only where an option
+    names them (-o, --plots, --pareto); errors as one line `exotune: error: …`, exit 2.
+    """
     if ctx.invoked_subcommand in SINGLE_DESIGN_COMMANDS:
         # one design: the numpy engine answers at once; compiling the kernels pays only for batches
         from .numerics.engine import numpy_engine

@@ -151,9 +151,30 @@ def test_export_then_certify_round_trip(tmp_path):
     assert "certif" in c1.to_text().lower()
 
 
-@pytest.mark.parametrize("module", ["exotune.api", "exotune.model.interop", "exotune.numerics.poly",
-                                    "exotune.analysis.responses", "exotune.model.plant"])
+def _modules_with_examples():
+    import pkgutil
+
+    out = []
+    for m in pkgutil.walk_packages(exotune.__path__, "exotune."):
+        if m.name.endswith("__main__"):
+            continue
+        mod = importlib.import_module(m.name)
+        if doctest.DocTestFinder().find(mod) and any(t.examples for t in doctest.DocTestFinder().find(mod)):
+            out.append(m.name)
+    return out
+
+
+EXAMPLE_MODULES = _modules_with_examples()
+
+
+def test_the_public_api_has_examples():
+    for mod in ("exotune.api", "exotune.model.interop", "exotune.analysis.margins", "exotune.starter"):
+        assert mod in EXAMPLE_MODULES
+
+
+@pytest.mark.parametrize("module", EXAMPLE_MODULES)
 def test_docstring_examples_run(module, monkeypatch):
+    """Every example in every docstring of the package runs and gives what it shows."""
     monkeypatch.chdir(ROOT)
     res = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert res.failed == 0

@@ -387,7 +387,7 @@ def _lower_search(loops, w, k_start, rel_tol, budget, max_steps=4, k_up=math.inf
 
 
 def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 150_000, rel_tol: float = 0.01,
-                             nominal: dict | None = None) -> PlantMargin:
+                             nominal: dict | None = None, loop_detail: bool = True) -> PlantMargin:
     """Plant-uncertainty margin of a design (module docstring): certified lower and witnessed upper
     bounds on the largest multiple k of the relative plant uncertainty for which every loop stays
     stable/robust with the controller designed on the nominal plant.
@@ -410,6 +410,9 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
         tried at upper/(1 + rel_tol).
     nominal : dict, optional
         The design's batch columns (``analyze_batch(cfg)``) if already computed.
+    loop_detail : bool
+        When the design is not robust at the nominal plant (k* = 0), also bound each robust
+        loop's own margin (the costly part); False lists those loops with NaN bounds.
 
     Returns
     -------
@@ -437,10 +440,11 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
         if cfg.raw.get("transmission") is not None:
             notes.append("the transmission schedule is not applied: nominal plant = the plant section")
         robust = [lp for lp in loops if lp.ok]
-        ups = {lp.name: _loop_upper(lp, w, rel_tol, k_cap) for lp in robust}
+        detail = loop_detail or len(robust) == len(loops)
+        ups = {lp.name: _loop_upper(lp, w, rel_tol, k_cap) for lp in robust} if detail else {}
         if len(robust) < len(loops):
             notes.insert(0, "not robust at the nominal plant (" + ", ".join(lp.name for lp in loops if not lp.ok)
-                         + "): k* = 0; the robust loops' margins are listed")
+                         + "): k* = 0" + ("; the robust loops' margins are listed" if detail else ""))
             lower, upper, crit, per, used = _not_robust(loops, ups, w, k_cap, rel_tol, budget)
         else:
             lower, upper, crit, per, used = _robust(robust, ups, w, k_cap, rel_tol, budget)
@@ -451,6 +455,9 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
             v = ups.get(lp.name)
             wit = None if v is None else _witness(lp, *v)
             witness = wit if lp.name == crit else witness
+            if lp.ok and lp.name not in ups:  # not bounded (loop_detail False)
+                out.append(LoopPlantMargin(lp.name, math.nan, math.nan, None, True))
+                continue
             up = 0.0 if not lp.ok else (math.inf if v is None else v[0])
             out.append(LoopPlantMargin(lp.name, per.get(lp.name, 0.0), up, wit, lp.ok))
         if witness is not None and not witness.confirmed:
@@ -465,6 +472,8 @@ def _not_robust(loops, ups, w, k_cap, rel_tol, budget):
     witnesses (``ups`` completed in place). Returns (0, 0, critical loop, per-loop lower, evaluations)."""
     per, used = {}, 0
     for lp in loops:
+        if lp.ok and lp.name not in ups:  # robust loop, not bounded (loop_detail False)
+            continue
         if lp.ok:
             k_up = math.inf if ups[lp.name] is None else ups[lp.name][0]
             per[lp.name], u, _ = _lower_search([lp], w, _start(k_up, k_cap, rel_tol), rel_tol, budget, k_up=k_up)
