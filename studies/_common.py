@@ -86,14 +86,55 @@ def write_study_md(out: Path, lines: list, manifest: dict) -> None:
 
 
 def save_png(fig, path: Path) -> None:
-    import io
-
+    """Render with the shared look (exotune.plots.style: dpi, nothing cut off) and write atomically."""
     import matplotlib.pyplot as plt
 
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    from exotune.plots.style import png
+
+    data = png(fig)
     plt.close(fig)
-    write_atomic(path, buf.getvalue())
+    write_atomic(path, data)
+
+
+def key_metrics(df, manifest: dict) -> dict:
+    """{column: (values in display units, colour-bar label, log, cmap)} of the report's key metrics
+    present in ``df``: the DOB margins, the phase excess, the bandwidth and the per-family lightest
+    stable inertia / stiffest stable spring (exotune.sweeps.metrics)."""
+    import pyarrow as pa
+
+    from exotune.sweeps.metrics import METRICS, derived_metrics
+
+    out = {}
+    for c, (_title, unit, factor, _worst, cmap) in METRICS.items():
+        if c in df.columns:
+            v = df[c].to_numpy(dtype=float) * factor
+            if not np.all(np.isnan(v)):
+                out[c] = (v, f"{c} [{unit}]", False, cmap)
+    cols = [c for c in df.columns if c.endswith("_stable_intervals")]
+    for k, (v, info) in derived_metrics(pa.Table.from_pandas(df[cols], preserve_index=False), manifest).items():
+        out[k] = (np.asarray(v, float) * info["factor"], f"{k} [{info['unit']}]", info["log"], info["cmap"])
+    return out
+
+
+def slice_grid(df, values: np.ndarray, xcol: str, xs, ycol: str, ys, where) -> np.ndarray:
+    """grid[iy, ix] of ``values`` over ``xcol`` × ``ycol`` for the rows selected by ``where``."""
+    g = np.full((len(ys), len(xs)), np.nan)
+    ix = np.searchsorted(np.asarray(xs), df[xcol].to_numpy())
+    iy = np.searchsorted(np.asarray(ys), df[ycol].to_numpy())
+    g[iy[where], ix[where]] = values[where]
+    return g
+
+
+def replace_report_figure(out: Path, old: str, new: str, why: str) -> None:
+    """Remove the generic report's ``old`` figure and point its line in summary.md to ``new``
+    (the study's informative replacement), saying why."""
+    (out / old).unlink(missing_ok=True)
+    md = out / "summary.md"
+    lines = md.read_text().splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith(f"- [{old}]"):
+            lines[i] = f"- [{new}]({new}): replaces `{old}` ({why})"
+    write_atomic(md, "\n".join(lines) + "\n")
 
 
 def plt():

@@ -7,16 +7,24 @@ ranges). Outputs in results/alpha_delay/: the generic report (summary.md, robust
 metrics_*.png, axis_*.csv) plus
   robust_map_by_zeta_hat.png   α × T map per ζ̂, coloured by the first failing criterion
   robust_alpha_by_delay.csv    robust α ranges and the largest robust α for each (T, ζ̂)
+  metrics_by_delay.png         each key metric against α, one line per delay (0, 1, …, 5 ms), at the
+                               nominal ζ̂
+  metrics_at_nominal_delay.png the key metrics over α × ζ̂ at the nominal delay; it replaces the
+                               report's metrics_design.amplification__design.zeta_hat.png, whose
+                               worst case over the delay is the 5 ms value everywhere (constant
+                               DOB margins, every inertia panel ∞)
   study.md                     what was run and the main numbers
 """
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
-from _common import plt, robust_of, run_study, runs, save_png, write_study_md
+from _common import (key_metrics, plt, replace_report_figure, robust_of, run_study, runs, save_png, slice_grid,
+                     write_study_md)
 
 from exotune.jsonio import write_atomic
 
@@ -54,11 +62,89 @@ def edges(v: np.ndarray, log: bool) -> np.ndarray:
     return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
 
 
+def metric_slices(df, manifest, out: Path) -> tuple[float, float]:
+    """metrics_by_delay.png and metrics_at_nominal_delay.png (informative slices instead of the
+    report's worst case over the delay); returns the nominal (T, ζ̂) used."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    from exotune.plots import style
+    from exotune.sweeps.figures import heatmap_panels
+
+    A = np.asarray(manifest["spec"]["axes"]["design.amplification"]["values"])
+    T = np.asarray(manifest["spec"]["axes"]["implementation.delay_s"]["values"])
+    Z = np.asarray(manifest["spec"]["axes"]["design.zeta_hat"]["values"])
+    base = manifest["spec"]["base"]
+    t_nom = float(T[int(np.argmin(np.abs(T - base["implementation"]["delay_s"])))])
+    z_nom = float(Z[int(np.argmin(np.abs(Z - base["design"]["zeta_hat"])))])
+    t, z, a = (df[c].to_numpy() for c in ("implementation.delay_s", "design.zeta_hat", "design.amplification"))
+    metrics = key_metrics(df, manifest)
+
+    p = plt()
+    n = len(metrics)
+    ncols = 3
+    nrows = -(-n // ncols)
+    fig, axes = p.subplots(nrows, ncols, figsize=(5.2 * ncols, 3.6 * nrows + 0.6), squeeze=False, sharex=True,
+                           layout="constrained")
+    shown = T[:: max(1, int(round(1e-3 / (T[1] - T[0])))) if T.size > 1 else 1]
+    colours = p.get_cmap("viridis")(np.linspace(0, 0.9, shown.size))
+    for ax, (col, (v, cbl, log, _cm)) in zip(axes.ravel(), metrics.items()):
+        top = np.nanmax(np.where(np.isfinite(v), v, np.nan)) if np.isfinite(v).any() else 1.0
+        for tt, c in zip(shown, colours):
+            sel = np.isclose(t, tt) & np.isclose(z, z_nom)
+            order = np.argsort(a[sel])
+            x, y = a[sel][order], v[sel][order]
+            fin = np.isfinite(y)
+            ax.plot(x[fin], y[fin], "o-", ms=2.5, lw=1.2, color=c, label=f"T = {tt * 1e3:g} ms")
+            if np.isposinf(y).any():
+                ax.plot(x[np.isposinf(y)], np.full(int(np.isposinf(y).sum()), top), "^", ms=4, color=c)
+        ax.set_xscale("log")
+        ax.set_xticks([t_ for t_ in (1.5, 2, 3, 5, 10, 20) if A.min() <= t_ <= A.max()])
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda val, _pos: f"{val:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        if log:
+            style.log_if_decades(ax, v, decades=1.0)
+        ax.set_ylabel(style.label(cbl), fontsize=8)
+        style.grid(ax)
+    for ax in axes.ravel()[n:]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel(style.label("design.amplification"))
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=8, frameon=False,
+               title="total delay (lines of equal value lie on top of each other)", title_fontsize=8)
+    fig.suptitle(f"Key metrics against α, one line per delay, at ζ̂ = {z_nom:g} "
+                 "(▲ at the top of a panel: ∞ — no crossover, or not stable even at the heavy end)", fontsize=10)
+    save_png(fig, out / "metrics_by_delay.png")
+
+    at = np.isclose(t, t_nom)
+    panels, constant = [], []
+    for col, (v, cbl, log, cm) in metrics.items():
+        g = slice_grid(df, v, "design.amplification", A, "design.zeta_hat", Z, at)
+        fin = g[np.isfinite(g)]
+        if np.all(np.isnan(g)):
+            continue
+        if fin.size == g.size and np.ptp(fin) <= 1e-6 * max(np.abs(fin).max(), 1e-300):
+            constant.append(f"{style.quantity(col).name}: {fin[0]:.4g} {style.quantity(col).unit}")
+            continue
+        panels.append({"grid": g, "title": style.quantity(col).name, "cbar_label": cbl, "cmap": cm, "log": log,
+                       "fmt": "{:.3g}"})
+    sup = f"key metrics over α × ζ̂ at the nominal delay T = {t_nom * 1e3:g} ms"
+    if constant:
+        sup += "\n" + textwrap.fill("the same in every cell (range ends for the springs and the inertia): "
+                                    + "; ".join(constant), 90)
+    png = heatmap_panels(panels, A, Z, "design.amplification [–]", "design.zeta_hat [–]", sup)
+    write_atomic(out / "metrics_at_nominal_delay.png", png)
+    replace_report_figure(out, "metrics_design.amplification__design.zeta_hat.png", "metrics_at_nominal_delay.png",
+                          "its worst case over the delay is the 5 ms value everywhere; see also metrics_by_delay.png")
+    return t_nom, z_nom
+
+
 def extra(df, manifest, out: Path) -> None:
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
     from matplotlib.ticker import NullFormatter
 
+    t_nom, z_nom = metric_slices(df, manifest, out)
     p = plt()
     A = np.asarray(manifest["spec"]["axes"]["design.amplification"]["values"])
     T = np.asarray(manifest["spec"]["axes"]["implementation.delay_s"]["values"])
@@ -146,7 +232,11 @@ def extra(df, manifest, out: Path) -> None:
     L.append("Reading the figures: `robust_map_by_zeta_hat.png` colours each (α, T) cell by the first criterion "
              "that fails (order: cuff free, output locked, human spring, hysteretic arms, human inertia); "
              "`metrics_design.amplification__implementation.delay_s.png` maps the lightest stable inertia, the DOB "
-             "margins and the passivity excess (worst case over ζ̂). Per-(T, ζ̂) robust α ranges are in `robust_alpha_by_delay.csv`; the "
+             "margins and the passivity excess (worst case over ζ̂). `metrics_by_delay.png` draws each key metric "
+             f"against α with one line per delay (at ζ̂ = {z_nom:g}) and `metrics_at_nominal_delay.png` maps them over "
+             f"α × ζ̂ at T = {t_nom * 1e3:g} ms; they replace the report's α × ζ̂ panels, whose worst case over the "
+             "delay is the 5 ms value in every cell (DOB margins 0 ms / −4.8° / −0.55 dB, no stable inertia). "
+             "Per-(T, ζ̂) robust α ranges are in `robust_alpha_by_delay.csv`; the "
              "generic report (`summary.md`, `robust_*.png`, `metrics_*.png`, `axis_*.csv`) aggregates over the third "
              "axis (fraction robust, worst-case metrics).")
     write_study_md(out, L, manifest)

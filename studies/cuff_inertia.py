@@ -8,6 +8,13 @@ stable interval that contains the upper end (1 kg·m²) of the family — no gri
 Outputs in results/cuff_inertia/: the generic report plus
   lightest_inertia_vs_cuff_stiffness.png   curves per α, log-log, with the realistic forearm band
   lightest_inertia_vs_cuff_stiffness.csv   the numbers (and all stable intervals)
+  lightest_inertia_map.png                 the same numbers as a K_c × α map (log colour scale)
+  robust_forearm_plant.cuff_stiffness__design.amplification.png
+                                           robust for every inertia of the forearm band and heavier
+                                           (≥ 0.06 kg·m²), alone and with the output locked; it replaces
+                                           the report's robust map, which is 0 everywhere because the
+                                           family's range starts at 1e-4 kg·m², lighter than the lightest
+                                           stable inertia of every design (not a plotting bug)
   study.md
 """
 
@@ -18,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import plt, run_study, save_png, write_study_md
+from _common import plt, replace_report_figure, run_study, save_png, write_study_md
 
 from exotune.jsonio import write_atomic
 
@@ -30,6 +37,34 @@ def lightest(intervals, lo: float, hi: float) -> float:
     if intervals and intervals[-1][1] >= hi * (1 - 1e-9):
         return float(intervals[-1][0])
     return float("inf")
+
+
+FOREARM = 0.06  # kg·m², lower end of the forearm + hand band
+
+
+def maps(kk, aa, K, A, light, ok, out: Path) -> None:
+    """lightest_inertia_map.png and the forearm-band robust map (replacing the report's all-zero
+    robust map: every design is unstable somewhere in [1e-4, 1] kg·m², so the family verdict is
+    false everywhere — the aggregation is right, the question was not informative)."""
+    from exotune.sweeps.figures import heatmap
+
+    ix, iy = np.searchsorted(K, kk), np.searchsorted(A, aa)
+    g = np.full((A.size, K.size), np.nan)
+    g[iy, ix] = np.where(ok, light, np.inf)
+    write_atomic(out / "lightest_inertia_map.png",
+                 heatmap(g, K, A, "plant.cuff_stiffness [N·m/rad]", "design.amplification [–]",
+                         "lightest stable human inertia on the cuff (exact, stable up to 1 kg·m²)",
+                         "human0_lightest_stable_inertia [kg·m²]", cmap="magma", log=True, fmt="{:.2g}"))
+    r = np.full((A.size, K.size), np.nan)
+    r[iy, ix] = (ok & (light <= FOREARM)).astype(float)
+    write_atomic(out / "robust_forearm_plant.cuff_stiffness__design.amplification.png",
+                 heatmap(r, K, A, "plant.cuff_stiffness [N·m/rad]", "design.amplification [–]",
+                         f"robust for every inertia ≥ {FOREARM:g} kg·m² (forearm + hand), alone and locked "
+                         "(1 = robust)", "fraction robust", vmin=0.0, vmax=1.0, cmap="RdYlGn", fmt="{:.0f}"))
+    replace_report_figure(out, "robust_plant.cuff_stiffness__design.amplification.png",
+                          "robust_forearm_plant.cuff_stiffness__design.amplification.png",
+                          "that map is 0 everywhere: the family range starts at 1e-4 kg·m², lighter than the lightest "
+                          "stable inertia of every design; this one asks for the forearm band and heavier")
 
 
 def extra(df, manifest, out: Path) -> None:
@@ -44,7 +79,8 @@ def extra(df, manifest, out: Path) -> None:
     free = df["free_stable"].to_numpy(bool)
     locked = df["locked_stable"].to_numpy(bool)
 
-    fig, ax = p.subplots(figsize=(8, 5.6))
+    maps(kk, aa, K, A, light, free & locked, out)
+    fig, ax = p.subplots(figsize=(8, 5.6), layout="constrained")
     ax.axhspan(0.06, 0.15, color="tab:green", alpha=0.15, label="forearm + hand, 0.06–0.15 kg·m² (docs/method.md#physical-model)")
     ax.axhline(1e-3, color="k", lw=0.8, ls=":", label="light objects on the cuff ≈ 10⁻³ kg·m²")
     for a in A:
@@ -68,7 +104,6 @@ def extra(df, manifest, out: Path) -> None:
                  fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
     save_png(fig, out / "lightest_inertia_vs_cuff_stiffness.png")
 
     import csv
@@ -110,7 +145,15 @@ def extra(df, manifest, out: Path) -> None:
     L.append("")
     L.append(f"Units: kg·m². A value equal to {lo:g} means every inertia in the analysed range is stable; ∞ means "
              "even 1 kg·m² is unstable. The full table (all K_c, every stable interval) is in "
-             "`lightest_inertia_vs_cuff_stiffness.csv`.")
+             "`lightest_inertia_vs_cuff_stiffness.csv`; `lightest_inertia_map.png` maps it over K_c × α.")
+    L.append("")
+    nrob = int(np.sum(free & locked & (light <= FOREARM)))
+    L.append(f"The generic report's robust map is 0 in every cell, and that is correct, not a plotting bug: the family "
+             f"verdict `human0_mass_robust` asks for stability over the whole range [{lo:g}, {hi:g}] kg·m², and the "
+             f"lightest stable inertia of every design ({np.nanmin(light):.3g} kg·m² at best) is heavier than {lo:g}. "
+             f"It is replaced by `robust_forearm_plant.cuff_stiffness__design.amplification.png`: stable alone, with the "
+             f"output locked and for every inertia from {FOREARM:g} kg·m² (forearm + hand) up to {hi:g} kg·m² — "
+             f"{nrob} of {len(light)} designs.")
     write_study_md(out, L, manifest)
 
 

@@ -46,7 +46,7 @@ def extra(df, manifest, out: Path) -> None:
     dm_valid = np.where(dob_unstable, np.nan, dm)
     robust = robust_of(df)
 
-    fig, axes = p.subplots(1, 2, figsize=(13, 5.4))
+    fig, axes = p.subplots(1, 2, figsize=(13, 5.4), layout="constrained")
     ax = axes[0]
     G = grid(dm_valid)
     finite = G[np.isfinite(G)]
@@ -79,7 +79,6 @@ def extra(df, manifest, out: Path) -> None:
         a.xaxis.set_minor_formatter(NullFormatter())
         a.set_xlabel("DOB cutoff f_q [Hz]")
         a.set_ylabel("total delay T [ms]")
-    fig.tight_layout()
     save_png(fig, out / "dob_delay_margin_map.png")
 
     rows = ["delay_ms," + ",".join(f"max_cutoff_hz_margin_ge_{lv:g}ms" for lv in LEVELS_MS)

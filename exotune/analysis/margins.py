@@ -476,3 +476,72 @@ def analyze_with_margins(cfg) -> dict:
         # (seconds of work) are left to plant_uncertainty_margin(cfg) — analyze stays quick
         pm = plant_uncertainty_margin(cfg, getattr(cfg, "uncertainty", None), nominal=cols, loop_detail=False)
     return {"margins": {"latency": lm.to_dict(), "plant_uncertainty": pm.to_dict()}, **rec}
+
+
+@dataclass(frozen=True)
+class LatencyBoundary:
+    """The stability boundary of one human family in the (member, extra delay) plane: for each
+    member ``values`` [unit], the extra delay ``extra_delay_s`` [s] at which it first loses
+    stability (inf: never; NaN: unstable already at the nominal delay)."""
+
+    loop: str
+    parameter: str
+    unit: str
+    values: np.ndarray
+    extra_delay_s: np.ndarray
+    delay_s: float
+
+
+def latency_boundaries(cfg, n: int = 160) -> list[LatencyBoundary]:
+    """Per human family (a box: per edge), the first destabilizing extra delay of ``n`` members
+    spread over its range (log-spaced for a positive range) — the data of the latency-boundary
+    figure of ``exotune analyze --plots``.
+
+    Members unstable at the nominal delay (by the exact family intervals) get NaN.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design.
+    n : int
+        Members per family.
+
+    Returns
+    -------
+    list of LatencyBoundary
+
+    References
+    ----------
+    docs/method.md#latency-margin; paper Fig. 5.
+
+    Examples
+    --------
+    >>> import exotune
+    >>> b = latency_boundaries(exotune.load_design("examples/scheduled.yaml"), n=8)
+    >>> b[0].loop, b[0].unit, b[0].values.size
+    ('human0_mass', 'kg·m²', 8)
+    """
+    from ..model.controller import build_controller
+    from .batch import analyze_batch
+    from .charfun import char_terms
+
+    out = []
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        cols = analyze_batch(cfg)
+        cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+        ct = char_terms(cfg.plant, cs, 1)
+        T = float(ct.T[0])
+        for name, fam, key1, _run in _loops(cfg, ct):
+            if fam is None or not name.startswith("human"):
+                continue
+            lo, hi = fam.lo, fam.hi
+            ps = np.geomspace(lo, hi, n) if lo > 0 else np.linspace(lo, hi, n)
+            key = name.split("_edge")[0]
+            ivs = [] if fam.box else [tuple(iv) for iv in cols.get(f"{key}_stable_intervals", [[]])[0]]
+            a0, a1, b0, b1 = _family_coeffs(ct, fam, "00", key1)
+            dts = np.empty(n)
+            for i, p in enumerate(ps):
+                stable = fam.box or any(a <= p <= b for a, b in ivs)
+                dts[i] = qp_latency_margin(_add(a0, p * b0), _add(a1, p * b1), T)[0] if stable else np.nan
+            out.append(LatencyBoundary(name, fam.param, fam.unit, ps, dts, T))
+    return out

@@ -17,8 +17,12 @@ dict of :func:`exotune.analysis.analyze_design`:
     L/(1 + L) and the original Q, with the gain crossover, the phase crossover and the margins.
 ``amplification.png``
     |C6/C5| and its phase at the configured delay T and at a larger delay max(2T, T + 2 ms) (the
-    paper's Fig. amplification), with the DC level α, the −3 dB bandwidth and the minimum-phase
+    paper's Fig. 5), with the DC level α, the −3 dB bandwidth and the minimum-phase
     and output-locked-stability verdicts of each.
+``latency_boundary.png`` (only with human families)
+    the stability boundary in the (human parameter × extra delay) plane: each member's first
+    destabilizing extra delay, members already unstable at T marked, the design's latency margin
+    drawn (docs/method.md#latency-margin).
 
 Every figure is rendered in memory (``matplotlib.figure.Figure`` + the Agg canvas; pyplot and the
 global backend are never touched) before anything is written; only then is ``out_dir`` created and
@@ -27,7 +31,6 @@ each PNG written atomically. A failure while rendering writes nothing and create
 
 from __future__ import annotations
 
-import io
 import math
 import os
 from pathlib import Path
@@ -36,10 +39,11 @@ import numpy as np
 
 from ..analysis.plot_data import F_MAX_HZ, F_MIN_HZ, db, finite, phase_deg
 from ..model.humans import PARAM_UNITS
+from . import style
 
 __all__ = ["write_analysis_plots", "render_analysis_plots"]
 
-DPI = 110
+DPI = style.DPI
 NYQ_XLIM = (-5.0, 3.0)  # linear Nyquist window around −1
 NYQ_YMAX = 4.0  # |Im L| of the window at most; less when the curves near −1 are flat (see _nyq_ylim)
 NYQ_YMIN = 0.5
@@ -53,18 +57,11 @@ _SYMBOL = {"stiffness": "k", "inertia": "m", "damping": "b"}
 # helpers
 # ----------------------------------------------------------------------------------------------
 def _new_figure(figsize):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize, dpi=DPI)
-    FigureCanvasAgg(fig)
-    return fig
+    return style.new_figure(figsize, layout=None)
 
 
 def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI)
-    return buf.getvalue()
+    return style.png(fig)
 
 
 def _fmt_s(t: float) -> str:
@@ -108,8 +105,8 @@ def _fig_bode_compliances(cfg, result: dict) -> bytes:
     ax3.semilogx(f, phase_deg(C5), color="tab:blue", label="∠C5")
     ax3.semilogx(f, phase_deg(C7), color="tab:orange", label="∠C7")
     ax3.semilogx(f, phase_deg(A), color="tab:purple", label="∠C6/C5")
-    ax3.set_ylabel("phase [deg]")
-    ax3.set_xlabel("frequency [Hz]")
+    ax3.set_ylabel("phase ∠ [deg]")
+    ax3.set_xlabel("frequency f [Hz]")
     ax3.set_yticks(np.arange(-360, 361, 90))
     lo_ph = min(np.min(phase_deg(C5)), np.min(phase_deg(C7)), np.min(phase_deg(A)))
     hi_ph = max(np.max(phase_deg(C5)), np.max(phase_deg(C7)), np.max(phase_deg(A)))
@@ -120,7 +117,7 @@ def _fig_bode_compliances(cfg, result: dict) -> bytes:
             for c in h.get("critical") or []:
                 if finite(c.get("frequency_hz")) and c["frequency_hz"] > 0:
                     ax.axvline(c["frequency_hz"], color="k", ls="--", lw=0.7, alpha=0.5)
-        ax.grid(True, which="both", alpha=0.25)
+        style.grid(ax)
         ax.legend(loc="best", fontsize=8)
     ax3.set_xlim(f[0], f[-1])
     crit_txt = "; ".join(
@@ -157,7 +154,7 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
     nrow = int(math.ceil(n / ncol))
     fig = _new_figure((6.2 * ncol, 5.6 * nrow + 0.8))
     axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False)).ravel()
-    cmap = colormaps["viridis"]
+    cmap = colormaps[style.CMAPS["sequential"]]
     for ax, loop in zip(axes, loops):
         h, fixed, eta, curves = loop["h"], loop["fixed"], loop["eta"], loop["curves"]
         kind, param = h["kind"], h["parameter"]
@@ -190,7 +187,7 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
         yh = min(max(1.3 * ymax, NYQ_YMIN), NYQ_YMAX)
         ax.set_xlim(*NYQ_XLIM)
         ax.set_ylim(-yh, yh)
-        ax.grid(True, alpha=0.25)
+        style.grid(ax, which="major")
         ax.set_xlabel("Re L(jω) [1]")
         ax.set_ylabel("Im L(jω) [1]")
         zdesc = {
@@ -239,8 +236,8 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
     ax2.semilogx(f, phL, color="tab:blue", label="∠L_dob")
     ax2.semilogx(f, phase_deg(CL), color="tab:red", label="∠L/(1 + L)")
     ax2.semilogx(f, phase_deg(Q), color="0.4", ls="--", label="∠Q")
-    ax2.set_ylabel("phase [deg]")
-    ax2.set_xlabel("frequency [Hz]")
+    ax2.set_ylabel("phase ∠ [deg]")
+    ax2.set_xlabel("frequency f [Hz]")
     for k in range(-5, 1):
         if phL.min() - 30 < -180 + 360 * k < 30:
             ax2.axhline(-180 + 360 * k, color="k", lw=0.6, ls=":")
@@ -282,7 +279,7 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
     hi_db = np.nanmax(np.where(np.isfinite(db(L)), db(L), np.nan))
     ax1.set_ylim(max(lo_db, -80) - 5, min(hi_db, 80) + 5)
     for ax in (ax1, ax2):
-        ax.grid(True, which="both", alpha=0.25)
+        style.grid(ax)
         ax.legend(loc="upper right" if ax is ax1 else "lower left", fontsize=8)
     ax2.set_xlim(f[0], f[-1])
     q = cfg.implementation.dob
@@ -325,10 +322,10 @@ def _fig_amplification(cfg, result: dict) -> bytes:
                 label=f"DC level α = {alpha:.4g} ({20 * np.log10(alpha):.3g} dB)" + (f"; analysed DC {dc:.4g}" if finite(dc) else ""))
     ax1.axhline(20 * np.log10(alpha) - 3.0103, color="0.5", lw=0.8, ls=":", label="α − 3 dB")
     ax1.set_ylabel("|C6/C5| [dB re 1]")
-    ax2.set_ylabel("phase [deg]")
-    ax2.set_xlabel("frequency [Hz]")
+    ax2.set_ylabel("phase ∠ [deg]")
+    ax2.set_xlabel("frequency f [Hz]")
     for ax in (ax1, ax2):
-        ax.grid(True, which="both", alpha=0.25)
+        style.grid(ax)
         ax.legend(loc="lower left", fontsize=7.5)
     ax2.set_xlim(f[0], f[-1])
     fig.suptitle("Amplification C6/C5 = −τ_env/τ_h (output locked) at two delays — " + _design_label(cfg, result), fontsize=10)
@@ -350,7 +347,18 @@ def render_analysis_plots(cfg, result: dict) -> dict[str, bytes]:
     if cfg.implementation.dob is not None:
         out["dob_loop.png"] = _fig_dob_loop(cfg, result)
     out["amplification.png"] = _fig_amplification(cfg, result)
+    if result.get("humans"):
+        out["latency_boundary.png"] = _fig_latency_boundary(cfg, result)
     return out
+
+
+def _fig_latency_boundary(cfg, result: dict) -> bytes:
+    """Each human member's first destabilizing extra delay, with the design's latency margin."""
+    from ..analysis.margins import latency_boundaries
+    from .margins import latency_boundary_figure
+
+    margin = ((result.get("margins") or {}).get("latency") or {}).get("extra_delay_s")
+    return _png(latency_boundary_figure(latency_boundaries(cfg), margin))
 
 
 def write_analysis_plots(cfg, result: dict, out_dir) -> list[Path]:

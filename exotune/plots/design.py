@@ -5,6 +5,8 @@ this module only draws them (magnitude in dB, phase in deg vs Hz) and renders PN
 
 from __future__ import annotations
 
+from . import style
+
 __all__ = ["design_plots", "bode_png"]
 
 
@@ -29,32 +31,20 @@ def bode_png(curves, title: str, ylabel: str) -> bytes:
     ----------
     docs/cli.md#design.
     """
-    import io
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
-    try:
-        for label, f, mag_db, phase_deg in curves:
-            ax1.semilogx(f, mag_db, label=label)
-            ax2.semilogx(f, phase_deg, label=label)
-        ax1.set_ylabel(f"|·| [dB re 1 {ylabel}]")
-        ax2.set_ylabel("phase [deg]")
-        ax2.set_xlabel("frequency [Hz]")
-        ax1.set_title(title)
-        for ax in (ax1, ax2):
-            ax.grid(True, which="major", alpha=0.3)
-        if len(curves) > 1:
-            ax1.legend()
-        fig.subplots_adjust(left=0.13, right=0.97, top=0.94, bottom=0.09, hspace=0.08)
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110)
-        return buf.getvalue()
-    finally:
-        plt.close(fig)
+    fig = style.new_figure(style.FIGSIZE["bode"])
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    for label, f, mag_db, phase_deg in curves:
+        ax1.semilogx(f, mag_db, label=label)
+        ax2.semilogx(f, phase_deg, label=label)
+    ax1.set_ylabel(f"magnitude |·| [dB re 1 {ylabel}]")
+    ax2.set_ylabel("phase ∠ [deg]")
+    ax2.set_xlabel("frequency f [Hz]")
+    ax1.set_title(title)
+    for ax in (ax1, ax2):
+        style.grid(ax)
+    if len(curves) > 1:
+        ax1.legend()
+    return style.png(fig)
 
 
 def design_plots(cfg) -> dict[str, bytes]:

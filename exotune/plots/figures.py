@@ -5,15 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import style
+
 __all__ = ["bode_magnitude", "compliance_phase"]
 
 
 def _axes(ax, nrows: int = 1):
     if ax is not None:
         return ax.figure, ax
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7.0, 4.2 * nrows / 1.5 if nrows > 1 else 4.2), layout="constrained")
+    fig = style.new_figure((7.0, 4.2 * nrows / 1.5 if nrows > 1 else 4.2))
     return fig, fig.add_subplot(1, 1, 1)
 
 
@@ -22,9 +22,9 @@ def bode_magnitude(curves, ax=None, title: str = ""):
     fig, ax = _axes(ax)
     for label, f, H in curves:
         ax.semilogx(f, 20.0 * np.log10(np.abs(H)), label=label.replace("_", " "))
-    ax.set_xlabel("frequency [Hz]")
+    ax.set_xlabel("frequency f [Hz]")
     ax.set_ylabel("magnitude [dB]")
-    ax.grid(True, which="both", alpha=0.3)
+    style.grid(ax)
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title)
@@ -40,9 +40,9 @@ def compliance_phase(f_hz, H, bands=(), ax=None, title: str = ""):
         ax.axhline(lim, color="k", lw=0.8, ls="--")
     for i, (a, b) in enumerate(bands):
         ax.axvspan(a, b, color="tab:red", alpha=0.2, label="non-passive band" if i == 0 else None)
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("phase [deg]")
-    ax.grid(True, which="both", alpha=0.3)
+    ax.set_xlabel("frequency f [Hz]")
+    ax.set_ylabel("phase ∠C7 [deg]")
+    style.grid(ax)
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title)

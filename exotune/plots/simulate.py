@@ -3,9 +3,9 @@ axis where values span decades (a growing run), legends in words, the motor limi
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
+
+from . import style
 
 __all__ = ["plot_simulation", "RUN_LABELS"]
 
@@ -30,16 +30,7 @@ def _label(key: str, runs=()) -> str:
 def _symlog_if_decades(ax, *arrays) -> None:
     """Symmetric-log y axis when the values span more than three decades (a growing run); the
     linear band is the run's initial scale (its first 5 %)."""
-    arrs = [np.asarray(a, float).ravel() for a in arrays if np.size(a)]
-    if not arrs:
-        return
-    v = np.abs(np.concatenate(arrs))
-    v = v[np.isfinite(v)]
-    early = np.abs(np.concatenate([a[: max(1, a.size // 20)] for a in arrs]))
-    early = early[np.isfinite(early) & (early > 0)]
-    lin = float(early.max()) if early.size else float(np.median(v[v > 0])) if np.any(v > 0) else 1.0
-    if v.size and v.max() > 1e3 * lin:
-        ax.set_yscale("symlog", linthresh=lin)
+    style.symlog_if_decades(ax, *arrays, which="y", decades=3.0)
 
 
 def _locked(axs, rep, alpha):
@@ -99,12 +90,8 @@ def plot_simulation(rep: dict) -> dict[str, bytes]:
     ----------
     Paper §V (time-domain amplification and friction tests); docs/cli.md#simulate.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axs = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
+    fig = style.new_figure((8, 6.5))
+    axs = fig.subplots(2, 1, sharex=True)
     sm = rep["summary"]
     if rep["runs"] and next(iter(rep["runs"].values()))["locked"]:
         alpha = float(rep.get("design_alpha") or sm.get("delivered_amplification", {}).get("design_alpha") or 1.0)
@@ -113,13 +100,9 @@ def plot_simulation(rep: dict) -> dict[str, bytes]:
         _free(axs, rep)
     axs[1].set_xlabel("time t [s]")
     for a in axs:
-        a.grid(True, alpha=0.3)
+        style.grid(a, which="major")
         a.legend(fontsize=7)
     g = sm["envelope_growth_rate"]["value"]
     fig.suptitle(f"exotune simulate — {rep['scenario']} at {rep['sample_rate_hz']:g} Hz: {sm['verdict']}"
                  + (f" (envelope growth {g:.3g} 1/s)" if g is not None and np.isfinite(g) else ""), fontsize=10)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    return {f"simulate_{rep['scenario']}.png": buf.getvalue()}
+    return {f"simulate_{rep['scenario']}.png": style.png(fig)}

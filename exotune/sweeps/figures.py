@@ -1,53 +1,57 @@
-"""The figures of a sweep report, rendered in memory as PNG bytes (matplotlib, Agg): heatmaps over
-a pair of axes (+inf in the colour bar's "over" colour, NaN grey), panels of heatmaps, profiles
-against one axis."""
+"""The figures of a sweep report, rendered in memory as PNG bytes (matplotlib, Agg, the look of
+:mod:`exotune.plots.style`): heatmaps over a pair of axes (+inf in the colour bar's "over" colour,
+NaN grey and explained under the figure), panels of heatmaps, profiles against one axis.
+
+Axis labels given as configuration paths (``implementation.delay_s [s]``, the report's labels) are
+shown by their physical name with the display unit and the tick values scaled into it ("total
+delay T [ms]"); paths in titles are replaced by the physical names. Colour bars carry plain tick
+texts (no offset text); values are written into the cells only when the cells are large enough.
+"""
 
 from __future__ import annotations
 
-import io
 import math
+import re
+import textwrap
 
 import numpy as np
 
+from .style import (BAD_COLOR, BAD_MEANING, FIGSIZE, colorbar, grid, label, new_figure, png, scale_of, short_name,
+                    tick_labels)
+
 __all__ = ["heatmap", "heatmap_panels", "profile_figure"]
 
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+_PATH = re.compile(r"\b(?:plant|design|implementation)\.[A-Za-z0-9_.]*[A-Za-z0-9_]")
+_MIN_CELL_PT = (26.0, 11.0)  # width, height of a cell (points) below which it is not annotated
 
 
-def _ticks(values: np.ndarray, maxn: int = 8):
+def _physical(text: str) -> str:
+    """``text`` with every configuration path replaced by its physical name."""
+    return _PATH.sub(lambda m: short_name(m.group(0)), str(text))
+
+
+def _ticks(values: np.ndarray, scale: float = 1.0, maxn: int = 8):
     n = values.size
     step = max(1, int(math.ceil(n / maxn)))
     idx = list(range(0, n, step))
     if idx[-1] != n - 1 and n - 1 - idx[-1] >= step / 2:
         idx.append(n - 1)
-    return idx, [f"{values[i]:.3g}" for i in idx]
+    return idx, tick_labels(values[idx], scale)
 
 
-def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    _plt().close(fig)
-    return buf.getvalue()
+def _cells_fit(fig, ax, shape) -> bool:
+    """Whether a cell of ``ax`` (rows × columns ``shape``) has room for a short annotation."""
+    fig.canvas.draw()  # final layout, so that the axes' size is known
+    bb = ax.get_window_extent()
+    w = bb.width * 72.0 / fig.dpi / max(shape[1], 1)
+    h = bb.height * 72.0 / fig.dpi / max(shape[0], 1)
+    return w >= _MIN_CELL_PT[0] and h >= _MIN_CELL_PT[1]
 
 
-def _draw_heatmap(fig, ax, grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *, vmin=None,
-                  vmax=None, cmap="viridis", log=False, annotate=False, fmt="{:.2f}", fontsize=10) -> None:
-    """Draw grid[iy, ix] into ``ax`` with a colour bar; +inf cells get the colormap's "over" colour,
-    NaN cells are grey."""
-    from matplotlib import colors
+def _norm_and_cmap(data, cmap, vmin, vmax, log):
+    from matplotlib import colormaps, colors
 
-    plt = _plt()
-    data = np.array(grid, dtype=float)
     finite = data[np.isfinite(data)]
-    has_over = bool(np.any(np.isposinf(data)))
-    has_under = bool(np.any(np.isneginf(data)))
     if log:
         pos = finite[finite > 0]
         if pos.size == 0 or (pos.max() / pos.min() < 10):
@@ -56,90 +60,138 @@ def _draw_heatmap(fig, ax, grid: np.ndarray, xvals, yvals, xlabel, ylabel, title
         vmin = (finite[finite > 0].min() if log else finite.min()) if finite.size else 0.0
     if vmax is None:
         vmax = finite.max() if finite.size else 1.0
+    if vmax - vmin <= 1e-6 * max(abs(vmin), abs(vmax)) and vmax > vmin and not log:
+        vmin = vmax  # constant to 6 digits: one colour, not a bar of rounding noise
     if vmax <= vmin:
         vmax = vmin + (abs(vmin) * 0.01 or 1.0)
-    cm = plt.get_cmap(cmap).with_extremes(bad="#d0d0d0", over="#ffffff" if cmap.endswith("_r") else "#ff00ff",
-                                          under="#000000")
-    if log:
-        data = np.where((data <= 0) & np.isfinite(data), np.nan, data)
-        norm = colors.LogNorm(vmin=vmin, vmax=vmax)
-    else:
-        norm = colors.Normalize(vmin=vmin, vmax=vmax)
+    cm = colormaps[cmap].with_extremes(bad=BAD_COLOR, over="#ffffff" if cmap.endswith("_r") else "#ff00ff",
+                                       under="#000000")
+    norm = colors.LogNorm(vmin=vmin, vmax=vmax) if log else colors.Normalize(vmin=vmin, vmax=vmax)
+    return cm, norm, log, vmax
+
+
+def _draw_heatmap(fig, ax, grid_: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *, vmin=None,
+                  vmax=None, cmap="viridis", log=False, annotate=False, fmt="{:.2f}", fontsize=10) -> dict:
+    """Draw grid[iy, ix] into ``ax`` with a colour bar; +inf cells get the colormap's "over" colour,
+    NaN cells are grey. Returns what the figure's note must explain (``{"nan": bool, "inf": bool}``)."""
+    data = np.array(grid_, dtype=float)
+    has_over = bool(np.any(np.isposinf(data)))
+    cm, norm, log, vmax = _norm_and_cmap(data, cmap, vmin, vmax, log)
+    zero = log & np.isfinite(data) & (data <= 0)  # not on a log scale: the "under" colour
+    has_under = bool(np.any(np.isneginf(data)) or np.any(zero))
     plot = np.where(np.isposinf(data), vmax * 10 if vmax > 0 else vmax + 1e300, data)
-    plot = np.where(np.isneginf(plot), -1e300, plot)
+    plot = np.where(np.isneginf(plot) | zero, norm.vmin * 1e-3 if log else -1e300, plot)
     im = ax.imshow(np.ma.masked_invalid(plot), origin="lower", aspect="auto", cmap=cm, norm=norm,
                    interpolation="nearest")
     extend = "both" if has_over and has_under else "max" if has_over else "min" if has_under else "neither"
-    cb = fig.colorbar(im, ax=ax, extend=extend)
-    cb.set_label(cbar_label + ("  (arrow: ∞)" if has_over else ""), fontsize=fontsize - 1)
-    xi, xl = _ticks(np.asarray(xvals))
-    yi, yl = _ticks(np.asarray(yvals))
+    colorbar(fig, im, ax, label(cbar_label) + ("  (arrow: ∞)" if has_over else ""), extend=extend,
+             fontsize=fontsize - 1, log=log)
+    sx, sy = scale_of(xlabel), scale_of(ylabel)
+    xi, xl = _ticks(np.asarray(xvals, dtype=float), sx)
+    yi, yl = _ticks(np.asarray(yvals, dtype=float), sy)
     ax.set_xticks(xi, xl, rotation=45, ha="right")
     ax.set_yticks(yi, yl)
-    ax.set_xlabel(xlabel, fontsize=fontsize - 1)
-    ax.set_ylabel(ylabel, fontsize=fontsize - 1)
-    ax.set_title(title, fontsize=fontsize)
-    if annotate:
-        for iy in range(grid.shape[0]):
-            for ix in range(grid.shape[1]):
-                v = grid[iy, ix]
-                if not np.isnan(v):
-                    pv = plot[iy, ix]
-                    rgba = cm(norm(pv)) if np.isfinite(pv) and not (log and pv <= 0) else (1, 1, 1, 1)
-                    lum = 0.299 * rgba[0] + 0.587 * rgba[1] + 0.114 * rgba[2]
-                    ax.text(ix, iy, "∞" if np.isinf(v) else fmt.format(v), ha="center", va="center", fontsize=7,
-                            color="white" if lum < 0.5 else "black")
+    ax.set_xlabel(label(xlabel), fontsize=fontsize - 1)
+    ax.set_ylabel(label(ylabel), fontsize=fontsize - 1)
+    ax.set_title(_physical(title), fontsize=fontsize)
+    if annotate and _cells_fit(fig, ax, grid_.shape):
+        _annotate(ax, grid_, plot, cm, norm, log, fmt)
+    return {"nan": bool(np.any(np.isnan(data))), "inf": has_over, "zero": bool(np.any(zero))}
+
+
+def _annotate(ax, grid_, plot, cm, norm, log, fmt) -> None:
+    for iy in range(grid_.shape[0]):
+        for ix in range(grid_.shape[1]):
+            v = grid_[iy, ix]
+            if not np.isnan(v):
+                pv = plot[iy, ix]
+                rgba = cm(norm(pv)) if np.isfinite(pv) else (1, 1, 1, 1)
+                lum = 0.299 * rgba[0] + 0.587 * rgba[1] + 0.114 * rgba[2]
+                ax.text(ix, iy, "∞" if np.isinf(v) else fmt.format(v), ha="center", va="center", fontsize=6.5,
+                        color="white" if lum < 0.5 else "black")
+
+
+def _note(fig, flags: list[dict]) -> None:
+    """The legend of the cell colours that are not on the colour bar."""
+    parts = []
+    if any(f["nan"] for f in flags):
+        parts.append(BAD_MEANING)
+    if any(f["inf"] for f in flags):
+        parts.append("colour of the colour bar's upper arrow: ∞ (no crossover, never reached, or nothing stable)")
+    if any(f.get("zero") for f in flags):
+        parts.append("black (lower arrow): 0 on a log scale (stiffest stable spring 0: unstable at the range's "
+                     "lower end)")
+    if parts:
+        fig.text(0.5, 0.0, "Cells — " + ";\n".join(parts) + ".", ha="center", va="top", fontsize=7.5)
 
 
 def heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw) -> bytes:
     """One heatmap figure as PNG bytes (see :func:`_draw_heatmap`)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.2, 5.4))
+    fig = new_figure(FIGSIZE["single"])
+    ax = fig.add_subplot(1, 1, 1)
     kw.setdefault("annotate", grid.size <= 144)
-    _draw_heatmap(fig, ax, grid, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw)
-    fig.subplots_adjust(left=0.15, right=0.98, bottom=0.17, top=0.92)
-    return _png(fig)
+    _note(fig, [_draw_heatmap(fig, ax, grid, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw)])
+    return png(fig)
 
 
 def heatmap_panels(panels: list[dict], xvals, yvals, xlabel, ylabel, suptitle) -> bytes:
-    """Several heatmaps over the same pair of axes in one figure (one panel per metric)."""
-    plt = _plt()
+    """Several heatmaps over the same pair of axes in one figure (one panel per metric); a metric
+    that is the same in every cell (to six digits) is named with its value under the title instead
+    of drawing a panel of one colour."""
+    varying, constant = [], []
+    for p in panels:
+        g = np.asarray(p["grid"], dtype=float)
+        fin = g[np.isfinite(g)]
+        same = fin.size == g.size and g.size > 1 and np.ptp(fin) <= 1e-6 * max(float(np.abs(fin).max()), 1e-300)
+        (constant if same else varying).append((p, fin[0] if same else None))
+    if not varying:
+        varying, constant = constant, []
+    panels = [p for p, _ in varying]
+    if constant:
+        text = "; ".join(f"{label(p['cbar_label']).rsplit(' [', 1)[0]}: {v:.4g} {p['cbar_label'].rsplit('[', 1)[-1][:-1]}"
+                         for p, v in constant)
+        suptitle = f"{suptitle}\n" + textwrap.fill("the same in every cell: " + text, 110)
     n = len(panels)
     ncols = 1 if n == 1 else 2 if n <= 4 else 3
     nrows = -(-n // ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(5.6 * ncols, 4.3 * nrows + 0.5), squeeze=False)
-    for ax, p in zip(axes.ravel(), panels):
-        grid = p.pop("grid")
-        _draw_heatmap(fig, ax, grid, xvals, yvals, xlabel, ylabel, fontsize=9,
-                      annotate=grid.size <= 36, **p)
-    for ax in axes.ravel()[n:]:
+    w, h = FIGSIZE["panel"]
+    fig = new_figure((w * ncols, h * nrows + 0.5))
+    axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
+    flags = []
+    for ax, p in zip(axes, panels):
+        p = dict(p)
+        grid_ = p.pop("grid")
+        p["fmt"] = "{:.2g}"  # two digits: the cells of a panel are small
+        flags.append(_draw_heatmap(fig, ax, grid_, xvals, yvals, xlabel, ylabel, fontsize=9,
+                                   annotate=grid_.size <= 36, **p))
+    for ax in axes[n:]:
         ax.set_visible(False)
-    fig.suptitle(suptitle, fontsize=11)
-    H = 4.3 * nrows + 0.5
-    fig.subplots_adjust(left=0.25 / ncols, right=0.97, bottom=0.75 / H, top=1 - 0.95 / H, wspace=0.45,
-                        hspace=0.6)
-    return _png(fig)
+    fig.suptitle(_physical(suptitle), fontsize=11)
+    _note(fig, flags)
+    return png(fig)
 
 
 def profile_figure(x, series, xlabel, logx, title) -> bytes:
     """Stacked panels of ``series`` [(label, y)] against ``x`` as PNG bytes (+inf drawn as markers
     at the top of the finite values)."""
-    plt = _plt()
     n = len(series)
-    fig, axes = plt.subplots(n, 1, figsize=(7, 1.9 * n + 0.8), sharex=True, squeeze=False)
-    for ax, (label, y) in zip(axes[:, 0], series):
+    fig = new_figure((7, 1.9 * n + 0.8))
+    axes = np.atleast_1d(fig.subplots(n, 1, sharex=True, squeeze=False))
+    sx = scale_of(xlabel)
+    xs = np.asarray(x, float) * sx
+    for ax, (lab, y) in zip(axes[:, 0], series):
         y = np.asarray(y, float)
         fin = np.isfinite(y)
-        ax.plot(x[fin], y[fin], "o-", ms=3)
+        ax.plot(xs[fin], y[fin], "o-", ms=3)
         if np.any(np.isposinf(y)):
             top = np.nanmax(y[fin]) if fin.any() else 1.0
-            ax.plot(x[np.isposinf(y)], np.full(int(np.isposinf(y).sum()), top), "^", color="m", ms=5, label="∞")
+            ax.plot(xs[np.isposinf(y)], np.full(int(np.isposinf(y).sum()), top), "^", color="m", ms=5, label="∞")
             ax.legend(fontsize=7, loc="best")
-        ax.set_ylabel(label, fontsize=8)
-        ax.grid(True, alpha=0.3)
+        name = lab.split("\n")[0]
+        ax.set_ylabel(label(name) if name in ("fraction robust",) or "_" in name else lab, fontsize=8)
+        grid(ax)
         if logx:
             ax.set_xscale("log")
-    axes[-1, 0].set_xlabel(xlabel)
-    axes[0, 0].set_title(title, fontsize=10)
-    fig.tight_layout()
-    return _png(fig)
+    axes[-1, 0].set_xlabel(label(xlabel))
+    axes[0, 0].set_title(_physical(title), fontsize=10)
+    return png(fig)

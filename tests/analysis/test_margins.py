@@ -179,3 +179,33 @@ def test_analyze_reports_both_margins_with_units():
     # the witness deviates only the uncertain parameters, by at most k·w each
     for sym, dev in w["deviations"].items():
         assert abs(dev) <= w["k"] * pm["weights"][sym] * (1 + 1e-9)
+
+
+def test_latency_boundaries_agree_with_the_margin(robust_margin):
+    """The boundary curves of `analyze --plots` (members' own margins) never dip below the design
+    margin, and touch it at the critical member (an end of the critical family here)."""
+    from matplotlib.figure import Figure
+
+    from exotune.analysis.margins import latency_boundaries
+    from exotune.plots.margins import latency_boundary_figure
+
+    cfg, m = robust_margin
+    bs = latency_boundaries(cfg, n=40)
+    assert [b.loop for b in bs] == ["human0_mass", "human1_spring"]
+    for b in bs:
+        assert np.all(np.isfinite(b.extra_delay_s))  # robust: every member stable at T
+        assert b.extra_delay_s.min() >= m.extra_delay_s * (1 - 1e-9)
+    crit = next(b for b in bs if b.loop == m.critical.loop)
+    i = int(np.argmin(np.abs(np.log(crit.values / m.critical.value))))
+    assert crit.extra_delay_s[i] == pytest.approx(m.extra_delay_s, rel=1e-6)
+    fig = latency_boundary_figure(bs, m.extra_delay_s)
+    assert isinstance(fig, Figure) and len(fig.axes[0].lines) == 3
+
+
+def test_latency_boundaries_mark_members_unstable_at_nominal():
+    from exotune.analysis.margins import latency_boundaries
+
+    b = latency_boundaries(design_from_mapping(PAPER_MAP), n=30)[0]  # the paper's light masses
+    bad = np.isnan(b.extra_delay_s)
+    assert bad.any() and not bad.all()
+    assert b.values[bad].max() < b.values[~bad].min()  # the unstable members are the lightest

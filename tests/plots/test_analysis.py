@@ -18,8 +18,8 @@ from exotune.config import load_design
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-ALL = {"bode_compliances.png", "nyquist_humans.png", "dob_loop.png", "amplification.png"}
-FIGURE_FUNCS = ("_fig_bode_compliances", "_fig_nyquist_humans", "_fig_dob_loop", "_fig_amplification")
+ALL = {"bode_compliances.png", "nyquist_humans.png", "dob_loop.png", "amplification.png", "latency_boundary.png"}
+FIGURE_FUNCS = ("_fig_bode_compliances", "_fig_nyquist_humans", "_fig_dob_loop", "_fig_amplification", "_fig_latency_boundary")
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +39,7 @@ def _assert_png(p: Path):
     assert width >= 400 and height >= 400, (p, width, height)
 
 
-def test_paper_example_writes_the_four_pngs(paper, tmp_path):
+def test_paper_example_writes_every_png(paper, tmp_path):
     cfg, result = paper
     out = tmp_path / "plots" / "nested"
     written = plots.write_analysis_plots(cfg, result, out)
