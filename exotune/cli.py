@@ -311,14 +311,16 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
 @click.argument("design_file", metavar="DESIGN.yaml")
 @click.option("--sample-rate-hz", "sample_rate_hz", required=True, metavar="F", help="Runtime sample rate [Hz].")
 @click.option("-o", "--out", "out", required=True, metavar="CONTROLLER.yaml", help="Controller file to write.")
-def export_cmd(design_file, sample_rate_hz, out):
+@click.option("--require-latency-margin-s", "require_latency_margin_s", default=None, metavar="S",
+              help="Latency margin [s] the file must keep; certify fails below it (default: one sample period; 0: none).")
+def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s):
     """Export the discrete-time runtime controller as YAML (docs/controller-file.md)."""
     from .controllerfile import export_design
     from .jsonio import check_outputs
     from .text.export import format_export
 
     check_outputs([design_file], outputs={"-o": out})
-    doc = export_design(design_file, sample_rate_hz, out)
+    doc = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s)
     click.echo(format_export(doc, out))
 
 

@@ -21,7 +21,9 @@ the certification.
 
 The file is **certified** when the free and the locked loops are stable, every rational human
 family is stable over its whole range, the golden vectors are reproduced by the reference runtime
-and the file's own predicted sampled intervals match the recomputed ones.
+and the file's own predicted sampled intervals match the recomputed ones, and its sampled-data
+latency margin (:mod:`exotune.controllerfile.latency`) is at least the file's
+``requirements.latency_margin_s`` when it has one.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import math
 import numpy as np
 
 from ..sampled import loop_eigenvalues, loop_stable
+from .latency import requirement_problems, sampled_latency_margin
 
 __all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify", "design_mismatches",
            "check_built_from_design", "hand_tuned"]
@@ -501,6 +504,8 @@ def _certify(doc: dict) -> dict:
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
                             f"stable only in {_fmt_ivs(h['stable_intervals'])}")
     problems += _unresolved(sa, "")
+    rep["latency_margin"] = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
+    problems += requirement_problems(rep["latency_margin"])
     mism = []
     sched = doc.get("gain_schedule")
     if sched:

@@ -50,6 +50,8 @@ from .sos import tustin_sos
 
 __all__ = [
     "build_export",
+    "predicted_latency_margin",
+    "requirements_section",
     "export_design",
     "design_at_rate",
     "check_sample_rate",
@@ -183,10 +185,79 @@ def _predicted(cfg) -> dict:
     }
 
 
+def predicted_latency_margin(cfg) -> dict:
+    """The continuous latency margin of the design as exported (:func:`exotune.analysis.latency_margin`,
+    exact delay, at the export rate for the sample count), for ``predicted.latency_margin``.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The design at the export rate (:func:`design_at_rate`).
+
+    Returns
+    -------
+    dict
+        ``extra_delay_s`` [s] and ``extra_delay_samples`` (None when no extra delay destabilizes),
+        ``critical`` (loop, parameter, value, unit, frequency_hz), ``verified``, ``note``, ``units``.
+
+    References
+    ----------
+    docs/method.md#latency-margin; docs/controller-file.md#latency-margin.
+    """
+    from ..analysis import latency_margin
+
+    m = latency_margin(cfg)
+    fin = math.isfinite(m.extra_delay_s)
+    c = m.critical
+    return {
+        "model": "continuous time, exact delay (exotune analyze)",
+        "extra_delay_s": float(m.extra_delay_s) if fin else None,
+        "extra_delay_samples": float(m.extra_delay_samples) if fin and m.extra_delay_samples is not None else None,
+        "critical": None if c is None else {"loop": c.loop, "parameter": c.parameter, "value": c.value,
+                                            "unit": c.unit, "frequency_hz": c.frequency_hz},
+        "verified": m.verified,
+        "note": m.note,
+        "units": {"extra_delay_s": "s", "extra_delay_samples": "samples", "frequency_hz": "Hz"},
+    }
+
+
+def requirements_section(fs: float, require_latency_margin_s: float | None = None) -> dict:
+    """The ``requirements`` section: the latency margin the file must keep (default one sample
+    period 1/fs; 0 disables the requirement).
+
+    Parameters
+    ----------
+    fs : float
+        Sample rate [Hz].
+    require_latency_margin_s : float, optional
+        Required extra delay [s] (``--require-latency-margin-s``); None: one sample period.
+
+    Returns
+    -------
+    dict
+        ``{latency_margin_s, unit, source}``.
+
+    References
+    ----------
+    docs/controller-file.md#latency-margin.
+    """
+    if require_latency_margin_s is None:
+        return {"latency_margin_s": 1.0 / fs, "unit": "s", "source": "default: one sample period (1/sample_rate_hz)"}
+    try:
+        v = float(require_latency_margin_s)
+    except (TypeError, ValueError):
+        raise ConfigError("--require-latency-margin-s", f"expected a number of seconds, got {require_latency_margin_s!r}") from None
+    if not (math.isfinite(v) and v >= 0):
+        raise ConfigError("--require-latency-margin-s", f"must be a finite number of seconds ≥ 0, got {v:g}")
+    return {"latency_margin_s": v, "unit": "s",
+            "source": "--require-latency-margin-s (0: no requirement)" if v == 0 else "--require-latency-margin-s"}
+
+
 def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_hash: str | None = None,
-                 now: _dt.datetime | None = None) -> dict:
+                 now: _dt.datetime | None = None, require_latency_margin_s: float | None = None) -> dict:
     """The controller file of a validated single design ``cfg`` at ``sample_rate_hz``
-    (the configuration must already carry that sample rate: see :func:`exotune.cli` export)."""
+    (the configuration must already carry that sample rate: see :func:`exotune.cli` export);
+    ``require_latency_margin_s``: see :func:`requirements_section`."""
     from ..version import __version__
 
     fs = float(sample_rate_hz)
@@ -221,7 +292,8 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         "transmission": raw.get("transmission"),
         "certify": {"humans": raw["humans"], "environment": raw["environment"]},
     }
-    doc["predicted"] = {"continuous": _predicted(cfg)}
+    doc["requirements"] = requirements_section(fs, require_latency_margin_s)
+    doc["predicted"] = {"continuous": _predicted(cfg), "latency_margin": predicted_latency_margin(cfg)}
     doc["predicted"]["sampled"] = sampled_analysis(doc)
     if raw.get("transmission"):
         doc["gain_schedule"] = _gain_schedule(cfg, fs, doc)
@@ -247,9 +319,11 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
     return doc
 
 
-def export_design(design_file, sample_rate_hz: float, out) -> dict:
+def export_design(design_file, sample_rate_hz: float, out, require_latency_margin_s: float | None = None) -> dict:
     """``exotune export``: validate the design at ``sample_rate_hz`` (cutoffs below Nyquist), build
-    the controller file and write it atomically as YAML. Returns the document."""
+    the controller file and write it atomically as YAML. Returns the document.
+    ``require_latency_margin_s`` [s]: the ``requirements.latency_margin_s`` certify enforces
+    (None: one sample period; 0: none)."""
     import hashlib
 
     from ..config import read_yaml
@@ -258,7 +332,8 @@ def export_design(design_file, sample_rate_hz: float, out) -> dict:
     cfg = design_at_rate(raw, sample_rate_hz, str(design_file))
     fs = float(cfg.implementation.sample_rate_hz)
     digest = hashlib.sha256(Path(design_file).read_bytes()).hexdigest()
-    doc = build_export(cfg, fs, source=str(design_file), input_hash=digest)
+    doc = build_export(cfg, fs, source=str(design_file), input_hash=digest,
+                       require_latency_margin_s=require_latency_margin_s)
     write_controller(doc, out)
     return doc
 

@@ -51,7 +51,8 @@ def _num(x) -> float | None:
 
 
 def _hint(doc: dict):
-    """(ΔT_c [s], critical parameter value) of the file's predicted continuous margin (untrusted)."""
+    """(ΔT_c [s], critical loop, critical member value) of the file's predicted continuous margin
+    (untrusted: anything malformed is None)."""
     pm = (doc.get("predicted") or {}).get("latency_margin")
     if not isinstance(pm, dict):
         return None, None, None

@@ -195,6 +195,32 @@ class Transmission(_S):
     ratio: list[SF]
 
 
+class Requirements(_S):
+    """What the file must keep (user intent, not a prediction): certify fails a file whose sampled-data
+    latency margin is below ``latency_margin_s`` (0: no requirement)."""
+
+    latency_margin_s: SF = Field(ge=0.0)
+    unit: Literal["s"] = "s"
+    source: str | None = None
+
+
+class PredictedLatencyMargin(_Open):
+    """The continuous latency margin of the design as exported (informational; certify reports it next
+    to its own sampled-data margin)."""
+
+    extra_delay_s: Annotated[float, Field(strict=True, ge=0.0)] | None = None
+    extra_delay_samples: Annotated[float, Field(strict=True, ge=0.0)] | None = None
+    critical: dict | None = None
+    units: dict | None = None
+
+
+class Predicted(_Open):
+    """The file's predictions: ``continuous``, ``sampled`` (certify compares it) and, optionally,
+    ``latency_margin`` (files written before it still load)."""
+
+    latency_margin: PredictedLatencyMargin | None = None
+
+
 class ControllerFile(_S):
     """The controller file (docs/controller-file.md). Extra keys are refused; numbers are finite."""
 
@@ -211,7 +237,8 @@ class ControllerFile(_S):
     gain_schedule_note: str | None = None
     transmission: Transmission | None = None
     certify: CertifySection
-    predicted: _Open
+    requirements: Requirements | None = None
+    predicted: Predicted
     golden: Golden
     provenance: _Open
 

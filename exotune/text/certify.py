@@ -22,6 +22,26 @@ def _family_line(h: dict) -> str:
             + f"; stable in {interval_text(h['stable_intervals'], h['unit'], empty='nowhere')}")
 
 
+def _ms(x) -> str:
+    return "none" if x is None else f"{x * 1e3:.4g} ms"
+
+
+def _margin_line(lm: dict) -> str:
+    """The sampled-data latency margin, its critical member, the file's prediction and requirement."""
+    if lm["extra_delay_s"] is None:
+        head = "  latency margin (sampled-data): no instability up to 200 samples of total delay"
+    else:
+        head = f"  latency margin (sampled-data): {_ms(lm['extra_delay_s'])} ({lm['extra_delay_samples']:.4g} samples)"
+    c = lm.get("critical")
+    if c:
+        head += f", critical {c['loop']}" + (f" at {c['parameter']} = {c['value']:.6g} {c['unit']}" if c["parameter"] else "")
+    if lm["extra_delay_s"] == 0.0:
+        head += " (" + lm["method"] + ")"
+    head += f"; predicted continuous {_ms(lm.get('predicted_continuous_s'))}"
+    req = lm.get("required_s")
+    return head + ("; required " + (_ms(req) if req else "none (0)") if req is not None else "; no requirement in the file")
+
+
 def format_certify(rep: dict) -> str:
     """Readable text for ``exotune certify``.
 
@@ -52,6 +72,8 @@ def format_certify(rep: dict) -> str:
         lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
                      + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
     lines += [_family_line(h) for h in sa["humans"] + sa["environment"]]
+    if rep.get("latency_margin"):
+        lines.append(_margin_line(rep["latency_margin"]))
     lines.append("  method: " + rep["method"])
     if rep["certified"]:
         lines.append("CERTIFIED")

@@ -18,7 +18,7 @@ def format_export(doc: dict, out) -> str:
     Returns
     -------
     str
-        ``wrote OUT: F Hz, N sos filters, sampled-data loop free …, locked …; run `exotune certify OUT```.
+        ``wrote OUT: F Hz, N sos filters, sampled-data loop free …, locked …; continuous latency margin … (required …); run `exotune certify OUT```.
 
     References
     ----------
@@ -26,6 +26,13 @@ def format_export(doc: dict, out) -> str:
     """
     sa = doc["predicted"]["sampled"]
     n = len(doc["controller"]["filters"])
+    lm = doc["predicted"].get("latency_margin")
+    req = (doc.get("requirements") or {}).get("latency_margin_s")
+    margin = ""
+    if lm is not None:
+        m = lm["extra_delay_s"]
+        margin = ("; continuous latency margin " + ("none" if m is None else f"{m * 1e3:.4g} ms")
+                  + (f" (required {req * 1e3:.4g} ms)" if req else ""))
     return (f"wrote {out}: {doc['sample_rate_hz']['value']:g} Hz, {n} sos filters, "
             f"sampled-data loop free {'stable' if sa['free_stable'] else 'UNSTABLE'}, "
-            f"locked {'stable' if sa['locked_stable'] else 'UNSTABLE'}; run `exotune certify {out}`")
+            f"locked {'stable' if sa['locked_stable'] else 'UNSTABLE'}{margin}; run `exotune certify {out}`")
