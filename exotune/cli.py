@@ -175,7 +175,11 @@ def init_cmd(directory):
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write Bode plots (PNG) of C4, C5, Ĉ5, C7, G_v.")
 def design_cmd(design_file, as_json, plots_dir):
-    """Gains and nominal transfer functions of a design file (paper §IV, docs/method.md#double-compliance-shaping)."""
+    """Gains and nominal transfer functions of a design file (paper §IV,
+    docs/method.md#double-compliance-shaping).
+
+    DESIGN.yaml is a design file (docs/design-file.md; `exotune init` writes one). The report goes
+    to stdout (--json: one JSON object); --plots DIR writes the Bode PNGs into DIR."""
     from .analysis import design_report
     from .config import load_design
     from .jsonio import check_outputs, dumps, write_files
@@ -195,7 +199,10 @@ def design_cmd(design_file, as_json, plots_dir):
 @click.argument("sea_file", metavar="SEA.yaml")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def sea_cmd(sea_file, as_json):
-    """Analyse a plain SEA compliance-shaping controller (paper §II-B)."""
+    """Analyse a plain SEA compliance-shaping controller (paper §II-B).
+
+    SEA.yaml holds a plant and the four SEA gains (docs/design-file.md#sea-files); the report goes
+    to stdout (--json: one JSON object)."""
     from .analysis import sea_report
     from .config import load_sea
     from .jsonio import dumps
@@ -212,7 +219,11 @@ def sea_cmd(sea_file, as_json):
 @click.option("--cross-check", "cross_check", is_flag=True,
               help="Also compare the exact verdicts with closed-loop roots of two Padé models (docs/method.md#analyses-and-metrics).")
 def analyze_cmd(design_file, as_json, plots_dir, cross_check):
-    """Stability, passivity, DOB margins and amplification of a design (docs/method.md#analyses-and-metrics, docs/cli.md)."""
+    """Margins (latency, plant uncertainty), stability, passivity, DOB margins and
+    amplification of a design (docs/method.md#analyses-and-metrics).
+
+    DESIGN.yaml is a design file (docs/design-file.md). The report goes to stdout (--json: one
+    JSON object); --plots DIR writes the analysis PNGs into DIR."""
     from .config import load_design
     from .jsonio import check_outputs
 
@@ -239,7 +250,10 @@ def analyze_cmd(design_file, as_json, plots_dir, cross_check):
 @click.option("--seed", type=int, default=None, metavar="S", help="Seed for --sample.")
 @click.option("--chunk-size", type=click.IntRange(min=1), default=None, metavar="N", help="Design points per chunk.")
 def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_size):
-    """Vectorized, chunked, resumable parameter sweep (docs/sweep-spec.md)."""
+    """Vectorized, chunked, resumable parameter sweep.
+
+    SPEC.yaml is a sweep spec (docs/sweep-spec.md). Writes DIR/manifest.json and one Parquet file
+    per chunk in DIR/chunks; rerun the same command to resume; `exotune report DIR` next."""
     import sys
 
     from .jsonio import check_outputs
@@ -314,7 +328,10 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
 @click.option("--require-latency-margin-s", "require_latency_margin_s", default=None, metavar="S",
               help="Latency margin [s] the file must keep; certify fails below it (default: one sample period; 0: none).")
 def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s):
-    """Export the discrete-time runtime controller as YAML (docs/controller-file.md)."""
+    """Export the discrete-time runtime controller as YAML.
+
+    DESIGN.yaml is a design file (docs/design-file.md); the controller file -o (docs/controller-
+    file.md) is written atomically; `exotune certify CONTROLLER.yaml` next."""
     from .controllerfile import export_design
     from .jsonio import check_outputs
     from .text.export import format_export
