@@ -177,6 +177,29 @@ def dob_estimate(doc: dict, sim: dict) -> np.ndarray | None:
     return est
 
 
+MAX_SAMPLES = 10_000_000  # per run: about 1 GB of time series and a few minutes, refused beyond
+
+
+def check_budget(sample_rate_hz: float, duration_s: float) -> None:
+    """Refuse, before anything runs, a run longer than :data:`MAX_SAMPLES` samples (its time series
+    and its time would exceed what a single run may take; docs/cli.md#simulate).
+
+    Examples
+    --------
+    >>> check_budget(1000.0, 6.0)
+    >>> check_budget(1000.0, 1e6)
+    Traceback (most recent call last):
+    ...
+    exotune.errors.ConfigError: --duration: 1e+06 s at 1000 Hz is 1e+09 samples; a run is limited to 1e+07 samples (shorten --duration or lower the rate)
+    """
+    from ..errors import ConfigError
+
+    n = sample_rate_hz * duration_s
+    if not n <= MAX_SAMPLES:
+        raise ConfigError("--duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a run is limited "
+                                        f"to {MAX_SAMPLES:.0e} samples (shorten --duration or lower the rate)")
+
+
 def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None = None,
                  duration_s: float | None = None, start: str = "bumpless",
                  progress: Callable[[float], None] | None = None) -> dict:
@@ -219,6 +242,7 @@ def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None 
         sc = replace(sc, human={**sc.human, "inertia": float(human_inertia)})
     if duration_s is not None:
         sc = replace(sc, duration_s=float(duration_s))
+    check_budget(float(doc["sample_rate_hz"]["value"]), sc.duration_s)
     alpha = float(doc["design"]["amplification"]["value"])
     sim = simulate(doc, sc, start=start, progress=progress)
     rho = loop_spectral_radius(doc, sc.human, sc.locked)

@@ -452,3 +452,18 @@ def test_ten_khz_runs_about_as_fast_as_a_plain_linear_simulation():
     t_plain = time.perf_counter() - t0
     assert sim["series"]["t"].size == 20000
     assert t_sim < 4.0 * t_plain + 0.2, (t_sim, t_plain)  # ~1.5× measured; loose for a loaded machine
+
+
+def test_a_run_beyond_the_sample_budget_is_refused_before_it_starts():
+    """10⁹ samples would allocate gigabytes and run for hours: refused at once, naming --duration."""
+    import subprocess
+    import sys
+    import time
+
+    t = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "exotune", "simulate", str(ROOT / "examples" / "scheduled.yaml"),
+                        "--scenario", "locked-output", "--duration", "1e6"], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and p.stdout == ""
+    assert p.stderr.startswith("exotune: error: --duration:") and "1e+07 samples" in p.stderr
+    assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
+    assert time.perf_counter() - t < 60
