@@ -28,14 +28,28 @@ from ..model.humans import family_split
 from ..numerics.poly import padd, pmul
 from ..numerics.quasipoly import QP, omega_max
 
-__all__ = ["pade_crosscheck", "pade_stable"]
+__all__ = ["pade_crosscheck", "pade_stable", "pade_coefficients"]
 
 
-def _pade(T: float, n: int):
-    import control
+def pade_coefficients(T: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The (n, n) Padé approximant of e^{−sT} as (num, den), ascending coefficients with den(0) = 1:
+    den = Σ c_k (sT)^k, num = Σ (−1)^k c_k (sT)^k, c_k = (2n−k)! n! / ((2n)! k! (n−k)!) — the
+    classic closed form (python-control's ``control.pade`` gives the same rational function; the
+    tests compare them). Importing python-control only for this costs a second per process.
 
-    num, den = control.pade(T, n)
-    return np.asarray(num, float)[::-1], np.asarray(den, float)[::-1]  # ascending
+    Examples
+    --------
+    >>> num, den = pade_coefficients(0.001, 1)   # (1 − sT/2)/(1 + sT/2)
+    >>> num.tolist(), den.tolist()
+    ([1.0, -0.0005], [1.0, 0.0005])
+    """
+    from math import factorial
+
+    k = np.arange(n + 1)
+    c = np.array([factorial(2 * n - j) * factorial(n) / (factorial(2 * n) * factorial(j) * factorial(n - j))
+                  for j in k]) * float(T) ** k
+    return c * (-1.0) ** k, c
+
 
 
 def _roots_scaled(c: np.ndarray) -> np.ndarray:
@@ -64,7 +78,7 @@ def pade_stable(p0: np.ndarray, p1: np.ndarray, T: float, order: int, allowed_ri
 
 def _pade_roots(p0, p1, T, order):
     if T > 0:
-        num, den = _pade(T, order)
+        num, den = pade_coefficients(T, order)
         poly = padd(pmul(p0, den), pmul(p1, num))
     else:
         poly = padd(p0, p1)

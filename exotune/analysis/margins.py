@@ -332,10 +332,11 @@ def _all_ok(cols: dict, t: int) -> bool:
 
 
 def _analyze_delays(cfg, delays):
-    from ..config import batch_config
+    from ..config import batch_config, continuous
     from .batch import analyze_batch
 
-    b = batch_config(cfg, {"implementation.delay_s": np.asarray(delays, dtype=float)})
+    # the continuous analysis: probing delays may exceed the sampled model's delay-state limit
+    b = batch_config(continuous(cfg), {"implementation.delay_s": np.asarray(delays, dtype=float)})
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         return analyze_batch(b)
 

@@ -18,7 +18,8 @@ from ..model.shaping import DesignParams
 from .design import DesignConfig
 from .validate import FILTER_KEYS, check_delay_samples, fmt_value, limit_text, LIMITS
 
-__all__ = ["OVERRIDABLE", "OVERRIDE_LIMITS", "batch_config"]
+__all__ = [
+    "continuous", "OVERRIDABLE", "OVERRIDE_LIMITS", "batch_config"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -182,3 +183,21 @@ def batch_config(cfg: DesignConfig, overrides: dict[str, np.ndarray]) -> DesignC
         velocity_filter=filt("velocity_filter"),
     )
     return replace(cfg, plant=plant, design=design, implementation=new_impl)
+
+
+def continuous(cfg):
+    """``cfg`` with its sample rate removed (``implementation.sample_rate_hz`` None): the
+    continuous-time analysis of the same design, whose delays are not limited to a number of
+    samples — for margins that probe delays beyond the design's own (docs/method.md#latency-margin).
+
+    Examples
+    --------
+    >>> from exotune.config import load_design
+    >>> continuous(load_design("examples/scheduled.yaml")).implementation.sample_rate_hz is None
+    True
+    """
+    import dataclasses
+
+    if cfg.implementation.sample_rate_hz is None:
+        return cfg
+    return dataclasses.replace(cfg, implementation=dataclasses.replace(cfg.implementation, sample_rate_hz=None))

@@ -33,7 +33,7 @@ import numpy as np
 
 from .engine import compiled, resolve_engine as _engine
 from .poly import degree, leading, pder
-from .kernels import MAX_TASK_LEAVES
+from .budgets import MAX_TASK_LEAVES
 
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
 
@@ -233,7 +233,7 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         db = [x[go] for x in db]
         m = 0.5 * (a + b)
         if geometric:
-            from .kernels import GEO_SPLIT_RATIO
+            from .budgets import GEO_SPLIT_RATIO
 
             with np.errstate(divide="ignore", invalid="ignore"):
                 wide = (a > 0) & (b > GEO_SPLIT_RATIO * a)
@@ -276,9 +276,9 @@ def leaves_pair(qa: QP, qb: QP, grid: np.ndarray, valid: np.ndarray, magnitude_o
 
     ``magnitude_ok``/``lthr``: the amplification-bandwidth magnitude criterion (numpy callback /
     per-task log −3 dB level for the compiled kernel)."""
-    from . import kernels as _fastphase
-
     if _engine(engine) == "numba":
+        from . import kernels as _fastphase
+
         return _fastphase.leaves2(qa, qb, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS, lthr=lthr)
     return adaptive_leaves(lambda i, w: [qa.eval(i, w), qb.eval(i, w)], qa.n, grid, valid, extra_ok=magnitude_ok)
 
@@ -287,9 +287,9 @@ def phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = 
     """Σ of the accepted principal phase steps of Δ(jω) over each task's grid, and whether every
     interval was resolved. ``engine``: "numba" (compiled kernel, default when numba is
     installed and EXOTUNE_NUMPY_ONLY is unset) or "numpy" (the reference implementation)."""
-    from . import kernels as _fastphase
-
     if _engine(engine) == "numba":
+        from . import kernels as _fastphase
+
         total, resolved, _ = _fastphase.phase_sums(q.p0, q.p1, q.T, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS)
         return total, resolved
     lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid, geometric=True)

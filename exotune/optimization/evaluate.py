@@ -76,7 +76,7 @@ def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tupl
 
     Returns (ok of shape ``extra.shape``, the batch columns)."""
     from ..analysis import analyze_batch
-    from ..config import batch_config
+    from ..config import batch_config, continuous
 
     X = np.atleast_2d(X)
     extra = np.asarray(extra, float).reshape(X.shape[0], -1)
@@ -84,7 +84,8 @@ def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tupl
     ov = _overrides(spec, X, L)
     ov["implementation.delay_s"] = (_delays(spec, X)[:, None] + extra).ravel()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        cols = analyze_batch(batch_config(spec.cfg, ov))
+        # continuous analysis: the probed delays may exceed the sampled model's delay-state limit
+        cols = analyze_batch(batch_config(continuous(spec.cfg), ov))
     return delay_sensitive_ok(cols).reshape(X.shape[0], L), cols
 
 

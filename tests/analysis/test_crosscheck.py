@@ -12,6 +12,8 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import pytest
 
 from exotune.analysis import char_terms, coupled_stable
@@ -338,3 +340,20 @@ def test_cross_check_catches_a_wrong_stable_interval(monkeypatch):
     out = cc_mod.pade_crosscheck(cfg)
     assert out["disagreements"], out
     assert all(d["exotune_stable"] and d["rhp_root"]["re"] > 0 for d in out["disagreements"])
+
+
+@settings(deadline=None, max_examples=40)
+@given(T=st.floats(1e-5, 0.05), n=st.integers(1, 16))
+def test_pade_coefficients_equal_python_control(T, n):
+    """The closed-form Padé approximant of the cross-check is python-control's `control.pade`
+    (the same rational function: compared on the imaginary axis and at a right-half-plane point)."""
+    import control
+
+    from exotune.analysis.crosscheck import pade_coefficients
+
+    num, den = pade_coefficients(T, n)
+    cn, cd = control.pade(T, n)
+    s = np.array([1j * 0.3 / T, 1j * 3.0 / T, 0.5 / T + 1j / T])
+    ours = np.polynomial.polynomial.polyval(s, num) / np.polynomial.polynomial.polyval(s, den)
+    ref = np.polyval(cn, s) / np.polyval(cd, s)
+    np.testing.assert_allclose(ours, ref, rtol=1e-9)

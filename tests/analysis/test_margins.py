@@ -209,3 +209,14 @@ def test_latency_boundaries_mark_members_unstable_at_nominal():
     bad = np.isnan(b.extra_delay_s)
     assert bad.any() and not bad.all()
     assert b.values[bad].max() < b.values[~bad].min()  # the unstable members are the lightest
+
+
+def test_margin_at_a_high_rate_probes_delays_beyond_the_sampled_model():
+    """At 100 kHz, T + ΔT is over 200 samples (the sampled model's delay-state limit): the
+    margin is a continuous-time quantity and is computed as such (it used to fail the export)."""
+    mp = _robust_mapping()
+    mp["implementation"]["sample_rate_hz"] = 100_000.0
+    m = latency_margin(design_from_mapping(mp))
+    ref = latency_margin(design_from_mapping(_robust_mapping()))
+    assert m.verified is True and m.extra_delay_s == pytest.approx(ref.extra_delay_s, rel=1e-9)
+    assert m.extra_delay_samples == pytest.approx(m.extra_delay_s * 1e5, rel=1e-12)
