@@ -37,6 +37,7 @@ import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))  # the independent python-control reference model
 
 import exotune  # noqa: E402
 from exotune.analysis.batch import analyze_batch  # noqa: E402
@@ -79,38 +80,10 @@ def robust(cols) -> bool:
 
 def pc_free_loop_eigs(q, cs, dob_model, order=10):
     """python-control reference for one plant q = (J_m, B_m, K_s, J_j, K_c): closed-loop
-    eigenvalues of the free exoskeleton (see tests/test_plant_margin.py, same construction)."""
-    import control
+    eigenvalues of the free exoskeleton (tests/reference_model.py, the tests' construction)."""
+    from reference_model import free_loop_eigs_mismatched_dob
 
-    Jm, Bm, Ks, Jj = (float(v) for v in q[:4])
-    A = np.array([[0.0, 1.0, 0.0, 0.0], [-Ks / Jm, -Bm / Jm, Ks / Jm, 0.0],
-                  [0.0, 0.0, 0.0, 1.0], [Ks / Jj, 0.0, -Ks / Jj, 0.0]])
-    B = np.array([[0.0], [1.0 / Jm], [0.0], [0.0]])
-    C = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0], [-Ks, 0, Ks, 0], [0, -Ks, 0, Ks]])
-    blocks = [control.ss(A, B, C, np.zeros((4, 1)), inputs=["tau_m"], outputs=["th", "om", "ts", "dts"], name="P")]
-    terms = []
-
-    def add(sys_, inp, out, sign="+"):
-        blocks.append(control.ss(sys_, inputs=[inp], outputs=[out], name=out))
-        terms.append(("-" if sign == "-" else "") + out)
-
-    d = cs.to_control()
-    for key, x, dx in (("G_theta", "th", "om"), ("G_s", "ts", "dts")):
-        g = d[key]
-        qn, r = np.polydiv(np.asarray(g.num[0][0], float), np.asarray(g.den[0][0], float))
-        qn = np.r_[np.zeros(max(0, 2 - qn.size)), qn]
-        add(control.tf([float(qn[-1])], [1.0]), x, key + "0")
-        add(control.tf([float(qn[-2])], [1.0]), dx, key + "1")
-        add(control.tf(r if np.any(r) else [0.0], g.den[0][0]), x, key + "2")
-    if d["Q"] is not None:
-        add(d["Q"] * control.tf([dob_model[0], dob_model[1]], [1.0]), "om", "e1", "-")
-        add(d["Q"], "ts", "e2")
-        add(d["Q"], "tau_cmd", "e3")
-    blocks.append(control.summing_junction(inputs=["w"] + terms, output="tau_cmd", name="sum"))
-    num, den = control.pade(d["delay_s"], order)
-    blocks.append(control.ss(control.tf(num, den), inputs=["tau_cmd"], outputs=["tau_m"], name="delay"))
-    cl = control.interconnect(blocks, inplist=["w"], outlist=["th"], inputs=["w"], outputs=["th"])
-    return np.linalg.eigvals(cl.A)
+    return free_loop_eigs_mismatched_dob(q, cs, dob_model, order)
 
 
 def point_cost(cfg, reps: int = 20) -> float:
