@@ -1,10 +1,10 @@
 """Benchmark: a 10^5-design sweep through ``run_sweep`` (local worker processes), timed, with peak
 memory, next to the per-design python-control workflow (benchmarks/_percontrol.py).
 
-    python benchmarks/sweep.py [--points 100000] [--workers 2] [--chunk-size 10000]
+    python benchmarks/sweep.py [--points 100000] [--workers 2] [--chunk-size 10000] [--base paper|scheduled]
                                [--control-designs 10] [--dir DIR] [--keep]
 
-The sweep: 4 axes around examples/paper.yaml (α, ζ̂, delay, DOB cutoff), n values each with n^4 ≥
+The sweep: 4 axes around examples/paper.yaml (``--base scheduled``: examples/scheduled.yaml) (α, ζ̂, delay, DOB cutoff), n values each with n^4 ≥
 points, and a seeded uniform sample of exactly ``points`` grid points (so the sampling path is
 exercised too). Memory: peak RSS of this process and of the largest worker
 (``resource.getrusage`` RUSAGE_SELF / RUSAGE_CHILDREN, ru_maxrss) and the peak of Python
@@ -53,6 +53,10 @@ def main() -> None:
     ap.add_argument("--control-designs", type=int, default=10)
     ap.add_argument("--dir", default=None, help="sweep directory (default: a temporary directory, removed)")
     ap.add_argument("--keep", action="store_true", help="keep the sweep directory")
+    ap.add_argument("--base", default="paper", choices=("paper", "scheduled"),
+                    help="base design: examples/paper.yaml (its light masses make almost every design non-robust, "
+                         "so the latency-margin column costs nothing) or examples/scheduled.yaml (most designs "
+                         "robust: the latency margin is computed for them)")
     args = ap.parse_args()
 
     import numpy as np
@@ -65,7 +69,7 @@ def main() -> None:
 
     n = max(2, math.ceil(args.points ** 0.25))
     spec = {
-        "base": str(HERE.parent / "examples" / "paper.yaml"),
+        "base": str(HERE.parent / "examples" / f"{args.base}.yaml"),
         "axes": {
             "design.amplification": {"start": 1.5, "stop": 20.0, "num": n, "scale": "log"},
             "design.zeta_hat": {"start": 0.4, "stop": 1.2, "num": n},

@@ -19,6 +19,7 @@ from .charfun import amplification_qps, char_terms
 from .counting import RootCounter
 from .dob import dob_margins
 from .intervals import FamilySide
+from .latency_batch import batch_latency_margin
 from .phase_excess import passivity
 
 __all__ = ["analyze_batch", "GAIN_NAMES"]
@@ -27,7 +28,7 @@ __all__ = ["analyze_batch", "GAIN_NAMES"]
 GAIN_NAMES = ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat")
 
 
-def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
+def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0, latency: bool = False) -> dict:
     """Every docs/method.md#analyses-and-metrics metric for a batch configuration (fields may be arrays of length N).
 
     Returns a dict of columns named as in docs/sweep-spec.md: numpy arrays (one entry per design) and, for
@@ -37,6 +38,10 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
     family's range and checks them against the intervals; a mismatch makes the family
     inconclusive (hence not robust) and is listed in ``human{i}_{kind}_verification_mismatches``.
     The single-design report uses 64; sweeps use 0 (the interval method alone).
+
+    ``latency`` adds the column ``latency_margin_s`` [s] (:func:`~exotune.analysis.latency_batch.batch_latency_margin`,
+    docs/method.md#latency-margin): the largest extra delay every loop tolerates, 0 for a design
+    that is not robust at its nominal delay. Sweeps always ask for it.
     """
 
     # extreme designs overflow intermediate numbers; every result is checked for finiteness and
@@ -44,9 +49,10 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0) -> dict:
     with _gc_paused(), np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         N = _cfg_size(cfg)
         if N > max_chunk:
-            parts = [_analyze_chunk(_slice_cfg(cfg, slice(i, min(i + max_chunk, N))), verify) for i in range(0, N, max_chunk)]
+            parts = [_analyze_chunk(_slice_cfg(cfg, slice(i, min(i + max_chunk, N))), verify, latency)
+                     for i in range(0, N, max_chunk)]
             return _concat_columns(parts)
-        return _analyze_chunk(cfg, verify)
+        return _analyze_chunk(cfg, verify, latency)
 
 
 @contextlib.contextmanager
@@ -63,7 +69,7 @@ def _gc_paused():
             gc.enable()
 
 
-def _analyze_chunk(cfg, verify: int) -> dict:
+def _analyze_chunk(cfg, verify: int, latency: bool = False) -> dict:
     N = _cfg_size(cfg)
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, N)
@@ -124,6 +130,8 @@ def _analyze_chunk(cfg, verify: int) -> dict:
     out["amplification_conclusive"] = okn  # False: the minimum-phase verdict is unknown (reported False)
     out["locked_stable"] = locked_stable
     out["locked_conclusive"] = okd
+    if latency:
+        out["latency_margin_s"] = batch_latency_margin(ct, cfg.humans, cfg.environment, out)
     for g in GAIN_NAMES:
         out[g] = np.broadcast_to(np.asarray(getattr(ds.gains, g), dtype=float), (N,)).copy()
     return out

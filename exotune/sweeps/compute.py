@@ -47,7 +47,7 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
 
     n = g.size
     cfg = batch_config(plan.cfg, vals)
-    cols = analyze_batch(cfg, verify=int(plan.spec.get("verify_points", 0)))
+    cols = analyze_batch(cfg, verify=int(plan.spec.get("verify_points", 0)), latency=True)
     for k in [k for k in cols if k.endswith("_edges")]:
         del cols[k]  # per-edge details of box families (objects): single-design reports only
     for k in [k for k in cols if k.endswith("_verification_mismatches")]:

@@ -8,6 +8,7 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
@@ -76,6 +77,11 @@ def test_summary_mentions_axes_units_and_robust_fraction(two_axes):
         assert float(r["fraction_robust"]) == pytest.approx(robust[sel].mean())
         assert float(r["dob_delay_margin_ms_min [ms]"]) == pytest.approx(1e3 * df["dob_delay_margin_s"][sel].min())
         assert float(r["human0_lightest_stable_inertia_max [kg·m²]"]) >= 0.05
+        # the latency margin: 0 where not robust, its worst case per value in ms
+        assert float(r["latency_margin_ms_min [ms]"]) == pytest.approx(1e3 * df["latency_margin_s"][sel].min())
+    lm = df["latency_margin_s"].to_numpy()
+    assert np.all(lm[~robust] == 0) and np.all(lm[robust] > 0)
+    assert "latency_margin_s" in md
 
 
 def test_lightest_stable_inertia_from_intervals(two_axes):

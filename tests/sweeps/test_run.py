@@ -112,8 +112,8 @@ def test_values_agree_with_analyze_batch(ref):
     cfg = load_design(PAPER)
     a = np.repeat(AMP, 3)
     t = np.tile(DELAYS, 3)
-    direct = analyze_batch(batch_config(cfg, {"design.amplification": a, "implementation.delay_s": t}))
-    assert set(direct) <= set(df.columns)
+    direct = analyze_batch(batch_config(cfg, {"design.amplification": a, "implementation.delay_s": t}), latency=True)
+    assert set(direct) <= set(df.columns) and "latency_margin_s" in direct
     for k, v in direct.items():
         if isinstance(v, np.ndarray) and v.dtype == bool:
             assert df[k].tolist() == v.tolist(), k

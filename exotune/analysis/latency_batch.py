@@ -1,0 +1,476 @@
+"""The latency margin of a batch of designs at once: the sweep column ``latency_margin_s``.
+
+The definition and the construction are those of :mod:`exotune.analysis.margins`
+(docs/method.md#latency-margin): a loop Δ = P0 + P1 e^{−sτ} gains a root on the imaginary axis at
+s = jω for the delay τ exactly when |P0(jω)| = |P1(jω)| and e^{−jωτ} = −P0/P1, so a crossing at ω
+costs the extra delay ΔT(ω) = ((−arg(−P0/P1) − ωT) mod 2π)/ω; for a family P_i = A_i + p B_i,
+p ∈ [lo, hi], the crossings form curves p(ω) (roots of a real quadratic in p at each ω) whose ends
+inside the range are the end members' crossings. A design's margin is the minimum of ΔT over the
+crossings of its free loop, its environments and every human family (a box through its edges),
+0 when one of them is not stable/robust at the nominal delay, ``inf`` when no crossing exists.
+
+Here every step runs on all designs of a batch together:
+
+* polynomials are evaluated at jω through their even and odd parts in x = ω² (real Horner steps);
+* the frequency grid of a design spans nine decades below a tail bound beyond which no member can
+  cross (:func:`tail_bound`), ``GRID_PER_DECADE`` points per decade;
+* the end members' (and the single loops') crossings are the sign changes of |P0|² − |P1|² on the
+  grid, refined by bisection to machine precision, plus grazing points (relative |F| below 10⁻⁶ at
+  a local minimum);
+* along each branch of the crossing curves every grid local minimum of ΔT is refined by
+  golden-section search in log ω, after the bracket's ends are moved (bisection) to the edges of
+  the curve segment it samples;
+* a curve segment that starts at an end member's crossing but holds no grid point (narrower than
+  a grid step) is sampled at ``SEED_POINTS`` points around that crossing and refined the same way.
+  A closed crossing curve inside the range narrower than a grid step, touching no end member, is
+  the one feature this grid can miss.
+
+Designs that are not robust at the nominal delay are not computed (their margin is 0). Unlike the
+single-design :func:`exotune.analysis.margins.latency_margin`, no exact re-check at T + ΔT(1 ∓ 10⁻⁶)
+follows (it would cost two more full analyses per design); the tests compare the two on random
+designs (tests/analysis/test_latency_batch.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model.humans import HumanFamily, family_split
+from ..numerics.poly import pad_cols, padd, pmul
+
+__all__ = ["batch_latency_margin", "tail_bound", "GRID_PER_DECADE", "GRID_DECADES"]
+
+TWO_PI = 2.0 * math.pi
+GRID_DECADES = 9.0
+GRID_PER_DECADE = 40
+GOLDEN_ITERATIONS = 26
+BISECTION_ITERATIONS = 44
+GRAZE_REL = 1e-6
+SHRINK_ITERATIONS = 16  # bisections that move a refinement bracket's end to its segment's edge
+SEED_POINTS = 9  # samples of each branch over ± one grid step around an end member's crossing
+MAX_CROSSINGS = 64  # per loop and design, the end-member crossings that seed curve segments
+NEUTRAL_TAIL = 1e7  # rad/s: the grid top when a loop has no tail bound (neutral: deg P1 ≥ deg P0)
+
+
+# ---------------------------------------------------------------------------------------------
+# evaluation at s = jω
+# ---------------------------------------------------------------------------------------------
+class _Jw:
+    """A batch of real polynomials (rows, ascending) prepared for evaluation at s = jω:
+    P(jω) = E(ω²) + j ω O(ω²) with real E, O."""
+
+    def __init__(self, c: np.ndarray):
+        c = np.asarray(c, dtype=float)
+        k = np.arange(c.shape[1])
+        signed = c * np.where((k // 2) % 2 == 0, 1.0, -1.0)  # the real/imaginary sign of j^k
+        self.even = signed[:, 0::2]
+        self.odd = signed[:, 1::2]
+
+    def grid(self, w: np.ndarray) -> np.ndarray:
+        """Values at ``w`` of shape (N, G) (row i at w[i])."""
+        x = w * w
+        return _horner(self.even, x) + 1j * w * _horner(self.odd, x)
+
+    def points(self, rows: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """Values of rows ``rows`` at ``w`` (flat arrays of equal length)."""
+        x = w * w
+        return _horner(self.even[rows], x, flat=True) + 1j * w * _horner(self.odd[rows], x, flat=True)
+
+
+def _horner(c: np.ndarray, x: np.ndarray, flat: bool = False) -> np.ndarray:
+    if c.shape[1] == 0:
+        return np.zeros(x.shape)
+    col = (lambda k: c[:, k]) if flat else (lambda k: c[:, k : k + 1])
+    acc = np.broadcast_to(col(c.shape[1] - 1), x.shape).copy()
+    for k in range(c.shape[1] - 2, -1, -1):
+        acc *= x
+        acc += col(k)
+    return acc
+
+
+def tail_bound(c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
+    """Per row, a frequency [rad/s] above which |P0(jω)| > |P1(jω)| (a Cauchy-type bound on
+    coefficient magnitudes; ``inf`` for a neutral row, deg P1 ≥ deg P0, or P0 ≡ 0).
+
+    |P0| ≥ |c0_n| ωⁿ − Σ_{k<n} |c0_k| ω^k and |P1| ≤ Σ |c1_k| ω^k, so beyond twice the largest
+    (Σ_k-term / |c0_n|)^{1/(n−k)} no crossing exists."""
+    m0 = np.abs(np.asarray(c0))
+    m1 = np.abs(np.asarray(c1))
+    n = max(m0.shape[1], m1.shape[1])
+    m0, m1 = pad_cols(m0, n), pad_cols(m1, n)
+    k = np.arange(n)
+    deg0 = np.where((m0 > 0).any(1), n - 1 - np.argmax((m0 > 0)[:, ::-1], axis=1), -1)
+    deg1 = np.where((m1 > 0).any(1), n - 1 - np.argmax((m1 > 0)[:, ::-1], axis=1), -1)
+    lead = m0[np.arange(m0.shape[0]), np.maximum(deg0, 0)]
+    below = k[None, :] < deg0[:, None]
+    tot = np.where(below, m0 + m1, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        expo = 1.0 / np.where(below, deg0[:, None] - k[None, :], 1)
+        r = np.where(below & (tot > 0), (tot / np.where(lead > 0, lead, 1.0)[:, None]) ** expo, 0.0)
+    out = 2.0 * r.max(axis=1)
+    out = np.where(out > 0, out, 1.0)
+    return np.where((deg0 <= 0) | (deg1 >= deg0), np.inf, out)
+
+
+# ---------------------------------------------------------------------------------------------
+# one loop (or family) for a batch
+# ---------------------------------------------------------------------------------------------
+PAIRS = ("00", "10", "01")  # the characteristic terms a loop combines (charfun.CharTerms keys)
+
+
+class _Terms:
+    """The batch rows' characteristic pairs Δ_j = P0 + P1 e^{−sT} (j over :data:`PAIRS`), ready
+    for evaluation at s = jω."""
+
+    def __init__(self, ct, rows: np.ndarray):
+        self.coef = [(np.asarray(ct.qp(k).p0, dtype=float)[rows], np.asarray(ct.qp(k).p1, dtype=float)[rows])
+                     for k in PAIRS]
+        self.jw = [(_Jw(c0), _Jw(c1)) for c0, c1 in self.coef]
+
+    def grid(self, w: np.ndarray) -> list:
+        return [(j0.grid(w), j1.grid(w)) for j0, j1 in self.jw]
+
+
+class _Loop:
+    """One loop of every design of a batch: Δ = (A0 + p B0) + (A1 + p B1) e^{−sT} with
+    A = Δ_a + z0(s) Δ_b and B = f φ(s) Δ_b (a family Z = z0 + p f φ closed over pair b), or
+    A = Δ_a, B = 0 (a single loop, ``kb`` = −1)."""
+
+    def __init__(self, terms: _Terms, ka: int, kb: int = -1, z0=(0.0, 0.0, 0.0), phi=(0.0, 0.0, 0.0),
+                 factor: complex = 1.0, lo: float = 0.0, hi: float = 0.0):
+        self.terms, self.ka, self.kb = terms, ka, kb
+        self.single = kb < 0
+        self.z0 = np.asarray(z0, dtype=float)
+        self.phi = np.asarray(phi, dtype=float)
+        self.f = complex(factor)
+        self.lo, self.hi = float(lo), float(hi)
+
+    def members(self) -> tuple[float, ...]:
+        return (0.0,) if self.single else ((self.lo,) if self.lo == self.hi else (self.lo, self.hi))
+
+    def coefficients(self):
+        """(A0, A1, B0, B1) as coefficient rows (ascending; B's complex with the factor)."""
+        a0, a1 = self.terms.coef[self.ka]
+        if self.single:
+            return a0, a1, None, None
+        d0, d1 = self.terms.coef[self.kb]
+        n = d0.shape[0]
+        z = np.broadcast_to(self.z0, (n, 3))
+        ph = np.broadcast_to(self.phi, (n, 3))
+        return (padd(a0, pmul(d0, z)), padd(a1, pmul(d1, z)), pmul(d0, ph) * self.f, pmul(d1, ph) * self.f)
+
+    def wmax(self) -> np.ndarray:
+        """Per row, a frequency above which no member crosses (tail bounds of the end members and
+        of seven members between them, ×4; ``NEUTRAL_TAIL`` for a neutral loop)."""
+        a0, a1, b0, b1 = self.coefficients()
+        if self.single:
+            t = tail_bound(a0, a1)
+            return np.where(np.isfinite(t), t, NEUTRAL_TAIL)
+        n0 = max(a0.shape[1], b0.shape[1])
+        n1 = max(a1.shape[1], b1.shape[1])
+        a0, b0, a1, b1 = pad_cols(a0, n0), pad_cols(b0, n0), pad_cols(a1, n1), pad_cols(b1, n1)
+        ps = np.unique(np.r_[self.lo, self.hi, np.geomspace(self.lo, self.hi, 9) if self.lo > 0
+                             else np.linspace(self.lo, self.hi, 9)])
+        t = np.max([tail_bound(a0 + p * b0, a1 + p * b1) for p in ps], axis=0)
+        return np.where(np.isfinite(t), 4.0 * t, NEUTRAL_TAIL)
+
+    def _combine(self, Va, Vb, w):
+        if self.single:
+            return Va[0], Va[1], 0.0, 0.0
+        z = (self.z0[0] - self.z0[2] * w * w) + 1j * self.z0[1] * w
+        ph = self.f * ((self.phi[0] - self.phi[2] * w * w) + 1j * self.phi[1] * w)
+        return Va[0] + z * Vb[0], Va[1] + z * Vb[1], ph * Vb[0], ph * Vb[1]
+
+    def values(self, w: np.ndarray, rows: np.ndarray | None = None, V: list | None = None):
+        """(A0, A1, B0, B1) at jω: on the grid ``w`` (N, G) (from the pairs' grid values ``V`` when
+        given) or, with ``rows``, at the points (rows[i], w[i])."""
+        if rows is None:
+            V = V if V is not None else self.terms.grid(w)
+            Va, Vb = V[self.ka], (None if self.single else V[self.kb])
+        else:
+            ja = self.terms.jw[self.ka]
+            Va = (ja[0].points(rows, w), ja[1].points(rows, w))
+            Vb = None
+            if not self.single:
+                jb = self.terms.jw[self.kb]
+                Vb = (jb[0].points(rows, w), jb[1].points(rows, w))
+        return self._combine(Va, Vb, w)
+
+
+def _first_delay(P0, P1, w, T):
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.mod(-np.angle(-P0 / P1) - w * T, TWO_PI) / w
+
+
+def _member_margin(loop: _Loop, p: float, w, vals, T):
+    """Per row, the smallest ΔT over the crossings of member p found on the grid ``w`` (N, G),
+    and those crossings as (rows, log ω, grid index) (sign changes refined by bisection, grazing
+    points)."""
+    A0, A1, B0, B1 = vals
+    P0, P1 = A0 + p * B0, A1 + p * B1
+    m0, m1 = np.abs(P0) ** 2, np.abs(P1) ** 2
+    F = m0 - m1
+    N = w.shape[0]
+    best = np.full(N, np.inf)
+    rows, logs, gidx = [], [], []
+    r, i = np.nonzero(np.signbit(F[:, :-1]) != np.signbit(F[:, 1:]))
+    if r.size:
+        lo_l, hi_l = np.log(w[r, i]), np.log(w[r, i + 1])
+        f_lo = np.signbit(F[r, i])
+
+        def Fp(lw):
+            a0, a1, b0, b1 = loop.values(np.exp(lw), r)
+            return np.abs(a0 + p * b0) ** 2 - np.abs(a1 + p * b1) ** 2
+
+        for _ in range(BISECTION_ITERATIONS):
+            mid = 0.5 * (lo_l + hi_l)
+            same = np.signbit(Fp(mid)) == f_lo
+            lo_l = np.where(same, mid, lo_l)
+            hi_l = np.where(same, hi_l, mid)
+        lx = 0.5 * (lo_l + hi_l)
+        x = np.exp(lx)
+        a0, a1, b0, b1 = loop.values(x, r)
+        dT = _first_delay(a0 + p * b0, a1 + p * b1, x, T[r])
+        np.minimum.at(best, r, np.where(np.isfinite(dT), dT, np.inf))
+        rows.append(r)
+        logs.append(lx)
+        gidx.append(i)
+    # grazing points: |F| relative to its scale at a local minimum within 1e-6 of 0
+    rel = np.abs(F) / np.where(m0 + m1 > 0, m0 + m1, 1.0)
+    g = (rel[:, 1:-1] < rel[:, :-2]) & (rel[:, 1:-1] < rel[:, 2:]) & (rel[:, 1:-1] < GRAZE_REL)
+    r, i = np.nonzero(g)
+    if r.size:
+        i = i + 1
+        dT = _first_delay(P0[r, i], P1[r, i], w[r, i], T[r])
+        np.minimum.at(best, r, np.where(np.isfinite(dT), dT, np.inf))
+        rows.append(r)
+        logs.append(np.log(w[r, i]))
+        gidx.append(i)
+    cross = ((np.concatenate(rows), np.concatenate(logs), np.concatenate(gidx)) if rows
+             else (np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64)))
+    return best, cross
+
+
+def _branches(loop: _Loop, w, vals, T):
+    """ΔT along the two branches p±(ω) of the crossing curves (inf where the branch leaves the
+    range or does not exist): a list of two arrays of the shape of ``w``."""
+    A0, A1, B0, B1 = vals
+    qa = np.abs(B0) ** 2 - np.abs(B1) ** 2
+    qb = 2.0 * np.real(A0 * np.conj(B0) - A1 * np.conj(B1))
+    qc = np.abs(A0) ** 2 - np.abs(A1) ** 2
+    big = max(abs(loop.lo), abs(loop.hi))
+    sc = np.abs(qa) * big * big + np.abs(qb) * big + np.abs(qc)
+    sc = np.where(sc > 0, sc, 1.0)
+    qa, qb, qc = qa / sc, qb / sc, qc / sc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        disc = qb * qb - 4.0 * qa * qc
+        sq = np.sqrt(np.where(disc >= 0, disc, np.nan))
+        q = -0.5 * (qb + np.copysign(sq, qb))
+        r1 = np.where(qa != 0, q / qa, -qc / qb)
+        r2 = np.where((qa != 0) & (q != 0), qc / q, np.nan)
+    out = []
+    for pm in (np.fmin(r1, r2), np.fmax(r1, r2)):
+        ok = np.isfinite(pm) & (pm >= loop.lo) & (pm <= loop.hi)
+        P1 = A1 + pm * B1
+        ok &= np.abs(P1) > 0
+        dT = _first_delay(A0 + pm * B0, np.where(ok, P1, 1.0), w, T)
+        out.append(np.where(ok & np.isfinite(dT), dT, np.inf))
+    return out
+
+
+def _refine(loop: _Loop, which: int, r, T, a, x0, b) -> np.ndarray:
+    """Per candidate, the smallest ΔT on branch ``which`` near the finite point log ω = x0 of the
+    bracket [a, b] (log ω): an end where the branch does not exist is first moved, by bisection,
+    to the edge of the segment holding x0; then golden-section search."""
+    Tr = T[r]
+
+    def f(x):
+        xw = np.exp(x)
+        return _branches(loop, xw, loop.values(xw, r), Tr)[which]
+
+    def edge(inside, outside):  # the last point of x0's segment towards ``outside``
+        for _ in range(SHRINK_ITERATIONS):
+            mid = 0.5 * (inside + outside)
+            fin = np.isfinite(f(mid))
+            inside, outside = np.where(fin, mid, inside), np.where(fin, outside, mid)
+        return inside
+
+    a = np.where(np.isfinite(f(a)), a, edge(x0, a))
+    b = np.where(np.isfinite(f(b)), b, edge(x0, b))
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(GOLDEN_ITERATIONS):
+        lb = fc <= fd  # the minimum lies in [a, d]: d ← c, a new c; else in [c, b]: c ← d, a new d
+        a = np.where(lb, a, c)
+        b = np.where(lb, d, b)
+        c_new = np.where(lb, b - g * (b - a), d)
+        d_new = np.where(lb, c, a + g * (b - a))
+        f_new = f(np.where(lb, c_new, d_new))
+        fc, fd = np.where(lb, f_new, fd), np.where(lb, fc, f_new)
+        c, d = c_new, d_new
+    return np.fmin(fc, fd)
+
+
+def _curve_margin(loop: _Loop, w, vals, T, cross) -> np.ndarray:
+    """Per row, the smallest ΔT along the crossing curves: every grid local minimum of a branch,
+    and the segments that start at an end member's crossing ``cross`` = (rows, log ω, grid index)
+    where the grid does not sample them (narrower than a grid step), each refined by
+    :func:`_refine`."""
+    N, G = w.shape
+    best = np.full(N, np.inf)
+    lw = np.log(w)
+    h = GRID_DECADES * math.log(10.0) / (G - 1)
+    cr_all, cx_all, ci_all = cross
+    for which, dT in enumerate(_branches(loop, w, vals, T[:, None])):
+        fin = np.isfinite(dT)
+        left = np.concatenate([np.full((N, 1), np.inf), dT[:, :-1]], axis=1)
+        right = np.concatenate([dT[:, 1:], np.full((N, 1), np.inf)], axis=1)
+        r, i = np.nonzero(fin & (dT <= left) & (dT <= right))
+        np.minimum.at(best, r, dT[r, i])
+        rs, a, x0, b = [r], [lw[r, np.maximum(i - 1, 0)]], [lw[r, i]], [lw[r, np.minimum(i + 1, G - 1)]]
+        # a crossing whose grid neighbours are both off the branch may start a segment the grid misses
+        unseen = ~fin[cr_all, ci_all] & ~fin[cr_all, np.minimum(ci_all + 1, G - 1)]
+        cr, cx = cr_all[unseen], cx_all[unseen]
+        if cr.size:
+            ys = cx[:, None] + h * np.linspace(-1.0, 1.0, SEED_POINTS)[None, :]
+            rr = np.repeat(cr, SEED_POINTS)
+            v = _branches(loop, np.exp(ys.ravel()), loop.values(np.exp(ys.ravel()), rr), T[rr])[which]
+            v = v.reshape(ys.shape)
+            k = np.argmin(v, axis=1)
+            v0 = v[np.arange(cr.size), k]
+            ok = np.isfinite(v0)
+            np.minimum.at(best, cr[ok], v0[ok])
+            y0 = ys[np.arange(cr.size), k][ok]
+            step = 2.0 * h / (SEED_POINTS - 1)
+            rs.append(cr[ok]); a.append(y0 - step); x0.append(y0); b.append(y0 + step)
+        r = np.concatenate(rs)
+        if r.size:
+            m = _refine(loop, which, r, T, np.concatenate(a), np.concatenate(x0), np.concatenate(b))
+            np.minimum.at(best, r, m)
+    return best
+
+
+def _grid(wmax: np.ndarray) -> np.ndarray:
+    G = int(GRID_DECADES * GRID_PER_DECADE) + 1
+    return wmax[:, None] * np.logspace(-GRID_DECADES, 0.0, G)[None, :]
+
+
+def _margins_numpy(terms: _Terms, loops: list, T: np.ndarray, wmax: np.ndarray) -> np.ndarray:
+    """Per row, the smallest extra delay over every loop's crossings (the numpy reference)."""
+    w = _grid(wmax)
+    V = terms.grid(w)
+    best = np.full(w.shape[0], np.inf)
+    for loop in loops:
+        vals = loop.values(w, V=V)
+        crossings = []
+        for p in loop.members():
+            m, cross = _member_margin(loop, p, w, vals, T)
+            best = np.fmin(best, m)
+            crossings.append(cross)
+        if not loop.single and loop.hi > loop.lo:
+            cross = tuple(np.concatenate([c[k] for c in crossings]) for k in range(3))
+            best = np.fmin(best, _curve_margin(loop, w, vals, T, cross))
+    return best
+
+
+def _margins_compiled(terms: _Terms, loops: list, T: np.ndarray, wmax: np.ndarray) -> np.ndarray:
+    """The same construction in the compiled kernel (:mod:`exotune.numerics.kernels.latency`)."""
+    from ..numerics.kernels.latency import design_margins
+
+    js = [j for pair in terms.jw for j in pair]
+    m_e = max(j.even.shape[1] for j in js)
+    m_o = max(max(j.odd.shape[1] for j in js), 1)
+    ev = np.stack([pad_cols(j.even, m_e) for j in js])
+    od = np.stack([pad_cols(j.odd, m_o) for j in js])
+    L = len(loops)
+    members = np.zeros((L, 2))
+    nmem = np.zeros(L, dtype=np.int64)
+    for i, lp in enumerate(loops):
+        ms = lp.members()
+        members[i, : len(ms)] = ms
+        nmem[i] = len(ms)
+
+    def arr(xs, dt=float):
+        return np.ascontiguousarray(np.asarray(xs, dtype=dt))
+
+    return design_margins(
+        arr(ev), arr(od), arr([lp.ka for lp in loops], np.int64), arr([lp.kb for lp in loops], np.int64),
+        arr([lp.z0 for lp in loops]).reshape(L, 3), arr([lp.phi for lp in loops]).reshape(L, 3),
+        arr([lp.f.real for lp in loops]), arr([lp.f.imag for lp in loops]), members, nmem,
+        arr([lp.lo for lp in loops]), arr([lp.hi for lp in loops]),
+        arr([(not lp.single) and lp.hi > lp.lo for lp in loops], np.bool_),
+        arr(T), arr(wmax), GRID_DECADES, int(GRID_DECADES * GRID_PER_DECADE) + 1,
+        BISECTION_ITERATIONS, SHRINK_ITERATIONS, GOLDEN_ITERATIONS, GRAZE_REL, SEED_POINTS, MAX_CROSSINGS)
+
+
+# ---------------------------------------------------------------------------------------------
+# the design's loops
+# ---------------------------------------------------------------------------------------------
+def _family_loop(terms: _Terms, fam: HumanFamily, key1: str) -> _Loop:
+    z0, phi, factor = family_split(fam.kind, fam.param, fam.fixed(), fam.eta)
+    return _Loop(terms, 0, PAIRS.index(key1), z0, phi, factor, fam.lo, fam.hi)
+
+
+def _design_loops(terms: _Terms, humans, environment) -> list:
+    """The loops whose crossings bound a design's latency margin: the free exoskeleton, the
+    locked joint and the spring/mass environments, and every human family (a box through its
+    edges)."""
+    loops = [_Loop(terms, 0)]
+    for e in environment:
+        if e.kind == "locked":
+            loops.append(_Loop(terms, PAIRS.index("01")))
+        elif e.kind in ("spring", "mass"):
+            loops.append(_family_loop(terms, HumanFamily(e.kind, e.param, e.lo, e.hi, damping=e.damping), "01"))
+    for fam in humans:
+        loops.extend(_family_loop(terms, edge, "10") for edge in fam.edges())
+    return loops
+
+
+def _verdict_mask(cols: dict, N: int) -> np.ndarray:
+    ok = np.ones(N, dtype=bool)
+    for k, v in cols.items():
+        if k == "free_stable" or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable"))):
+            ok &= np.asarray(v, dtype=bool)
+    return ok
+
+
+def batch_latency_margin(ct, humans, environment, cols: dict) -> np.ndarray:
+    """The latency margin [s] of every design of a batch (module docstring).
+
+    Parameters
+    ----------
+    ct : CharTerms
+        The batch's characteristic terms (:func:`exotune.analysis.charfun.char_terms`).
+    humans, environment : sequences
+        The human families and environments of the batch's designs.
+    cols : dict
+        The batch's verdict columns (``free_stable``, ``human{i}_{kind}_robust``,
+        ``env{i}_{kind}_robust|stable``): a design that fails one has margin 0.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ΔT [s]: 0 where not robust at the nominal delay, ``inf`` where no extra delay destabilizes.
+
+    References
+    ----------
+    docs/method.md#latency-margin; paper Fig. 5.
+    """
+    from ..numerics.engine import compiled
+
+    N = ct.T.shape[0]
+    ok = _verdict_mask(cols, N)
+    out = np.zeros(N)
+    rows = np.nonzero(ok)[0]
+    if rows.size == 0:
+        return out
+    T = np.asarray(ct.T, dtype=float)[rows]
+    terms = _Terms(ct, rows)
+    loops = _design_loops(terms, humans, environment)
+    wmax = np.max([lp.wmax() for lp in loops], axis=0)
+    run = _margins_compiled if compiled() else _margins_numpy
+    out[rows] = run(terms, loops, T, wmax)
+    return out
