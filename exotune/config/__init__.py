@@ -2,7 +2,7 @@
 :mod:`.schema`), the validated configurations (:mod:`.design`) and batches for sweeps
 (:mod:`.batch`)."""
 
-from .batch import OVERRIDABLE, OVERRIDE_LIMITS, batch_config, continuous
+from .batch import OVERRIDABLE, OVERRIDE_LIMITS, batch_config, continuous, design_row
 from .design import (
     DesignConfig,
     SeaConfig,
@@ -20,6 +20,7 @@ from .validate import LIMITS, MAX_DELAY_SAMPLES, check_analysis_filters, check_d
 from .yamlio import MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES, MAX_YAML_NODES, load_yaml_text, read_json_guarded, read_yaml
 
 __all__ = [
+    "design_row",
     "continuous",
     "DesignConfig",
     "SeaConfig",

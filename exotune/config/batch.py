@@ -19,6 +19,7 @@ from .design import DesignConfig
 from .validate import FILTER_KEYS, check_delay_samples, fmt_value, limit_text, LIMITS
 
 __all__ = [
+    "design_row",
     "continuous", "OVERRIDABLE", "OVERRIDE_LIMITS", "batch_config"]
 
 
@@ -183,6 +184,35 @@ def batch_config(cfg: DesignConfig, overrides: dict[str, np.ndarray]) -> DesignC
         velocity_filter=filt("velocity_filter"),
     )
     return replace(cfg, plant=plant, design=design, implementation=new_impl)
+
+
+def design_row(cfg: DesignConfig, i: int) -> DesignConfig:
+    """Design ``i`` of a batch (:func:`batch_config`) as a single design: every per-design array
+    replaced by its i-th value (a float). ``raw`` still describes the batch's base design.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from exotune.config import load_design
+    >>> b = batch_config(load_design("examples/scheduled.yaml"), {"design.amplification": np.array([4.0, 6.0])})
+    >>> design_row(b, 1).design.amplification
+    6.0
+    """
+    import dataclasses
+
+    def take(obj):
+        if obj is None or not dataclasses.is_dataclass(obj):
+            return obj
+        kw = {}
+        for f in dataclasses.fields(obj):
+            v = getattr(obj, f.name)
+            if isinstance(v, np.ndarray) and v.ndim == 1:
+                kw[f.name] = float(v[i])
+            elif dataclasses.is_dataclass(v):
+                kw[f.name] = take(v)
+        return dataclasses.replace(obj, **kw)
+
+    return replace(cfg, plant=take(cfg.plant), design=take(cfg.design), implementation=take(cfg.implementation))
 
 
 def continuous(cfg):

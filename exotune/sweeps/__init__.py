@@ -12,6 +12,8 @@ Spec file
     chunk_size: 10000                     # optional (default 10000; ``--chunk-size`` overrides)
     verify_points: 16                     # optional: verify every family's intervals with exact
                                           # counts at N values (mismatch → not robust; default 0)
+    plant_margin: true                    # optional: plant-uncertainty margin columns (costly;
+                                          # or {budget: N}; docs/sweep-spec.md)
 
 The spec is read with exotune's safe YAML loader (YAML 1.2 floats, duplicate keys rejected) and validated strictly:
 unknown keys, an empty ``axes`` mapping, an axis that is neither a list of numbers nor a

@@ -52,6 +52,8 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
         del cols[k]  # per-edge details of box families (objects): single-design reports only
     for k in [k for k in cols if k.endswith("_verification_mismatches")]:
         cols[k] = np.array([len(m) for m in cols[k]], dtype=np.int64)  # count per design
+    if "plant_margin" in plan.spec:
+        cols.update(_plant_margin_columns(cfg, cols, plan.spec["plant_margin"]["budget"]))
     names, arrays = ["point_index"], [np_arrow(g, "i")]
     for p in plan.paths:
         names.append(p)
@@ -65,6 +67,23 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
             b"exotune.version": __version__.encode()}
     schema = pa.schema([pa.field(nm, a.type) for nm, a in zip(names, arrays)], metadata=meta)
     return pa.Table.from_arrays(arrays, schema=schema)
+
+
+def _plant_margin_columns(cfg, cols: dict, budget: int) -> dict:
+    """The opt-in columns ``plant_margin_lower`` / ``plant_margin_upper`` (multiples of the base
+    design's declared ``uncertainty``, docs/method.md#plant-uncertainty-margin), one design at a
+    time; 0 for a design that is not robust at the nominal plant (no search is spent on it)."""
+    from ..analysis.plant_margin import plant_uncertainty_margin
+    from ..config import design_row
+
+    n = len(cols["free_stable"])
+    lower, upper = np.zeros(n), np.zeros(n)
+    weights = getattr(cfg, "uncertainty", None)
+    for i in range(n):
+        nominal = {k: v[i : i + 1] for k, v in cols.items()}
+        pm = plant_uncertainty_margin(design_row(cfg, i), weights, nominal=nominal, budget=budget, loop_detail=False)
+        lower[i], upper[i] = pm.lower, pm.upper
+    return {"plant_margin_lower": lower, "plant_margin_upper": upper}
 
 
 def _reason(e: BaseException, limit: int = 300) -> str:

@@ -36,13 +36,14 @@ AXIS_UNITS = {
 # column -> (title, unit shown, display factor, worst-case reduction "min"|"max", colormap)
 METRICS = {
     "latency_margin_s": ("latency margin (extra delay every loop tolerates)", "ms", 1e3, "min", "viridis"),
+    "plant_margin_lower": ("plant-uncertainty margin, certified lower bound (multiples of the declared uncertainty)", "–", 1.0, "min", "viridis"),
     "dob_delay_margin_s": ("DOB delay margin (extra delay tolerated)", "ms", 1e3, "min", "viridis"),
     "dob_phase_margin_deg": ("DOB phase margin", "deg", 1.0, "min", "viridis"),
     "dob_gain_margin_db": ("DOB gain margin", "dB", 1.0, "min", "viridis"),
     "passivity_max_phase_excess_deg": ("max phase excess of C7 outside [−180°, 0°]", "deg", 1.0, "max", "magma_r"),
     "amplification_bandwidth_hz": ("amplification −3 dB bandwidth", "Hz", 1.0, "min", "viridis"),
 }
-TABLE_METRICS = ("latency_margin_s", "dob_delay_margin_s", "passivity_max_phase_excess_deg", "amplification_bandwidth_hz")
+TABLE_METRICS = ("latency_margin_s", "plant_margin_lower", "dob_delay_margin_s", "passivity_max_phase_excess_deg", "amplification_bandwidth_hz")
 MAX_PAIR_AXES = 4
 _FAMILY_RE = re.compile(r"^(human|env)(\d+)_(.+)_stable_intervals$")
 

@@ -1,6 +1,6 @@
 """Reading and validating a sweep spec into a :class:`~exotune.sweeps.plan.SweepPlan`.
 
-The spec format (``base``, ``axes``, ``chunk_size``, ``verify_points``) and every validation rule
+The spec format (``base``, ``axes``, ``chunk_size``, ``verify_points``, ``plant_margin``) and every validation rule
 are described in the :mod:`exotune.sweeps` package docstring; every problem is a
 :class:`~exotune.errors.ConfigError` naming the field.
 """
@@ -21,7 +21,8 @@ __all__ = ["load_spec", "load_base", "is_number", "int_option", "DEFAULT_CHUNK_S
            "MAX_AXIS_VALUES"]
 
 DEFAULT_CHUNK_SIZE = 10000
-_SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points")
+_SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points", "plant_margin")
+DEFAULT_PLANT_MARGIN_BUDGET = 150_000  # interval evaluations per loop and certification attempt
 _AXIS_KEYS = ("start", "stop", "num", "scale")
 _MAX_POINTS = 2**62
 MAX_VERIFY_POINTS = 1000  # spec key verify_points (the single-design report uses 64)
@@ -102,6 +103,21 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
         return out, scale
     kind = "null" if spec is None else type(spec).__name__
     raise ConfigError(field, f"expected a list of values or a mapping {{start, stop, num, scale}}, got {kind}")
+
+
+def _plant_margin_option(v: Any) -> dict | None:
+    """The spec key ``plant_margin``: false/absent (no columns), true (default budget) or a
+    mapping ``{budget: N}`` (interval evaluations per loop and certification attempt)."""
+    if v is False or v is None:
+        return None
+    if v is True:
+        return {"budget": DEFAULT_PLANT_MARGIN_BUDGET}
+    if not isinstance(v, dict):
+        raise ConfigError("plant_margin", f"expected true, false or a mapping {{budget: N}}, got {v!r}")
+    unknown = [k for k in v if k != "budget"]
+    if unknown:
+        raise ConfigError(f"plant_margin.{unknown[0]}", "unknown key (allowed: budget)")
+    return {"budget": int_option("plant_margin.budget", v.get("budget", DEFAULT_PLANT_MARGIN_BUDGET), 1000)}
 
 
 def int_option(field: str, v: Any, minimum: int) -> int:
@@ -229,4 +245,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
     }
     if verify:  # only present when used, so existing spec hashes are unchanged
         normalized["verify_points"] = verify
+    pm = _plant_margin_option(mapping.get("plant_margin", False))
+    if pm is not None:  # likewise
+        normalized["plant_margin"] = pm
     return SweepPlan(normalized, cfg=cfg, source=source, base_source=base_source)
