@@ -22,7 +22,8 @@ so the crossing set is a few smooth curves p(ω) in the (ω, p) plane. The famil
 minimum of ΔT along those curves inside [lo, hi] and of the two end members' own margins (a curve
 leaving the range ends at an end member). The curves are followed on a log-spaced frequency grid up
 to the family's tail bound and every local minimum is refined by bounded scalar minimization; the
-result is then checked by the exact argument-principle verdicts at T + ΔT(1 ∓ 10⁻⁶) (see
+result is then checked by the exact argument-principle verdicts at T + ΔT(1 ∓ 10⁻⁶) (above: also
+10⁻⁵ and 10⁻⁴, for a set of members unstable just above the margin too narrow to resolve) (see
 :func:`latency_margin` ``verify``) and, if the first check fails (a dip between grid points), the
 member found unstable there lowers the margin until both checks pass.
 """
@@ -40,6 +41,7 @@ TWO_PI = 2.0 * math.pi
 GRID_PER_DECADE = 120
 GRID_DECADES = 9.0
 VERIFY_REL = 1e-6
+ABOVE_REL = (VERIFY_REL, 1e-5, 1e-4)  # relative steps above the margin where a verdict must change
 
 
 @dataclass(frozen=True)
@@ -410,11 +412,17 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
     crit = res.critical
     for _ in range(8):
         m = crit.extra_delay_s
-        cols = _analyze_delays(cfg, [T + m * (1 - VERIFY_REL), T + m * (1 + VERIFY_REL)])
+        cols = _analyze_delays(cfg, [T + m * (1 - VERIFY_REL)] + [T + m * (1 + r) for r in ABOVE_REL])
         if _all_ok(cols, 0):
-            above = _all_ok(cols, 1)
-            note = "no verdict change just above the margin (a crossing that does not destabilize)" if above else ""
-            return LatencyMargin(m, crit, tuple(loops), T, res.sample_rate_hz, not above, note)
+            changed = [r for t, r in enumerate(ABOVE_REL, start=1) if not _all_ok(cols, t)]
+            note = ""
+            if not changed:
+                note = (f"no verdict change up to {ABOVE_REL[-1]:g} above the margin "
+                        "(a crossing that does not destabilize)")
+            elif changed[0] > VERIFY_REL:
+                note = (f"the verdict changes between {VERIFY_REL:g} and {changed[0]:g} above the margin "
+                        "(the members unstable just above it form a very narrow set)")
+            return LatencyMargin(m, crit, tuple(loops), T, res.sample_rate_hz, bool(changed), note)
         lowered = None
         for name, fam, key1, _run in _loops(cfg, ct):
             if fam is None or _nominal_ok(cols, name, 0):
@@ -430,8 +438,7 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
                 gaps.append((prev, fam.hi))
             a0, a1, b0, b1 = _family_coeffs(ct, fam, "00", key1)
             for a, b in gaps or [(fam.lo, fam.hi)]:
-                pm = math.sqrt(a * b) if a > 0 else 0.5 * (a + b)
-                dT, w = qp_latency_margin(_add(a0, pm * b0), _add(a1, pm * b1), T)
+                dT, w, pm = _member_minimum(a0, a1, b0, b1, a, b, T)
                 if dT < m and (lowered is None or dT < lowered.extra_delay_s):
                     lowered = LoopMargin(name, float(dT), None if w is None else w / TWO_PI, fam.param, float(pm), fam.unit)
         if lowered is None:
@@ -441,6 +448,29 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
         loops = [lowered if lp.loop == lowered.loop else lp for lp in loops]
     return LatencyMargin(crit.extra_delay_s, crit, tuple(loops), T, res.sample_rate_hz, False,
                          "the exact checks did not settle after 8 refinements")
+
+
+def _member_minimum(a0, a1, b0, b1, a: float, b: float, T: float, n: int = 17):
+    """The smallest single-member latency margin over members p ∈ [a, b] of a family: ``n``
+    members (log-spaced for a positive range), then bounded scalar minimization around the best
+    one. Returns (ΔT [s], ω [rad/s] or None, p)."""
+    from scipy.optimize import minimize_scalar
+
+    def member(p):
+        return qp_latency_margin(_add(a0, p * b0), _add(a1, p * b1), T)
+
+    ps = np.geomspace(a, b, n) if a > 0 else np.linspace(a, b, n)
+    vals = [member(p)[0] for p in ps]
+    k = int(np.argmin(vals))
+    best_p = float(ps[k])
+    if b > a:
+        lo_p, hi_p = float(ps[max(k - 1, 0)]), float(ps[min(k + 1, n - 1)])
+        res = minimize_scalar(lambda p: min(member(p)[0], 1e300), bounds=(lo_p, hi_p), method="bounded",
+                              options={"xatol": 1e-10 * max(abs(hi_p), 1e-300)})
+        if res.fun < vals[k]:
+            best_p = float(res.x)
+    dT, w = member(best_p)
+    return dT, w, best_p
 
 
 def analyze_with_margins(cfg) -> dict:

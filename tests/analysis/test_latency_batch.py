@@ -157,3 +157,17 @@ def test_tail_bound_excludes_every_crossing(c0, c1, lead):
 
 def test_tail_bound_of_a_neutral_loop_is_infinite():
     assert math.isinf(float(tail_bound(np.array([[1.0, 1.0]]), np.array([[0.5, 2.0]]))[0]))
+
+
+def test_box_edge_minimum_between_sampled_members_is_found_by_both():
+    """A design whose critical member sits inside a box edge (damping ≈ 0.69 N·m·s/rad of [0.5, 5]):
+    the single-design margin used to try only the edge's midpoint when its first exact check
+    failed, and stopped unverified 1e-4 above the true margin; and the members unstable just above
+    the margin form a set too narrow for the exact verdict at +10⁻⁶ (it changes by +10⁻⁵). Both
+    computations now agree and the single-design one is confirmed by the exact verdicts."""
+    mp = _mappings()[1]
+    cfg, vals = _batch(mp, 40, seed=101)
+    m = analyze_batch(batch_config(cfg, vals), latency=True)["latency_margin_s"][4]
+    s = latency_margin(_single(mp, vals, 4))
+    assert s.verified is True and s.critical.loop.startswith("human0_msd_edge")
+    assert m == pytest.approx(s.extra_delay_s, rel=1e-9)
