@@ -111,9 +111,13 @@ def _sampled_check(cfg, cols, humans: list, env: list, warnings: list):
         sampled = check_design(cfg, {"humans": humans, "environment": env})
         fs = sampled["sample_rate_hz"]
         for name in ("free", "locked"):
-            if sampled[f"{name}_stable"] != bool(cols[f"{name}_stable"][0]):
+            where = 'with the cuff free' if name == 'free' else 'with the output locked'
+            if sampled[f"{name}_stable"] is None:
+                warnings.append(f"at {fs:g} Hz the sampled-data verdict {where} is inconclusive (spectral radius within "
+                                "rounding of 1)")
+            elif sampled[f"{name}_stable"] != bool(cols[f"{name}_stable"][0]):
                 warnings.append(f"at {fs:g} Hz the sampled-data loop is {'stable' if sampled[f'{name}_stable'] else 'UNSTABLE'} "
-                                f"{'with the cuff free' if name == 'free' else 'with the output locked'}, unlike the continuous analysis")
+                                f"{where}, unlike the continuous analysis")
         for side, fams in (("human", sampled["humans"]), ("environment", sampled["environment"])):
             for h in fams:
                 for b in h.get("boundaries", []):

@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from ..sampled import loop_eigenvalues, loop_stable
+from ..sampled import loop_eigenvalues, loop_verdict
 from .latency import requirement_problems, sampled_latency_margin
 
 __all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify", "design_mismatches",
@@ -209,17 +209,18 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     plant = plant_from_file(doc)
     ctrl = discrete_from_file(doc)
     grounded = position_feedback(doc["controller"])
-    run = lambda human=None, env="free": loop_stable(plant, ctrl, grounded, human, env)  # noqa: E731
     spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, grounded, human, env)  # noqa: E731
-    free, rho = run()
-    locked, rho_l = run(env="locked")
+    free, rho, err = loop_verdict(plant, ctrl, grounded)
+    locked, rho_l, err_l = loop_verdict(plant, ctrl, grounded, env="locked")
     out = {
         "model": ("plant discretized exactly (zero-order hold, delay of "
                   f"{doc['delay_s']['value'] * doc['sample_rate_hz']['value']:.6g} samples), the file's controller"),
-        "free_stable": bool(free),
+        "free_stable": free,  # None: inconclusive (the spectral radius is within rounding of 1)
         "free_spectral_radius": rho,
-        "locked_stable": bool(locked),
+        "free_spectral_radius_rounding": err,
+        "locked_stable": locked,
         "locked_spectral_radius": rho_l,
+        "locked_spectral_radius_rounding": err_l,
         "humans": [],
         "environment": [],
     }
@@ -488,10 +489,13 @@ def _certify(doc: dict) -> dict:
     rep["golden"] = {"samples": int(ref.size), "max_abs_error": {"value": err, "unit": "N·m"}}
     sa = sampled_analysis(doc)
     rep["sampled"] = sa
-    if not sa["free_stable"]:
-        problems.append("the free exoskeleton (cuff free) is unstable in the sampled-data loop")
-    if not sa["locked_stable"]:
-        problems.append("the locked-joint loop is unstable in the sampled-data loop")
+    for key, what in (("free", "the free exoskeleton (cuff free)"), ("locked", "the locked-joint loop")):
+        if sa[f"{key}_stable"] is None:
+            problems.append(f"{what}: the sampled-data verdict is inconclusive (spectral radius "
+                            f"{sa[f'{key}_spectral_radius']:.12g} within its rounding bound "
+                            f"{sa[f'{key}_spectral_radius_rounding']:.2g} of 1)")
+        elif not sa[f"{key}_stable"]:
+            problems.append(f"{what} is unstable in the sampled-data loop")
     for h in sa["humans"] + sa["environment"]:
         if "skipped" in h:
             continue

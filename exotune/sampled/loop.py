@@ -36,7 +36,7 @@ import scipy.linalg
 import scipy.signal
 
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
-           "closed_loop_matrix", "sampled_stable", "loop_stable", "loop_eigenvalues", "tustin", "prewarped",
+           "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "tustin", "prewarped",
            "zoh_fractional", "default_prewarp", "check_design"]
 
 # sampled signals the controller may use (order of the plant's output vector)
@@ -325,13 +325,89 @@ def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, 
     return loop_stable(plant, discretize(cs, plant, sample_rate_hz, prewarp), K1 != 0.0, human, env, rigid_tol)
 
 
+def sampled_verdict(plant, cs, sample_rate_hz: float, human: dict | None = None, env: str | dict = "free",
+                    prewarp: dict | None = None, rigid_tol: float = 1e-7) -> tuple[bool | None, float, float]:
+    """:func:`loop_verdict` (stable, inconclusive as None; spectral radius; rounding) of the
+    sampled-data loop of a :class:`ControllerStructure`."""
+    K1 = -float(np.ravel(cs.motor_position.num)[0]) / float(np.ravel(cs.motor_position.den)[0])
+    return loop_verdict(plant, discretize(cs, plant, sample_rate_hz, prewarp), K1 != 0.0, human, env, rigid_tol)
+
+
 def loop_stable(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,
                 env: str | dict = "free", rigid_tol: float = 1e-7) -> tuple[bool, float]:
     """(stable, spectral radius) of the discrete controller ``ctrl`` on the plant (+ human,
-    + environment); see :func:`loop_eigenvalues`."""
-    lam = loop_eigenvalues(plant, ctrl, position_feedback, human, env, rigid_tol)
-    rho = float(np.max(np.abs(lam))) if lam.size else 0.0
-    return rho < 1.0, rho
+    + environment); see :func:`loop_eigenvalues`. A verdict that rounding cannot decide
+    (:func:`loop_verdict`) counts as not stable here (margins built on it stay conservative)."""
+    stable, rho, _ = loop_verdict(plant, ctrl, position_feedback, human, env, rigid_tol)
+    return stable is True, rho
+
+
+def loop_verdict(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,
+                 env: str | dict = "free", rigid_tol: float = 1e-7) -> tuple[bool | None, float, float]:
+    """(stable, spectral radius, rounding) of the sampled-data loop, where ``stable`` is None
+    (inconclusive) when an eigenvalue's modulus is within its rounding bound of 1
+    (:func:`spectral_verdict`)."""
+    M, _lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
+    return spectral_verdict(M, rigid_tol=None if drop is None else rigid_tol)
+
+
+NEAR_UNIT = 1e-4  # eigenvalues whose modulus is this close to 1 get a rounding estimate
+ROUNDING_TRIALS = 4
+
+
+def spectral_verdict(M: np.ndarray, rigid_tol: float | None = None) -> tuple[bool | None, float, float]:
+    """Schur stability of the matrix ``M`` that says "inconclusive" rather than guess.
+
+    Each eigenvalue λ_i near the unit circle carries a rounding estimate e_i: ten times the largest
+    move of λ_i when every entry of ``M`` is perturbed by a relative 8ε (``ROUNDING_TRIALS``
+    fixed pseudo-random perturbations; the entries of the loop matrix are themselves results of
+    rounded arithmetic, and a near-defective or ill-conditioned eigenvalue moves by far more than ε
+    under such perturbations). The loop is **stable** when every |λ_i| + e_i < 1, **unstable**
+    when some |λ_i| − e_i > 1, and **inconclusive** (None) otherwise — near the limits of double
+    precision (a very high sample rate, an undamped mode) exotune never reports a rounding
+    artefact as "UNSTABLE" or "stable". With ``rigid_tol``, the eigenvalue nearest z = 1 is
+    excluded when within that distance (the rigid-body mode of an ungrounded structure).
+
+    Returns
+    -------
+    (stable, spectral radius, rounding bound of the eigenvalue deciding the verdict)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> spectral_verdict(np.diag([0.5, 1.0 - 1e-6]))[0]
+    True
+    >>> spectral_verdict(np.diag([0.5, 1.0 + 1e-17]))[0] is None   # 1 within rounding
+    True
+    """
+    M = np.asarray(M, dtype=float)
+    if M.size == 0:
+        return True, 0.0, 0.0
+    w = np.linalg.eigvals(M)
+    keep = np.ones(w.size, dtype=bool)
+    if rigid_tol is not None:
+        i = int(np.argmin(np.abs(w - 1.0)))
+        keep[i] = not abs(w[i] - 1.0) <= rigid_tol
+    if not keep.any():
+        return True, 0.0, 0.0
+    mod = np.abs(w)
+    err = np.full(w.size, 4.0 * w.size * np.finfo(float).eps)
+    near = np.nonzero(keep & (np.abs(mod - 1.0) < NEAR_UNIT))[0]
+    if near.size:
+        rng = np.random.default_rng(0)
+        for _ in range(ROUNDING_TRIALS):
+            wp = np.linalg.eigvals(M * (1.0 + 8.0 * np.finfo(float).eps * rng.uniform(-1.0, 1.0, M.shape)))
+            moved = np.min(np.abs(wp[None, :] - w[near, None]), axis=1)
+            err[near] = np.maximum(err[near], 10.0 * moved)
+    mod, err = mod[keep], err[keep]
+    rho = float(np.max(mod))
+    if np.any(mod - err > 1.0):
+        i = int(np.argmax(mod - err))
+        return False, rho, float(err[i])
+    i = int(np.argmax(mod + err))
+    if mod[i] + err[i] < 1.0:
+        return True, rho, float(err[i])
+    return None, rho, float(err[i])
 
 
 def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,
@@ -339,6 +415,12 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
     """Eigenvalues of the sampled-data loop; one eigenvalue at z = 1 (the rigid-body mode,
     |λ − 1| ≤ rigid_tol) is removed when nothing grounds the structure (no position feedback K1,
     no human or environment stiffness, not locked), as in the continuous analysis."""
+    _M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
+    return lam if drop is None else np.delete(lam, drop)
+
+
+def _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol):
+    """(loop matrix, its eigenvalues, index of the rigid-body eigenvalue to drop or None)."""
     A, B, C = plant_ss(plant, human, env)
     M = closed_loop_matrix(A, B, C, ctrl)
     if not np.all(np.isfinite(M)):
@@ -349,11 +431,12 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
     lam = np.linalg.eigvals(M)
     grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
                 or (human is not None and human.get("stiffness", 0.0) > 0) or position_feedback)
+    drop = None
     if not grounded and lam.size:
         i = int(np.argmin(np.abs(lam - 1.0)))
         if abs(lam[i] - 1.0) <= rigid_tol:
-            lam = np.delete(lam, i)
-    return lam
+            drop = i
+    return M, lam, drop
 
 
 def default_prewarp(impl) -> dict:
@@ -420,8 +503,8 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     pw = default_prewarp(cfg.implementation)
     run = lambda human=None, env="free": sampled_stable(cfg.plant, cs, fs, human, env, prewarp=pw)  # noqa: E731
-    free, rho_free = run()
-    locked, _ = run(env="locked")
+    free, rho_free, _ = sampled_verdict(cfg.plant, cs, fs, prewarp=pw)
+    locked, _, _ = sampled_verdict(cfg.plant, cs, fs, env="locked", prewarp=pw)
     Ts = 1.0 / fs
     q = float(np.ravel(cfg.implementation.delay_s)[0]) / Ts
     out = {
@@ -431,9 +514,9 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
                    "Tustin prewarped at " + ", ".join(f"{k}: {v:g} Hz" for k, v in pw.items())
                    + ("; velocities by the discretized velocity filter" if cfg.implementation.velocity_filter is not None
                       else "; ideal sampled velocities") + "; DOB algebraic loop solved"),
-        "free_stable": bool(free),
+        "free_stable": free,  # None: inconclusive (spectral radius within rounding of 1)
         "free_spectral_radius": rho_free,
-        "locked_stable": bool(locked),
+        "locked_stable": locked,
         "humans": [],
     }
     for fam, rep in zip(cfg.humans, continuous["humans"]):

@@ -59,7 +59,8 @@ def _sampled_and_crosscheck_lines(r: dict, yn) -> list[str]:
     sd = r.get("sampled_data")
     if sd:
         L.append(f"Sampled-data check at {sd['sample_rate_hz']:g} Hz ({sd['method']}):")
-        L.append(f"  cuff free stable: {yn(sd['free_stable'])}; output locked stable: {yn(sd['locked_stable'])}")
+        sv = lambda b: "inconclusive (spectral radius within rounding of 1)" if b is None else yn(b)  # noqa: E731
+        L.append(f"  cuff free stable: {sv(sd['free_stable'])}; output locked stable: {sv(sd['locked_stable'])}")
         for side, fams in (("human", sd["humans"]), ("environment", sd.get("environment", []))):
             for h in fams:
                 if "skipped" in h:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..model.humans import PARAM_UNITS
-from .numbers import interval_text
+from .numbers import interval_text, sampled_verdict_word
 
 __all__ = ["format_certify"]
 
@@ -64,9 +64,9 @@ def format_certify(rep: dict) -> str:
              f"delay {rep['delay_s'] * 1e3:.6g} ms",
              f"  golden vectors: {rep['golden']['samples']} samples, max error "
              f"{rep['golden']['max_abs_error']['value']:.3g} N·m",
-             f"  free (cuff free): {'stable' if sa['free_stable'] else 'UNSTABLE'} (spectral radius "
+             f"  free (cuff free): {sampled_verdict_word(sa['free_stable'])} (spectral radius "
              f"{sa['free_spectral_radius']:.9f})",
-             f"  locked joint:     {'stable' if sa['locked_stable'] else 'UNSTABLE'} (spectral radius "
+             f"  locked joint:     {sampled_verdict_word(sa['locked_stable'])} (spectral radius "
              f"{sa['locked_spectral_radius']:.9f})"]
     for e in rep.get("gain_schedule", []):
         lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from .numbers import sampled_verdict_word
+
 __all__ = ["format_export"]
 
 
@@ -34,5 +36,5 @@ def format_export(doc: dict, out) -> str:
         margin = ("; continuous latency margin " + ("none" if m is None else f"{m * 1e3:.4g} ms")
                   + (f" (required {req * 1e3:.4g} ms)" if req else ""))
     return (f"wrote {out}: {doc['sample_rate_hz']['value']:g} Hz, {n} sos filters, "
-            f"sampled-data loop free {'stable' if sa['free_stable'] else 'UNSTABLE'}, "
-            f"locked {'stable' if sa['locked_stable'] else 'UNSTABLE'}{margin}; run `exotune certify {out}`")
+            f"sampled-data loop free {sampled_verdict_word(sa['free_stable'])}, "
+            f"locked {sampled_verdict_word(sa['locked_stable'])}{margin}; run `exotune certify {out}`")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["fmt_num", "unit_text", "count_text", "interval_text"]
+__all__ = ["fmt_num", "unit_text", "count_text", "interval_text", "sampled_verdict_word"]
 
 
 def fmt_num(x, digits=6) -> str:
@@ -127,3 +127,17 @@ def interval_text(intervals, unit: str, digits: int = 6, empty: str = "none") ->
         return empty
     u = unit_text(unit)
     return ", ".join(f"[{a:.{digits}g}, {b:.{digits}g}]" for a, b in intervals) + (f" {u}" if u else "")
+
+
+def sampled_verdict_word(stable) -> str:
+    """"stable", "UNSTABLE" or, for a verdict that rounding cannot decide (None), "inconclusive
+    (spectral radius within rounding of 1)" (docs/method.md#sampled-data).
+
+    Examples
+    --------
+    >>> sampled_verdict_word(True), sampled_verdict_word(False)
+    ('stable', 'UNSTABLE')
+    """
+    if stable is None:
+        return "inconclusive (spectral radius within rounding of 1)"
+    return "stable" if stable else "UNSTABLE"

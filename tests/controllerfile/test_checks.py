@@ -366,3 +366,20 @@ def test_overflowing_controller_is_an_input_error(doc1k, tmp_path):
     res = _certify(tmp_path, doc)
     assert res.exit_code == 2 and res.stderr.startswith("exotune: error: controller: "), res.stderr
     assert "RuntimeWarning" not in res.stderr
+
+
+def test_rigid_body_mode_at_rounding_level_is_inconclusive(doc1k, tmp_path):
+    """τ_cmd += 1e-20 N·m/rad · θ_m: position feedback grounds the structure formally, so the
+    rigid-body eigenvalue stays — at 1 − 4e-14, inside its rounding estimate. certify must say
+    "inconclusive" (not "UNSTABLE", not "stable") and refuse to certify."""
+    doc = copy.deepcopy(doc1k)
+    doc["controller"]["gains"]["theta_m"] = {"gain": 1e-20, "unit": "N·m/rad"}
+    doc["gains"]["K1"]["value"] = -1e-20
+    doc["provenance"]["hand_tuned"] = True
+    doc = _refresh(doc)
+    sa = doc["predicted"]["sampled"]
+    assert sa["free_stable"] is None
+    assert abs(sa["free_spectral_radius"] - 1.0) <= sa["free_spectral_radius_rounding"]
+    res = _certify(tmp_path, doc)
+    assert res.exit_code == 1 and "NOT CERTIFIED" in res.output.upper()
+    assert "inconclusive" in res.output and "free (cuff free): UNSTABLE" not in res.output

@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.signal
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from exotune.analysis import analyze_design, coupled_stable
 from exotune.config import load_design
@@ -334,3 +336,42 @@ def test_zoh_and_prewarped_tustin_match_python_control():
         d = control.sample_system(tf, Ts, "tustin", prewarp_frequency=2 * np.pi * fp)
         theirs = np.array([complex(d(zz)) for zz in z])
         np.testing.assert_allclose(mine, theirs, rtol=1e-8)
+
+
+# ---------------------------------------------------------------------------------------------
+# spectral_verdict: stable / unstable / inconclusive near the limits of double precision
+# ---------------------------------------------------------------------------------------------
+def _similar(moduli, seed):
+    """A real matrix Q diag(moduli) Qᵀ (Q orthogonal): eigenvalue moduli known exactly."""
+    rng = np.random.default_rng(seed)
+    q, _ = np.linalg.qr(rng.normal(size=(len(moduli), len(moduli))))
+    return q @ np.diag(moduli) @ q.T
+
+
+@settings(max_examples=40)
+@given(n=st.integers(2, 12), delta=st.floats(1e-9, 1e-3), sign=st.sampled_from([-1.0, 1.0]), seed=st.integers(0, 10_000))
+def test_spectral_verdict_is_right_when_the_margin_exceeds_rounding(n, delta, sign, seed):
+    from exotune.sampled import spectral_verdict
+
+    moduli = [0.3 + 0.6 * k / n for k in range(n - 1)] + [1.0 + sign * delta]
+    stable, rho, err = spectral_verdict(_similar(moduli, seed))
+    assert stable is (sign < 0)
+    assert rho == pytest.approx(1.0 + sign * delta, abs=1e-12) and err < delta
+
+
+@settings(max_examples=20)
+@given(n=st.integers(2, 12), seed=st.integers(0, 10_000))
+def test_spectral_verdict_on_the_unit_circle_is_inconclusive(n, seed):
+    from exotune.sampled import spectral_verdict
+
+    moduli = [0.3 + 0.6 * k / n for k in range(n - 1)] + [1.0]
+    stable, rho, err = spectral_verdict(_similar(moduli, seed))
+    assert stable is None and abs(rho - 1.0) <= err
+
+
+def test_spectral_verdict_drops_the_rigid_body_mode_only_when_asked():
+    from exotune.sampled import spectral_verdict
+
+    M = np.diag([0.5, 1.0])
+    assert spectral_verdict(M)[0] is None
+    assert spectral_verdict(M, rigid_tol=1e-7) == (True, 0.5, pytest.approx(spectral_verdict(M, rigid_tol=1e-7)[2]))
