@@ -327,7 +327,9 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
 @click.option("-o", "--out", "out", required=True, metavar="CONTROLLER.yaml", help="Controller file to write.")
 @click.option("--require-latency-margin-s", "require_latency_margin_s", default=None, metavar="S",
               help="Latency margin [s] the file must keep; certify fails below it (default: one sample period; 0: none).")
-def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s):
+@click.option("--time-budget-s", "time_budget_s", default=None, metavar="S",
+              help="Refuse or stop the export beyond this many seconds (default 600); nothing is written then.")
+def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_budget_s):
     """Export the discrete-time runtime controller as YAML.
 
     DESIGN.yaml is a design file (docs/design-file.md); the controller file -o (docs/controller-
@@ -337,15 +339,18 @@ def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s):
     from .text.export import format_export
 
     check_outputs([design_file], outputs={"-o": out})
-    doc = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s)
+    doc = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
+                        time_budget_s=time_budget_s)
     click.echo(format_export(doc, out))
 
 
 @cli.command("certify")
 @click.argument("controller_file", metavar="CONTROLLER.yaml")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+@click.option("--time-budget-s", "time_budget_s", default=None, metavar="S",
+              help="Refuse or stop the analysis beyond this many seconds (default 600).")
 @click.pass_context
-def certify_cmd(ctx, controller_file, as_json):
+def certify_cmd(ctx, controller_file, as_json, time_budget_s):
     """Exact sampled-data analysis of an exported controller file (docs/controller-file.md). Exit code 0: certified,
     1: analysed but not certified (the reasons are listed), 2: invalid file."""
     from .controllerfile.certify import certify
@@ -353,7 +358,14 @@ def certify_cmd(ctx, controller_file, as_json):
     from .jsonio import dumps
     from .text.certify import format_certify
 
-    rep = certify(load_controller(controller_file))
+    import os
+
+    from .numerics.timebudget import check_budget_option, time_budget
+
+    budget = check_budget_option(time_budget_s)
+    doc = load_controller(controller_file)
+    with time_budget(budget, f"certifying {os.path.basename(controller_file)}", "export at a lower rate", writes=False):
+        rep = certify(doc)
     click.echo(dumps(rep) if as_json else format_certify(rep))
     if not rep["certified"]:
         ctx.exit(1)

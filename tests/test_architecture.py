@@ -17,7 +17,7 @@ PKG = Path(__file__).resolve().parent.parent / "exotune"
 # Lower layers never import higher ones; a layer may import its own package and any lower layer.
 LAYERS = [
     {"version", "errors"},
-    {"jsonio", "units", "starter"},  # may raise errors.ConfigError (jsonio.write_files)
+    {"jsonio", "units", "starter", "options"},  # may raise errors.ConfigError (jsonio.write_files)
     {"numerics"},
     {"model"},
     {"config"},

@@ -462,8 +462,33 @@ def certify(doc: dict) -> dict:
     return rep
 
 
+def refuse_excess_work(doc: dict, entries: int | None = None) -> None:
+    """Inside a :func:`~exotune.numerics.timebudget.time_budget` (export, certify): refuse, before
+    the sampled-data analysis starts, a file whose base work alone — ``POINTS`` eigenvalue
+    problems per family, for the file and each of its ``entries`` gain-schedule entries (default:
+    those of the file), the loop matrix with a human attached — exceeds the budget."""
+    from ..numerics.timebudget import active_budget, refuse_if_over
+    from ..sampled.loop import closed_loop_matrix, plant_ss
+    from .fileio import discrete_from_file, plant_from_file
+
+    b = active_budget()
+    if b is None:
+        return
+    A, B, C = plant_ss(plant_from_file(doc), {"inertia": 1.0, "damping": 0.0, "stiffness": 1.0}, "free")
+    states = closed_loop_matrix(A, B, C, discrete_from_file(doc)).shape[0]
+    fams = sum(1 for h in (doc["certify"].get("humans") or [])
+               if isinstance(h, dict) and h.get("kind") != "complex_stiffness")
+    fams += sum(1 for e in (doc["certify"].get("environment") or [])
+                if isinstance(e, dict) and e.get("kind") in ("spring", "mass"))
+    if entries is None:
+        entries = len((doc.get("gain_schedule") or {}).get("entries") or [])
+    refuse_if_over((1 + entries) * (2 + fams * POINTS), states, *b)
+
+
 def _certify(doc: dict) -> dict:
     from .fileio import schedule_entry_doc
+
+    refuse_excess_work(doc)
 
     rep = {"schema": doc["schema"], "sample_rate_hz": doc["sample_rate_hz"], "delay_s": doc["delay_s"]["value"],
            "provenance": doc.get("provenance")}

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..sampled import Measured, controller_blocks, default_prewarp
-from .certify import sampled_analysis
+from .certify import refuse_excess_work, sampled_analysis
 from .fileio import schedule_entry_doc, write_controller
 from .runtime import Runtime
 from .schema import (
@@ -294,6 +294,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
     }
     doc["requirements"] = requirements_section(fs, require_latency_margin_s)
     doc["predicted"] = {"continuous": _predicted(cfg), "latency_margin": predicted_latency_margin(cfg)}
+    refuse_excess_work(doc, entries=len((raw.get("transmission") or {}).get("ratio") or []))
     doc["predicted"]["sampled"] = sampled_analysis(doc)
     if raw.get("transmission"):
         doc["gain_schedule"] = _gain_schedule(cfg, fs, doc)
@@ -319,34 +320,36 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
     return doc
 
 
-def export_design(design_file, sample_rate_hz: float, out, require_latency_margin_s: float | None = None) -> dict:
+def export_design(design_file, sample_rate_hz: float, out, require_latency_margin_s: float | None = None,
+                  time_budget_s: float | None = None) -> dict:
     """``exotune export``: validate the design at ``sample_rate_hz`` (cutoffs below Nyquist), build
     the controller file and write it atomically as YAML. Returns the document.
     ``require_latency_margin_s`` [s]: the ``requirements.latency_margin_s`` certify enforces
-    (None: one sample period; 0: none)."""
+    (None: one sample period; 0: none). ``time_budget_s`` [s] (default 600): work beyond it is
+    refused before it starts when its lower bound exceeds it, and stopped when it runs over
+    (:mod:`exotune.numerics.timebudget`); nothing is written then."""
     import hashlib
 
     from ..config import read_yaml
+    from ..numerics.timebudget import check_budget_option, time_budget
 
+    budget = check_budget_option(time_budget_s)
     raw = read_yaml(design_file)
     cfg = design_at_rate(raw, sample_rate_hz, str(design_file))
     fs = float(cfg.implementation.sample_rate_hz)
     digest = hashlib.sha256(Path(design_file).read_bytes()).hexdigest()
-    doc = build_export(cfg, fs, source=str(design_file), input_hash=digest,
-                       require_latency_margin_s=require_latency_margin_s)
+    with time_budget(budget, f"exporting at {fs:g} Hz", "lower --sample-rate-hz"):
+        doc = build_export(cfg, fs, source=str(design_file), input_hash=digest,
+                           require_latency_margin_s=require_latency_margin_s)
     write_controller(doc, out)
     return doc
 
 
 def check_sample_rate(value, field: str = "--sample-rate-hz") -> float:
     """A sample rate [Hz] from the command line: a positive, finite number (else ConfigError)."""
-    try:
-        fs = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(field, f"expected a number of Hz, got {value!r}") from None
-    if not (math.isfinite(fs) and fs > 0):
-        raise ConfigError(field, f"must be a positive, finite number of Hz, got {fs:g}")
-    return fs
+    from ..options import number_value
+
+    return number_value(field, value, positive=True, noun="a number of Hz")
 
 
 def design_at_rate(raw, sample_rate_hz, source: str | None = None):

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .engine import compiled, resolve_engine as _engine
+from .engine import resolve_engine as _engine
 from .poly import degree, leading, pder
 from .budgets import MAX_TASK_LEAVES
 

@@ -421,6 +421,9 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
 
 def _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol):
     """(loop matrix, its eigenvalues, index of the rigid-body eigenvalue to drop or None)."""
+    from ..numerics.timebudget import check_time
+
+    check_time()  # export/certify at a high rate: stop once the time budget is spent
     A, B, C = plant_ss(plant, human, env)
     M = closed_loop_matrix(A, B, C, ctrl)
     if not np.all(np.isfinite(M)):

@@ -20,16 +20,11 @@ def number_option(name: str, text, positive: bool = False) -> float | None:
     ----------
     docs/cli.md#simulate.
     """
+    from ..options import number_value
+
     if text is None:
         return None
-    try:
-        v = float(text)
-    except (TypeError, ValueError):
-        raise ConfigError(name, f"expected a number, got {text!r}") from None
-    if v != v or v in (float("inf"), float("-inf")):
-        raise ConfigError(name, f"must be a finite number, got {text!r}")
-    if positive and not v > 0:
-        raise ConfigError(name, f"must be > 0, got {text!r}")
+    v = number_value(name, text, positive)
     if name == "--human-inertia" and v < MIN_HUMAN_INERTIA:
         raise ConfigError(name, f"{text!r} kg·m² is below {MIN_HUMAN_INERTIA:g} kg·m²: the cuff mode √(K_c/m) "
                           "is then "

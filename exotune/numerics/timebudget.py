@@ -1,0 +1,94 @@
+"""The time budget of ``exotune export`` and ``exotune certify``: their sampled-data analysis
+solves thousands of eigenvalue problems whose size grows with the delay in samples (a 1 ms delay
+at 100 kHz is a 120-state loop matrix), so a high rate can turn seconds into hours.
+
+Two guards, both raising :class:`~exotune.errors.ConfigError` on ``--time-budget-s`` (exit 2,
+nothing written — the controller file is written only at the end, atomically):
+
+* **before starting**, :func:`refuse_if_over` (called by
+  :func:`exotune.controllerfile.certify.refuse_excess_work`) compares a *lower bound* of the work — the base grid
+  of every family, for the file and each gain-schedule entry, times the measured cost of one
+  eigenvalue problem of the loop's size — with the budget;
+* **while running**, :func:`check_time` (called before every eigenvalue problem of the
+  sampled-data loop, :mod:`exotune.sampled.loop`) stops the
+  analysis once the budget is spent (refinement near the unit circle can multiply the base work
+  tenfold at high rates).
+
+References
+----------
+docs/cli.md#export, docs/controller-file.md.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import time
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = ["DEFAULT_TIME_BUDGET_S", "time_budget", "check_time", "eig_seconds", "refuse_if_over", "check_budget_option",
+           "active_budget"]
+
+DEFAULT_TIME_BUDGET_S = 600.0
+FIELD = "--time-budget-s"
+_DEADLINE: contextvars.ContextVar = contextvars.ContextVar("exotune_time_budget", default=None)
+
+
+def check_budget_option(value) -> float:
+    """``--time-budget-s``: a positive, finite number of seconds (default :data:`DEFAULT_TIME_BUDGET_S`)."""
+    from ..options import number_value
+
+    return DEFAULT_TIME_BUDGET_S if value is None else number_value(FIELD, value, positive=True, noun="a number of seconds")
+
+
+@contextlib.contextmanager
+def time_budget(seconds: float, what: str, hint: str, writes: bool = True):
+    """Within the block, :func:`check_time` raises once ``seconds`` have passed. ``what`` names
+    the work ("exporting at 100000 Hz"), ``hint`` how to make it cheaper; ``writes``: the work
+    would write a file (the error then says that nothing was written)."""
+    token = _DEADLINE.set((time.monotonic() + seconds, seconds, what, hint + ("; nothing was written" if writes else "")))
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
+def active_budget() -> tuple[float, str, str] | None:
+    """(seconds, what, hint) of the enclosing :func:`time_budget`, None outside one."""
+    d = _DEADLINE.get()
+    return None if d is None else (d[1], d[2], d[3])
+
+
+def check_time() -> None:
+    """Raise when the enclosing :func:`time_budget` is spent (no-op outside one)."""
+    d = _DEADLINE.get()
+    if d is not None and time.monotonic() > d[0]:
+        _deadline, seconds, what, hint = d
+        raise ConfigError(FIELD, f"{what} exceeded the time budget of {seconds:g} s and was stopped ({hint}, or "
+                                 f"raise {FIELD})")
+
+
+def eig_seconds(n: int, repeats: int = 3) -> float:
+    """Measured seconds of one dense eigenvalue problem of size ``n`` on this machine (median)."""
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((n, n))
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        np.linalg.eigvals(a)
+        ts.append(time.perf_counter() - t)
+    return float(np.median(ts))
+
+
+def refuse_if_over(problems: int, states: int, seconds: float, what: str, hint: str) -> float:
+    """Refuse, before starting, work of at least ``problems`` eigenvalue problems of size
+    ``states`` whose measured cost exceeds ``seconds``. Returns the estimate [s]."""
+    est = problems * eig_seconds(states)
+    if est > seconds:
+        raise ConfigError(FIELD, f"{what} needs at least {problems} eigenvalue problems of a {states}-state loop "
+                                 f"matrix, about {est:.0f} s on this machine, over the time budget of {seconds:g} s "
+                                 f"({hint}, or raise {FIELD})")
+    return est
