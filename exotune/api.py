@@ -165,6 +165,19 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     SweepResult
         The manifest and ``table()`` of every row.
 
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> out = os.path.join(tempfile.mkdtemp(), "sweep")
+    >>> spec = {"base": "examples/scheduled.yaml",
+    ...         "axes": {"design.amplification": [4.0, 8.0], "implementation.delay_s": [0.001, 0.003]}}
+    >>> r = sweep(spec, out, workers=1)
+    >>> r.status, r.table().num_rows
+    ('complete', 4)
+    >>> grid, alphas, delays, _, _ = r.map_data("latency_margin_s")   # worst case per (α, T) cell [s]
+    >>> bool(grid[0, 0] > grid[1, 0] > 0)     # more delay, less margin left
+    True
+
     References
     ----------
     docs/sweep-spec.md.
@@ -184,6 +197,15 @@ def report(sweep_dir, out=None) -> Path:
     pathlib.Path
         The report directory that was written.
 
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> out = os.path.join(tempfile.mkdtemp(), "sweep")
+    >>> _ = sweep({"base": "examples/scheduled.yaml", "axes": {"design.amplification": [4.0, 8.0]}}, out, workers=1)
+    >>> rep = report(out)
+    >>> rep.name, (rep / "summary.md").exists()
+    ('report', True)
+
     References
     ----------
     docs/sweep-spec.md#report.
@@ -197,6 +219,15 @@ def report(sweep_dir, out=None) -> Path:
 def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
     """Maximize the objective under robust-stability constraints and write the best feasible
     design to ``out`` (the library twin of ``exotune optimize``).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> out = os.path.join(tempfile.mkdtemp(), "best.yaml")
+    >>> spec = {"base": "examples/scheduled.yaml", "free": {"design.amplification": [2.0, 12.0]}, "budget": 50}
+    >>> r = optimize(spec, out, seed=0)
+    >>> r.feasible, r.objective_value, r.to_dict()["at_bounds"][0]["bound"]   # robust up to the bound
+    (True, 12.0, 'upper')
 
     References
     ----------
@@ -271,7 +302,7 @@ def certify(source) -> Certificate:
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
-             human_inertia: float | None = None) -> SimulationRun:
+             human_inertia: float | None = None, duration: float | None = None) -> SimulationRun:
     """Time-domain run of the runtime controller on the plant (the library twin of
     ``exotune simulate``).
 
@@ -280,7 +311,9 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     source : path
         A design file (with ``sample_rate_hz``) or a controller file.
     scenario : str
-        ``locked-output``, ``dob-friction``, ``light-mass`` or ``saturation``.
+        ``locked-output``, ``dob-friction``, ``light-mass``, ``saturation`` or ``backlash``.
+    duration : float, optional
+        Run length [s] instead of the scenario's (``--duration``).
 
     References
     ----------
@@ -297,4 +330,4 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
 
     with numpy_engine():
         doc = load_for_simulation(source, sample_rate_hz)
-        return SimulationRun.from_report(run_scenario(doc, scenario, human_inertia=human_inertia))
+        return SimulationRun.from_report(run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration))

@@ -306,6 +306,39 @@ class SweepResult(Result):
     def to_text(self) -> str:
         return json.dumps(self.to_dict(), indent=2)
 
+    def map_data(self, column: str = "robust", axes: tuple[str, str] | None = None):
+        """One value per cell of two sweep axes (default: the first two), reduced over the others:
+        ``column`` "robust" → the fraction of robust designs; a numeric column → its worst case
+        (the minimum; ``passivity_max_phase_excess_deg``: the maximum).
+
+        Returns (grid[iy, ix], x values, y values, x path, y path)."""
+        import numpy as np
+
+        from .sweeps.metrics import aggregate, robust_mask
+
+        man_axes = [a["path"] for a in self.to_dict()["axes"]]
+        xp, yp = axes or (man_axes[0], man_axes[1] if len(man_axes) > 1 else man_axes[0])
+        t = self.table()
+        cols = {c: t.column(c).to_numpy(zero_copy_only=False) for c in t.column_names
+                if c == "free_stable" or c == column or c.endswith(("_robust", "_stable")) or c in (xp, yp)}
+        if column == "robust":
+            vals, how = robust_mask(cols)[0].astype(float), "mean"
+        else:
+            vals, how = np.asarray(cols[column], float), "max" if column.startswith("passivity") else "min"
+        xs, ix = np.unique(cols[xp], return_inverse=True)
+        ys, iy = np.unique(cols[yp], return_inverse=True)
+        grid = aggregate(iy * xs.size + ix, xs.size * ys.size, vals, how).reshape(ys.size, xs.size)
+        return grid, xs, ys, xp, yp
+
+    def plot(self, column: str = "robust", axes: tuple[str, str] | None = None, ax=None):
+        """A heatmap of :meth:`map_data` (fraction robust or a column's worst case) over two axes;
+        returns the matplotlib ``Figure``."""
+        from .plots.results import sweep_map
+
+        grid, xs, ys, xp, yp = self.map_data(column, axes)
+        what = "fraction of robust designs" if column == "robust" else f"{column} (worst case)"
+        return sweep_map(grid, xs, ys, xp, yp, what, "fraction" if column == "robust" else column, ax=ax)
+
 
 @dataclass(frozen=True)
 class OptimizeResult(Result):
@@ -328,6 +361,25 @@ class OptimizeResult(Result):
 
         return format_optimize(self.to_dict())
 
+    def plot(self, ax=None):
+        """Where the returned design sits in each free parameter's bounds (parameters at a bound in
+        red, the binding constraints in the title), or — when the run kept a Pareto front — the
+        front with the design marked. Returns the matplotlib ``Figure``."""
+        from .plots.results import optimum_in_bounds, pareto_front
+
+        r = self.to_dict()
+        if r.get("pareto") and self.objective_value is not None:
+            front = r["pareto"]
+            return pareto_front([p["objective"] for p in front], [p["robust_fraction"] for p in front],
+                                (self.objective_value, r.get("robust_fraction", 1.0)),
+                                objective_label=f"{r['objective']['name']} [{r['objective'].get('unit') or '–'}]", ax=ax)
+        rel = r.get("x_relative") or {}
+        names = list(rel)
+        title = (f"{r['objective']['name']} = {self.objective_value:.6g} {r['objective'].get('unit') or ''}"
+                 if self.feasible else "no feasible design: the least-violating one")
+        return optimum_in_bounds(names, [rel[n] for n in names], [b["parameter"] for b in r.get("at_bounds", [])],
+                                 ", ".join(r.get("active_constraints") or []), title, ax=ax)
+
 
 @dataclass(frozen=True)
 class SimulationRun(Result):
@@ -348,4 +400,11 @@ class SimulationRun(Result):
         from .text.simulate import format_simulation
 
         return format_simulation(self._full())
+
+    def plot(self, ax=None):
+        """The scenario's time series (:func:`exotune.plots.simulate.simulation_figure`): two
+        panels, or the first one only into a given ``ax``. Returns the matplotlib ``Figure``."""
+        from .plots.simulate import simulation_figure
+
+        return simulation_figure(self._full(), ax=ax)
 

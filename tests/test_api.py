@@ -138,6 +138,45 @@ def test_plots_return_figures_and_draw_into_given_axes():
     assert isinstance(exotune.design(PAPER).plot(), Figure)
 
 
+def test_sweep_optimize_and_simulation_results_plot(tmp_path):
+    """plot() of the sweep, optimization and simulation results: a Figure, drawn into a given ax
+    when one is passed; the sweep map's numbers are the worst case / fraction per cell."""
+    from matplotlib.figure import Figure
+
+    spec = {"base": str(ROOT / "examples" / "scheduled.yaml"),
+            "axes": {"design.amplification": [4.0, 8.0, 60.0], "implementation.delay_s": [0.001, 0.003]}}
+    s = exotune.sweep(spec, tmp_path / "s", workers=1)
+    grid, xs, ys, xp, yp = s.map_data()
+    df = s.table().to_pandas()
+    assert (xp, yp) == ("design.amplification", "implementation.delay_s") and grid.shape == (2, 3)
+    for iy, t in enumerate(ys):
+        for ix, a in enumerate(xs):
+            row = df[(df["design.amplification"] == a) & (df["implementation.delay_s"] == t)]
+            robust = bool((row["free_stable"] & row["human0_mass_robust"] & row["human1_spring_robust"]
+                           & row["human2_complex_stiffness_robust"] & row["env0_locked_stable"]).iloc[0])
+            assert grid[iy, ix] == float(robust)
+            lm, *_ = s.map_data("latency_margin_s")
+            assert lm[iy, ix] == row["latency_margin_s"].iloc[0]
+    assert isinstance(s.plot(), Figure)
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert s.plot("latency_margin_s", ax=ax) is fig and ax.images
+
+    o = exotune.optimize({"base": str(ROOT / "examples" / "scheduled.yaml"),
+                          "free": {"design.amplification": [2.0, 12.0], "design.zeta_hat": [0.4, 1.2]},
+                          "budget": 60}, tmp_path / "o.yaml", seed=1)
+    rel = o.to_dict()["x_relative"]
+    assert set(rel) == {"design.amplification", "design.zeta_hat"} and all(0.0 <= v <= 1.0 for v in rel.values())
+    fig = o.plot()
+    assert isinstance(fig, Figure) and fig.axes[0].collections  # the optimum's markers
+
+    run = exotune.simulate(ROOT / "examples" / "scheduled.yaml", "locked-output", duration=0.2)
+    assert len(run.plot().axes) == 2
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert run.plot(ax=ax) is fig and ax.lines and len(fig.axes) == 1
+
+
 def test_export_then_certify_round_trip(tmp_path):
     out = tmp_path / "c.yaml"
     cf = exotune.export(PAPER, 1000.0, out)
@@ -170,6 +209,9 @@ EXAMPLE_MODULES = _modules_with_examples()
 def test_the_public_api_has_examples():
     for mod in ("exotune.api", "exotune.model.interop", "exotune.analysis.margins", "exotune.starter"):
         assert mod in EXAMPLE_MODULES
+    # every API twin of a command shows how it is called
+    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "simulate"):
+        assert ">>>" in (getattr(exotune, name).__doc__ or ""), name
 
 
 @pytest.mark.parametrize("module", EXAMPLE_MODULES)

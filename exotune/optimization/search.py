@@ -152,6 +152,7 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
         "feasible": True,
         "objective": {"name": spec.objective, "sense": sense, "value": value, "unit": unit},
         "x": dict(zip(ar.paths, x.tolist())),
+        "x_relative": dict(zip(ar.paths, np.clip(u, 0.0, 1.0).tolist())),
         "active_constraints": names,
         "binding": details,
         "at_bounds": bounds,
@@ -189,6 +190,7 @@ def _infeasible(ar: Archive, spec: OptimizeSpec) -> dict:
     lm = exact_latency_margin(spec, x, ev, 0) if ev["broken"].get("latency_margin_s", [False])[0] else None
     achieved = None if lm is None else float(lm.extra_delay_s)
     return {"feasible": False, "evaluated": int(ar.count), "x": dict(zip(ar.paths, x.tolist())),
+            "x_relative": dict(zip(ar.paths, np.clip(U, 0.0, 1.0).tolist())),
             "broken": sorted(k for k, v in ev["broken"].items() if v[0]),
             "violations": violations(spec, ev, 0, achieved),
             "at_bounds": at_bounds(spec, U, x), "spec": spec.raw}

@@ -7,7 +7,7 @@ import numpy as np
 
 from . import style
 
-__all__ = ["plot_simulation", "RUN_LABELS"]
+__all__ = ["plot_simulation", "simulation_figure", "RUN_LABELS"]
 
 RUN_LABELS = {"controller": "exported controller", "without_dob": "without the DOB",
               "without_clamp": "runtime without its clamp: windup", "frictionless": "no friction, reference",
@@ -90,19 +90,51 @@ def plot_simulation(rep: dict) -> dict[str, bytes]:
     ----------
     Paper §V (time-domain amplification and friction tests); docs/cli.md#simulate.
     """
-    fig = style.new_figure((8, 6.5))
-    axs = fig.subplots(2, 1, sharex=True)
+    fig = simulation_figure(rep)
+    return {f"simulate_{rep['scenario']}.png": style.png(fig)}
+
+
+def simulation_figure(rep: dict, ax=None):
+    """The figure of :func:`plot_simulation` as a matplotlib ``Figure``: two panels, or, given
+    ``ax``, the first panel only (the cuff deflection, the joint angle with friction, or −τ_s
+    against (α − 1)·τ_c for a locked output) drawn into that Axes. Computes nothing.
+
+    Examples
+    --------
+    >>> import exotune
+    >>> run = exotune.simulate("examples/scheduled.yaml", "locked-output", duration=0.2)
+    >>> len(run.plot().axes)
+    2
+    """
+    if ax is not None:
+        fig, axs = ax.figure, [ax, _Sink()]
+    else:
+        fig = style.new_figure((8, 6.5))
+        axs = fig.subplots(2, 1, sharex=True)
     sm = rep["summary"]
     if rep["runs"] and next(iter(rep["runs"].values()))["locked"]:
         alpha = float(rep.get("design_alpha") or sm.get("delivered_amplification", {}).get("design_alpha") or 1.0)
         _locked(axs, rep, alpha)
     else:
         _free(axs, rep)
-    axs[1].set_xlabel("time t [s]")
+    axs[-1].set_xlabel("time t [s]")
     for a in axs:
         style.grid(a, which="major")
         a.legend(fontsize=7)
     g = sm["envelope_growth_rate"]["value"]
-    fig.suptitle(f"exotune simulate — {rep['scenario']} at {rep['sample_rate_hz']:g} Hz: {sm['verdict']}"
-                 + (f" (envelope growth {g:.3g} 1/s)" if g is not None and np.isfinite(g) else ""), fontsize=10)
-    return {f"simulate_{rep['scenario']}.png": style.png(fig)}
+    title = (f"exotune simulate — {rep['scenario']} at {rep['sample_rate_hz']:g} Hz: {sm['verdict']}"
+             + (f" (envelope growth {g:.3g} 1/s)" if g is not None and np.isfinite(g) else ""))
+    if ax is not None:
+        ax.set_xlabel("time t [s]")
+        ax.set_title(title, fontsize=9)
+    else:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
+class _Sink:
+    """Stands in for the second panel when only the first is drawn (into a caller's ``ax``):
+    every drawing call is accepted and ignored."""
+
+    def __getattr__(self, name):
+        return lambda *a, **k: []

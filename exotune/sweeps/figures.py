@@ -19,7 +19,7 @@ import numpy as np
 from .style import (BAD_COLOR, BAD_MEANING, FIGSIZE, colorbar, grid, label, new_figure, png, scale_of, short_name,
                     tick_labels)
 
-__all__ = ["heatmap", "heatmap_panels", "profile_figure"]
+__all__ = ["draw_heatmap", "heatmap", "heatmap_panels", "profile_figure"]
 
 _PATH = re.compile(r"\b(?:plant|design|implementation)\.[A-Za-z0-9_.]*[A-Za-z0-9_]")
 _MIN_CELL_PT = (26.0, 11.0)  # width, height of a cell (points) below which it is not annotated
@@ -123,6 +123,13 @@ def _note(fig, flags: list[dict]) -> None:
                      "lower end)")
     if parts:
         fig.text(0.5, 0.0, "Cells — " + ";\n".join(parts) + ".", ha="center", va="top", fontsize=7.5)
+
+
+def draw_heatmap(ax, grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw) -> dict:
+    """Draw grid[iy, ix] into the existing ``ax`` (with its colour bar): +inf cells in the
+    colormap's "over" colour, NaN cells grey. Returns what a note must explain
+    (``{"nan": bool, "inf": bool, "zero": bool}``)."""
+    return _draw_heatmap(ax.figure, ax, grid, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw)
 
 
 def heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw) -> bytes:
