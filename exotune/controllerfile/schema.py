@@ -17,6 +17,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import ConfigError
+from ..units import DESIGN_UNITS, PLANT_UNITS, SIGNAL_UNITS  # re-exported: the file's sections' units
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -34,14 +35,8 @@ __all__ = [
 
 SCHEMA_VERSION = "exotune.controller/1"
 
-SIGNAL_UNITS = {"theta_m": "rad", "omega_m": "rad/s", "tau_s": "N·m", "dtau_s": "N·m/s", "tau_c": "N·m",
-                "tau_cmd": "N·m"}
 GAIN_UNITS = {"theta_m": "N·m/rad", "omega_m": "N·m·s/rad", "tau_s": "1 (N·m/N·m)", "dtau_s": "s",
                "tau_c": "1 (N·m/N·m)", "tau_cmd": "1 (N·m/N·m)"}
-PLANT_UNITS = {"motor_inertia": "kg·m²", "motor_damping": "N·m·s/rad", "sea_stiffness": "N·m/rad",
-                "joint_inertia": "kg·m²", "cuff_stiffness": "N·m/rad"}
-DESIGN_UNITS = {"amplification": "1", "felt_inertia": "kg·m²", "felt_damping": "N·m·s/rad", "zeta": "1",
-                 "zeta_hat": "1"}
 SIX_GAIN_UNITS = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)",
                    "B2_hat": "s"}
 

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["HumanFamily", "EnvModel", "PARAM_UNITS", "family_split"]
+from ..units import PARAM_UNITS  # re-exported: the family parameters' units
 
-PARAM_UNITS = {"stiffness": "N·m/rad", "inertia": "kg·m²", "damping": "N·m·s/rad", "eta": "1"}
+__all__ = ["HumanFamily", "EnvModel", "PARAM_UNITS", "family_split"]
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,8 @@ from typing import Callable
 
 import numpy as np
 
+from ..units import PLANT_UNITS
+
 from ..numerics.poly import pval
 
 __all__ = [
@@ -50,13 +52,7 @@ class Plant:
     joint_inertia: np.ndarray  # J_j [kg·m²]
     cuff_stiffness: np.ndarray = 300.0  # K_c [N·m/rad]
 
-    UNITS = {
-        "motor_inertia": "kg·m²",
-        "motor_damping": "N·m·s/rad",
-        "sea_stiffness": "N·m/rad",
-        "joint_inertia": "kg·m²",
-        "cuff_stiffness": "N·m/rad",
-    }
+    UNITS = PLANT_UNITS
 
     @property
     def J_m(self):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from ..units import PARAM_UNITS
 from .search import optimize
 from .spec import load_optimize_spec, optimized_design_mapping
 
@@ -20,7 +21,8 @@ def _ms(v) -> str:
 
 
 #: the unit of the ranged parameter of a one-parameter human kind (an msd family names it in its key)
-_KIND_UNITS = {"mass": "kg·m²", "spring": "N·m/rad", "complex_stiffness": "N·m/rad"}
+_KIND_UNITS = {"mass": PARAM_UNITS["inertia"], "spring": PARAM_UNITS["stiffness"],
+               "complex_stiffness": PARAM_UNITS["stiffness"]}
 
 
 def _unit(unit: str) -> str:

@@ -10,28 +10,17 @@ import re
 
 import numpy as np
 
+from ..units import path_unit
+
 __all__ = ["AXIS_UNITS", "METRICS", "TABLE_METRICS", "MAX_PAIR_AXES", "interval_ends", "derived_metrics",
            "robust_mask", "aggregate"]
 
-AXIS_UNITS = {
-    "plant.motor_inertia": "kg·m²",
-    "plant.motor_damping": "N·m·s/rad",
-    "plant.sea_stiffness": "N·m/rad",
-    "plant.joint_inertia": "kg·m²",
-    "plant.cuff_stiffness": "N·m/rad",
-    "design.amplification": "–",
-    "design.felt_inertia": "kg·m²",
-    "design.felt_damping": "N·m·s/rad",
-    "design.zeta": "–",
-    "design.zeta_hat": "–",
-    "implementation.delay_s": "s",
-    "implementation.gv_filter.cutoff_hz": "Hz",
-    "implementation.gv_filter.damping": "–",
-    "implementation.derivative_filter.cutoff_hz": "Hz",
-    "implementation.dob.cutoff_hz": "Hz",
-    "implementation.dob.damping": "–",
-    "implementation.velocity_filter.cutoff_hz": "Hz",
-}
+AXIS_UNITS = {p: path_unit(p, dimensionless="–") for p in (
+    "plant.motor_inertia", "plant.motor_damping", "plant.sea_stiffness", "plant.joint_inertia", "plant.cuff_stiffness",
+    "design.amplification", "design.felt_inertia", "design.felt_damping", "design.zeta", "design.zeta_hat",
+    "implementation.delay_s", "implementation.gv_filter.cutoff_hz", "implementation.gv_filter.damping",
+    "implementation.derivative_filter.cutoff_hz", "implementation.dob.cutoff_hz", "implementation.dob.damping",
+    "implementation.velocity_filter.cutoff_hz")}
 
 # column -> (title, unit shown, display factor, worst-case reduction "min"|"max", colormap)
 METRICS = {
