@@ -33,9 +33,6 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import matplotlib  # noqa: E402
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
@@ -45,12 +42,11 @@ from exotune.analysis.responses import c7_frequency_response  # noqa: E402
 from exotune.api import analyze, design, load_design, simulate  # noqa: E402
 from exotune.model.controller import build_controller  # noqa: E402
 from exotune.model.shaping import table_ii  # noqa: E402
+from exotune.plots import style  # noqa: E402
 
 PAPER_YAML = ROOT / "examples" / "paper.yaml"
 SAMPLE_RATE_HZ = 1000.0
-RC = {"font.size": 9, "axes.titlesize": 9.5, "axes.labelsize": 9, "legend.fontsize": 7.5,
-      "xtick.labelsize": 8, "ytick.labelsize": 8, "axes.grid": True, "grid.alpha": 0.3,
-      "savefig.dpi": 130, "figure.dpi": 100, "axes.formatter.useoffset": False}
+RC = {**style.rc(), "axes.grid": True, "grid.alpha": style.GRID["alpha"]}  # exotune's one figure style
 PASSIVE_COLOR = "#d9f0d3"
 COMPLIANCE_UNIT = "rad/(N·m)"
 
@@ -79,8 +75,7 @@ def _controller(cfg, delay_s=None):
 
 def _save(fig, out: Path, name: str) -> Path:
     p = out / name
-    fig.savefig(p)
-    plt.close(fig)
+    p.write_bytes(style.png(fig))
     return p
 
 
@@ -129,8 +124,9 @@ def table2(out: Path, cfg) -> dict:
               "C7_vs_eq16_below_1hz": float(np.max(rel7[lo])), "C7_vs_eq16_max": float(np.max(rel7)),
               "C7_vs_eq16_fmax": float(f[np.argmax(rel7)])}
 
-    with plt.rc_context(RC):
-        fig, (am, ap) = plt.subplots(2, 1, sharex=True, figsize=(7.2, 6.2))
+    with matplotlib.rc_context(RC):
+        fig = style.new_figure((7.2, 6.2))
+        (am, ap) = fig.subplots(2, 1, sharex=True)
         for name, S in systems.items():
             ls = "--" if name == "S5_hat" else "-"
             label = {"S1": "C1: motor", "S2": "C2: + motor-position feedback", "S3": "C3: + spring-torque feedback",
@@ -143,7 +139,6 @@ def table2(out: Path, cfg) -> dict:
         ap.set_yticks(np.arange(-450, 181, 90))
         am.set_title(f"Table II of the paper evaluated: compliances of the seven systems (paper design, T = {T * 1e3:g} ms)")
         am.legend(ncol=2, loc="lower left")
-        fig.tight_layout()
         _save(fig, out, "table2_interconnections.png")
 
     def row(name, sq):
@@ -223,8 +218,9 @@ def fig4(out: Path) -> dict:
         m = {k: _scalar(v) for k, v in dob_margins(_controller(cfg), 1).items()}
         d = dob_loop(cfg, {"dob": m})
         res.append((title, m, d))
-    with plt.rc_context(RC):
-        fig, axs = plt.subplots(2, 4, sharex=True, sharey="row", figsize=(12.5, 6.0))
+    with matplotlib.rc_context(RC):
+        fig = style.new_figure((12.5, 6.0))
+        axs = fig.subplots(2, 4, sharex=True, sharey="row")
         for j, (title, m, d) in enumerate(res):
             f = d["f"]
             keep = f <= 1000.0
@@ -244,9 +240,8 @@ def fig4(out: Path) -> dict:
         axs[1, 0].set_ylim(-540, 180)
         axs[1, 0].set_yticks(np.arange(-540, 181, 90))
         h, lab = axs[0, 0].get_legend_handles_labels()
-        fig.legend(h, lab, loc="lower center", ncol=3)
+        fig.legend(h, lab, loc="outside lower center", ncol=3)
         fig.suptitle("Fig. 4 reproduced: tuning the DOB's Q filter against the control delay T = 1 ms", fontsize=10)
-        fig.tight_layout(rect=(0, 0.05, 1, 1))
         _save(fig, out, "fig4_dob_tuning.png")
     rows = "\n".join(f"| {t} | {'yes' if m['stable'] else 'no'} | {m['crossover_hz']:.1f} | {m['phase_margin_deg']:.1f} | "
                      f"{m['gain_margin_db']:.2f} | {m['delay_margin_s'] * 1e3:.2f} | "
@@ -331,8 +326,9 @@ def fig5(out: Path, cfg, ana: dict) -> dict:
         mp = bool(np.asarray(amplification(cfg.plant, _controller(cfg, mid), 1)["minimum_phase"]).ravel()[0])
         lo, hi = (mid, hi) if mp else (lo, mid)
     T_mp = 0.5 * (lo + hi)
-    with plt.rc_context(RC):
-        fig, axs = plt.subplots(2, 2, sharex=True, figsize=(10, 6.6))
+    with matplotlib.rc_context(RC):
+        fig = style.new_figure((10, 6.6))
+        axs = fig.subplots(2, 2, sharex=True)
         for T, C, nz in simple:
             lab = f"T = {T * 1e3:g} ms: " + ("minimum phase, stable impedance" if nz == 0 else
                                               f"{nz} non-minimum-phase zeros, unstable impedance")
@@ -359,7 +355,6 @@ def fig5(out: Path, cfg, ana: dict) -> dict:
         axs[1, 0].set_ylabel("phase [deg]")
         fig.suptitle("Fig. 5 reproduced: amplification at a stable and an unstable delay, and the passive phase band",
                      fontsize=10)
-        fig.tight_layout()
         _save(fig, out, "fig5_amplification.png")
 
     def min_phase(C):
@@ -425,8 +420,9 @@ def fig6(out: Path, cfg) -> dict:
               ("Ĉ5: virtual motor 1/(Ĵ_m s² + B̂_m s)", np.asarray(tfs["C5_hat"](s)).ravel(), {"color": "C1", "ls": "--"}),
               ("C7 nominal θ_h/τ_c, eq. (16)", np.asarray(tfs["C7_nominal"](s)).ravel(), {"color": "C2", "ls": "--"}),
               ("C7 implemented (filters, DOB, T = 1 ms)", C7, {"color": "C2"})]
-    with plt.rc_context(RC):
-        fig, (am, ap) = plt.subplots(2, 1, sharex=True, figsize=(7.4, 6.6))
+    with matplotlib.rc_context(RC):
+        fig = style.new_figure((7.4, 6.6))
+        (am, ap) = fig.subplots(2, 1, sharex=True)
         for lab, H, kw in curves:
             _bode_axes(am, ap, f, H, lab, lw=1.3, **kw)
         for k, lab, c in ((cfg.plant.K_s, "SEA spring 1/K_s", "0.55"), (cfg.plant.K_c, "cuff spring 1/K_c", "0.3")):
@@ -445,7 +441,6 @@ def fig6(out: Path, cfg) -> dict:
         am.legend(loc="upper right", ncol=1)
         ap.legend(handles=[band], loc="upper left")
         am.set_title("Fig. 6 reproduced: Bode plot of the amplification controller design (examples/paper.yaml)")
-        fig.tight_layout()
         _save(fig, out, "fig6_design_bode.png")
     d = design(PAPER_YAML).to_dict()
     g, sh = d["gains"], d["shape"]
@@ -494,8 +489,8 @@ def fig8(out: Path) -> dict:
     act = -tau_s  # torque the actuator applies to the locked output (paper sign)
     target = (alpha - 1) * tau_c
     push_at = 0.05
-    with plt.rc_context(RC):
-        fig = plt.figure(figsize=(9.5, 6.4))
+    with matplotlib.rc_context(RC):
+        fig = style.new_figure((9.5, 6.4))
         gs = fig.add_gridspec(2, 2, height_ratios=[1.1, 1])
         a = fig.add_subplot(gs[0, :])
         b = fig.add_subplot(gs[1, 0])
@@ -521,7 +516,6 @@ def fig8(out: Path) -> dict:
         c.set_ylabel("torque [N·m]")
         c.set_xlabel("time t [s]")
         c.set_title(f"(c) magnified: steady state after 4 s\n(a decaying {f_osc:.1f} Hz human–cuff mode, no 17.5 Hz cycle)")
-        fig.tight_layout()
         _save(fig, out, "fig8_locked_output.png")
     late = t >= t[-1] - 1.0
     rms_late = float(np.sqrt(np.mean(err[late] ** 2)))
@@ -576,8 +570,9 @@ def fig9(out: Path) -> dict:
     runs = r.runs
     ser = runs["controller"]["series"]
     t, th, fr, est = ser["t"], ser["theta_j"], ser["friction"], ser["friction_estimate"]
-    with plt.rc_context(RC):
-        fig, axs = plt.subplots(1, 2, figsize=(10, 4.2))
+    with matplotlib.rc_context(RC):
+        fig = style.new_figure((10, 4.2))
+        axs = fig.subplots(1, 2)
         a, b = axs
         m = t >= 1.0  # after the first second (one half period of start-up)
         a.plot(th[m], fr[m], color="C3", lw=1.2, label="true transmission friction (the disturbance δ_f)")
@@ -598,7 +593,6 @@ def fig9(out: Path) -> dict:
         b.legend(loc="lower left", fontsize=7)
         fig.suptitle(f"Fig. 9 reproduced: transmission DOB against Coulomb friction (runtime controller at "
                      f"{SAMPLE_RATE_HZ:g} Hz)", fontsize=10)
-        fig.tight_layout()
         _save(fig, out, "fig9_dob_friction.png")
     fe, fs = d["friction_estimate"], d["friction_sensitivity"]
     B_m = float(load_design(PAPER_YAML).plant.B_m)
