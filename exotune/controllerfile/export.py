@@ -131,7 +131,7 @@ def reflected_mapping(raw: dict, ratio: float) -> dict:
     return r
 
 
-def _gain_schedule(cfg, fs: float, doc: dict) -> dict:
+def _gain_schedule(cfg, fs: float, doc: dict, analyses: bool = True) -> dict:
     from ..config import design_from_mapping
 
     tr = cfg.raw["transmission"]
@@ -146,7 +146,8 @@ def _gain_schedule(cfg, fs: float, doc: dict) -> dict:
             "gains": six,
             "controller": {"gains": gains_sig, "filters": filters},
         }
-        entry["predicted_sampled"] = sampled_analysis(schedule_entry_doc(doc, entry))
+        if analyses:
+            entry["predicted_sampled"] = sampled_analysis(schedule_entry_doc(doc, entry))
         entries.append(entry)
     return {"variable": "joint_angle_rad", "unit": "rad", "entries": entries}
 
@@ -254,10 +255,16 @@ def requirements_section(fs: float, require_latency_margin_s: float | None = Non
 
 
 def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_hash: str | None = None,
-                 now: _dt.datetime | None = None, require_latency_margin_s: float | None = None) -> dict:
+                 now: _dt.datetime | None = None, require_latency_margin_s: float | None = None,
+                 analyses: bool = True) -> dict:
     """The controller file of a validated single design ``cfg`` at ``sample_rate_hz``
     (the configuration must already carry that sample rate: see :func:`exotune.cli` export);
-    ``require_latency_margin_s``: see :func:`requirements_section`."""
+    ``require_latency_margin_s``: see :func:`requirements_section`.
+
+    ``analyses=False`` builds only what the runtime executes (controller, gain schedule, plant,
+    delay, golden vectors) for an in-memory simulation: no predictions (``predicted`` is None, no
+    ``predicted_sampled`` per schedule entry) — the sampled-data analysis of a 100 kHz file takes
+    minutes, a simulation needs none of it. Such a document is not a controller file to write."""
     from ..version import __version__
 
     fs = float(sample_rate_hz)
@@ -293,11 +300,13 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         "certify": {"humans": raw["humans"], "environment": raw["environment"]},
     }
     doc["requirements"] = requirements_section(fs, require_latency_margin_s)
-    doc["predicted"] = {"continuous": _predicted(cfg), "latency_margin": predicted_latency_margin(cfg)}
-    refuse_excess_work(doc, entries=len((raw.get("transmission") or {}).get("ratio") or []))
-    doc["predicted"]["sampled"] = sampled_analysis(doc)
+    doc["predicted"] = None
+    if analyses:
+        doc["predicted"] = {"continuous": _predicted(cfg), "latency_margin": predicted_latency_margin(cfg)}
+        refuse_excess_work(doc, entries=len((raw.get("transmission") or {}).get("ratio") or []))
+        doc["predicted"]["sampled"] = sampled_analysis(doc)
     if raw.get("transmission"):
-        doc["gain_schedule"] = _gain_schedule(cfg, fs, doc)
+        doc["gain_schedule"] = _gain_schedule(cfg, fs, doc, analyses)
         doc["gain_schedule_note"] = (
             "paper §VI: the gains are recomputed from the joint-reflected J_m, B_m, K_s at each scheduled joint angle "
             "(transmission ratio r: J_m, B_m, K_s scale with r²), so the compliance the human feels stays the "
@@ -316,7 +325,8 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         "input_sha256": input_hash,
         "created_utc": (now or _dt.datetime.now(_dt.timezone.utc)).replace(microsecond=0).isoformat(),
     }
-    validate_controller(doc)
+    if analyses:
+        validate_controller(doc)
     return doc
 
 
