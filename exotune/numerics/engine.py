@@ -15,7 +15,7 @@ import contextvars
 import os
 from pathlib import Path
 
-__all__ = ["compiled", "resolve_engine", "numpy_engine", "kernels_cached"]
+__all__ = ["compiled", "resolve_engine", "numpy_engine", "kernels_cached", "worth_compiling"]
 
 _PREFERRED: contextvars.ContextVar[str | None] = contextvars.ContextVar("exotune_engine", default=None)
 
@@ -30,6 +30,18 @@ def resolve_engine(engine: str | None) -> str:
 
         engine = "numba" if kernels.AVAILABLE else "numpy"
     return engine
+
+
+def worth_compiling(work: float, threshold: float = 5e7) -> bool:
+    """Whether a single long job (``work`` ≈ floating-point operations) should use a compiled
+    kernel even inside :func:`numpy_engine`: numba installed and allowed (``EXOTUNE_NUMPY_ONLY``
+    unset) and the work large enough that a one-time compilation (about a second, cached on disk)
+    pays for itself."""
+    if os.environ.get("EXOTUNE_NUMPY_ONLY") or work < threshold:
+        return False
+    from . import kernels
+
+    return kernels.AVAILABLE
 
 
 def compiled() -> bool:

@@ -60,6 +60,9 @@ def runtime_matrices(doc: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
     return A, B, C, D
 
 
+LONG_DELAY_LINE = 48  # loop states from which a run uses the compiled structured recursion
+
+
 class LinearLoop:
     """The linear recursion of a run in one affine plant mode (see the module docstring).
 
@@ -115,9 +118,26 @@ class LinearLoop:
             M[s0 + j, s0 + j - 1] = 1.0
         self.M, self.Npush, self.u_row, self.cur_row = M, np.zeros(N), u, cur
         self.Npush[:6] = g_push
+        # the blocks of M for the structured recursion (numerics.kernels.shiftloop)
+        self._blocks = (np.ascontiguousarray(Phi), np.ascontiguousarray(g_cur), np.ascontiguousarray(g_old),
+                        np.ascontiguousarray(g_push), np.ascontiguousarray(Br @ Cy), np.ascontiguousarray(Ar),
+                        np.ascontiguousarray(u[:6]), np.ascontiguousarray(u[6:6 + nz]), int(d))
 
-    def run(self, w: np.ndarray, push: np.ndarray) -> np.ndarray:
-        """States w[k] for k = 0 … len(push) (row k+1 after the push of sample k)."""
+    def run(self, w: np.ndarray, push: np.ndarray, engine: str | None = None) -> np.ndarray:
+        """States w[k] for k = 0 … len(push) (row k+1 after the push of sample k): the compiled
+        structured recursion (cost independent of the delay line) for long stretches, the dense
+        numpy one otherwise; ``engine`` ("numba"/"numpy") forces one."""
+        from ..numerics.engine import resolve_engine, worth_compiling
+
+        # a long delay line (high rate: a 1 ms delay at 100 kHz is 101 shift states) makes the dense
+        # recursion cost N² per sample over millions of samples; the compiled one costs the same for any N
+        use = (resolve_engine(engine) == "numba" if engine
+               else w.size >= LONG_DELAY_LINE and worth_compiling(float(push.size) * w.size * w.size, threshold=0.0))
+        if use and push.size > 0:
+            from ..numerics.kernels.shiftloop import shift_loop_run
+
+            return shift_loop_run(*self._blocks, np.ascontiguousarray(w, dtype=float),
+                                  np.ascontiguousarray(push, dtype=float))
         out = np.empty((push.size + 1, w.size))
         out[0] = w
         M, Np = self.M, self.Npush

@@ -8,7 +8,9 @@ One module per kernel family:
 - :mod:`.leaves`: adaptive frequency sets of two tracked quasi-polynomials;
 - :mod:`.pair`: scalar functions of a pair (values, Illinois roots, golden-section maxima, the
   crossing classification and sub-sampling of leaves);
-- :mod:`.bounds`: frequency tail bounds and batched polynomial products.
+- :mod:`.bounds`: frequency tail bounds and batched polynomial products;
+- :mod:`.latency`: the latency margin of every design of a batch (the sweep column);
+- :mod:`.shiftloop`: the linear recursion of a simulated run with a long delay line.
 
 Which engine runs is decided in one place, :mod:`exotune.numerics.engine`. The kernels are
 compiled with ``cache=True``: numba keys each cached kernel on its own module's file only, so after
