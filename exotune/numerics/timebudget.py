@@ -49,26 +49,26 @@ def time_budget(seconds: float, what: str, hint: str, writes: bool = True):
     """Within the block, :func:`check_time` raises once ``seconds`` have passed. ``what`` names
     the work ("exporting at 100000 Hz"), ``hint`` how to make it cheaper; ``writes``: the work
     would write a file (the error then says that nothing was written)."""
-    token = _DEADLINE.set((time.monotonic() + seconds, seconds, what, hint + ("; nothing was written" if writes else "")))
+    token = _DEADLINE.set((time.monotonic() + seconds, seconds, what, hint, "; nothing was written" if writes else ""))
     try:
         yield
     finally:
         _DEADLINE.reset(token)
 
 
-def active_budget() -> tuple[float, str, str] | None:
-    """(seconds, what, hint) of the enclosing :func:`time_budget`, None outside one."""
+def active_budget() -> tuple[float, str, str, str] | None:
+    """(seconds, what, hint, tail) of the enclosing :func:`time_budget`, None outside one."""
     d = _DEADLINE.get()
-    return None if d is None else (d[1], d[2], d[3])
+    return None if d is None else (d[1], d[2], d[3], d[4])
 
 
 def check_time() -> None:
     """Raise when the enclosing :func:`time_budget` is spent (no-op outside one)."""
     d = _DEADLINE.get()
     if d is not None and time.monotonic() > d[0]:
-        _deadline, seconds, what, hint = d
+        _deadline, seconds, what, hint, tail = d
         raise ConfigError(FIELD, f"{what} exceeded the time budget of {seconds:g} s and was stopped ({hint}, or "
-                                 f"raise {FIELD})")
+                                 f"raise {FIELD}){tail}")
 
 
 def eig_seconds(n: int, repeats: int = 3) -> float:
@@ -83,12 +83,12 @@ def eig_seconds(n: int, repeats: int = 3) -> float:
     return float(np.median(ts))
 
 
-def refuse_if_over(problems: int, states: int, seconds: float, what: str, hint: str) -> float:
+def refuse_if_over(problems: int, states: int, seconds: float, what: str, hint: str, tail: str = "") -> float:
     """Refuse, before starting, work of at least ``problems`` eigenvalue problems of size
     ``states`` whose measured cost exceeds ``seconds``. Returns the estimate [s]."""
     est = problems * eig_seconds(states)
     if est > seconds:
         raise ConfigError(FIELD, f"{what} needs at least {problems} eigenvalue problems of a {states}-state loop "
                                  f"matrix, about {est:.0f} s on this machine, over the time budget of {seconds:g} s "
-                                 f"({hint}, or raise {FIELD})")
+                                 f"({hint}, or raise {FIELD}){tail}")
     return est

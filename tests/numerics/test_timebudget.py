@@ -34,7 +34,7 @@ def test_check_time_raises_only_after_the_deadline_and_only_inside():
     assert active_budget() is None
     with time_budget(60.0, "working", "do less"):
         check_time()
-        assert active_budget() == (60.0, "working", "do less; nothing was written")
+        assert active_budget() == (60.0, "working", "do less", "; nothing was written")
     with time_budget(1e-6, "working", "do less", writes=False):
         time.sleep(0.01)
         with pytest.raises(ConfigError) as e:
@@ -56,7 +56,10 @@ def _run(args):
     return res
 
 
-def test_export_over_budget_is_stopped_and_writes_nothing(tmp_path):
+def test_export_over_budget_is_stopped_and_writes_nothing(tmp_path, monkeypatch):
+    import exotune.numerics.timebudget as tb
+
+    monkeypatch.setattr(tb, "eig_seconds", lambda n, repeats=3: 0.0)  # the pre-check passes: the run is stopped
     out = tmp_path / "c.yaml"
     t = time.perf_counter()
     res = _run(["export", str(EXAMPLES / "scheduled.yaml"), "--sample-rate-hz", "50000", "-o", str(out),
@@ -64,6 +67,7 @@ def test_export_over_budget_is_stopped_and_writes_nothing(tmp_path):
     assert res.exit_code == 2 and not out.exists() and list(tmp_path.iterdir()) == []
     assert res.output.startswith("exotune: error: --time-budget-s: exporting at 50000 Hz exceeded the time budget")
     assert len(res.output.strip().splitlines()) == 1 and "Traceback" not in res.output
+    assert res.output.rstrip().endswith("or raise --time-budget-s); nothing was written")
     assert time.perf_counter() - t < 30
 
 
