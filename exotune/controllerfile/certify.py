@@ -39,6 +39,8 @@ __all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback"
            "check_built_from_design", "hand_tuned"]
 
 POINTS = 96
+NEAR_UNIT = 1e-6  # |ρ − 1| below which a member's verdict is decided with its rounding estimate
+MAX_LISTED = 20  # inconclusive values listed per family
 CHORD = 1.0  # over a resolved cell every eigenvalue moves ≤ CHORD × its distance to |z| = 1
 MAX_DEPTH = 12  # halvings of one base-grid cell (≈ 2e-5 relative for the default grid)
 MAX_REFINED = 20000  # refinement values per family; past it, unresolved cells are reported as such
@@ -74,7 +76,7 @@ def _cell_resolved(a, b, length: float) -> bool:
     return bool(np.all(move <= CHORD * dist))
 
 
-def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tuple[list, dict]:
+def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdict=None) -> tuple[list, dict]:
     """Stable intervals of one family. Verdicts on a grid of ``points`` values (log-spaced when
     lo > 0); every cell with a stable verdict at both ends is halved until its eigenvalue paths are
     resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times and ``MAX_REFINED`` values in
@@ -85,6 +87,10 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tu
     ----------
     spectrum : callable
         ``spectrum(v)``: the eigenvalues of the sampled-data loop at the parameter value ``v``.
+    verdict : callable, optional
+        ``verdict(v)`` → True/False/None (:func:`exotune.sampled.loop_verdict`), asked where the
+        spectral radius is within ``NEAR_UNIT`` of 1: None (rounding cannot decide) counts as not
+        stable and the value is listed in ``inconclusive``.
     lo, hi : float
         The family's range (log-spaced grid when ``lo > 0``).
     points : int
@@ -96,7 +102,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tu
         The stable intervals (|λ| < 1 for every eigenvalue).
     info : dict
         ``points``, ``refined_points``, ``unresolved`` cells, ``refinement_budget``,
-        ``budget_spent``, ``loop_states``, ``stable_points``.
+        ``budget_spent``, ``loop_states``, ``stable_points``, ``inconclusive`` values.
 
     References
     ----------
@@ -108,11 +114,19 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tu
     log = lo > 0
     coord = (lambda v: math.log(v)) if log else (lambda v: v)
 
+    inconclusive = []
+
     def at(v):
         if v not in cache:
             lam = np.asarray(spectrum(v))
             rho = float(np.max(np.abs(lam))) if lam.size else 0.0
-            cache[v] = (rho < 1.0, lam, None)
+            st = rho < 1.0
+            if verdict is not None and abs(rho - 1.0) < NEAR_UNIT:
+                decided = verdict(v)
+                if decided is None:
+                    inconclusive.append(v)
+                st = bool(decided)
+            cache[v] = (st, lam, None)
         return cache[v]
 
     def with_derivative(v):
@@ -180,6 +194,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS) -> tu
         ivs.append([start, hi])
     base = set(vals)
     return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved),
+                 "inconclusive": sorted(inconclusive)[:MAX_LISTED],
                  "refinement_budget": max_refined, "budget_spent": budget_spent, "loop_states": n,
                  "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in base))}
 
@@ -210,6 +225,7 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     ctrl = discrete_from_file(doc)
     grounded = position_feedback(doc["controller"])
     spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, grounded, human, env)  # noqa: E731
+    verdict = lambda human=None, env="free": loop_verdict(plant, ctrl, grounded, human, env)[0]  # noqa: E731
     free, rho, err = loop_verdict(plant, ctrl, grounded)
     locked, rho_l, err_l = loop_verdict(plant, ctrl, grounded, env="locked")
     out = {
@@ -239,14 +255,16 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
             entry["box"] = {q: [a, b] for q, a, b in fam.box}
             out["humans"].append(entry)
             continue
-        ivs, info = stable_intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points)
+        ivs, info = stable_intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points,
+                                     lambda v, fam=fam: verdict(human=_human_dict(fam, v)))
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]] and not info["unresolved"]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
         env, _ = _in_certify(parse_env, i, item)
         if env.kind not in ("spring", "mass"):
             continue
-        ivs, info = stable_intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points)
+        ivs, info = stable_intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points,
+                                     lambda v, e=env: verdict(env={e.param: v, "damping": e.damping}))
         out["environment"].append({"kind": env.kind, "parameter": env.param,
                                    "unit": "kg·m²" if env.param == "inertia" else "N·m/rad",
                                    "range": [env.lo, env.hi], **info, "stable_intervals": ivs,
@@ -532,6 +550,9 @@ def _certify(doc: dict) -> dict:
         if not h["robust"]:
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
                             f"stable only in {_fmt_ivs(h['stable_intervals'])}")
+        if h.get("inconclusive"):
+            problems.append(f"{h['kind']} {h['parameter']}: the sampled-data verdict is inconclusive (spectral radius "
+                            "within rounding of 1) at " + ", ".join(f"{v:.6g}" for v in h["inconclusive"]) + f" {h['unit']}")
     problems += _unresolved(sa, "")
     rep["latency_margin"] = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
     problems += requirement_problems(rep["latency_margin"])

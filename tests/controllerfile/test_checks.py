@@ -383,3 +383,23 @@ def test_rigid_body_mode_at_rounding_level_is_inconclusive(doc1k, tmp_path):
     res = _certify(tmp_path, doc)
     assert res.exit_code == 1 and "NOT CERTIFIED" in res.output.upper()
     assert "inconclusive" in res.output and "free (cuff free): UNSTABLE" not in res.output
+
+
+def test_family_members_within_rounding_are_inconclusive_not_unstable():
+    """A synthetic family whose spectral radius touches 1 within rounding on [2, 3]: those members
+    are listed as inconclusive (not stable, not a wrong "UNSTABLE" interval end computed from noise),
+    the rest of the range keeps its stable verdict."""
+    from exotune.controllerfile.certify import stable_intervals
+
+    def spectrum(v):
+        return np.array([0.5, 1.0 if 2.0 <= v <= 3.0 else 0.9])
+
+    def verdict(v):
+        return None if 2.0 <= v <= 3.0 else True
+
+    ivs, info = stable_intervals(spectrum, 1.0, 10.0, points=24, verdict=verdict)
+    assert info["inconclusive"] and all(2.0 <= v <= 3.0 for v in info["inconclusive"])
+    assert ivs[0][0] == 1.0 and ivs[0][1] == pytest.approx(2.0, rel=1e-6)
+    assert ivs[-1][1] == 10.0 and ivs[-1][0] == pytest.approx(3.0, rel=1e-6)
+    _ivs, plain = stable_intervals(spectrum, 1.0, 10.0, points=24)  # without a verdict: the radius alone
+    assert plain["inconclusive"] == []
