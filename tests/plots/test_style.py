@@ -17,6 +17,8 @@ from exotune.sweeps import figures
     ("plant.cuff_stiffness", "cuff stiffness K_c [N·m/rad]", 1.0),
     ("implementation.dob.cutoff_hz", "DOB cutoff f_q [Hz]", 1.0),
     ("dob_delay_margin_s [ms]", "DOB delay margin ΔT [ms]", 1e3),
+    ("latency_margin_s [ms]", "latency margin ΔT [ms]", 1e3),
+    ("plant_margin_lower", "plant-uncertainty margin, lower bound k* [–]", 1.0),
     ("human0_lightest_stable_inertia", "lightest stable inertia, human 0 [kg·m²]", 1.0),
 ])
 def test_label_names_the_physical_quantity(path, text, scale):
