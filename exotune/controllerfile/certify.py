@@ -401,6 +401,10 @@ def design_mismatches(doc: dict) -> list[str]:
     out = _one_controller(design, doc, "")
     for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries", [])):
         out += _one_controller(design, schedule_entry_doc(doc, e), f"gain_schedule.entries[{j}].")
+    if doc.get("implementation") is not None:
+        from .build import implementation_mismatches
+
+        out += implementation_mismatches(doc)
     return out
 
 
@@ -447,12 +451,12 @@ def check_built_from_design(doc: dict) -> None:
         return
     alpha = float(doc["design"]["amplification"]["value"])
     k2_hat = float(doc["gains"]["K2_hat"]["value"])
-    field = "design"
+    field = "implementation" if all("implementation" in b for b in bad) else "design"
     if not _close(k2_hat + 1.0, alpha, _GAIN_RTOL):  # K̂2 = α − 1: the controller names the α it was built for
         field = "design.amplification"
         bad = [f"its K2_hat = {k2_hat!r} is that of amplification {k2_hat + 1.0!r}, not {alpha!r}"] + bad
     more = f"; and {len(bad) - 2} more" if len(bad) > 2 else ""
-    raise ConfigError(field, f"the controller in this file was not built from its design section and plant "
+    raise ConfigError(field, f"the controller in this file was not built from its design, plant and implementation sections "
                              f"({'; '.join(bad[:2])}{more}); export the file again from its design, or declare a "
                              "hand-tuned controller with provenance.hand_tuned: true (certify then certifies only "
                              "the controller)")

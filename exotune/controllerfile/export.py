@@ -33,20 +33,12 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from ..sampled import Measured, controller_blocks, default_prewarp
+from ..sampled import Measured
+from .build import controller_section, quantity, reflected_mapping
 from .certify import refuse_excess_work, sampled_analysis
 from .fileio import schedule_entry_doc, write_controller
 from .runtime import Runtime
-from .schema import (
-    DESIGN_UNITS,
-    GAIN_UNITS,
-    PLANT_UNITS,
-    SCHEMA_VERSION,
-    SIGNAL_UNITS,
-    SIX_GAIN_UNITS,
-    validate_controller,
-)
-from .sos import tustin_sos
+from .schema import DESIGN_UNITS, PLANT_UNITS, SCHEMA_VERSION, SIGNAL_UNITS, validate_controller
 
 __all__ = [
     "build_export",
@@ -58,18 +50,9 @@ __all__ = [
     "reflected_mapping",
 ]
 
-_FILTER_DOC = {
-    "motor_position": "proper part of G_θ (velocity filter)",
-    "spring_torque": "proper part of G_s (velocity filter)",
-    "cuff_path": "G_c: the filtered cuff compensator G_v (K̂2 + B̂2 s) (docs/method.md#controller)",
-    "dob_motor": "−Q(s)(J_m s² + B_m s): the DOB's inverse motor model on θ_m",
-    "dob_spring": "+Q(s) on τ_s",
-    "dob_command": "+Q(s) on τ_cmd itself (the DOB's algebraic loop, see runtime)",
-}
 
 
-def _q(value: float, unit: str) -> dict:
-    return {"value": float(value), "unit": unit}
+_q = quantity
 
 
 # --------------------------------------------------------------------------------------------
@@ -90,45 +73,6 @@ def _golden_inputs(n: int = 200, fs: float = 1000.0, seed: int = 20251122) -> di
     return sig
 
 
-def _controller_section(cfg, fs: float) -> tuple[dict, list[dict], dict]:
-    """(static gains on the signals, sos filters, the six design gains with units) of one design."""
-    from ..model.controller import build_controller
-
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    six = {k: _q(float(np.ravel(getattr(cs.gains, k))[0]), u) for k, u in SIX_GAIN_UNITS.items()}
-    static, blocks = controller_blocks(cs, cfg.plant)
-    pw = default_prewarp(cfg.implementation)
-    gains = {sig: {"gain": float(static[i]), "unit": GAIN_UNITS[sig]} for i, sig in enumerate(Measured) if static[i] != 0}
-    filters = []
-    for b in blocks:
-        sos = tustin_sos(b.num, b.den, fs, pw.get(b.prewarp))
-        filters.append({
-            "name": b.name,
-            "input": b.input,
-            "input_unit": SIGNAL_UNITS[b.input],
-            "output_unit": "N·m",
-            "unit": GAIN_UNITS[b.input],
-            "description": _FILTER_DOC.get(b.name, b.name),
-            "discretization": "tustin",
-            "prewarp_hz": None if pw.get(b.prewarp) is None else float(pw[b.prewarp]),
-            "continuous": {"num": [float(x) for x in np.asarray(b.num, float)],
-                           "den": [float(x) for x in np.asarray(b.den, float)],
-                           "order": "ascending powers of s"},
-            "sos": [[float(x) for x in row] for row in sos],
-        })
-    return gains, filters, six
-
-
-def reflected_mapping(raw: dict, ratio: float) -> dict:
-    """The design mapping at transmission ratio ``ratio`` (J_m, B_m, K_s × ratio²), without the
-    transmission section."""
-    import copy
-
-    r = copy.deepcopy(raw)
-    r.pop("transmission", None)
-    for k in ("motor_inertia", "motor_damping", "sea_stiffness"):
-        r["plant"][k] = float(r["plant"][k]) * ratio * ratio
-    return r
 
 
 def _gain_schedule(cfg, fs: float, doc: dict, analyses: bool = True) -> dict:
@@ -138,7 +82,7 @@ def _gain_schedule(cfg, fs: float, doc: dict, analyses: bool = True) -> dict:
     entries = []
     for angle, ratio in zip(tr["joint_angle_rad"], tr["ratio"]):
         cfg_i = design_from_mapping(reflected_mapping(cfg.raw, ratio))
-        gains_sig, filters, six = _controller_section(cfg_i, fs)
+        gains_sig, filters, six = controller_section(cfg_i, fs)
         entry = {
             "joint_angle_rad": float(angle),
             "ratio": float(ratio),
@@ -254,6 +198,17 @@ def requirements_section(fs: float, require_latency_margin_s: float | None = Non
             "source": "--require-latency-margin-s (0: no requirement)" if v == 0 else "--require-latency-margin-s"}
 
 
+def implementation_section(raw: dict, fs: float) -> dict:
+    """The design file's ``implementation`` section as exported (units in the key names, as in a
+    design file; ``sample_rate_hz`` the file's rate): with ``plant`` and ``design`` it rebuilds the
+    whole controller, which ``certify`` does and compares with the file's."""
+    import copy
+
+    impl = copy.deepcopy(raw.get("implementation") or {})
+    impl["sample_rate_hz"] = float(fs)
+    return impl
+
+
 def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_hash: str | None = None,
                  now: _dt.datetime | None = None, require_latency_margin_s: float | None = None,
                  analyses: bool = True) -> dict:
@@ -271,7 +226,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
     g = lambda x: float(np.ravel(x)[0])  # noqa: E731
     raw = cfg.raw
     delay = g(cfg.implementation.delay_s)
-    gains_sig, filters, gains = _controller_section(cfg, fs)
+    gains_sig, filters, gains = controller_section(cfg, fs)
     doc: dict[str, Any] = {
         "schema": SCHEMA_VERSION,
         "sample_rate_hz": _q(fs, "Hz"),
@@ -279,6 +234,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
                     "note": "total measured-to-applied latency the controller was designed and certified for"},
         "plant": {k: _q(v, PLANT_UNITS[k]) for k, v in raw["plant"].items()},
         "design": {k: _q(v, DESIGN_UNITS[k]) for k, v in raw["design"].items()},
+        "implementation": implementation_section(raw, fs),
         "gains": {**gains, "convention": "torque units (docs/method.md#double-compliance-shaping): K2, B2 act on τ_s, K2_hat, B2_hat on τ_c"},
         "signals": {"inputs": {s: SIGNAL_UNITS[s] for s in Measured}, "output": {"tau_cmd": "N·m"}},
         "controller": {

@@ -224,6 +224,7 @@ class ControllerFile(_S):
     delay_s: Delay
     plant: PlantSection
     design: DesignSection
+    implementation: dict[str, Any] | None = None  # as in a design file; files written before 0.7 lack it
     gains: GainsSection
     signals: dict[str, dict[str, str]]
     controller: ControllerSection

@@ -30,6 +30,7 @@ from exotune.config import design_from_mapping, load_design
 from exotune.model.controller import build_controller
 from exotune.controllerfile import build_export, discrete_from_file, export_design, load_controller, plant_from_file
 from exotune.controllerfile.runtime import Runtime
+from exotune.errors import ConfigError
 from exotune.sampled.loop import Measured, default_prewarp, discretize, plant_ss, zoh_fractional
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -211,11 +212,19 @@ def test_certify_catches_an_edited_file(paper_doc):
     assert certify(doc)["prediction_mismatches"] == []
     bad = copy.deepcopy(doc)
     bad["controller"]["gains"]["omega_m"]["gain"] *= 1.5  # someone retuned B1 by hand
+    with pytest.raises(ConfigError) as e:  # not the controller its sections build
+        certify(copy.deepcopy(bad))
+    assert e.value.field == "implementation" and "controller.gains.omega_m" in e.value.reason
+    bad["provenance"]["hand_tuned"] = True  # declared: analysed as it is, and its golden vectors fail
     rep = certify(bad)
     assert not rep["certified"]
     assert any("golden" in p for p in rep["problems"])
     bad2 = copy.deepcopy(doc)
     bad2["sample_rate_hz"]["value"] = 500.0  # a runtime at half the rate is a different loop
+    with pytest.raises(ConfigError) as e:
+        certify(copy.deepcopy(bad2))
+    assert "implementation.sample_rate_hz 1000.0 is not the file's sample_rate_hz 500.0" in e.value.reason
+    bad2["provenance"]["hand_tuned"] = True
     rep2 = certify(bad2)
     assert rep2["prediction_mismatches"], rep2["problems"]
 
@@ -329,9 +338,14 @@ def test_runtime_follows_the_schedule_and_certify_checks_every_entry():
     assert rep["sampled"]["humans"][0]["robust"]
     assert [e["robust"] for e in rep["gain_schedule"]] == [True, False]
     assert not rep["certified"] and any("gain schedule at joint angle 0.4" in p for p in rep["problems"])
-    # an entry edited by hand no longer matches its prediction
+    # an entry edited by hand is no longer the controller its implementation section builds ...
     bad = copy.deepcopy(doc)
     bad["gain_schedule"]["entries"][0]["controller"]["gains"]["tau_s"]["gain"] *= 0.7
+    with pytest.raises(ConfigError) as e:
+        certify(copy.deepcopy(bad))
+    assert e.value.field == "implementation" and "gain_schedule.entries[0].controller.gains.tau_s" in e.value.reason
+    # ... and, declared hand-tuned, no longer matches its prediction
+    bad["provenance"]["hand_tuned"] = True
     rep_bad = certify(bad)
     assert not rep_bad["certified"] and any("gain schedule entry at 0 rad" in p for p in rep_bad["problems"])
 
@@ -354,8 +368,6 @@ def test_scheduled_file_validates_against_the_shipped_schema():
     ({"joint_angle_rad": [0.0, 1.0], "ratio": [1.0, 1.0], "jacobian": 2}, "transmission.jacobian"),
 ])
 def test_transmission_section_is_validated(tr, field):
-    from exotune.errors import ConfigError
-
     raw = copy.deepcopy(load_design(PAPER).raw)
     raw["transmission"] = tr
     with pytest.raises(ConfigError) as e:

@@ -90,7 +90,7 @@ def test_controller_not_built_from_its_design_is_refused(doc, tmp_path, tamper, 
     res = CliRunner().invoke(cli, ["certify", str(_write(tmp_path, d))])
     assert res.exit_code == 2, res.output
     assert res.stderr.startswith(f"exotune: error: {field}: the controller in this file was not built from its "
-                                 "design section") and res.stderr.count("\n") == 1, res.stderr
+                                 "design, plant and implementation sections") and res.stderr.count("\n") == 1, res.stderr
 
 
 def test_hand_tuned_file_is_certified_for_its_controller_only(doc, tmp_path):
@@ -116,3 +116,47 @@ def test_hand_tuned_must_be_a_boolean(doc):
 def test_untouched_export_has_no_scope_note(doc):
     rep = certify(copy.deepcopy(doc))
     assert "scope" not in rep and not rep["method"].startswith("hand-tuned")
+
+
+def _res(tmp_path, d):
+    res = CliRunner().invoke(cli, ["certify", str(_write(tmp_path, d))])
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    return res
+
+
+def test_a_filter_that_keeps_its_dc_gain_but_not_its_dynamics_is_refused(doc, tmp_path):
+    """The DOB's Q filter on τ_s re-tuned in the file with its DC gain kept (b0 and b1 moved by
+    opposite amounts: b(1) and a(z) unchanged): the six gains and the filters' DC gains still match
+    the design, only the rebuild from the implementation section tells."""
+    d = copy.deepcopy(doc)
+    f = next(x for x in d["controller"]["filters"] if x["name"] == "dob_spring")
+    sos = np.asarray(f["sos"], float)
+    delta = 0.05 * abs(sos[0, 0])
+    sos[0, 0] -= delta
+    sos[0, 1] += delta
+    f["sos"] = sos.tolist()
+    res = _res(tmp_path, d)
+    assert res.exit_code == 2 and "exotune: error: implementation:" in res.output
+    assert "controller.filters[dob_spring] is not the filter the implementation section builds" in res.output
+
+
+def test_an_edited_implementation_section_is_refused(doc, tmp_path):
+    d = copy.deepcopy(doc)
+    d["implementation"]["dob"]["cutoff_hz"] = 45.0
+    res = _res(tmp_path, d)
+    assert res.exit_code == 2 and "implementation section builds" in res.output
+    d = copy.deepcopy(doc)
+    d["implementation"]["delay_s"] = 0.002
+    res = _res(tmp_path, d)
+    assert res.exit_code == 2 and "implementation.delay_s" in res.output
+    d = copy.deepcopy(doc)
+    d["implementation"]["gv_filter"]["cutoff_hz"] = -5.0  # invalid: the design-file rules name the field
+    res = _res(tmp_path, d)
+    assert res.exit_code == 2 and "implementation.gv_filter.cutoff_hz" in res.output
+
+
+def test_a_file_without_an_implementation_section_still_certifies(doc):
+    d = copy.deepcopy(doc)
+    del d["implementation"]  # files written before the section existed
+    assert design_mismatches(d) == []
+    assert certify(d)["certified"] == certify(copy.deepcopy(doc))["certified"]

@@ -1,0 +1,126 @@
+"""The controller a design builds, as a controller file writes it: the static gains and Tustin
+``sos`` filters of one design at a sample rate (:func:`controller_section`), and the design mapping
+at a transmission ratio (:func:`reflected_mapping`). A leaf shared by ``export`` (which writes them)
+and ``certify`` (which rebuilds them from the file's design, plant and implementation sections and
+compares).
+
+References
+----------
+docs/controller-file.md; paper §IV (double compliance shaping), §VI (gain scheduling).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..sampled import Measured, controller_blocks, default_prewarp
+from .schema import GAIN_UNITS, SIGNAL_UNITS, SIX_GAIN_UNITS
+from .sos import tustin_sos
+
+__all__ = ["controller_section", "reflected_mapping", "quantity", "implementation_mismatches"]
+
+FILTER_DOC = {
+    "motor_position": "proper part of G_θ (velocity filter)",
+    "spring_torque": "proper part of G_s (velocity filter)",
+    "cuff_path": "G_c: the filtered cuff compensator G_v (K̂2 + B̂2 s) (docs/method.md#controller)",
+    "dob_motor": "−Q(s)(J_m s² + B_m s): the DOB's inverse motor model on θ_m",
+    "dob_spring": "+Q(s) on τ_s",
+    "dob_command": "+Q(s) on τ_cmd itself (the DOB's algebraic loop, see runtime)",
+}
+
+
+def quantity(value: float, unit: str) -> dict:
+    """A number with its unit, as the controller file writes numbers."""
+    return {"value": float(value), "unit": unit}
+
+
+def controller_section(cfg, fs: float) -> tuple[dict, list[dict], dict]:
+    """(static gains on the signals, sos filters, the six design gains with units) of one design."""
+    from ..model.controller import build_controller
+
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    six = {k: quantity(float(np.ravel(getattr(cs.gains, k))[0]), u) for k, u in SIX_GAIN_UNITS.items()}
+    static, blocks = controller_blocks(cs, cfg.plant)
+    pw = default_prewarp(cfg.implementation)
+    gains = {sig: {"gain": float(static[i]), "unit": GAIN_UNITS[sig]} for i, sig in enumerate(Measured) if static[i] != 0}
+    filters = []
+    for b in blocks:
+        sos = tustin_sos(b.num, b.den, fs, pw.get(b.prewarp))
+        filters.append({
+            "name": b.name,
+            "input": b.input,
+            "input_unit": SIGNAL_UNITS[b.input],
+            "output_unit": "N·m",
+            "unit": GAIN_UNITS[b.input],
+            "description": FILTER_DOC.get(b.name, b.name),
+            "discretization": "tustin",
+            "prewarp_hz": None if pw.get(b.prewarp) is None else float(pw[b.prewarp]),
+            "continuous": {"num": [float(x) for x in np.asarray(b.num, float)],
+                           "den": [float(x) for x in np.asarray(b.den, float)],
+                           "order": "ascending powers of s"},
+            "sos": [[float(x) for x in row] for row in sos],
+        })
+    return gains, filters, six
+
+
+def reflected_mapping(raw: dict, ratio: float) -> dict:
+    """The design mapping at transmission ratio ``ratio`` (J_m, B_m, K_s × ratio²), without the
+    transmission section."""
+    import copy
+
+    r = copy.deepcopy(raw)
+    r.pop("transmission", None)
+    for k in ("motor_inertia", "motor_damping", "sea_stiffness"):
+        r["plant"][k] = float(r["plant"][k]) * ratio * ratio
+    return r
+
+
+# the families do not enter the controller; a valid one completes the mapping for validation
+_ANY_HUMAN = {"kind": "mass", "inertia": [0.1, 1.0], "damping": 0.0}
+
+
+def _near(a: float, b: float, rtol: float) -> bool:
+    return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-300)
+
+
+def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
+    """Where the file's controllers (the main one and each gain-schedule entry's) differ from the
+    ones its ``plant``, ``design`` and ``implementation`` sections build (static gains and every
+    filter's sos, :func:`exotune.controllerfile.build.controller_section`), and whether the
+    implementation's delay is the file's. An invalid implementation section is a ConfigError
+    naming its field."""
+    from ..config import design_from_mapping
+    from .fileio import schedule_entry_doc
+
+    fs = float(doc["sample_rate_hz"]["value"])
+    impl = doc["implementation"]
+    out = []
+    for key in ("delay_s", "sample_rate_hz"):
+        if not _near(float(impl.get(key, math.nan) or math.nan), float(doc[key]["value"]), rtol):
+            out.append(f"implementation.{key} {impl.get(key)!r} is not the file's {key} {doc[key]['value']!r}")
+    docs = [("", doc)] + [(f"gain_schedule.entries[{j}].", schedule_entry_doc(doc, e))
+                          for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries", []))]
+    for where, d in docs:
+        mapping = {"plant": {k: q["value"] for k, q in d["plant"].items()},
+                   "design": {k: q["value"] for k, q in doc["design"].items()},
+                   "implementation": impl, "humans": [_ANY_HUMAN], "environment": []}
+        gains, filters, _six = controller_section(design_from_mapping(mapping), fs)
+        have = d["controller"]
+        got_gains = {k: float(v["gain"]) for k, v in (have.get("gains") or {}).items()}
+        for sig in sorted(set(gains) | set(got_gains)):
+            if not _near(got_gains.get(sig, 0.0), float(gains.get(sig, {"gain": 0.0})["gain"]), rtol):
+                out.append(f"{where}controller.gains.{sig} is not the gain the implementation section builds")
+        names = [f["name"] for f in have.get("filters") or []]
+        if names != [f["name"] for f in filters]:
+            out.append(f"{where}controller.filters are {names}, the implementation section builds "
+                       f"{[f['name'] for f in filters]}")
+            continue
+        for f_have, f_built in zip(have["filters"], filters):
+            a, b = np.asarray(f_have["sos"], float), np.asarray(f_built["sos"], float)
+            if (f_have["input"] != f_built["input"] or a.shape != b.shape
+                    or not np.allclose(a, b, rtol=rtol, atol=rtol * max(float(np.max(np.abs(b))), 1e-300))):
+                out.append(f"{where}controller.filters[{f_have['name']}] is not the filter the implementation "
+                           "section builds")
+    return out
