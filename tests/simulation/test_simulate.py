@@ -407,7 +407,10 @@ def test_cli_simulate_refuses_an_edited_controller_file(tmp_path):
     res = CliRunner().invoke(cli, ["simulate", str(tmp_path / "c.yaml"), "--scenario", "locked-output"])
     assert res.exit_code == 2, res.output
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("exotune: error: predicted.sampled."), res.output
+    # the implementation section records the rate the controller was built for: the edit is caught
+    # before any analysis runs, naming both rates
+    assert len(lines) == 1 and lines[0].startswith("exotune: error: implementation:"), res.output
+    assert "sample_rate_hz 1000.0 is not the file's sample_rate_hz 1100.0" in lines[0]
 
 
 def test_cli_simulate_duration_and_start(tmp_path):
