@@ -366,12 +366,7 @@ def test_sea_text():
 
 
 # -------------------------------------------------------------------------------- wrappers
-def test_analyze_json_if_available():
-    pytest.importorskip("exotune.analysis.design")
-    try:
-        from exotune.analysis import analyze_design  # noqa: F401
-    except ImportError:
-        pytest.skip("exotune.analysis.analyze_design not available yet")
+def test_analyze_json():
     res = run("analyze", PAPER, "--json")
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout)

@@ -10,7 +10,8 @@ of the sampled-data loop, |λ| < 1, the rigid-body z = 1 of an ungrounded struct
 Intervals of stable human parameters: verdicts at ``POINTS`` log-spaced values of each family's
 range; every cell between two stable values is halved (at most ``MAX_DEPTH`` = 12 times) until
 its eigenvalue paths are resolved — each eigenvalue's motion over the cell (the chord between its
-end values and the first-order motion from its derivative at either end) is below its distance to
+end values and the first-order motion from its derivative at either end, a secant over
+``FD_CELL`` of the grid spacing) is below its distance to
 the unit circle (step control of eigenvalue continuation); every change of verdict is bisected
 (geometric) to 1e-10 relative. A window of instability could still hide inside a cell only on an
 eigenvalue path much longer than its resolved chord and end speeds imply. A cell that stays
@@ -32,7 +33,9 @@ import math
 
 import numpy as np
 
+from ..numerics.threads import one_blas_thread
 from ..sampled import loop_eigenvalues, loop_verdict
+from .fileio import position_feedback
 from .latency import requirement_problems, sampled_latency_margin
 
 __all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify", "design_mismatches",
@@ -48,7 +51,12 @@ MAX_REFINED = 20000  # refinement values per family; past it, unresolved cells a
 # sample) gets the same eigen-solver work, MAX_REFINED·(REF_STATES/n)³ values (at least 50): a
 # 200 kHz export of a 1 ms delay (230 states) otherwise ran for hours
 REF_STATES = 40
-_FD = 1e-7  # relative step of the finite-difference eigenvalue derivative
+_FD = 1e-7  # smallest relative step of the finite-difference eigenvalue derivative
+# ... whose step is otherwise FD_CELL × the base grid's spacing: the rounding error of an
+# eigenvalue near z = 1 (two close slow real modes at a high sample rate, ~1e-9) divided by a 1e-7 step read
+# as a speed hundreds of times the true one, and 100 kHz families spent their refinement budget
+# halving cells whose eigenvalues hardly moved (chord ≈ 0.003 × their distance to the circle)
+FD_CELL = 1e-3
 _BISECT = 48
 
 
@@ -59,21 +67,23 @@ def _match(la: np.ndarray, lb: np.ndarray):
     return linear_sum_assignment(np.abs(la[:, None] - lb[None, :]))
 
 
-def _cell_resolved(a, b, length: float) -> bool:
+def _cell_resolved(la: np.ndarray, lb: np.ndarray, length: float, derivatives) -> bool:
     """True when, over a cell of ``length`` (in the grid's coordinate u: ln v on a log grid),
     every eigenvalue (matched between the ends) moves by less than ``CHORD`` × its smaller
     distance to the unit circle — both the chord |λ(b) − λ(a)| and the first-order motions
-    length·|dλ/du| at either end. ``a``, ``b``: (eigenvalues, derivatives dλ/du) at the ends.
-    An eigenvalue that leaves the circle inside the cell and comes back has to travel at least
-    twice that distance, so it would need a strongly curved path, or one whose speed rises
-    far above its speed at both ends (step control of eigenvalue continuation)."""
-    (la, da), (lb, db) = a, b
+    length·|dλ/du| at either end. ``la``, ``lb``: the eigenvalues at the ends;
+    ``derivatives()`` → (dλ/du at a, dλ/du at b), asked only when the chords pass (each costs an
+    eigen-solve). An eigenvalue that leaves the circle inside the cell and comes back has to
+    travel at least twice that distance, so it would need a strongly curved path, or one whose
+    speed rises far above its speed at both ends (step control of eigenvalue continuation)."""
     if la.size == 0 or lb.size == 0:
         return True
     r, c = _match(la, lb)
     dist = np.minimum(np.abs(1.0 - np.abs(la[r])), np.abs(1.0 - np.abs(lb[c])))
-    move = np.maximum(np.abs(lb[c] - la[r]), length * np.maximum(np.abs(da[r]), np.abs(db[c])))
-    return bool(np.all(move <= CHORD * dist))
+    if not np.all(np.abs(lb[c] - la[r]) <= CHORD * dist):
+        return False
+    da, db = derivatives()
+    return bool(np.all(length * np.maximum(np.abs(da[r]), np.abs(db[c])) <= CHORD * dist))
 
 
 def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdict=None) -> tuple[list, dict]:
@@ -132,7 +142,8 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     def with_derivative(v):
         st, lam, d = at(v)
         if d is None:
-            h = _FD * (abs(v) if log or v else max(abs(hi), 1.0))
+            h = (v * max(_FD, FD_CELL * spacing) if log
+                 else max(_FD * (abs(v) if v else max(abs(hi), 1.0)), FD_CELL * spacing))
             lh = np.asarray(spectrum(v + h))
             d = np.zeros_like(lam)
             if lam.size and lh.size:  # (an eigenvalue without a partner, e.g. at v = 0: speed 0)
@@ -142,6 +153,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
         return cache[v][1], cache[v][2]
 
     mid = (lambda a, b: math.sqrt(a * b)) if lo > 0 else (lambda a, b: 0.5 * (a + b))
+    spacing = (coord(hi) - coord(lo)) / max(points - 1, 1)  # of the base grid, in the coordinate u
     vals = [float(v) for v in (np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points))]
     n = max(at(vals[0])[1].size, 1)
     max_refined = MAX_REFINED if n <= REF_STATES else max(50, int(MAX_REFINED * (REF_STATES / n) ** 3))
@@ -156,7 +168,8 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
             x, y, depth = stack.pop()
             if not (at(x)[0] and at(y)[0]):
                 continue
-            if _cell_resolved(with_derivative(x), with_derivative(y), coord(y) - coord(x)):
+            if _cell_resolved(at(x)[1], at(y)[1], coord(y) - coord(x),
+                              lambda x=x, y=y: (with_derivative(x)[1], with_derivative(y)[1])):
                 continue
             if not depth or refined >= max_refined:
                 unresolved.append([x, y])
@@ -215,6 +228,7 @@ def _in_certify(parse, i, item):
         raise ConfigError(f"certify.{e.field}", e.reason) from None
 
 
+@one_blas_thread
 def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     """Free/locked verdicts and the stable intervals of every rational human family and every
     environment spring/mass range of the file's ``certify`` section, for the file's controller."""
@@ -271,30 +285,6 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
                                    "robust": ivs == [[env.lo, env.hi]] and not info["unresolved"],
                                    "note": "cuff free, environment at the joint"})
     return out
-
-
-def position_feedback(controller: dict, rtol: float = 1e-12) -> bool:
-    """Whether the file's controller feeds back the motor *position* at DC — from the controller
-    the runtime executes (its θ_m gain and the DC gains of its filters on θ_m), never from the
-    descriptive six-gain summary. Without it (and without a human or environment stiffness) the
-    structure is ungrounded and the loop has its rigid-body eigenvalue at z = 1."""
-    total = float(controller["gains"].get("theta_m", {"gain": 0.0})["gain"])
-    scale = abs(total)
-    for f in controller["filters"]:
-        if f["input"] != "theta_m":
-            continue
-        num, den = 1.0, 1.0
-        for b0, b1, b2, _a0, a1, a2 in f["sos"]:
-            sb = b0 + b1 + b2
-            num *= 0.0 if abs(sb) <= rtol * (abs(b0) + abs(b1) + abs(b2)) else sb
-            den *= 1.0 + a1 + a2
-        if num == 0.0:
-            continue
-        if den == 0.0:  # an integrator on θ_m: position feedback of unbounded DC gain
-            return True
-        total += num / den
-        scale += abs(num / den)
-    return abs(total) > rtol * max(scale, 1e-300) and total != 0.0
 
 
 def _golden_ok(out: np.ndarray, ref: np.ndarray) -> bool:

@@ -13,7 +13,8 @@ from .checks import check_controller_file
 from .schema import validate_controller
 from .sos import sos_ss
 
-__all__ = ["load_controller", "check_file_limits", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc"]
+__all__ = ["load_controller", "check_file_limits", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc",
+           "position_feedback"]
 
 
 def load_controller(path) -> dict:
@@ -110,3 +111,27 @@ def schedule_entry_doc(doc: dict, entry: dict) -> dict:
     """The controller-file view of one gain-schedule entry (its plant, gains and controller)."""
     return {**doc, "plant": entry["plant"], "gains": entry["gains"],
             "controller": {**doc["controller"], **entry["controller"]}}
+
+
+def position_feedback(controller: dict, rtol: float = 1e-12) -> bool:
+    """Whether the file's controller feeds back the motor *position* at DC — from the controller
+    the runtime executes (its θ_m gain and the DC gains of its filters on θ_m), never from the
+    descriptive six-gain summary. Without it (and without a human or environment stiffness) the
+    structure is ungrounded and the loop has its rigid-body eigenvalue at z = 1."""
+    total = float(controller["gains"].get("theta_m", {"gain": 0.0})["gain"])
+    scale = abs(total)
+    for f in controller["filters"]:
+        if f["input"] != "theta_m":
+            continue
+        num, den = 1.0, 1.0
+        for b0, b1, b2, _a0, a1, a2 in f["sos"]:
+            sb = b0 + b1 + b2
+            num *= 0.0 if abs(sb) <= rtol * (abs(b0) + abs(b1) + abs(b2)) else sb
+            den *= 1.0 + a1 + a2
+        if num == 0.0:
+            continue
+        if den == 0.0:  # an integrator on θ_m: position feedback of unbounded DC gain
+            return True
+        total += num / den
+        scale += abs(num / den)
+    return abs(total) > rtol * max(scale, 1e-300) and total != 0.0

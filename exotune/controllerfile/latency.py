@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from ..numerics.threads import one_blas_thread
 from ..sampled import loop_stable
 from .fileio import discrete_from_file, plant_from_file
 
@@ -158,6 +159,7 @@ def _bisect(unstable, lo: float, hi: float | None, hint: float | None, Ts: float
     return lo, hi
 
 
+@one_blas_thread
 def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dict:
     """The sampled-data latency margin of a controller file (module docstring).
 

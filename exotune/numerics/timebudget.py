@@ -28,6 +28,7 @@ import time
 import numpy as np
 
 from ..errors import ConfigError
+from .threads import one_blas_thread
 
 __all__ = ["DEFAULT_TIME_BUDGET_S", "time_budget", "check_time", "eig_seconds", "refuse_if_over", "check_budget_option",
            "active_budget"]
@@ -71,8 +72,10 @@ def check_time() -> None:
                                  f"raise {FIELD}){tail}")
 
 
+@one_blas_thread
 def eig_seconds(n: int, repeats: int = 3) -> float:
-    """Measured seconds of one dense eigenvalue problem of size ``n`` on this machine (median)."""
+    """Measured seconds of one dense eigenvalue problem of size ``n`` on this machine (median),
+    with one BLAS thread as in the sampled-data analysis."""
     rng = np.random.default_rng(0)
     a = rng.standard_normal((n, n))
     ts = []

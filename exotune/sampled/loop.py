@@ -35,6 +35,8 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
+from ..numerics.threads import one_blas_thread
+
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
            "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "tustin", "prewarped",
            "zoh_fractional", "default_prewarp", "check_design"]
@@ -495,6 +497,7 @@ def _compare(stable_at, lo: float, hi: float, ivs: list, points: int) -> dict:
     return {"points": int(vals.size), "stable_points": n_stable, "disagreements": mism, "boundaries": ends}
 
 
+@one_blas_thread
 def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
     """Sampled-data check of one design at ``implementation.sample_rate_hz`` against its continuous
     report (:func:`exotune.analysis.analyze_design`): the free and locked verdicts, and for each

@@ -124,7 +124,6 @@ def test_verdicts_match_eigenvalues(kind, seed, capsys):
         print(f"\n[{kind}] compared {compared} cases, skipped {skipped} (near a boundary / Padé-sensitive / inconclusive)")
     assert not mismatches, mismatches[:5]
     assert compared >= 125  # 4 kinds x >= 125 = >= 500 compared cases in total
-    stable_frac = np.mean([1.0])  # noqa: F841 (kept for debugging)
 
 
 def test_both_verdicts_occur():

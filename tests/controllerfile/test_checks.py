@@ -403,3 +403,41 @@ def test_family_members_within_rounding_are_inconclusive_not_unstable():
     assert ivs[-1][1] == 10.0 and ivs[-1][0] == pytest.approx(3.0, rel=1e-6)
     _ivs, plain = stable_intervals(spectrum, 1.0, 10.0, points=24)  # without a verdict: the radius alone
     assert plain["inconclusive"] == []
+
+
+def test_eigenvalue_speed_is_not_read_from_rounding_noise(monkeypatch):
+    """Two slow real modes a hair inside the circle (as at 100 kHz: distance ~4e-5) hardly move over
+    the range, but their computed values carry rounding noise (~2e-9: close real eigenvalues are
+    ill-conditioned). A derivative taken over a
+    1e-7 step read that noise as a speed hundreds of times the true one and spent the refinement
+    budget on cells that need none; a step of FD_CELL of the grid spacing resolves every cell at once."""
+    from exotune.controllerfile import certify as C
+
+    def spectrum(v):
+        # deterministic noise, independent between nearby values (seeded by the bits of v)
+        noise = 2e-9 * np.random.default_rng(int(np.float64(v).view(np.uint64))).uniform(-1.0, 1.0)
+        return np.array([1.0 - 4e-5 - 1e-7 * math.log(v) + noise, 1.0 - 3.5e-5 + noise, 0.3 + 0.1j, 0.3 - 0.1j])
+
+    ivs, info = C.stable_intervals(spectrum, 1e-3, 1.0)
+    assert ivs == [[1e-3, 1.0]] and info["unresolved"] == [] and info["refined_points"] == 0
+    monkeypatch.setattr(C, "FD_CELL", 0.0)  # the former 1e-7 relative step
+    _ivs, noisy = C.stable_intervals(spectrum, 1e-3, 1.0)
+    assert noisy["refined_points"] > 100  # the defect this guards against
+
+
+def test_high_rate_family_is_resolved_and_converges_to_the_continuous_boundary():
+    """At 100 kHz (a 116-state loop: a 1 ms delay is 100 samples) the light-mass family of the
+    paper's design is resolved (it was unresolved: 63 cells, the budget spent) and its boundary lies
+    within 0.5 % of the continuous-time one (the sampled-data loop tends to the continuous loop as
+    the rate grows; the hold adds 5 µs of delay)."""
+    from exotune.analysis import analyze_design
+    from exotune.config import load_design
+    from exotune.controllerfile import design_at_rate
+
+    doc = build_export(design_at_rate(load_design(PAPER).raw, 100000.0), 100000.0, analyses=False)
+    mass = sampled_analysis(doc)["humans"][0]
+    assert mass["kind"] == "mass" and mass["loop_states"] > 100
+    assert mass["unresolved"] == [] and not mass["budget_spent"]
+    cont = analyze_design(load_design(PAPER))["humans"][0]["stable_intervals"]
+    assert len(mass["stable_intervals"]) == 1 and mass["stable_intervals"][0][1] == 1.0
+    assert mass["stable_intervals"][0][0] == pytest.approx(cont[0][0], rel=5e-3)
