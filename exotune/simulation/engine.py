@@ -27,7 +27,7 @@ from typing import Callable
 import numpy as np
 
 from ..controllerfile import Runtime
-from .fastpath import LinearLoop, runtime_state, set_runtime_state
+from .fastpath import NP, LinearLoop, runtime_state, set_runtime_state
 from .plant import JointPlant
 
 __all__ = ["simulate", "bumpless_start", "strip_dob", "STATE_BOUND", "STARTS", "CHUNK"]
@@ -89,8 +89,7 @@ def bumpless_start(rt: Runtime, y0: dict) -> tuple[float, str]:
             f.reset()
             note.append("a filter integrates its input and starts at zero")
             continue
-        for z, (z0, z1) in zip(f.z, states):
-            z[0], z[1] = z0, z1
+        f.z = [(z0, z1) for z0, z1 in states]
     if not rt.loop:  # without a DOB: the controller's steady command for y0
         tau0 = sum(g * float(y0[s]) for s, g in rt.gains.items()) + sum(f.peek(float(y0[s])) for s, f in rt.filters)
         if rt.limit_nm is not None:
@@ -159,11 +158,17 @@ def simulate(doc: dict, scenario, without_dob: bool = False, duration_s: float |
     n = max(1, int(round(sc.duration_s * run.fs)))
     run.rec = {k: np.empty(n) for k in SERIES}
     k = 0
+    span = CHUNK  # the next fast attempt's length: shrinks while attempts stop early (a limit, a mode
+    # change: the rest of the attempt is computed for nothing), grows back while they succeed
     with np.errstate(over="ignore", invalid="ignore"):
         while k < n and run.diverged is None:
-            k1 = run.fast(k, min(n, k + CHUNK)) if fast and run.linear() else k
-            if k1 < n and (k1 == k or k1 < min(n, k + CHUNK)):  # at a limit: sample by sample for a while
+            end = min(n, k + span)
+            k1 = run.fast(k, end) if fast else k
+            if k1 < end:  # at a limit or a mode change: sample by sample for a while
+                span = max(SLOW_RUN, span // 4)
                 k1 = run.slow(k1, min(n, k1 + SLOW_RUN))
+            else:
+                span = min(CHUNK, 2 * span)
             k = k1
             if progress is not None:
                 progress(k / n)
@@ -194,14 +199,10 @@ class _Run:
         self.rec: dict = {}
         self.diverged = None
         self.fast_samples = 0
-        self._loop = None
+        self._loops: dict = {}  # LinearLoop per affine plant mode
 
     def clip(self, v: float) -> float:
         return max(-self.sat, min(self.sat, v)) if math.isfinite(self.sat) else v
-
-    def linear(self) -> bool:
-        """Whether the joint is linear (no friction, no backlash): fast chunks may be tried."""
-        return not self.plant.Fc and not self.plant.half_gap
 
     def _bad(self, x) -> bool:
         return not np.all(np.isfinite(x)) or max(abs(x[0]), abs(x[2]), abs(x[4])) > STATE_BOUND
@@ -238,35 +239,47 @@ class _Run:
         return k1
 
     def fast(self, k0: int, k1: int) -> int:
-        """Samples k0 … k1−1 by the linear recursion (:mod:`.fastpath`), up to the first sample
-        whose command or applied torque reaches the motor limit or whose next state is not finite
-        or beyond the state bound; returns the sample reached (k0: nothing changed)."""
-        if self._loop is None:
-            self._loop = LinearLoop(self.plant, self.doc, self.Ts, self.f, self.d)
-        L = self._loop
+        """Samples k0 … k1−1 by the linear recursion of the plant's current affine mode
+        (:mod:`.fastpath`), up to the first sample whose state leaves the mode (also after the
+        fractional delay's first part), whose command or applied torque reaches the motor limit, or
+        whose next state is not finite or beyond the state bound; returns the sample reached (k0:
+        nothing changed — also when the state is in no affine mode, e.g. a motor about to stick)."""
+        plant = self.plant
+        mode = plant.mode(self.x)
+        if mode is None:
+            return k0
+        if mode not in self._loops:
+            self._loops[mode] = LinearLoop(plant, self.doc, self.Ts, self.f, self.d, mode)
+        L = self._loops[mode]
         t = np.arange(k0, k1) * self.Ts
         push = np.array([self.sc.push(v) for v in t])
-        W = L.run(np.concatenate([self.x, runtime_state(self.rt), self.past]), push)
+        W = L.run(np.concatenate([self.x, [1.0], runtime_state(self.rt), self.past]), push)
         U, cur = W[:-1] @ L.u_row, W[:-1] @ L.cur_row
-        s0 = 6 + L.nz
+        s0 = NP + L.nz
         ok = np.isfinite(U) & np.all(np.isfinite(W[1:]), axis=1)
         ok &= np.max(np.abs(W[1:, [0, 2, 4]]), axis=1) <= STATE_BOUND
+        ok &= plant.in_mode(W[1:, :6], mode)
+        if L.mid is not None:  # the state after the fractional delay's first part
+            P0, G0 = L.mid
+            Xm = W[:-1, :NP] @ P0.T + np.outer(W[:-1] @ L.old_row, G0[:, 0]) + np.outer(push, G0[:, 1])
+            ok &= plant.in_mode(Xm[:, :6], mode)
         if math.isfinite(self.sat):
             ok &= (np.abs(U) < self.sat) & (np.max(np.abs(W[:-1, s0:]), axis=1) < self.sat)
         m = int(np.argmin(ok)) if not ok.all() else ok.size  # accepted samples: the prefix before a failure
         if m == 0:
             return k0
         k1 = k0 + m
-        X = W[:m, :6]
+        X = W[:m, :NP]
         Y = X @ L.Cy.T
         rec = self.rec
         rec["t"][k0:k1], rec["theta_m"][k0:k1], rec["omega_m"][k0:k1] = t[:m], X[:, 0], X[:, 1]
         rec["theta_j"][k0:k1] = 0.0 if self.sc.locked else X[:, 2]
         rec["theta_h"][k0:k1], rec["tau_s"][k0:k1], rec["dtau_s"][k0:k1] = X[:, 4], Y[:, 2], Y[:, 3]
         rec["tau_c"][k0:k1], rec["tau_cmd"][k0:k1], rec["tau_m"][k0:k1] = Y[:, 4], U[:m], cur[:m]
-        rec["push"][k0:k1], rec["friction"][k0:k1] = push[:m], 0.0
+        # |θ̇_m| > FRICTION_LINEAR·ε in the mode: tanh(θ̇_m/ε) is ±1 exactly
+        rec["push"][k0:k1], rec["friction"][k0:k1] = push[:m], plant.Fc * mode[1]
         self.x = W[m, :6].copy()
-        set_runtime_state(self.rt, W[m, 6:s0])
+        set_runtime_state(self.rt, W[m, NP:s0])
         self.past = [float(v) for v in W[m, s0:]]
         self.fast_samples += m
         return k1

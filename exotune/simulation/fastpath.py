@@ -1,11 +1,13 @@
-"""Fast linear stretches: where the joint is linear and no limit is reached, a run is one linear
-recursion w[k+1] = M w[k] + N τ_h[k] on w = [plant state; runtime filter states; past commands].
+"""Fast linear stretches: where the joint stays in one affine mode (a spring region, a friction
+sign: :meth:`~exotune.simulation.plant.JointPlant.mode`) and no limit is reached, a run is one
+linear recursion w[k+1] = M w[k] + N τ_h[k] on w = [plant state; 1; runtime filter states; past
+commands].
 
 The runtime's part of M is read off the reference runtime itself (its step is affine in its
 filter states and inputs: one step per unit vector), so a fast stretch computes what stepping
 :class:`~exotune.controllerfile.runtime.Runtime` computes, to rounding. The engine runs a chunk
-this way, checks it (no command or applied torque at the motor limit, the angles within the
-state bound), keeps it up to the first sample that fails the check and continues from there
+this way, checks it (every state, also after the fractional delay's first part, still in the
+mode; no command or applied torque at the motor limit; the angles within the state bound), keeps it up to the first sample that fails the check and continues from there
 sample by sample.
 """
 
@@ -15,7 +17,7 @@ import numpy as np
 
 from ..controllerfile import Runtime
 
-__all__ = ["runtime_state", "set_runtime_state", "runtime_matrices", "LinearLoop"]
+__all__ = ["runtime_state", "set_runtime_state", "runtime_matrices", "LinearLoop", "NP"]
 
 SIGNALS = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
 
@@ -35,7 +37,7 @@ def set_runtime_state(rt: Runtime, z: np.ndarray) -> None:
     off = 0
     for f in _filters(rt):
         k = f.z.size
-        f.z[:] = np.asarray(z[off:off + k]).reshape(f.z.shape)
+        f.z = np.asarray(z[off:off + k]).reshape(f.z.shape)
         off += k
 
 
@@ -61,67 +63,78 @@ def runtime_matrices(doc: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
 
 
 LONG_DELAY_LINE = 48  # loop states from which a run uses the compiled structured recursion
+NP = 7  # plant part of w: the joint's six states and the constant 1 of the mode's constant torques
 
 
 class LinearLoop:
     """The linear recursion of a run in one affine plant mode (see the module docstring).
 
+    The plant part of ``w`` is [x; 1]: the constant 1 carries the mode's constant torques (the
+    Coulomb friction ∓F_c of a sliding motor, the spring's offset ∓K_s·b/2 in contact with
+    backlash), so one recursion covers every mode.
+
     Parameters
     ----------
     plant : JointPlant
-        The joint (its mode (1, 0): spring in contact, no friction term).
+        The joint.
     doc : dict
         The controller file (for :func:`runtime_matrices`).
     Ts, f : float
         Sample period [s] and fractional delay.
     d : int
         Whole samples of delay.
+    mode : (int, int)
+        (spring region, friction sign) of :meth:`JointPlant.mode`; (1, 0): spring in contact, no
+        friction term.
     """
 
-    def __init__(self, plant, doc: dict, Ts: float, f: float, d: int):
+    def __init__(self, plant, doc: dict, Ts: float, f: float, d: int, mode=(1, 0)):
         Ar, Br, Cr, Dr = runtime_matrices(doc)
-        mode = (1, 0)
-        Cy = np.zeros((5, 6))  # the sampled signals as rows over the plant state
+        region, _fs = mode
+        ks = 0.0 if region == 0 else plant.Ks
+        Cy = np.zeros((5, NP))  # the sampled signals as rows over [x; 1]
         Cy[0, 0] = Cy[1, 1] = 1.0
-        Cy[2, 0] = -plant.Ks
-        Cy[3, 1] = -plant.Ks
+        Cy[2, 0], Cy[3, 1] = -ks, -ks
+        Cy[2, 6] = -region * plant.Ks * plant.half_gap if region else 0.0  # τ_s = ks·δ + c
         if not plant.locked:
-            Cy[2, 2] = plant.Ks
-        if not plant.locked:
-            Cy[3, 3] = plant.Ks
+            Cy[2, 2], Cy[3, 3] = ks, ks
         Cy[4, 4] = plant.Kc
         if not plant.locked:
             Cy[4, 2] = -plant.Kc
-        self.Cy = Cy
-        P1, G1 = plant.propagator(mode, (1.0 - f) * Ts)
+        self.Cy, self.mode = Cy, mode
+        aug = lambda P, G: (np.block([[P, G[:, 2:3]], [np.zeros((1, 6)), np.ones((1, 1))]]),  # noqa: E731
+                            np.concatenate([G[:, :2], np.zeros((1, 2))]))
+        P1, G1 = aug(*plant.propagator(mode, (1.0 - f) * Ts))
+        self.mid = None
         if f:
-            P0, G0 = plant.propagator(mode, f * Ts)
+            P0, G0 = aug(*plant.propagator(mode, f * Ts))
+            self.mid = (P0, G0)  # the state after f·T_s: x_mid = P0 x + G0 [τ_old, τ_h]
             Phi, g_old, g_cur, g_push = P1 @ P0, P1 @ G0[:, 0], G1[:, 0], P1 @ G0[:, 1] + G1[:, 1]
         else:
-            Phi, g_old, g_cur, g_push = P1, np.zeros(6), G1[:, 0], G1[:, 1]
+            Phi, g_old, g_cur, g_push = P1, np.zeros(NP), G1[:, 0], G1[:, 1]
         nz, ns = Ar.shape[0], d + 1
         self.nz, self.ns, self.d = nz, ns, d
-        N = 6 + nz + ns
+        N = NP + nz + ns
         u = np.zeros(N)  # τ_cmd[k] as a row over w
-        u[:6] = Dr @ Cy
-        u[6:6 + nz] = Cr
-        s0 = 6 + nz  # shift state j holds τ_cmd[k−1−j]
+        u[:NP] = Dr @ Cy
+        u[NP:NP + nz] = Cr
+        s0 = NP + nz  # shift state j holds τ_cmd[k−1−j]
         cur = u if d == 0 else np.eye(N)[s0 + d - 1]
         old = np.eye(N)[s0 + d]
         M = np.zeros((N, N))
-        M[:6, :6] = Phi
-        M[:6] += np.outer(g_cur, cur) + np.outer(g_old, old)
-        M[6:6 + nz, :6] = Br @ Cy
-        M[6:6 + nz, 6:6 + nz] = Ar
+        M[:NP, :NP] = Phi
+        M[:NP] += np.outer(g_cur, cur) + np.outer(g_old, old)
+        M[NP:NP + nz, :NP] = Br @ Cy
+        M[NP:NP + nz, NP:NP + nz] = Ar
         M[s0] = u
         for j in range(1, ns):
             M[s0 + j, s0 + j - 1] = 1.0
-        self.M, self.Npush, self.u_row, self.cur_row = M, np.zeros(N), u, cur
-        self.Npush[:6] = g_push
+        self.M, self.Npush, self.u_row, self.cur_row, self.old_row = M, np.zeros(N), u, cur, old
+        self.Npush[:NP] = g_push
         # the blocks of M for the structured recursion (numerics.kernels.shiftloop)
         self._blocks = (np.ascontiguousarray(Phi), np.ascontiguousarray(g_cur), np.ascontiguousarray(g_old),
                         np.ascontiguousarray(g_push), np.ascontiguousarray(Br @ Cy), np.ascontiguousarray(Ar),
-                        np.ascontiguousarray(u[:6]), np.ascontiguousarray(u[6:6 + nz]), int(d))
+                        np.ascontiguousarray(u[:NP]), np.ascontiguousarray(u[NP:NP + nz]), int(d))
 
     def run(self, w: np.ndarray, push: np.ndarray, engine: str | None = None) -> np.ndarray:
         """States w[k] for k = 0 … len(push) (row k+1 after the push of sample k): the compiled

@@ -103,7 +103,7 @@ class JointPlant:
                 "tau_c": self.tau_c(x)}
 
     # -- exact affine pieces ---------------------------------------------------------------
-    def _mode(self, x):
+    def mode(self, x):
         """(spring region, friction sign) when the interval starting at x is affine, else None."""
         fs = 0
         if self.Fc:
@@ -111,6 +111,17 @@ class JointPlant:
                 return None
             fs = 1 if x[1] > 0 else -1
         return self.region(x), fs
+
+    def in_mode(self, X: np.ndarray, mode) -> np.ndarray:
+        """Per row of states ``X`` (K × 6): whether :meth:`mode` of that state is ``mode``."""
+        region, fs = mode
+        ok = np.ones(X.shape[0], dtype=bool)
+        if self.Fc:
+            ok &= fs * X[:, 1] > FRICTION_LINEAR * self.eps
+        if self.half_gap:
+            d = (0.0 if self.locked else X[:, 2]) - X[:, 0]
+            ok &= np.where(d > self.half_gap, 1, np.where(d < -self.half_gap, -1, 0)) == region
+        return ok
 
     def affine(self, mode):
         """(A, B) of ẋ = A x + B [τ_m, τ_h, 1] in ``mode``."""
@@ -174,11 +185,11 @@ class JointPlant:
         affine mode (checked at its end), else by ``solve_ivp`` (LSODA)."""
         if h <= 0:
             return x
-        mode = self._mode(x)
+        mode = self.mode(x)
         if mode is not None:
             Phi, G = self.propagator(mode, h)
             y = Phi @ x + G @ np.array([tau_m, tau_h, 1.0])
-            if self._mode(y) == mode:
+            if self.mode(y) == mode:
                 return y
         self.nonlinear_intervals += 1
         scale = 1e-12 * (1.0 + float(np.max(np.abs(x))))
