@@ -97,9 +97,6 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
     fs = float(doc["sample_rate_hz"]["value"])
     impl = doc["implementation"]
     out = []
-    for key in ("delay_s", "sample_rate_hz"):
-        if not _near(float(impl.get(key, math.nan) or math.nan), float(doc[key]["value"]), rtol):
-            out.append(f"implementation.{key} {impl.get(key)!r} is not the file's {key} {doc[key]['value']!r}")
     docs = [("", doc)] + [(f"gain_schedule.entries[{j}].", schedule_entry_doc(doc, e))
                           for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries", []))]
     for where, d in docs:
@@ -123,4 +120,8 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
                     or not np.allclose(a, b, rtol=rtol, atol=rtol * max(float(np.max(np.abs(b))), 1e-300))):
                 out.append(f"{where}controller.filters[{f_have['name']}] is not the filter the implementation "
                            "section builds")
-    return out
+    # after design_from_mapping has validated the section (a non-number is a ConfigError naming its field)
+    timing = [f"implementation.{key} {impl.get(key)!r} is not the file's {key} {doc[key]['value']!r}"
+              for key in ("delay_s", "sample_rate_hz")
+              if not _near(float(impl.get(key, math.nan) or math.nan), float(doc[key]["value"]), rtol)]
+    return timing + out

@@ -456,6 +456,10 @@ _HAND_TUNED_NOTE = ("hand-tuned controller (provenance.hand_tuned: true): this c
                     "in the file, not that it implements the file's design section; ")
 
 
+_NO_IMPLEMENTATION_NOTE = ("no implementation section (a file written before exotune 0.7.0): the filters' dynamics are "
+                           "not checked against the design, only their DC gains; ")
+
+
 def certify(doc: dict) -> dict:
     """Re-run the sampled-data analysis of a validated controller file and check its golden
     vectors and predictions (see the module docstring). An overflowing controller (e.g. a gain of
@@ -471,6 +475,10 @@ def certify(doc: dict) -> dict:
     if hand_tuned(doc):
         rep["scope"] = "controller only (hand-tuned: the design section is not checked against the controller)"
         rep["method"] = _HAND_TUNED_NOTE + rep["method"]
+    elif doc.get("implementation") is None:
+        rep["scope"] = ("controller and its six gains; the filters only by their DC gains (no implementation section: "
+                        "a file written before exotune 0.7.0; export it again to have every filter checked)")
+        rep["method"] = _NO_IMPLEMENTATION_NOTE + rep["method"]
     return rep
 
 

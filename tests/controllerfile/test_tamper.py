@@ -159,4 +159,19 @@ def test_a_file_without_an_implementation_section_still_certifies(doc):
     d = copy.deepcopy(doc)
     del d["implementation"]  # files written before the section existed
     assert design_mismatches(d) == []
-    assert certify(d)["certified"] == certify(copy.deepcopy(doc))["certified"]
+    rep = certify(d)
+    assert rep["certified"] == certify(copy.deepcopy(doc))["certified"]
+    # ... but its report says what was not checked
+    assert "only by their DC gains" in rep["scope"] and rep["method"].startswith("no implementation section")
+
+
+@pytest.mark.parametrize("key,value", [("delay_s", "x"), ("sample_rate_hz", "x"), ("delay_s", [1]),
+                                       ("sample_rate_hz", True)])
+def test_a_non_number_in_the_implementation_timing_names_its_field(doc, tmp_path, key, value):
+    """It was reported as "design: cannot rebuild the controller (ValueError: could not convert
+    string to float)"."""
+    d = copy.deepcopy(doc)
+    d["implementation"][key] = value
+    res = _res(tmp_path, d)
+    assert res.exit_code == 2 and f"exotune: error: implementation.{key}:" in res.output, res.output
+    assert "Traceback" not in res.output
