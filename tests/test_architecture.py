@@ -223,3 +223,23 @@ def test_modules_are_small():
         if n > MAX_MODULE_LINES:
             big.append(f"{mod}: {n} lines")
     assert not big, "\n".join(big)
+
+
+MAX_FUNCTION_LINES = 80  # code lines, the docstring not counted
+
+
+def test_long_functions_say_why():
+    """A function over MAX_FUNCTION_LINES lines of code states in its docstring why it is one
+    function ("One function on purpose" / "One function (over 80 lines)")."""
+    bad = []
+    for mod, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            doc = ast.get_docstring(node) or ""
+            first = node.body[0]
+            has_doc = isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str)
+            start = first.end_lineno + 1 if has_doc and len(node.body) > 1 else first.lineno
+            if node.end_lineno - start + 1 > MAX_FUNCTION_LINES and "One function" not in doc:
+                bad.append(f"{mod}.{node.name}: {node.end_lineno - start + 1} lines of code, no reason in its docstring")
+    assert not bad, "\n".join(bad)

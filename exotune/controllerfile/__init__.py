@@ -6,7 +6,8 @@ sections (:mod:`.sos`), building it from a design (:mod:`.export`), the referenc
 (The function ``certify`` is not re-exported here: ``exotune.controllerfile.certify`` is the
 module.)"""
 
-from .certify import position_feedback, sampled_analysis, stable_intervals
+from .certify import position_feedback, sampled_analysis
+from .continuation import stable_intervals
 from .checks import MIN_GOLDEN_SAMPLES, check_controller_file
 from .export import build_export, check_sample_rate, design_at_rate, export_design, reflected_mapping
 from .fileio import discrete_from_file, load_controller, plant_from_file, schedule_entry_doc, write_controller

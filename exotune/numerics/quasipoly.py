@@ -144,6 +144,10 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
     ``geometric``: split intervals wider than a ratio ``_fastphase.GEO_SPLIT_RATIO`` at their
     geometric mean instead of their midpoint (the argument-principle counts do; same rule as the
     compiled kernel).
+
+    One function on purpose (over 80 lines): it is the numpy reference of the compiled kernel
+    :func:`exotune.numerics.kernels.leaves` and follows its loop step by step, so that the two can
+    be read side by side; its work list, budget and leaf arrays are shared by every step.
     """
     T, K = grid.shape
     if valid is None:

@@ -25,7 +25,8 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from exotune.controllerfile.certify import certify, position_feedback, sampled_analysis, stable_intervals
+from exotune.controllerfile.certify import certify, position_feedback, sampled_analysis
+from exotune.controllerfile.continuation import stable_intervals
 from exotune.cli import cli
 from exotune.errors import ConfigError
 from exotune.controllerfile import build_export, check_controller_file, load_controller, validate_controller
@@ -342,7 +343,7 @@ def test_runtime_refuses_non_finite_inputs(doc1k):
 def test_refinement_budget_shrinks_with_the_loop_size():
     """A big loop (long delay at a high rate) gets the eigen-solver work of MAX_REFINED values of a
     REF_STATES-state loop: an unresolvable family stops after ≥ 50, not 20 000, values."""
-    from exotune.controllerfile import certify as cmod
+    from exotune.controllerfile import continuation as cmod
 
     calls = []
 
@@ -389,7 +390,7 @@ def test_family_members_within_rounding_are_inconclusive_not_unstable():
     """A synthetic family whose spectral radius touches 1 within rounding on [2, 3]: those members
     are listed as inconclusive (not stable, not a wrong "UNSTABLE" interval end computed from noise),
     the rest of the range keeps its stable verdict."""
-    from exotune.controllerfile.certify import stable_intervals
+    from exotune.controllerfile.continuation import stable_intervals
 
     def spectrum(v):
         return np.array([0.5, 1.0 if 2.0 <= v <= 3.0 else 0.9])
@@ -411,7 +412,7 @@ def test_eigenvalue_speed_is_not_read_from_rounding_noise(monkeypatch):
     ill-conditioned). A derivative taken over a
     1e-7 step read that noise as a speed hundreds of times the true one and spent the refinement
     budget on cells that need none; a step of FD_CELL of the grid spacing resolves every cell at once."""
-    from exotune.controllerfile import certify as C
+    from exotune.controllerfile import continuation as C
 
     def spectrum(v):
         # deterministic noise, independent between nearby values (seeded by the bits of v)

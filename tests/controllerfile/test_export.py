@@ -251,7 +251,7 @@ def test_certify_refinement_finds_a_narrow_window_between_grid_values(monkeypatc
     eigenvalues at both grid values: the plain grid misses it; the step control of the refinement
     (the eigenvalue's speed × cell length exceeds its distance to the circle) finds it and the
     bisection pins its ends."""
-    from exotune.controllerfile import certify as C
+    from exotune.controllerfile import continuation as C
 
     lo, hi = 1e-3, 1.0
     grid = np.geomspace(lo, hi, C.POINTS)
@@ -277,7 +277,7 @@ def test_certify_refinement_follows_a_fast_eigenvalue_and_reports_unresolved_cel
     one grid cell needs many halvings (its motion per cell ≫ its 1e-3 distance to the circle);
     a window where it steps out for 0.05 % of the range is found. With a depth limit too small,
     the cell is reported unresolved instead of being silently trusted."""
-    from exotune.controllerfile import certify as C
+    from exotune.controllerfile import continuation as C
 
     lo, hi = 1.0, 10.0
     grid = np.geomspace(lo, hi, C.POINTS)
@@ -413,13 +413,13 @@ def test_shipped_scheduled_example_certifies():
 def test_certify_fails_on_unresolved_eigenvalue_paths(paper_doc, monkeypatch):
     """A cell of stable values whose eigenvalue paths the step control cannot resolve is a
     certification problem, not silently trusted (forced here by a zero tolerance and no halving)."""
-    from exotune.controllerfile import certify as C
+    from exotune.controllerfile import continuation as C
 
     _, doc = paper_doc
-    assert not any("not resolved" in p for p in C.certify(doc)["problems"])
+    assert not any("not resolved" in p for p in certify(doc)["problems"])
     monkeypatch.setattr(C, "CHORD", 0.0)
     monkeypatch.setattr(C, "MAX_DEPTH", 0)
-    rep = C.certify(doc)
+    rep = certify(doc)
     assert not rep["certified"]
     assert any("eigenvalue paths not resolved" in p for p in rep["problems"]), rep["problems"]
 
@@ -437,7 +437,7 @@ def test_export_carries_the_kyp_certificates(paper_doc):
 def test_certify_refinement_budget_reports_unresolved_cells(monkeypatch):
     """The refinement has a bounded cost: past MAX_REFINED values the remaining unresolved cells
     are reported (and would fail certification), not refined forever."""
-    from exotune.controllerfile import certify as C
+    from exotune.controllerfile import continuation as C
 
     def spectrum(v):  # an eigenvalue 1e-9 inside the circle, turning fast with the parameter
         u = math.log(v)

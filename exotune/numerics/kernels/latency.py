@@ -159,7 +159,11 @@ if AVAILABLE:
         """Per row, the smallest extra delay over the crossings of every loop (module docstring):
         ``ev``/``od`` (2·pairs, K, m) hold the even/odd parts of the characteristic terms, loop l
         combines pairs ``ka[l]`` and ``kb[l]`` (−1: a single loop) with z0[l], φ[l], factor
-        fr[l] + j fi[l], its members ``members[l, :nmem[l]]`` and its range [lo[l], hi[l]]."""
+        fr[l] + j fi[l], its members ``members[l, :nmem[l]]`` and its range [lo[l], hi[l]].
+
+        One function on purpose (over 80 lines): a compiled kernel whose scan, bisection, shrink
+        and golden-section stages share per-row scratch arrays, which split stages would pass
+        through a dozen arguments of separately compiled functions."""
         K = T.shape[0]
         L = ka.shape[0]
         npair = ev.shape[0] // 2

@@ -38,7 +38,7 @@ if AVAILABLE:
     def _leaves2(cA0, cA1, cB0, cB1, Ts, grid, valid, arg_step, der_step, max_levels, mag_mode, lthr,
                  o_t, o_a, o_b, o_va0, o_vb0, o_va1, o_vb1, o_res, o_exh):
         """Leaves of every task (one explicit-stack subdivision per grid cell) into the o_* arrays
-        (up to their capacity; returns the number of leaves). One loop on purpose: the stack state
+        (up to their capacity; returns the number of leaves). One function on purpose (one loop): the stack state
         lives in local arrays of this compiled function, and splitting it would move that state
         through calls the compiler does not inline."""
         tan_arg = math.tan(arg_step)

@@ -1,0 +1,198 @@
+"""Stable intervals of a one-parameter family of sampled-data loops by eigenvalue continuation
+with step control (docs/controller-file.md#certification).
+
+Intervals of stable human parameters: verdicts at ``POINTS`` log-spaced values of each family's
+range; every cell between two stable values is halved (at most ``MAX_DEPTH`` = 12 times) until
+its eigenvalue paths are resolved — each eigenvalue's motion over the cell (the chord between its
+end values and the first-order motion from its derivative at either end, a secant over
+``FD_CELL`` of the grid spacing) is below its distance to
+the unit circle (step control of eigenvalue continuation); every change of verdict is bisected
+(geometric) to 1e-10 relative. A window of instability could still hide inside a cell only on an
+eigenvalue path much longer than its resolved chord and end speeds imply. A cell that stays
+unresolved at the finest step (≈ 2e-5 relative: an eigenvalue within a hair of the circle and
+moving fast), or when the refinement budget (``MAX_REFINED`` values per family, fewer for loops of
+more than ``REF_STATES`` states) is spent, fails
+the certification.
+
+References
+----------
+docs/controller-file.md#certification; paper §V (the sampled-data loop).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["POINTS", "MAX_DEPTH", "stable_intervals"]
+
+POINTS = 96
+NEAR_UNIT = 1e-6  # |ρ − 1| below which a member's verdict is decided with its rounding estimate
+MAX_LISTED = 20  # inconclusive values listed per family
+CHORD = 1.0  # over a resolved cell every eigenvalue moves ≤ CHORD × its distance to |z| = 1
+MAX_DEPTH = 12  # halvings of one base-grid cell (≈ 2e-5 relative for the default grid)
+MAX_REFINED = 20000  # refinement values per family; past it, unresolved cells are reported as such
+# ... for loops of up to REF_STATES states; a bigger loop (a long delay at a high rate: one state per
+# sample) gets the same eigen-solver work, MAX_REFINED·(REF_STATES/n)³ values (at least 50): a
+# 200 kHz export of a 1 ms delay (230 states) otherwise ran for hours
+REF_STATES = 40
+_FD = 1e-7  # smallest relative step of the finite-difference eigenvalue derivative
+# ... whose step is otherwise FD_CELL × the base grid's spacing: the rounding error of an
+# eigenvalue near z = 1 (two close slow real modes at a high sample rate, ~1e-9) divided by a 1e-7 step read
+# as a speed hundreds of times the true one, and 100 kHz families spent their refinement budget
+# halving cells whose eigenvalues hardly moved (chord ≈ 0.003 × their distance to the circle)
+FD_CELL = 1e-3
+_BISECT = 48
+
+
+def _match(la: np.ndarray, lb: np.ndarray):
+    """Minimum-cost assignment of two eigenvalue sets (indices into la, lb)."""
+    from scipy.optimize import linear_sum_assignment
+
+    return linear_sum_assignment(np.abs(la[:, None] - lb[None, :]))
+
+
+def _cell_resolved(la: np.ndarray, lb: np.ndarray, length: float, derivatives) -> bool:
+    """True when, over a cell of ``length`` (in the grid's coordinate u: ln v on a log grid),
+    every eigenvalue (matched between the ends) moves by less than ``CHORD`` × its smaller
+    distance to the unit circle — both the chord |λ(b) − λ(a)| and the first-order motions
+    length·|dλ/du| at either end. ``la``, ``lb``: the eigenvalues at the ends;
+    ``derivatives()`` → (dλ/du at a, dλ/du at b), asked only when the chords pass (each costs an
+    eigen-solve). An eigenvalue that leaves the circle inside the cell and comes back has to
+    travel at least twice that distance, so it would need a strongly curved path, or one whose
+    speed rises far above its speed at both ends (step control of eigenvalue continuation)."""
+    if la.size == 0 or lb.size == 0:
+        return True
+    r, c = _match(la, lb)
+    dist = np.minimum(np.abs(1.0 - np.abs(la[r])), np.abs(1.0 - np.abs(lb[c])))
+    if not np.all(np.abs(lb[c] - la[r]) <= CHORD * dist):
+        return False
+    da, db = derivatives()
+    return bool(np.all(length * np.maximum(np.abs(da[r]), np.abs(db[c])) <= CHORD * dist))
+
+
+def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdict=None) -> tuple[list, dict]:
+    """Stable intervals of one family. Verdicts on a grid of ``points`` values (log-spaced when
+    lo > 0); every cell with a stable verdict at both ends is halved until its eigenvalue paths are
+    resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times and ``MAX_REFINED`` values in
+    all (a bounded run time) — cells still unresolved then are reported; every change of verdict is bisected to 1e-10 relative. ``spectrum(v)`` → loop
+    eigenvalues at parameter value v (their derivatives by a forward difference).
+
+    Parameters
+    ----------
+    spectrum : callable
+        ``spectrum(v)``: the eigenvalues of the sampled-data loop at the parameter value ``v``.
+    verdict : callable, optional
+        ``verdict(v)`` → True/False/None (:func:`exotune.sampled.loop_verdict`), asked where the
+        spectral radius is within ``NEAR_UNIT`` of 1: None (rounding cannot decide) counts as not
+        stable and the value is listed in ``inconclusive``.
+    lo, hi : float
+        The family's range (log-spaced grid when ``lo > 0``).
+    points : int
+        Values of the base grid.
+
+    Returns
+    -------
+    intervals : list of [a, b]
+        The stable intervals (|λ| < 1 for every eigenvalue).
+    info : dict
+        ``points``, ``refined_points``, ``unresolved`` cells, ``refinement_budget``,
+        ``budget_spent``, ``loop_states``, ``stable_points``, ``inconclusive`` values.
+
+    References
+    ----------
+    The certification method: the module docstring (eigenvalue continuation with step control).
+    One function on purpose: the refinement and the bisections share the verdict cache of the
+    closures ``at``/``with_derivative``.
+    """
+    cache = {}
+    log = lo > 0
+    coord = (lambda v: math.log(v)) if log else (lambda v: v)
+
+    inconclusive = []
+
+    def at(v):
+        if v not in cache:
+            lam = np.asarray(spectrum(v))
+            rho = float(np.max(np.abs(lam))) if lam.size else 0.0
+            st = rho < 1.0
+            if verdict is not None and abs(rho - 1.0) < NEAR_UNIT:
+                decided = verdict(v)
+                if decided is None:
+                    inconclusive.append(v)
+                st = bool(decided)
+            cache[v] = (st, lam, None)
+        return cache[v]
+
+    def with_derivative(v):
+        st, lam, d = at(v)
+        if d is None:
+            h = (v * max(_FD, FD_CELL * spacing) if log
+                 else max(_FD * (abs(v) if v else max(abs(hi), 1.0)), FD_CELL * spacing))
+            lh = np.asarray(spectrum(v + h))
+            d = np.zeros_like(lam)
+            if lam.size and lh.size:  # (an eigenvalue without a partner, e.g. at v = 0: speed 0)
+                r, c = _match(lam, lh)
+                d[r] = (lh[c] - lam[r]) / (coord(v + h) - coord(v))
+            cache[v] = (st, lam, d)
+        return cache[v][1], cache[v][2]
+
+    mid = (lambda a, b: math.sqrt(a * b)) if lo > 0 else (lambda a, b: 0.5 * (a + b))
+    spacing = (coord(hi) - coord(lo)) / max(points - 1, 1)  # of the base grid, in the coordinate u
+    vals = [float(v) for v in (np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points))]
+    n = max(at(vals[0])[1].size, 1)
+    max_refined = MAX_REFINED if n <= REF_STATES else max(50, int(MAX_REFINED * (REF_STATES / n) ** 3))
+    grid = [vals[0]]
+    refined = 0
+    unresolved = []
+    budget_spent = False
+    for a, b in zip(vals[:-1], vals[1:]):
+        stack = [(a, b, MAX_DEPTH)]
+        pts = []
+        while stack:
+            x, y, depth = stack.pop()
+            if not (at(x)[0] and at(y)[0]):
+                continue
+            if _cell_resolved(at(x)[1], at(y)[1], coord(y) - coord(x),
+                              lambda x=x, y=y: (with_derivative(x)[1], with_derivative(y)[1])):
+                continue
+            if not depth or refined >= max_refined:
+                unresolved.append([x, y])
+                budget_spent = budget_spent or refined >= max_refined
+                continue
+            m = mid(x, y)
+            at(m)
+            refined += 1
+            pts.append(m)
+            stack += [(x, m, depth - 1), (m, y, depth - 1)]
+        grid += sorted(pts) + [b]
+    st = [at(v)[0] for v in grid]
+    edges = []  # (position, stable after)
+    for i in range(len(grid) - 1):
+        if st[i] != st[i + 1]:
+            a, b = grid[i], grid[i + 1]
+            for _ in range(_BISECT):
+                if b - a <= 1e-10 * b:
+                    break
+                m = mid(a, b)
+                if at(m)[0] == st[i]:
+                    a = m
+                else:
+                    b = m
+            edges.append((0.5 * (a + b), st[i + 1]))
+    ivs = []
+    start = lo if st[0] else None
+    for x, after in edges:
+        if after:
+            start = x
+        elif start is not None:
+            ivs.append([start, x])
+            start = None
+    if start is not None:
+        ivs.append([start, hi])
+    base = set(vals)
+    return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved),
+                 "inconclusive": sorted(inconclusive)[:MAX_LISTED],
+                 "refinement_budget": max_refined, "budget_spent": budget_spent, "loop_states": n,
+                 "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in base))}
