@@ -2,14 +2,17 @@
 joint-reflected; docs/design-file.md). Dimensionless quantities are "1" in files and JSON, shown
 as "–" in text and figures (:func:`path_unit` with ``dimensionless="–"``).
 
-Gains have two conventions (the paper's deflection units and exotune's torque units): their tables
-stay with the shaping in :mod:`exotune.model.shaping`.
+Gains have two conventions (the paper's deflection units, eq. (9), and exotune's torque units):
+both tables are here, next to the units of the shaping parameters, of the runtime controller's
+gains, and of the metrics that ``analyze`` and ``design --sea`` report (those carry a short note
+where the number needs one).
 """
 
 from __future__ import annotations
 
 __all__ = ["PLANT_UNITS", "DESIGN_UNITS", "PARAM_UNITS", "SIGNAL_UNITS", "FILTER_UNITS", "IMPLEMENTATION_UNITS",
-           "path_unit"]
+           "GAIN_UNITS_TORQUE", "GAIN_UNITS_DEFLECTION", "SHAPE_UNITS", "SIGNAL_GAIN_UNITS", "SIX_GAIN_UNITS",
+           "METRIC_UNITS", "SEA_UNITS", "path_unit"]
 
 #: plant section (joint-reflected)
 PLANT_UNITS = {"motor_inertia": "kg·m²", "motor_damping": "N·m·s/rad", "sea_stiffness": "N·m/rad",
@@ -26,6 +29,67 @@ SIGNAL_UNITS = {"theta_m": "rad", "omega_m": "rad/s", "tau_s": "N·m", "dtau_s":
 FILTER_UNITS = {"cutoff_hz": "Hz", "damping": "1"}
 #: the implementation section's own numbers
 IMPLEMENTATION_UNITS = {"delay_s": "s", "sample_rate_hz": "Hz"}
+#: Units of each controller gain in exotune's (torque) convention.
+GAIN_UNITS_TORQUE = {
+    "K1": "N·m/rad",
+    "B1": "N·m·s/rad",
+    "K2": "1 (N·m/N·m, spring-torque feedback)",
+    "B2": "s (spring-torque-rate feedback)",
+    "K2_hat": "1 (N·m/N·m, cuff-torque feedback)",
+    "B2_hat": "s (cuff-torque-rate feedback)",
+}
+#: Units of the SEA gains in the paper's eq. (9) (deflection) convention.
+GAIN_UNITS_DEFLECTION = {
+    "K1": "N·m/rad",
+    "B1": "N·m·s/rad",
+    "K2": "N·m/rad (spring-deflection feedback)",
+    "B2": "N·m·s/rad (spring-deflection-rate feedback)",
+}
+#: the shaping parameters of the SEA (the paper's eq. (8)–(9) ~ quantities) and the felt motor
+SHAPE_UNITS = {
+    "K1_tilde": "1/s²",
+    "B1_tilde": "1/s",
+    "K2_tilde": "1/s²",
+    "B2_tilde": "1/s",
+    "J_m_hat": "kg·m²",
+    "B_m_hat": "N·m·s/rad",
+}
+#: the runtime controller's static gain on each signal (controller file ``controller.gains``)
+SIGNAL_GAIN_UNITS = {"theta_m": "N·m/rad", "omega_m": "N·m·s/rad", "tau_s": "1 (N·m/N·m)", "dtau_s": "s",
+                     "tau_c": "1 (N·m/N·m)", "tau_cmd": "1 (N·m/N·m)"}
+#: the six-gain summary of a controller file (``gains``)
+SIX_GAIN_UNITS = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)",
+                  "B2_hat": "s"}
+#: metrics of ``exotune analyze`` (dotted JSON paths; ``*``: any certificate)
+METRIC_UNITS = {
+    "passivity.max_phase_excess_deg": "deg",
+    "passivity.nonpassive_band_hz": "Hz",
+    "passivity.kyp.*.shortage": "rad/(N·m·s) (admittance: −min Re{jω C7(jω)}, 0 when passive)",
+    "passivity.kyp.*.lossless_compliance": "rad/(N·m) (the q1 of the lossless term q1·s of s·C7; 1/K_c)",
+    "passivity.kyp.*.relative_shortage": "1 (shortage / largest Hankel singular value of the strictly proper part)",
+    "passivity.kyp.*.truncation_bound": "rad/(N·m·s)",
+    "passivity.kyp.*.shortage_upper": "rad/(N·m·s) (the SDP's d*, an upper bound on the shortage)",
+    "passivity.kyp.*.witness_frequency_hz": "Hz (where Re{jω C7} is smallest: the non-passivity witness)",
+    "passivity.kyp.*.certificate_residual": "1 (largest eigenvalue of the LMI at the solution / its norm)",
+    "dob.gain_margin_db": "dB",
+    "dob.phase_margin_deg": "deg",
+    "dob.delay_margin_s": "s (extra delay on top of the modelled T)",
+    "dob.crossover_hz": "Hz",
+    "amplification.dc": "1 (|C6/C5| at ω → 0)",
+    "amplification.bandwidth_hz": "Hz (first −3 dB frequency of |C6/C5|)",
+    "delay_s": "s",
+}
+#: ``exotune design --sea`` metrics
+SEA_UNITS = {
+    "low_frequency_stiffness": "N·m/rad",
+    "resonance_hz": "Hz",
+    "resonance_peak_compliance": "rad/(N·m)",
+    "c5_poles": "rad/s (natural_frequency_hz in Hz, damping_ratio 1)",
+    "max_phase_deg": "deg",
+    "max_phase_hz": "Hz",
+    "min_phase_deg": "deg",
+    "min_phase_hz": "Hz",
+}
 
 
 def path_unit(path: str, dimensionless: str = "1") -> str:

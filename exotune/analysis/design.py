@@ -11,28 +11,9 @@ import numpy as np
 
 from .batch import GAIN_NAMES, analyze_batch
 from .intervals import MAX_FAMILY_PIECES
+from ..units import METRIC_UNITS  # re-exported
 
 __all__ = ["analyze_design", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
-
-
-METRIC_UNITS = {
-    "passivity.max_phase_excess_deg": "deg",
-    "passivity.nonpassive_band_hz": "Hz",
-    "passivity.kyp.*.shortage": "rad/(N·m·s) (admittance: −min Re{jω C7(jω)}, 0 when passive)",
-    "passivity.kyp.*.lossless_compliance": "rad/(N·m) (the q1 of the lossless term q1·s of s·C7; 1/K_c)",
-    "passivity.kyp.*.relative_shortage": "1 (shortage / largest Hankel singular value of the strictly proper part)",
-    "passivity.kyp.*.truncation_bound": "rad/(N·m·s)",
-    "passivity.kyp.*.shortage_upper": "rad/(N·m·s) (the SDP's d*, an upper bound on the shortage)",
-    "passivity.kyp.*.witness_frequency_hz": "Hz (where Re{jω C7} is smallest: the non-passivity witness)",
-    "passivity.kyp.*.certificate_residual": "1 (largest eigenvalue of the LMI at the solution / its norm)",
-    "dob.gain_margin_db": "dB",
-    "dob.phase_margin_deg": "deg",
-    "dob.delay_margin_s": "s (extra delay on top of the modelled T)",
-    "dob.crossover_hz": "Hz",
-    "amplification.dc": "1 (|C6/C5| at ω → 0)",
-    "amplification.bandwidth_hz": "Hz (first −3 dB frequency of |C6/C5|)",
-    "delay_s": "s",
-}
 
 
 VERIFY_POINTS = 64

@@ -9,22 +9,11 @@ from __future__ import annotations
 
 import math
 
+from ..units import SEA_UNITS  # re-exported
 from ..version import __version__
 from .nominal import minimal, phase_extremum, poly_roots, resonance, root_entries
 
 __all__ = ["sea_report", "SEA_UNITS"]
-
-SEA_UNITS = {
-    "low_frequency_stiffness": "N·m/rad",
-    "resonance_hz": "Hz",
-    "resonance_peak_compliance": "rad/(N·m)",
-    "c5_poles": "rad/s (natural_frequency_hz in Hz, damping_ratio 1)",
-    "max_phase_deg": "deg",
-    "max_phase_hz": "Hz",
-    "min_phase_deg": "deg",
-    "min_phase_hz": "Hz",
-}
-
 
 def _notes(K1t, rigid, stable, res_hz, max_ph) -> list[str]:
     notes = []

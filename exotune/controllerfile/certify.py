@@ -25,6 +25,7 @@ import numpy as np
 
 from ..numerics.threads import one_blas_thread
 from ..sampled import loop_eigenvalues, loop_verdict
+from ..units import PARAM_UNITS
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
 from .latency import requirement_problems, sampled_latency_margin
@@ -100,7 +101,7 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
         ivs, info = stable_intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points,
                                      lambda v, e=env: verdict(env={e.param: v, "damping": e.damping}))
         out["environment"].append({"kind": env.kind, "parameter": env.param,
-                                   "unit": "kg·m²" if env.param == "inertia" else "N·m/rad",
+                                   "unit": PARAM_UNITS[env.param],
                                    "range": [env.lo, env.hi], **info, "stable_intervals": ivs,
                                    "robust": ivs == [[env.lo, env.hi]] and not info["unresolved"],
                                    "note": "cuff free, environment at the joint"})

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..numerics.threads import one_blas_thread
 from ..sampled import loop_stable
+from ..units import PARAM_UNITS
 from .fileio import discrete_from_file, plant_from_file
 
 __all__ = ["REL", "SCAN", "sampled_latency_margin", "requirement_problems"]
@@ -77,7 +78,7 @@ def _families(doc: dict):
         env, _ = parse_env(i, item)
         if env.kind in ("spring", "mass"):
             out.append((f"env{i}_{env.kind}", lambda v, e=env: (None, {e.param: v, "damping": e.damping}),
-                        env.param, "kg·m²" if env.param == "inertia" else "N·m/rad", env.lo, env.hi))
+                        env.param, PARAM_UNITS[env.param], env.lo, env.hi))
     return out
 
 

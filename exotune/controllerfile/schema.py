@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import ConfigError
 from ..units import DESIGN_UNITS, PLANT_UNITS, SIGNAL_UNITS  # re-exported: the file's sections' units
+from ..units import SIGNAL_GAIN_UNITS as GAIN_UNITS, SIX_GAIN_UNITS  # re-exported
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -34,12 +35,6 @@ __all__ = [
 ]
 
 SCHEMA_VERSION = "exotune.controller/1"
-
-GAIN_UNITS = {"theta_m": "N·m/rad", "omega_m": "N·m·s/rad", "tau_s": "1 (N·m/N·m)", "dtau_s": "s",
-               "tau_c": "1 (N·m/N·m)", "tau_cmd": "1 (N·m/N·m)"}
-SIX_GAIN_UNITS = {"K1": "N·m/rad", "B1": "N·m·s/rad", "K2": "1 (N·m/N·m)", "B2": "s", "K2_hat": "1 (N·m/N·m)",
-                   "B2_hat": "s"}
-
 
 # --------------------------------------------------------------------------------------------
 # validation (pydantic model; its JSON Schema ships with the package)

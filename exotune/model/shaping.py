@@ -19,34 +19,10 @@ from typing import Literal
 import numpy as np
 
 from .plant import Plant
+from ..units import GAIN_UNITS_DEFLECTION, GAIN_UNITS_TORQUE, SHAPE_UNITS  # re-exported
 from ..numerics.poly import Rational, as_poly, padd, pmul, pscale
 
 GainUnits = Literal["torque", "deflection"]
-
-#: Units of each controller gain in exotune's (torque) convention.
-GAIN_UNITS_TORQUE = {
-    "K1": "N·m/rad",
-    "B1": "N·m·s/rad",
-    "K2": "1 (N·m/N·m, spring-torque feedback)",
-    "B2": "s (spring-torque-rate feedback)",
-    "K2_hat": "1 (N·m/N·m, cuff-torque feedback)",
-    "B2_hat": "s (cuff-torque-rate feedback)",
-}
-#: Units of the SEA gains in the paper's eq. (9) (deflection) convention.
-GAIN_UNITS_DEFLECTION = {
-    "K1": "N·m/rad",
-    "B1": "N·m·s/rad",
-    "K2": "N·m/rad (spring-deflection feedback)",
-    "B2": "N·m·s/rad (spring-deflection-rate feedback)",
-}
-SHAPE_UNITS = {
-    "K1_tilde": "1/s²",
-    "B1_tilde": "1/s",
-    "K2_tilde": "1/s²",
-    "B2_tilde": "1/s",
-    "J_m_hat": "kg·m²",
-    "B_m_hat": "N·m·s/rad",
-}
 
 __all__ = [
     "GainUnits",
