@@ -6,10 +6,13 @@ file's total latency T = (d + f)·T_s (d whole samples; for the fraction f of ea
 previous command is still applied) and clipped to the motor limit. The joint is integrated by
 :class:`~exotune.simulation.plant.JointPlant`: exactly (matrix exponential) where it is linear, so
 a run without nonlinearities equals the sampled-data model of :mod:`exotune.sampled` sample by
-sample. Where the joint is linear and no limit is reached, chunks of ``CHUNK`` samples run as one
+sample. Where the joint stays in one affine mode (a friction sign, a backlash contact side) and
+the motor stays either below its limit or at it (the clamped runtime commanding the limit, or an
+unclamped one whose delayed commands are beyond it), chunks of up to ``CHUNK`` samples run as one
 linear recursion whose runtime part is read off the runtime's step (:mod:`.fastpath`; the same
-numbers to rounding, about as fast as a plain linear simulation); a chunk that reaches a limit is
-continued sample by sample from where it reached the limit (``SLOW_RUN`` samples, then fast again).
+numbers to rounding, about as fast as a plain linear simulation); a chunk that leaves its mode is
+continued sample by sample from where it left it (``SLOW_RUN`` samples, at least the delay line's
+length, then fast again).
 
 Start: ``"zero"`` (every controller state and past command zero) or ``"bumpless"`` (every filter
 at the steady state of its initial input, the DOB at a zero disturbance estimate — the command
@@ -33,7 +36,8 @@ from .plant import JointPlant
 __all__ = ["simulate", "bumpless_start", "strip_dob", "STATE_BOUND", "STARTS", "CHUNK"]
 
 CHUNK = 1000  # samples per fast linear stretch
-SLOW_RUN = 50  # samples stepped one by one from where a fast stretch reached a limit
+SLOW_RUN = 8  # samples stepped one by one from where a fast stretch reached a limit (or the delay line + 2)
+MIN_SPAN = 64  # the shortest fast attempt
 STATE_BOUND = 1e6  # an angle beyond this bound [rad] ends the run as diverged
 STARTS = ("bumpless", "zero")
 SERIES = ("t", "theta_m", "omega_m", "theta_j", "theta_h", "tau_s", "dtau_s", "tau_c", "tau_cmd", "tau_m", "push",
@@ -165,8 +169,8 @@ def simulate(doc: dict, scenario, without_dob: bool = False, duration_s: float |
             end = min(n, k + span)
             k1 = run.fast(k, end) if fast else k
             if k1 < end:  # at a limit or a mode change: sample by sample for a while
-                span = max(SLOW_RUN, span // 4)
-                k1 = run.slow(k1, min(n, k1 + SLOW_RUN))
+                span = max(MIN_SPAN, span // 4)
+                k1 = run.slow(k1, min(n, k1 + max(SLOW_RUN, run.d + 2)))
             else:
                 span = min(CHUNK, 2 * span)
             k = k1
@@ -199,7 +203,9 @@ class _Run:
         self.rec: dict = {}
         self.diverged = None
         self.fast_samples = 0
-        self._loops: dict = {}  # LinearLoop per affine plant mode
+        self._loops: dict = {}  # LinearLoop per (affine plant mode, motor-limit mode)
+        # the delay-line entries the motor applies: τ_cmd[k−d] (when d ≥ 1) and τ_cmd[k−d−1] (when f > 0)
+        self._applied = [j for j in ((self.d - 1) if self.d >= 1 else None, self.d if self.f else None) if j is not None]
 
     def clip(self, v: float) -> float:
         return max(-self.sat, min(self.sat, v)) if math.isfinite(self.sat) else v
@@ -238,6 +244,28 @@ class _Run:
                 return k + 1
         return k1
 
+    def _saturation(self, mode, w0: np.ndarray):
+        """The motor-limit mode a fast stretch from ``w0`` starts in: None (below the limit),
+        ("clamp", ±limit) (the clamped runtime at its limit), ("plant", ±limit) (a runtime
+        without the clamp whose delayed commands are beyond the limit), or False (none of these:
+        step sample by sample)."""
+        if not math.isfinite(self.sat):
+            return None
+        key = (mode, None)
+        if key not in self._loops:
+            self._loops[key] = LinearLoop(self.plant, self.doc, self.Ts, self.f, self.d, mode)
+        u0 = float(w0 @ self._loops[key].raw_row)
+        line = np.asarray(self.past)[self._applied]
+        if self.rt.limit_nm is not None:
+            if abs(u0) < self.sat and np.all(np.abs(self.past) < self.sat):
+                return None
+            return ("clamp", math.copysign(self.sat, u0)) if abs(u0) >= self.sat else False
+        if abs(u0) < self.sat and np.all(np.abs(self.past) < self.sat):
+            return None
+        if self.d >= 1 and (np.all(line >= self.sat) or np.all(line <= -self.sat)):
+            return ("plant", math.copysign(self.sat, line[0]))
+        return False
+
     def fast(self, k0: int, k1: int) -> int:
         """Samples k0 … k1−1 by the linear recursion of the plant's current affine mode
         (:mod:`.fastpath`), up to the first sample whose state leaves the mode (also after the
@@ -248,23 +276,35 @@ class _Run:
         mode = plant.mode(self.x)
         if mode is None:
             return k0
-        if mode not in self._loops:
-            self._loops[mode] = LinearLoop(plant, self.doc, self.Ts, self.f, self.d, mode)
-        L = self._loops[mode]
+        w0 = np.concatenate([self.x, [1.0], runtime_state(self.rt), self.past])
+        sat = self._saturation(mode, w0)
+        if sat is False:
+            return k0
+        key = (mode, sat)
+        if key not in self._loops:
+            self._loops[key] = LinearLoop(plant, self.doc, self.Ts, self.f, self.d, mode, sat)
+        L = self._loops[key]
         t = np.arange(k0, k1) * self.Ts
         push = np.array([self.sc.push(v) for v in t])
-        W = L.run(np.concatenate([self.x, [1.0], runtime_state(self.rt), self.past]), push)
-        U, cur = W[:-1] @ L.u_row, W[:-1] @ L.cur_row
+        W = L.run(w0, push)
+        U, cur, raw = W[:-1] @ L.u_row, W[:-1] @ L.cur_row, W[:-1] @ L.raw_row
         s0 = NP + L.nz
-        ok = np.isfinite(U) & np.all(np.isfinite(W[1:]), axis=1)
+        ok = np.isfinite(raw) & np.all(np.isfinite(W[1:]), axis=1)
         ok &= np.max(np.abs(W[1:, [0, 2, 4]]), axis=1) <= STATE_BOUND
         ok &= plant.in_mode(W[1:, :6], mode)
         if L.mid is not None:  # the state after the fractional delay's first part
             P0, G0 = L.mid
-            Xm = W[:-1, :NP] @ P0.T + np.outer(W[:-1] @ L.old_row, G0[:, 0]) + np.outer(push, G0[:, 1])
+            old = W[:-1] @ L.old_row if sat is None or sat[0] == "clamp" else np.full(push.size, sat[1])
+            Xm = W[:-1, :NP] @ P0.T + np.outer(old, G0[:, 0]) + np.outer(push, G0[:, 1])
             ok &= plant.in_mode(Xm[:, :6], mode)
-        if math.isfinite(self.sat):
+        if sat is None and math.isfinite(self.sat):
             ok &= (np.abs(U) < self.sat) & (np.max(np.abs(W[:-1, s0:]), axis=1) < self.sat)
+        elif sat is not None and sat[0] == "clamp":  # the unclamped command stays at or beyond the limit
+            ok &= np.sign(sat[1]) * raw >= self.sat
+        elif sat is not None:  # the delayed commands the motor applies stay beyond the limit
+            lim = np.sign(sat[1]) * W[:-1, s0:][:, self._applied] >= self.sat
+            ok &= np.all(lim, axis=1)
+            cur = np.full(push.size, sat[1])
         m = int(np.argmin(ok)) if not ok.all() else ok.size  # accepted samples: the prefix before a failure
         if m == 0:
             return k0

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..controllerfile import Runtime
 
-__all__ = ["runtime_state", "set_runtime_state", "runtime_matrices", "LinearLoop", "NP"]
+__all__ = ["runtime_state", "set_runtime_state", "runtime_matrices", "runtime_input_column", "LinearLoop", "NP"]
 
 SIGNALS = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
 
@@ -66,6 +66,16 @@ LONG_DELAY_LINE = 48  # loop states from which a run uses the compiled structure
 NP = 7  # plant part of w: the joint's six states and the constant 1 of the mode's constant torques
 
 
+def runtime_input_column(doc: dict) -> np.ndarray:
+    """The runtime's filter states after one step from zero with τ_cmd = 1 fed to the DOB's loop
+    filters and every sensed signal 0 (the column of the command in the state update: a clamped
+    runtime at its limit feeds the limit instead of its own command)."""
+    rt = Runtime(doc)
+    for f in rt.loop:
+        f.step(1.0)
+    return runtime_state(rt)
+
+
 class LinearLoop:
     """The linear recursion of a run in one affine plant mode (see the module docstring).
 
@@ -86,10 +96,21 @@ class LinearLoop:
     mode : (int, int)
         (spring region, friction sign) of :meth:`JointPlant.mode`; (1, 0): spring in contact, no
         friction term.
+    saturated : ("clamp", ±limit) or ("plant", ±limit), optional
+        At the motor limit: ``"clamp"`` — the runtime clamps its command (the command entering the
+        delay line and driving the DOB is the limit itself); ``"plant"`` — a runtime without the
+        clamp, whose delayed commands are beyond the limit, so the motor applies the limit (the
+        runtime itself stays linear). ``raw_row`` is then the unclamped command, to check that the
+        stretch stays at the limit.
     """
 
-    def __init__(self, plant, doc: dict, Ts: float, f: float, d: int, mode=(1, 0)):
+    def __init__(self, plant, doc: dict, Ts: float, f: float, d: int, mode=(1, 0), saturated=None):
         Ar, Br, Cr, Dr = runtime_matrices(doc)
+        raw = (Dr, Cr)  # the unclamped command's rows (over [x; 1] through Cy, and over z)
+        if saturated is not None and saturated[0] == "clamp":
+            # the clamped runtime at its limit: τ_cmd = ±limit, the DOB's loop filters driven by it
+            Bu = runtime_input_column(doc)
+            Ar, Br = Ar - np.outer(Bu, Cr), Br - np.outer(Bu, Dr)
         region, _fs = mode
         ks = 0.0 if region == 0 else plant.Ks
         Cy = np.zeros((5, NP))  # the sampled signals as rows over [x; 1]
@@ -113,18 +134,28 @@ class LinearLoop:
         else:
             Phi, g_old, g_cur, g_push = P1, np.zeros(NP), G1[:, 0], G1[:, 1]
         nz, ns = Ar.shape[0], d + 1
-        self.nz, self.ns, self.d = nz, ns, d
+        self.nz, self.ns, self.d, self.saturated = nz, ns, d, saturated
         N = NP + nz + ns
-        u = np.zeros(N)  # τ_cmd[k] as a row over w
-        u[:NP] = Dr @ Cy
-        u[NP:NP + nz] = Cr
         s0 = NP + nz  # shift state j holds τ_cmd[k−1−j]
+        self.raw_row = np.zeros(N)  # the runtime's unclamped command as a row over w
+        self.raw_row[:NP] = raw[0] @ Cy
+        self.raw_row[NP:NP + nz] = raw[1]
+        u = self.raw_row.copy()  # τ_cmd[k] as it enters the delay line
+        BrCy = Br @ Cy
+        if saturated is not None and saturated[0] == "clamp":  # τ_cmd = the limit: a constant
+            u[:] = 0.0
+            u[6] = saturated[1]
+            BrCy[:, 6] += Bu * saturated[1]
         cur = u if d == 0 else np.eye(N)[s0 + d - 1]
         old = np.eye(N)[s0 + d]
+        if saturated is not None and saturated[0] == "plant":  # the motor applies the limit, whatever the command
+            Phi = Phi.copy()
+            Phi[:, 6] += (g_cur + g_old) * saturated[1]
+            g_cur, g_old = np.zeros(NP), np.zeros(NP)
         M = np.zeros((N, N))
         M[:NP, :NP] = Phi
         M[:NP] += np.outer(g_cur, cur) + np.outer(g_old, old)
-        M[NP:NP + nz, :NP] = Br @ Cy
+        M[NP:NP + nz, :NP] = BrCy
         M[NP:NP + nz, NP:NP + nz] = Ar
         M[s0] = u
         for j in range(1, ns):
@@ -133,7 +164,7 @@ class LinearLoop:
         self.Npush[:NP] = g_push
         # the blocks of M for the structured recursion (numerics.kernels.shiftloop)
         self._blocks = (np.ascontiguousarray(Phi), np.ascontiguousarray(g_cur), np.ascontiguousarray(g_old),
-                        np.ascontiguousarray(g_push), np.ascontiguousarray(Br @ Cy), np.ascontiguousarray(Ar),
+                        np.ascontiguousarray(g_push), np.ascontiguousarray(BrCy), np.ascontiguousarray(Ar),
                         np.ascontiguousarray(u[:NP]), np.ascontiguousarray(u[NP:NP + nz]), int(d))
 
     def run(self, w: np.ndarray, push: np.ndarray, engine: str | None = None) -> np.ndarray:

@@ -424,15 +424,24 @@ def test_cli_simulate_duration_and_start(tmp_path):
     assert sm["samples"] == 500 and sm["start"] == "zero" and sm["verdict"] == "decaying"
 
 
-@pytest.mark.parametrize("name", ["locked-output", "saturation"])
-def test_fast_linear_stretches_equal_the_runtime_step(doc, name):
+@pytest.mark.parametrize("name,clamp,delay", [("locked-output", True, 0.001), ("saturation", True, 0.001),
+                                              ("saturation", False, 0.001), ("saturation", True, 0.00125),
+                                              ("saturation", False, 0.00125)])
+def test_fast_linear_stretches_equal_the_runtime_step(name, clamp, delay):
     """Linear stretches run as one recursion read off the runtime's step; the result is the
-    sample-by-sample runtime's to rounding (saturated chunks are redone sample by sample)."""
+    sample-by-sample runtime's to rounding — also at the motor limit, where the clamped runtime
+    feeds the limit to its DOB and the delay line, or (without the clamp) the motor applies the
+    limit while the runtime runs on linearly; with a whole and a fractional delay."""
     sc = replace(SCENARIOS[name], duration_s=2.0)
-    a, b = simulate(doc, sc), simulate(doc, sc, fast=False)
-    assert a["fast_samples"] > 0 and b["fast_samples"] == 0
+    d = _doc(delay=delay)
+    a, b = simulate(d, sc, clamp=clamp), simulate(d, sc, clamp=clamp, fast=False)
+    assert b["fast_samples"] == 0
+    assert a["fast_samples"] > 0.9 * a["series"]["t"].size  # saturated stretches too
+    if name == "saturation":
+        assert np.any(np.abs(a["series"]["tau_m"]) == 40.0)  # the limit was reached
     for k in ("theta_m", "tau_s", "tau_c", "tau_cmd", "tau_m"):
-        np.testing.assert_allclose(a["series"][k], b["series"][k], rtol=0, atol=1e-9 * np.max(np.abs(b["series"][k])))
+        np.testing.assert_allclose(a["series"][k], b["series"][k], rtol=0, atol=1e-9 * np.max(np.abs(b["series"][k])),
+                                   err_msg=k)
 
 
 @pytest.mark.parametrize("name,delay", [("dob-friction", 0.001), ("dob-friction", 0.00125), ("backlash", 0.001),
