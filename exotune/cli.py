@@ -182,14 +182,14 @@ def design_cmd(design_file, as_json, plots_dir):
     to stdout (--json: one JSON object); --plots DIR writes the Bode PNGs into DIR."""
     from .analysis import design_report
     from .config import load_design
-    from .jsonio import check_outputs, dumps, write_files
+    from .jsonio import check_outputs, write_files
     from .plots.design import design_plots
-    from .text.design import format_design
+    from .results import DesignSummary
 
     check_outputs([design_file], out_dirs={"--plots": plots_dir})
     cfg = load_design(design_file)
-    rep = design_report(cfg)
-    text = dumps(rep) if as_json else format_design(rep)
+    r = DesignSummary.from_record(design_report(cfg), cfg)
+    text = r.to_json() if as_json else r.to_text()
     if plots_dir is not None:
         write_files(plots_dir, design_plots(cfg))
     click.echo(text)
@@ -205,11 +205,10 @@ def sea_cmd(sea_file, as_json):
     to stdout (--json: one JSON object)."""
     from .analysis import sea_report
     from .config import load_sea
-    from .jsonio import dumps
-    from .text.sea import format_sea
+    from .results import SeaReport
 
-    rep = sea_report(load_sea(sea_file))
-    click.echo(dumps(rep) if as_json else format_sea(rep))
+    r = SeaReport.from_record(sea_report(load_sea(sea_file)))
+    click.echo(r.to_json() if as_json else r.to_text())
 
 
 @cli.command("analyze")
@@ -310,14 +309,15 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
     DOB-margin and amplification constraints; by default the design keeps a latency margin of one
     sample period (0.5 ms without a sample rate). Exit code 1 when no feasible design exists in
     the bounds (the broken constraints of the best design are listed)."""
-    from .jsonio import check_outputs, dumps
-    from .optimization import format_optimize, run_optimize
+    from .jsonio import check_outputs
+    from .optimization import run_optimize
+    from .results import OptimizeResult
 
     check_outputs([spec_file, _spec_base(spec_file)], outputs={"-o": out, "--pareto": pareto_csv})
     _note_first_compile()
-    r = run_optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv)
-    click.echo(dumps(r) if as_json else format_optimize(r))
-    if not r["feasible"]:
+    r = OptimizeResult.from_record(run_optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv), out)
+    click.echo(r.to_json() if as_json else r.to_text())
+    if not r.feasible:
         ctx.exit(1)
 
 
@@ -355,8 +355,7 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s):
     1: analysed but not certified (the reasons are listed), 2: invalid file."""
     from .controllerfile.certify import certify
     from .controllerfile import load_controller
-    from .jsonio import dumps
-    from .text.certify import format_certify
+    from .results import Certificate
 
     import os
 
@@ -365,9 +364,9 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s):
     budget = check_budget_option(time_budget_s)
     doc = load_controller(controller_file)
     with time_budget(budget, f"certifying {os.path.basename(controller_file)}", "export at a lower rate", writes=False):
-        rep = certify(doc)
-    click.echo(dumps(rep) if as_json else format_certify(rep))
-    if not rep["certified"]:
+        r = Certificate.from_record(certify(doc))
+    click.echo(r.to_json() if as_json else r.to_text())
+    if not r.certified:
         ctx.exit(1)
 
 
@@ -392,10 +391,10 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
     saturation), judged by the growth rate of its oscillation envelope."""
     import sys
 
-    from .jsonio import dumps, write_files
+    from .jsonio import write_files
     from .plots.simulate import plot_simulation
+    from .results import SimulationRun
     from .simulation import load_for_simulation, number_option, run_scenario
-    from .text.simulate import format_simulation
 
     from .jsonio import check_outputs
 
@@ -421,8 +420,8 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
     if plots_dir is not None:
         files = plot_simulation(rep)
         write_files(plots_dir, files)
-    summary = {k: v for k, v in rep.items() if k != "runs"}
-    click.echo(dumps(summary) if as_json else format_simulation(rep))
+    r = SimulationRun.from_report(rep)
+    click.echo(r.to_json() if as_json else r.to_text())
 
 
 def main(argv=None) -> None:

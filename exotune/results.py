@@ -18,6 +18,7 @@ from typing import Any, Mapping
 __all__ = [
     "Result",
     "DesignSummary",
+    "SeaReport",
     "FamilyResult",
     "PassivityResult",
     "DobMargins",
@@ -109,6 +110,27 @@ class DesignSummary(Result):
         f = np.geomspace(0.01, 1000.0, 800)
         curves = [(name, f, np.asarray(tf(2j * np.pi * f)).ravel()) for name, tf in self.transfer_functions().items()]
         return bode_magnitude(curves, ax=ax, title="nominal transfer functions (design)")
+
+
+@dataclass(frozen=True)
+class SeaReport(Result):
+    """``exotune sea``: a plain SEA compliance-shaping controller (paper §II-B) — its gains in both
+    conventions, the closed-loop compliance C5's poles and resonance, the passivity conditions."""
+
+    c5_stable: bool | None = None
+    passive: bool | None = None
+    low_frequency_stiffness: float | None = None
+    resonance_hz: float | None = None
+
+    @classmethod
+    def from_record(cls, rec: dict) -> "SeaReport":
+        return cls(rec, bool(rec["c5_stable"]), bool(rec["passivity"]["passive"]), _f(rec["low_frequency_stiffness"]),
+                   _f(rec["resonance_hz"]))
+
+    def to_text(self) -> str:
+        from .text.sea import format_sea
+
+        return format_sea(self.to_dict())
 
 
 # ---------------------------------------------------------------------------------------------
@@ -265,7 +287,7 @@ class Certificate(Result):
 
     @classmethod
     def from_record(cls, rec: dict) -> "Certificate":
-        return cls(rec, bool(rec["certified"]), tuple(str(r) for r in rec.get("reasons") or ()))
+        return cls(rec, bool(rec["certified"]), tuple(str(r) for r in rec.get("problems") or ()))
 
     def to_text(self) -> str:
         from .text.certify import format_certify

@@ -15,7 +15,10 @@ import control
 import numpy as np
 import pytest
 
+from click.testing import CliRunner
+
 import exotune
+from exotune.cli import cli
 from exotune.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -188,6 +191,37 @@ def test_export_then_certify_round_trip(tmp_path):
     assert json.loads(c1.to_json()) == _cli_json("certify", str(out))
     assert c1.certified == c1.to_dict()["certified"]
     assert "certif" in c1.to_text().lower()
+    assert c1.reasons == tuple(c1.to_dict()["problems"])
+
+
+def test_a_failed_certificate_lists_its_reasons(tmp_path):
+    """``Certificate.reasons`` read a key the record does not have and was always empty."""
+    out = tmp_path / "c.yaml"
+    doc = exotune.export(PAPER, 1000.0, out).to_dict()
+    doc["requirements"]["latency_margin_s"] = 0.1  # 100 ms: far beyond this design's margin
+    cert = exotune.certify(doc)
+    assert not cert.certified and cert.reasons
+    assert any("latency margin" in r for r in cert.reasons), cert.reasons
+    assert cert.reasons == tuple(cert.to_dict()["problems"])
+    assert all(r in cert.to_text() for r in cert.reasons[:1])
+
+
+@pytest.mark.parametrize("cmd", [("sea", "examples/sea.yaml"), ("design", "examples/paper.yaml")])
+def test_every_command_text_and_json_are_views_of_its_result(cmd):
+    """The CLI prints ``to_text()`` / ``to_json()`` of the typed result (here: sea and design)."""
+    from exotune.analysis import design_report, sea_report
+    from exotune.config import load_design, load_sea
+    from exotune.results import DesignSummary, SeaReport
+
+    name, path = cmd
+    if name == "sea":
+        r = SeaReport.from_record(sea_report(load_sea(ROOT / path)))
+        assert r.c5_stable is r.to_dict()["c5_stable"] and r.passive is r.to_dict()["passivity"]["passive"]
+    else:
+        r = DesignSummary.from_record(design_report(load_design(ROOT / path)))
+    assert json.loads(r.to_json()) == _cli_json(name, str(ROOT / path))
+    res = CliRunner().invoke(cli, [name, str(ROOT / path)])
+    assert res.exit_code == 0 and res.stdout.rstrip("\n") == r.to_text().rstrip("\n")
 
 
 def _modules_with_examples():
