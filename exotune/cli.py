@@ -336,12 +336,12 @@ def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_
     file.md) is written atomically; `exotune certify CONTROLLER.yaml` next."""
     from .controllerfile import export_design
     from .jsonio import check_outputs
-    from .text.export import format_export
+    from .results import ControllerFile
 
     check_outputs([design_file], outputs={"-o": out})
     doc = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
                         time_budget_s=time_budget_s)
-    click.echo(format_export(doc, out))
+    click.echo(ControllerFile.from_record(doc, out).summary())
 
 
 @cli.command("certify")

@@ -276,6 +276,13 @@ class ControllerFile(Result):
 
         return yaml.safe_dump(self.to_dict(), sort_keys=False, allow_unicode=True)
 
+    def summary(self) -> str:
+        """The one line ``exotune export`` prints: where the file went, its rate, filters,
+        sampled-data verdicts and latency margin (:func:`exotune.text.export.format_export`)."""
+        from .text.export import format_export
+
+        return format_export(self.to_dict(), self.path)
+
 
 @dataclass(frozen=True)
 class Certificate(Result):

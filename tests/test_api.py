@@ -192,6 +192,9 @@ def test_export_then_certify_round_trip(tmp_path):
     assert c1.certified == c1.to_dict()["certified"]
     assert "certif" in c1.to_text().lower()
     assert c1.reasons == tuple(c1.to_dict()["problems"])
+    # the export command's line is the file's summary view
+    res = CliRunner().invoke(cli, ["export", str(PAPER), "--sample-rate-hz", "1000", "-o", str(tmp_path / "d.yaml")])
+    assert res.exit_code == 0 and res.stdout.rstrip("\n") == cf.summary().replace(str(out), str(tmp_path / "d.yaml"))
 
 
 def test_a_failed_certificate_lists_its_reasons(tmp_path):
