@@ -487,3 +487,39 @@ def test_a_run_beyond_the_sample_budget_is_refused_before_it_starts():
     assert p.stderr.startswith("exotune: error: --duration:") and "1e+07 samples" in p.stderr
     assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
     assert time.perf_counter() - t < 60
+
+
+@functools.lru_cache(maxsize=None)
+def _runtime_doc(delay: float, fs: float):
+    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
+    raw["implementation"].update(sample_rate_hz=fs, delay_s=delay)
+    return build_export(design_from_mapping(raw), fs, analyses=False)
+
+
+@settings(max_examples=20, deadline=None)
+@given(delay_samples=st.sampled_from([0.0, 0.4, 1.0, 1.5, 3.25]), fs=st.sampled_from([1000.0, 2000.0]),
+       coulomb=st.sampled_from([0.0, 0.5, 2.0]), backlash=st.sampled_from([0.0, 0.003]),
+       limit=st.sampled_from([math.inf, 25.0, 60.0]), clamp=st.booleans(), push=st.floats(-25.0, 25.0),
+       locked=st.booleans())
+def test_fast_recursion_equals_the_sample_by_sample_run(delay_samples, fs, coulomb, backlash, limit, clamp, push, locked):
+    """Property: whatever the mix of friction, backlash, motor limit (clamped or not), delay (none,
+    fractional, whole) and push, the run that takes every affine stretch by the linear recursion
+    equals the run that steps every sample through the runtime and the exact/adaptive plant — to
+    the adaptive integrator's tolerance (a stretch taken in the wrong mode would differ by O(1))."""
+    doc = _runtime_doc(delay_samples / fs, fs)
+    base = SCENARIOS["saturation" if locked else "dob-friction"]
+    sc = replace(base, nonlinear=Nonlinearities(coulomb_nm=coulomb, backlash_rad=backlash, saturation_nm=limit),
+                 push_nm=push, push_hz=0.0, push_at_s=0.02, release_at_s=0.25, duration_s=0.4)
+    a, b = simulate(doc, sc, clamp=clamp), simulate(doc, sc, clamp=clamp, fast=False)
+    assert b["fast_samples"] == 0 and a["series"]["t"].size == b["series"]["t"].size
+    assert (a["diverged"] is None) == (b["diverged"] is None)
+    if not coulomb and not backlash and math.isinf(limit):
+        assert a["fast_samples"] > 0.5 * a["series"]["t"].size  # a linear run goes fast
+    tol = {}
+    for k in ("theta_m", "omega_m", "tau_s", "tau_c", "tau_cmd", "tau_m"):
+        tol[k] = 1e-6 * max(float(np.max(np.abs(b["series"][k]))), 1e-12)
+        np.testing.assert_allclose(a["series"][k], b["series"][k], rtol=0, atol=tol[k], err_msg=k)
+    # F_c·tanh(θ̇_m/ε) near sticking has the slope F_c/ε: the velocity's tolerance through that slope
+    eps = sc.nonlinear.friction_eps_rad_s
+    np.testing.assert_allclose(a["series"]["friction"], b["series"]["friction"], rtol=0,
+                               atol=1e-6 * max(coulomb, 1e-12) + coulomb / eps * tol["omega_m"], err_msg="friction")
