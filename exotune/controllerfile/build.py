@@ -19,7 +19,7 @@ from ..sampled import Measured, controller_blocks, default_prewarp
 from .schema import GAIN_UNITS, SIGNAL_UNITS, SIX_GAIN_UNITS
 from .sos import tustin_sos
 
-__all__ = ["controller_section", "reflected_mapping", "quantity", "implementation_mismatches"]
+__all__ = ["controller_section", "reflected_mapping", "quantity", "implementation_mismatches", "close"]
 
 FILTER_DOC = {
     "motor_position": "proper part of G_θ (velocity filter)",
@@ -81,7 +81,8 @@ def reflected_mapping(raw: dict, ratio: float) -> dict:
 _ANY_HUMAN = {"kind": "mass", "inertia": [0.1, 1.0], "damping": 0.0}
 
 
-def _near(a: float, b: float, rtol: float) -> bool:
+def close(a: float, b: float, rtol: float) -> bool:
+    """|a − b| within ``rtol`` of the larger magnitude (two zeros are close)."""
     return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-300)
 
 
@@ -107,7 +108,7 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
         have = d["controller"]
         got_gains = {k: float(v["gain"]) for k, v in (have.get("gains") or {}).items()}
         for sig in sorted(set(gains) | set(got_gains)):
-            if not _near(got_gains.get(sig, 0.0), float(gains.get(sig, {"gain": 0.0})["gain"]), rtol):
+            if not close(got_gains.get(sig, 0.0), float(gains.get(sig, {"gain": 0.0})["gain"]), rtol):
                 out.append(f"{where}controller.gains.{sig} is not the gain the implementation section builds")
         names = [f["name"] for f in have.get("filters") or []]
         if names != [f["name"] for f in filters]:
@@ -123,5 +124,5 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
     # after design_from_mapping has validated the section (a non-number is a ConfigError naming its field)
     timing = [f"implementation.{key} {impl.get(key)!r} is not the file's {key} {doc[key]['value']!r}"
               for key in ("delay_s", "sample_rate_hz")
-              if not _near(float(impl.get(key, math.nan) or math.nan), float(doc[key]["value"]), rtol)]
+              if not close(float(impl.get(key, math.nan) or math.nan), float(doc[key]["value"]), rtol)]
     return timing + out

@@ -26,6 +26,7 @@ import numpy as np
 from ..numerics.threads import one_blas_thread
 from ..sampled import loop_eigenvalues, loop_verdict
 from ..units import PARAM_UNITS
+from .build import close
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
 from .latency import requirement_problems, sampled_latency_margin
@@ -122,7 +123,7 @@ def _same_intervals(a, b: list, rtol: float = 1e-6) -> bool:
         return False
     if not all(isinstance(p, list) and len(p) == 2 and all(num(x) for x in p) for p in a):
         return False
-    return all(abs(x - y) <= rtol * max(abs(x), abs(y), 1e-300) for p, q in zip(a, b) for x, y in zip(p, q))
+    return all(close(x, y, rtol) for p, q in zip(a, b) for x, y in zip(p, q))
 
 
 def _entries(x) -> list:
@@ -159,10 +160,6 @@ def _dc_gain(sos) -> float:
     return num / den if den != 0.0 else math.inf
 
 
-def _close(a: float, b: float, rtol: float) -> bool:
-    return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-300)
-
-
 def _one_controller(design: dict, view: dict, where: str) -> list[str]:
     """Mismatches of one controller (its plant, six gains and filters) against the design."""
     from ..model.shaping import DesignParams, double_compliance_shaping
@@ -172,11 +169,11 @@ def _one_controller(design: dict, view: dict, where: str) -> list[str]:
     ds = double_compliance_shaping(plant, DesignParams(**{k: np.asarray(v) for k, v in design.items()}))
     want = {k: float(np.ravel(getattr(ds.gains, k))[0]) for k in _SIX}
     out = [f"{where}gains.{k}: the file has {view['gains'][k]['value']!r}, its design section and plant give {want[k]!r}"
-           for k in _SIX if not _close(float(view["gains"][k]["value"]), want[k], _GAIN_RTOL)]
+           for k in _SIX if not close(float(view["gains"][k]["value"]), want[k], _GAIN_RTOL)]
     dc = {"cuff_path": plant.J_m / float(np.ravel(ds.J_m_hat)[0]) * want["K2_hat"],
           "motor_position": -want["K1"], "spring_torque": want["K2"]}
     for i, f in enumerate(view["controller"]["filters"]):
-        if f["name"] in dc and not _close(_dc_gain(f["sos"]), dc[f["name"]], _DC_RTOL):
+        if f["name"] in dc and not close(_dc_gain(f["sos"]), dc[f["name"]], _DC_RTOL):
             out.append(f"{where}controller.filters[{i}] ({f['name']}): DC gain {_dc_gain(f['sos']):.6g}, its design "
                        f"section and plant give {dc[f['name']]:.6g}")
     return out
@@ -263,7 +260,7 @@ def check_built_from_design(doc: dict) -> None:
     alpha = float(doc["design"]["amplification"]["value"])
     k2_hat = float(doc["gains"]["K2_hat"]["value"])
     field = "implementation" if all("implementation" in b for b in bad) else "design"
-    if not _close(k2_hat + 1.0, alpha, _GAIN_RTOL):  # K̂2 = α − 1: the controller names the α it was built for
+    if not close(k2_hat + 1.0, alpha, _GAIN_RTOL):  # K̂2 = α − 1: the controller names the α it was built for
         field = "design.amplification"
         bad = [f"its K2_hat = {k2_hat!r} is that of amplification {k2_hat + 1.0!r}, not {alpha!r}"] + bad
     more = f"; and {len(bad) - 2} more" if len(bad) > 2 else ""

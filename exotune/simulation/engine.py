@@ -244,6 +244,12 @@ class _Run:
                 return k + 1
         return k1
 
+    def _loop(self, mode, sat=None) -> LinearLoop:
+        """The linear recursion of (plant mode, motor-limit mode), built once per run."""
+        if (mode, sat) not in self._loops:
+            self._loops[(mode, sat)] = LinearLoop(self.plant, self.doc, self.Ts, self.f, self.d, mode, sat)
+        return self._loops[(mode, sat)]
+
     def _saturation(self, mode, w0: np.ndarray):
         """The motor-limit mode a fast stretch from ``w0`` starts in: None (below the limit),
         ("clamp", ±limit) (the clamped runtime at its limit), ("plant", ±limit) (a runtime
@@ -251,17 +257,12 @@ class _Run:
         step sample by sample)."""
         if not math.isfinite(self.sat):
             return None
-        key = (mode, None)
-        if key not in self._loops:
-            self._loops[key] = LinearLoop(self.plant, self.doc, self.Ts, self.f, self.d, mode)
-        u0 = float(w0 @ self._loops[key].raw_row)
-        line = np.asarray(self.past)[self._applied]
-        if self.rt.limit_nm is not None:
-            if abs(u0) < self.sat and np.all(np.abs(self.past) < self.sat):
-                return None
-            return ("clamp", math.copysign(self.sat, u0)) if abs(u0) >= self.sat else False
+        u0 = float(w0 @ self._loop(mode).raw_row)
         if abs(u0) < self.sat and np.all(np.abs(self.past) < self.sat):
             return None
+        if self.rt.limit_nm is not None:
+            return ("clamp", math.copysign(self.sat, u0)) if abs(u0) >= self.sat else False
+        line = np.asarray(self.past)[self._applied]
         if self.d >= 1 and (np.all(line >= self.sat) or np.all(line <= -self.sat)):
             return ("plant", math.copysign(self.sat, line[0]))
         return False
@@ -280,10 +281,7 @@ class _Run:
         sat = self._saturation(mode, w0)
         if sat is False:
             return k0
-        key = (mode, sat)
-        if key not in self._loops:
-            self._loops[key] = LinearLoop(plant, self.doc, self.Ts, self.f, self.d, mode, sat)
-        L = self._loops[key]
+        L = self._loop(mode, sat)
         t = np.arange(k0, k1) * self.Ts
         push = np.array([self.sc.push(v) for v in t])
         W = L.run(w0, push)
