@@ -15,13 +15,14 @@ line reports them.
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from .numerics.engine import numpy_engine
 from .results import (
     Certificate,
-    ControllerFile,
+    ExportedController,
     DesignAnalysis,
     DesignSummary,
     OptimizeResult,
@@ -103,7 +104,7 @@ def design(source) -> DesignSummary:
 
     cfg = load_design(source)
     with numpy_engine():
-        return DesignSummary.from_record(design_report(cfg), cfg)
+        return design_report(cfg)
 
 
 def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
@@ -136,12 +137,12 @@ def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
 
     cfg = load_design(source)
     with numpy_engine():
-        rec = analyze_with_margins(cfg)
+        r = analyze_with_margins(cfg)
         if cross_check:
             from .analysis import pade_crosscheck
 
-            rec["cross_check"] = pade_crosscheck(cfg)
-    return DesignAnalysis.from_record(rec, cfg)
+            r = replace(r, cross_check=pade_crosscheck(cfg))
+    return r
 
 
 def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = None, sample: int | None = None,
@@ -235,10 +236,10 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     """
     from .optimization import run_optimize
 
-    return OptimizeResult.from_record(run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv), out)
+    return run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv)
 
 
-def export(source, sample_rate_hz: float, out) -> ControllerFile:
+def export(source, sample_rate_hz: float, out) -> ExportedController:
     """Export the discrete-time runtime controller of a design file at ``sample_rate_hz`` [Hz]
     to ``out`` (YAML, written atomically; the library twin of ``exotune export``).
 
@@ -268,7 +269,7 @@ def export(source, sample_rate_hz: float, out) -> ControllerFile:
     if path is None:
         raise TypeError("export needs the design file (a path, or a design loaded from a file)")
     with numpy_engine():
-        return ControllerFile.from_record(export_design(path, sample_rate_hz, out), out)
+        return export_design(path, sample_rate_hz, out)
 
 
 def certify(source) -> Certificate:
@@ -276,7 +277,7 @@ def certify(source) -> Certificate:
 
     Parameters
     ----------
-    source : path, Mapping or ControllerFile
+    source : path, Mapping or ExportedController
         The controller file, its content, or the result of :func:`export`.
 
     References
@@ -294,11 +295,11 @@ def certify(source) -> Certificate:
     from .controllerfile.certify import certify as _certify
     from .controllerfile import load_controller
 
-    if isinstance(source, ControllerFile):
+    if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
     doc = load_controller(source) if isinstance(source, (str, os.PathLike)) else dict(source)
     with numpy_engine():
-        return Certificate.from_record(_certify(doc))
+        return _certify(doc)
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
@@ -330,4 +331,4 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
 
     with numpy_engine():
         doc = load_for_simulation(source, sample_rate_hz)
-        return SimulationRun.from_report(run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration))
+        return run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration)

@@ -184,11 +184,10 @@ def design_cmd(design_file, as_json, plots_dir):
     from .config import load_design
     from .jsonio import check_outputs, write_files
     from .plots.design import design_plots
-    from .results import DesignSummary
 
     check_outputs([design_file], out_dirs={"--plots": plots_dir})
     cfg = load_design(design_file)
-    r = DesignSummary.from_record(design_report(cfg), cfg)
+    r = design_report(cfg)
     text = r.to_json() if as_json else r.to_text()
     if plots_dir is not None:
         write_files(plots_dir, design_plots(cfg))
@@ -205,9 +204,8 @@ def sea_cmd(sea_file, as_json):
     to stdout (--json: one JSON object)."""
     from .analysis import sea_report
     from .config import load_sea
-    from .results import SeaReport
 
-    r = SeaReport.from_record(sea_report(load_sea(sea_file)))
+    r = sea_report(load_sea(sea_file))
     click.echo(r.to_json() if as_json else r.to_text())
 
 
@@ -311,11 +309,10 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
     the bounds (the broken constraints of the best design are listed)."""
     from .jsonio import check_outputs
     from .optimization import run_optimize
-    from .results import OptimizeResult
 
     check_outputs([spec_file, _spec_base(spec_file)], outputs={"-o": out, "--pareto": pareto_csv})
     _note_first_compile()
-    r = OptimizeResult.from_record(run_optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv), out)
+    r = run_optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.feasible:
         ctx.exit(1)
@@ -336,12 +333,11 @@ def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_
     file.md) is written atomically; `exotune certify CONTROLLER.yaml` next."""
     from .controllerfile import export_design
     from .jsonio import check_outputs
-    from .results import ControllerFile
 
     check_outputs([design_file], outputs={"-o": out})
-    doc = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
-                        time_budget_s=time_budget_s)
-    click.echo(ControllerFile.from_record(doc, out).summary())
+    c = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
+                      time_budget_s=time_budget_s)
+    click.echo(c.summary())
 
 
 @cli.command("certify")
@@ -355,7 +351,6 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s):
     1: analysed but not certified (the reasons are listed), 2: invalid file."""
     from .controllerfile.certify import certify
     from .controllerfile import load_controller
-    from .results import Certificate
 
     import os
 
@@ -364,7 +359,7 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s):
     budget = check_budget_option(time_budget_s)
     doc = load_controller(controller_file)
     with time_budget(budget, f"certifying {os.path.basename(controller_file)}", "export at a lower rate", writes=False):
-        r = Certificate.from_record(certify(doc))
+        r = certify(doc)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.certified:
         ctx.exit(1)
@@ -393,7 +388,6 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
 
     from .jsonio import write_files
     from .plots.simulate import plot_simulation
-    from .results import SimulationRun
     from .simulation import load_for_simulation, number_option, run_scenario
 
     from .jsonio import check_outputs
@@ -415,12 +409,10 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
         click.echo(f"\rexotune simulate: {frac:4.0%}", err=True, nl=frac >= 1.0)
 
     long_run = sys.stderr.isatty() and (duration or 10.0) * float(doc["sample_rate_hz"]["value"]) >= 1e5
-    rep = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,
-                       progress=progress if long_run else None)
+    r = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,
+                     progress=progress if long_run else None)
     if plots_dir is not None:
-        files = plot_simulation(rep)
-        write_files(plots_dir, files)
-    r = SimulationRun.from_report(rep)
+        write_files(plots_dir, plot_simulation(r.full_report()))
     click.echo(r.to_json() if as_json else r.to_text())
 
 

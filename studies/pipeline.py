@@ -21,13 +21,11 @@ sys.path.insert(0, str(ROOT))
 
 from exotune import __version__
 from exotune.controllerfile.certify import certify  # noqa: E402
-from exotune.text.certify import format_certify  # noqa: E402
 from exotune.controllerfile import export_design, load_controller  # noqa: E402
 from exotune.jsonio import write_atomic  # noqa: E402
-from exotune.optimization import format_optimize, run_optimize  # noqa: E402
+from exotune.optimization import run_optimize  # noqa: E402
 from exotune.plots.simulate import plot_simulation  # noqa: E402
 from exotune.simulation import SCENARIOS, run_scenario  # noqa: E402
-from exotune.text.simulate import format_simulation  # noqa: E402
 
 
 def main() -> None:
@@ -38,34 +36,34 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     spec = ROOT / "studies" / "pipeline.yaml"
     opt = run_optimize(spec, out / "optimized_design.yaml")
-    if not opt["feasible"]:
+    if not opt.feasible:
         raise SystemExit("the pipeline study's optimization found no feasible design")
     export_design(out / "optimized_design.yaml", 1000.0, out / "controller_1khz.yaml")
     doc = load_controller(out / "controller_1khz.yaml")
     cert = certify(doc)
-    write_atomic(out / "certify.txt", format_certify(cert) + "\n")
+    write_atomic(out / "certify.txt", cert.to_text() + "\n")
     sims = []
     lightest = doc["certify"]["humans"][0]["inertia"][0]  # the certified range's lightest mass
     for name in SCENARIOS:
         rep = run_scenario(doc, name)
-        for fname, png in plot_simulation(rep).items():
+        for fname, png in plot_simulation(rep.full_report()).items():
             write_atomic(out / fname, png)
-        sims.append(format_simulation(rep))
+        sims.append(rep.to_text())
         if name == "light-mass":  # 5e-3 kg·m² lies below the certified range; at its lower end:
             rep = run_scenario(doc, name, human_inertia=lightest)
             sims.append(f"(the same at the certified range's lightest mass, {lightest:g} kg·m²)\n"
-                        + format_simulation(rep))
+                        + rep.to_text())
     lines = ["# Study (e): optimize → export → certify → simulate", "",
              "Spec: `studies/pipeline.yaml` (the §9 hardware, 1 ms latency, 1 kHz; masses ≥ 0.02 kg·m²).", "",
-             "## exotune optimize", "", "```", format_optimize(opt), "```", "",
-             "## exotune certify results/pipeline/controller_1khz.yaml", "", "```", format_certify(cert), "```", "",
+             "## exotune optimize", "", "```", opt.to_text(), "```", "",
+             "## exotune certify results/pipeline/controller_1khz.yaml", "", "```", cert.to_text(), "```", "",
              "## exotune simulate (four scenarios)", ""]
     for s_ in sims:
         lines += ["```", s_, "```", ""]
     lines += [f"![](simulate_{n}.png)" for n in SCENARIOS]
     lines += ["", f"exotune {__version__}; regenerate with `python studies/pipeline.py`."]
     write_atomic(out / "study.md", "\n".join(lines) + "\n")
-    print(f"results written to {out}; certified: {cert['certified']}")
+    print(f"results written to {out}; certified: {cert.certified}")
 
 
 if __name__ == "__main__":

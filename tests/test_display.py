@@ -42,7 +42,7 @@ def box_file(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def box_text(box_file) -> str:
-    return format_report(analyze_design(load_design(box_file)))
+    return format_report(analyze_design(load_design(box_file)).to_dict())
 
 
 def test_unit_helpers():

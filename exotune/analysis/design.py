@@ -11,6 +11,7 @@ import numpy as np
 
 from .batch import GAIN_NAMES, analyze_batch
 from .intervals import MAX_FAMILY_PIECES
+from .results import Amplification, BoxEdge, DesignAnalysis, DobMargins, EnvironmentResult, FamilyResult, PassivityResult
 from ..units import METRIC_UNITS  # re-exported
 
 __all__ = ["analyze_design", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
@@ -19,77 +20,58 @@ __all__ = ["analyze_design", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"
 VERIFY_POINTS = 64
 
 
-def analyze_design(cfg) -> dict:
-    """All docs/method.md#analyses-and-metrics metrics for one design, as a JSON-ready dict (docs/cli.md ``analyze --json``).
+def analyze_design(cfg) -> DesignAnalysis:
+    """All docs/method.md#analyses-and-metrics metrics for one design, as a typed
+    :class:`~exotune.analysis.results.DesignAnalysis` (its ``to_dict()`` is ``exotune analyze
+    --json`` without the margins; :func:`exotune.analysis.analyze_with_margins` adds them).
     Overflow in an extreme design is reported through the inconclusive flags and warnings of
     the result, not as numpy's floating-point warnings."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         return _analyze_design(cfg)
 
 
-def _human_entry(cols, i: int, fam) -> dict:
-    """The report entry of human family ``i`` (its columns of the one-design batch)."""
+def _human_result(cols, i: int, fam) -> FamilyResult:
+    """The typed result of human family ``i`` (its columns of the one-design batch)."""
     key = f"human{i}_{fam.kind}"
-    iv = cols[f"{key}_stable_intervals"][0]
-    entry = {
-        "kind": fam.kind,
-        "parameter": fam.param,
-        "unit": fam.unit,
-        "range": [fam.lo, fam.hi],
-        "fixed": {k: v for k, v in {**fam.fixed(), **({"eta": fam.eta} if fam.kind == "complex_stiffness" else {})}.items() if k != fam.param},
-        "stable_intervals": iv,
-        "robust": bool(cols[f"{key}_robust"][0]),
-        "conclusive": bool(cols[f"{key}_conclusive"][0]),
-        "critical": [{"value": p, "frequency_hz": f} for p, f in cols[f"{key}_critical"][0]],
-        "verified_points": VERIFY_POINTS,
-        "verification_mismatches": cols[f"{key}_verification_mismatches"][0],
-    }
+    fixed = {k: v for k, v in {**fam.fixed(), **({"eta": fam.eta} if fam.kind == "complex_stiffness" else {})}.items()
+             if k != fam.param}
+    box = edges = None
+    ivs = tuple((a, b) for a, b in cols[f"{key}_stable_intervals"][0])
     if fam.box:
-        boxed = {fam.param: [fam.lo, fam.hi], **{q: [lo, hi] for q, lo, hi in fam.box}}
-        entry["box"] = boxed
-        entry["fixed"] = {k: v for k, v in fam.fixed().items() if k not in boxed}
-        entry["stable_intervals"] = None  # a box's stable set is not an interval
-        entry["method"] = "Edge Theorem: the box is robustly stable iff each of its edges is (exact intervals per edge)"
-        entry["edges"] = [
-            {"parameter": e.param, "range": [e.lo, e.hi],
-             "at": {q: getattr(e, q) for q in boxed if q != e.param}, "stable_intervals": ivs}
-            for e, ivs in cols[f"{key}_edges"][0]
-        ]
-    elif iv:
-        # the stable interval reaching the top of the range gives e.g. the lightest stable inertia
-        top = [x for x in iv if x[1] == fam.hi]
-        entry["lowest_stable_value_below_range_top"] = top[0][0] if top else None
-    return entry
+        box = {fam.param: (fam.lo, fam.hi), **{q: (lo, hi) for q, lo, hi in fam.box}}
+        fixed = {k: v for k, v in fam.fixed().items() if k not in box}
+        ivs = None  # a box's stable set is not an interval
+        edges = tuple(BoxEdge(e.param, (e.lo, e.hi), {q: getattr(e, q) for q in box if q != e.param},
+                              tuple((a, b) for a, b in e_ivs))
+                      for e, e_ivs in cols[f"{key}_edges"][0])
+    return FamilyResult(
+        kind=fam.kind, parameter=fam.param, unit=fam.unit, range=(fam.lo, fam.hi), fixed=fixed, stable_intervals=ivs,
+        robust=bool(cols[f"{key}_robust"][0]), conclusive=bool(cols[f"{key}_conclusive"][0]),
+        critical=tuple((p, f) for p, f in cols[f"{key}_critical"][0]), verified_points=VERIFY_POINTS,
+        verification_mismatches=tuple(cols[f"{key}_verification_mismatches"][0]), box=box, edges=edges)
 
 
-def _environment_entries(cfg, cols) -> list[dict]:
-    """The report entries of the environment models."""
+def _environment_results(cfg, cols) -> tuple[EnvironmentResult, ...]:
+    """The typed results of the environment models."""
     env = []
     for i, e in enumerate(cfg.environment):
         key = f"env{i}_{e.kind}"
         if e.kind in ("locked", "free"):
-            env.append({"kind": e.kind, "stable": bool(cols[f"{key}_stable"][0])})
+            env.append(EnvironmentResult(e.kind, bool(cols[f"{key}_stable"][0])))
         else:
-            env.append(
-                {
-                    "kind": e.kind,
-                    "parameter": e.param,
-                    "range": [e.lo, e.hi],
-                    "stable_intervals": cols[f"{key}_stable_intervals"][0],
-                    "robust": bool(cols[f"{key}_robust"][0]),
-                }
-            )
-    return env
+            env.append(EnvironmentResult(e.kind, bool(cols[f"{key}_robust"][0]), e.param, (e.lo, e.hi),
+                                         tuple((a, b) for a, b in cols[f"{key}_stable_intervals"][0])))
+    return tuple(env)
 
 
-def _sampled_check(cfg, cols, humans: list, env: list, warnings: list):
+def _sampled_check(cfg, cols, humans, env, warnings: list):
     """The sampled-data check at the file's sample rate (None without one); its disagreements with
     the continuous verdicts are appended to ``warnings``."""
     sampled = None
     if cfg.implementation.sample_rate_hz:
         from ..sampled.loop import check_design
 
-        sampled = check_design(cfg, {"humans": humans, "environment": env})
+        sampled = check_design(cfg, [h.stable_intervals for h in humans], [e.stable_intervals for e in env])
         fs = sampled["sample_rate_hz"]
         for name in ("free", "locked"):
             where = 'with the cuff free' if name == 'free' else 'with the output locked'
@@ -113,27 +95,21 @@ def _sampled_check(cfg, cols, humans: list, env: list, warnings: list):
     return sampled
 
 
-def _analyze_design(cfg) -> dict:
-    from ..model.shaping import GAIN_UNITS_TORQUE, double_compliance_shaping
+def _analyze_design(cfg) -> DesignAnalysis:
+    from ..model.shaping import double_compliance_shaping
 
     from ..config import check_analysis_filters
 
     check_analysis_filters(cfg.implementation)
     cols = analyze_batch(cfg, verify=VERIFY_POINTS)
     ds = double_compliance_shaping(cfg.plant, cfg.design)
-    g = lambda k: float(np.asarray(cols[k])[0])
-    humans = [_human_entry(cols, i, fam) for i, fam in enumerate(cfg.humans)]
-    env = _environment_entries(cfg, cols)
+    g = lambda k: float(np.asarray(cols[k])[0])  # noqa: E731
+    humans = tuple(_human_result(cols, i, fam) for i, fam in enumerate(cfg.humans))
+    env = _environment_results(cfg, cols)
     dob = None
     if cfg.implementation.dob is not None:
-        dob = {
-            "gain_margin_db": g("dob_gain_margin_db"),
-            "phase_margin_deg": g("dob_phase_margin_deg"),
-            "delay_margin_s": g("dob_delay_margin_s"),
-            "crossover_hz": g("dob_crossover_hz"),
-            "stable": bool(cols["dob_stable"][0]),
-        }
-    ratio = float(ds.J_m_hat / cfg.plant.J_j)
+        dob = DobMargins(g("dob_gain_margin_db"), g("dob_phase_margin_deg"), g("dob_delay_margin_s"),
+                         g("dob_crossover_hz"), bool(cols["dob_stable"][0]))
     warnings = list(ds.warnings)
     sampled = _sampled_check(cfg, cols, humans, env, warnings)
     schedule = _schedule_check(cfg) if cfg.raw.get("transmission") else None
@@ -149,39 +125,26 @@ def _analyze_design(cfg) -> dict:
         warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution, an "
                         "adaptive search that spent its per-task budget, or a human range with more than "
                         f"{MAX_FAMILY_PIECES} critical values: extreme parameters): treated as NOT stable")
-    return {
-        "model": "continuous-time, exact delay e^{-sT} (docs/method.md#controller); verdicts by the argument principle on the closed-loop characteristic quasi-polynomial",
-        "structure": cfg.implementation.structure,
-        "delay_s": float(np.asarray(cfg.implementation.delay_s)),
-        "gain_convention": "torque",
-        "gains": {k: g(k) for k in GAIN_NAMES},
-        "units": dict(GAIN_UNITS_TORQUE),
-        "free_stable": bool(cols["free_stable"][0]),
-        "free": {
-            "stable": bool(cols["free_stable"][0]),
-            "rigid_body_roots": int(cols["free_rigid_body_roots"][0]),
-            "note": "the rigid-body root at s = 0 (K1 = 0, cuff free) is physical and removed exactly (docs/method.md#double-compliance-shaping)",
-        },
-        "locked_stable": bool(cols["locked_stable"][0]),
-        "humans": humans,
-        "environment": env,
-        "passivity": {
-            "max_phase_excess_deg": g("passivity_max_phase_excess_deg"),
-            "nonpassive_band_hz": cols["passivity_nonpassive_band_hz"][0],
-            "kyp": kyp,
-        },
-        "dob": dob,
-        "amplification": {
-            "dc": g("amplification_dc"),
-            "bandwidth_hz": g("amplification_bandwidth_hz"),
-            "minimum_phase": bool(cols["amplification_minimum_phase"][0]),
-        },
-        "J_m_hat_over_J_j": ratio,
-        "sampled_data": sampled,
-        "gain_schedule": schedule,
-        "metric_units": METRIC_UNITS,
-        "warnings": warnings,
-    }
+    return DesignAnalysis(
+        structure=cfg.implementation.structure,
+        delay_s=float(np.asarray(cfg.implementation.delay_s)),
+        gains={k: g(k) for k in GAIN_NAMES},
+        free_stable=bool(cols["free_stable"][0]),
+        free_rigid_body_roots=int(cols["free_rigid_body_roots"][0]),
+        locked_stable=bool(cols["locked_stable"][0]),
+        humans=humans,
+        environment=env,
+        passivity=PassivityResult(g("passivity_max_phase_excess_deg"),
+                                  tuple((a, b) for a, b in cols["passivity_nonpassive_band_hz"][0]), kyp),
+        dob=dob,
+        amplification=Amplification(g("amplification_dc"), g("amplification_bandwidth_hz"),
+                                    bool(cols["amplification_minimum_phase"][0])),
+        J_m_hat_over_J_j=float(ds.J_m_hat / cfg.plant.J_j),
+        warnings=tuple(warnings),
+        sampled_data=sampled,
+        gain_schedule=None if schedule is None else tuple(schedule),
+        config=cfg,
+    )
 
 
 def kyp_certificates(cfg) -> dict:

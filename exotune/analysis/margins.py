@@ -31,7 +31,7 @@ member found unstable there lowers the margin until both checks pass.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -473,11 +473,12 @@ def _member_minimum(a0, a1, b0, b1, a: float, b: float, T: float, n: int = 17):
     return dT, w, best_p
 
 
-def analyze_with_margins(cfg) -> dict:
-    """The single-design analysis (``exotune analyze --json``) with its ``margins`` section first:
-    the latency margin of :func:`latency_margin` and the plant-uncertainty margin of
+def analyze_with_margins(cfg):
+    """The single-design analysis (``exotune analyze``) with its margins: the latency margin of
+    :func:`latency_margin` and the plant-uncertainty margin of
     :func:`exotune.analysis.plant_margin.plant_uncertainty_margin` (weights from the design's
-    ``uncertainty`` section, 1 each when absent), as mappings with units.
+    ``uncertainty`` section, 1 each when absent); ``to_dict()`` puts them first, as mappings with
+    units.
 
     Parameters
     ----------
@@ -486,8 +487,10 @@ def analyze_with_margins(cfg) -> dict:
 
     Returns
     -------
-    dict
-        ``{"margins": {"latency": …}, …}`` followed by every key of the analysis.
+    DesignAnalysis
+        :func:`exotune.analysis.analyze_design` with ``margins`` = (LatencyMargin, PlantMargin);
+        its ``to_dict()`` is ``{"margins": {"latency": …, "plant_uncertainty": …}, …}`` followed
+        by every key of the analysis.
 
     References
     ----------
@@ -506,7 +509,7 @@ def analyze_with_margins(cfg) -> dict:
         # a design that is not robust at the nominal plant has k* = 0: its robust loops' own bounds
         # (seconds of work) are left to plant_uncertainty_margin(cfg) — analyze stays quick
         pm = plant_uncertainty_margin(cfg, getattr(cfg, "uncertainty", None), nominal=cols, loop_detail=False)
-    return {"margins": {"latency": lm.to_dict(), "plant_uncertainty": pm.to_dict()}, **rec}
+    return replace(rec, margins=(lm, pm))
 
 
 @dataclass(frozen=True)

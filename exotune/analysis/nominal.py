@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from ..version import __version__
+from .results import DesignSummary
 
 __all__ = [
     "TF_INFO",
@@ -398,8 +399,8 @@ def approximation_limit_hz(tfs) -> float:
 # ---------------------------------------------------------------------------------------------
 # exotune design
 # ---------------------------------------------------------------------------------------------
-def design_report(cfg) -> dict:
-    """Everything ``exotune design`` prints, as a dict.
+def design_report(cfg) -> DesignSummary:
+    """Everything ``exotune design`` prints, as a typed :class:`~exotune.analysis.results.DesignSummary`.
 
     Parameters
     ----------
@@ -408,10 +409,10 @@ def design_report(cfg) -> dict:
 
     Returns
     -------
-    dict
+    DesignSummary
         Gains with units, the compliance shape, poles/zeros of the nominal transfer functions,
-        warnings and the validity of the low-frequency approximation Ĉ5 ≈ C5 (the ``--json``
-        object of ``exotune design``).
+        warnings and the validity of the low-frequency approximation Ĉ5 ≈ C5 (``to_dict()``: the
+        ``--json`` object of ``exotune design``).
 
     References
     ----------
@@ -431,7 +432,7 @@ def design_report(cfg) -> dict:
         "B_m_hat": float(ds.B_m_hat),
     }
     ratio = float(ds.J_m_hat / cfg.plant.J_j)
-    return {
+    return DesignSummary.from_record({
         "exotune_version": __version__,
         "source": cfg.source,
         "gains": gains,
@@ -454,7 +455,7 @@ def design_report(cfg) -> dict:
         },
         "approximation_units": {"valid_below_hz": "Hz", "J_m_hat_over_J_j": "1"},
         "warnings": list(ds.warnings),
-    }
+    }, cfg)
 
 
 def design_bode_figures(cfg) -> dict[str, tuple]:

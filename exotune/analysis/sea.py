@@ -11,6 +11,7 @@ import math
 
 from ..units import SEA_UNITS  # re-exported
 from ..version import __version__
+from .results import SeaReport
 from .nominal import minimal, phase_extremum, poly_roots, resonance, root_entries
 
 __all__ = ["sea_report", "SEA_UNITS"]
@@ -30,8 +31,8 @@ def _notes(K1t, rigid, stable, res_hz, max_ph) -> list[str]:
     return notes
 
 
-def sea_report(cfg) -> dict:
-    """Everything ``exotune sea`` prints, as a dict.
+def sea_report(cfg) -> SeaReport:
+    """Everything ``exotune sea`` prints, as a typed :class:`~exotune.analysis.results.SeaReport`.
 
     Compliance shape, closed-loop stiffness, resonance of C5 (paper eq. (10), nominal
     passivity conditions and the phase extremes of C4(jω) (a compliance is passive where its phase
@@ -44,8 +45,8 @@ def sea_report(cfg) -> dict:
 
     Returns
     -------
-    dict
-        The ``--json`` object of ``exotune sea``.
+    SeaReport
+        ``to_dict()`` is the ``--json`` object of ``exotune sea``.
 
     References
     ----------
@@ -90,7 +91,7 @@ def sea_report(cfg) -> dict:
     cond = sea_passivity_conditions(plant, gains)
     gt, gd = to_torque_units(plant, gains), to_deflection_units(plant, gains)
     notes = _notes(K1t, rigid, stable, res_hz, max_ph)
-    return {
+    return SeaReport.from_record({
         "exotune_version": __version__,
         "source": cfg.source,
         "plant": {k: float(v) for k, v in plant.as_dict().items()},
@@ -119,4 +120,4 @@ def sea_report(cfg) -> dict:
         "min_phase_hz": min_hz,
         "units": dict(SEA_UNITS),
         "notes": notes,
-    }
+    })

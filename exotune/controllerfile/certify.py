@@ -30,6 +30,7 @@ from .build import close
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
 from .latency import requirement_problems, sampled_latency_margin
+from .results import Certificate
 
 __all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify", "design_mismatches",
            "check_built_from_design", "hand_tuned"]
@@ -278,7 +279,7 @@ _NO_IMPLEMENTATION_NOTE = ("no implementation section (a file written before exo
                            "not checked against the design, only their DC gains; ")
 
 
-def certify(doc: dict) -> dict:
+def certify(doc: dict) -> Certificate:
     """Re-run the sampled-data analysis of a validated controller file and check its golden
     vectors and predictions (see the module docstring). An overflowing controller (e.g. a gain of
     1e308) fails on its verdicts and golden vectors, without numpy's warnings on the terminal.
@@ -286,6 +287,9 @@ def certify(doc: dict) -> dict:
     A file whose controller was not built from its design section and plant is refused first
     (:func:`check_built_from_design`, a ConfigError: exit 2), unless it declares itself hand-tuned:
     its report then says that only the controller is certified (``scope``, and the method line).
+
+    Returns a :class:`~exotune.controllerfile.results.Certificate`: ``certified``, ``reasons`` and
+    the whole report (``to_dict()``, the ``exotune certify --json`` object).
     """
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         check_built_from_design(doc)
@@ -297,7 +301,7 @@ def certify(doc: dict) -> dict:
         rep["scope"] = ("controller and its six gains; the filters only by their DC gains (no implementation section: "
                         "a file written before exotune 0.7.0; export it again to have every filter checked)")
         rep["method"] = _NO_IMPLEMENTATION_NOTE + rep["method"]
-    return rep
+    return Certificate.from_report(rep)
 
 
 def refuse_excess_work(doc: dict, entries: int | None = None) -> None:

@@ -37,6 +37,7 @@ from ..sampled import Measured
 from .build import controller_section, quantity, reflected_mapping
 from .certify import refuse_excess_work, sampled_analysis
 from .fileio import schedule_entry_doc, write_controller
+from .results import ExportedController
 from .runtime import Runtime
 from .schema import DESIGN_UNITS, PLANT_UNITS, SCHEMA_VERSION, SIGNAL_UNITS, validate_controller
 
@@ -106,27 +107,27 @@ def _predicted(cfg) -> dict:
     # analysis of the file (predicted.sampled), not a second time inside analyze_design
     cont = dataclasses.replace(cfg, implementation=dataclasses.replace(cfg.implementation, sample_rate_hz=None))
     r = analyze_design(cont)
-    humans = [{"kind": h["kind"], "parameter": h["parameter"], "unit": h["unit"], "range": h["range"],
-               "stable_intervals": h["stable_intervals"], "robust": bool(h["robust"])} for h in r["humans"]]
-    dob = r["dob"]
+    humans = [{"kind": h.kind, "parameter": h.parameter, "unit": h.unit, "range": list(h.range),
+               "stable_intervals": None if h.stable_intervals is None else [list(iv) for iv in h.stable_intervals],
+               "robust": h.robust} for h in r.humans]
+    pas, dob, amp = r.passivity, r.dob, r.amplification
     return {
         "model": "continuous time, exact delay (exotune analyze)",
-        "free_stable": bool(r["free_stable"]),
-        "locked_stable": bool(r["locked_stable"]),
+        "free_stable": r.free_stable,
+        "locked_stable": r.locked_stable,
         "humans": humans,
-        "passivity": {"max_phase_excess_deg": _q(r["passivity"]["max_phase_excess_deg"], "deg"),
-                      "nonpassive_band_hz": {"value": r["passivity"]["nonpassive_band_hz"], "unit": "Hz"},
+        "passivity": {"max_phase_excess_deg": _q(pas.max_phase_excess_deg, "deg"),
+                      "nonpassive_band_hz": {"value": [list(b) for b in pas.nonpassive_band_hz], "unit": "Hz"},
                       "kyp": {name: (c if name == "error" else
                                      {"model": c["model"], "passive": c["passive"],
                                       "shortage": _q(c["shortage"], c["shortage_unit"])})
-                              for name, c in r["passivity"]["kyp"].items()}},
+                              for name, c in pas.kyp.items()}},
         "dob": None if dob is None else {
-            "gain_margin_db": _q(dob["gain_margin_db"], "dB"),
-            "phase_margin_deg": _q(dob["phase_margin_deg"], "deg"),
-            "delay_margin_s": _q(dob["delay_margin_s"], "s"),
+            "gain_margin_db": _q(dob.gain_margin_db, "dB"),
+            "phase_margin_deg": _q(dob.phase_margin_deg, "deg"),
+            "delay_margin_s": _q(dob.delay_margin_s, "s"),
         },
-        "amplification": {"dc": _q(r["amplification"]["dc"], "1"),
-                          "bandwidth_hz": _q(r["amplification"]["bandwidth_hz"], "Hz")},
+        "amplification": {"dc": _q(amp.dc, "1"), "bandwidth_hz": _q(amp.bandwidth_hz, "Hz")},
     }
 
 
@@ -287,9 +288,10 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
 
 
 def export_design(design_file, sample_rate_hz: float, out, require_latency_margin_s: float | None = None,
-                  time_budget_s: float | None = None) -> dict:
+                  time_budget_s: float | None = None) -> ExportedController:
     """``exotune export``: validate the design at ``sample_rate_hz`` (cutoffs below Nyquist), build
-    the controller file and write it atomically as YAML. Returns the document.
+    the controller file and write it atomically as YAML. Returns the written file
+    (:class:`~exotune.controllerfile.results.ExportedController`; ``to_dict()`` is the document).
     ``require_latency_margin_s`` [s]: the ``requirements.latency_margin_s`` certify enforces
     (None: one sample period; 0: none). ``time_budget_s`` [s] (default 600): work beyond it is
     refused before it starts when its lower bound exceeds it, and stopped when it runs over
@@ -308,7 +310,7 @@ def export_design(design_file, sample_rate_hz: float, out, require_latency_margi
         doc = build_export(cfg, fs, source=str(design_file), input_hash=digest,
                            require_latency_margin_s=require_latency_margin_s)
     write_controller(doc, out)
-    return doc
+    return ExportedController.from_document(doc, out)
 
 
 def check_sample_rate(value, field: str = "--sample-rate-hz") -> float:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 from ..units import PARAM_UNITS
+from .result import OptimizeResult
 from .search import optimize
 from .spec import load_optimize_spec, optimized_design_mapping
 
@@ -111,7 +112,7 @@ def format_optimize(r: dict) -> str:
     return "\n".join(lines)
 
 
-def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> dict:
+def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
     """``exotune optimize``: load, search, write the optimized design file (validated, atomically)
     and, on request, the Pareto front as CSV.
 
@@ -128,8 +129,9 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> di
 
     Returns
     -------
-    dict
-        The result of :func:`optimize` (``feasible`` false: nothing written).
+    OptimizeResult
+        The report of :func:`optimize` (``to_dict()``) with ``feasible``, the objective value and
+        the written file (``feasible`` false: nothing written, ``path`` None).
 
     Raises
     ------
@@ -148,7 +150,7 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> di
     spec = load_optimize_spec(spec_file, seed=seed)
     r = optimize(spec, pareto=pareto_csv is not None)
     if not r["feasible"]:
-        return r
+        return OptimizeResult.from_report(r, out)
     mapping = optimized_design_mapping(spec, r)
     design_from_mapping(mapping)  # the written file must load
     o = r["objective"]
@@ -161,4 +163,4 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> di
         cols = ["objective", "robust_fraction", *spec.free]
         text = ",".join(cols) + "\n" + "".join(",".join(repr(float(row[c])) for c in cols) + "\n" for row in r["pareto"])
         write_atomic(pareto_csv, text)
-    return r
+    return OptimizeResult.from_report(r, out)

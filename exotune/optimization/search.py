@@ -205,8 +205,8 @@ def _certificates(spec, out) -> None:
         # the search is continuous-time (exact delay); with a sample rate, check the optimum's
         # sampled-data loop too and say where sampling breaks what the search accepted
         rep = analyze_design(opt_cfg)
-        out["sampled_data_warnings"] = [w for w in rep.get("warnings", []) if "sampled-data" in w]
-        certs = rep["passivity"]["kyp"]
+        out["sampled_data_warnings"] = [w for w in rep.warnings if "sampled-data" in w]
+        certs = dict(rep.passivity.kyp)
     else:
         certs = kyp_certificates(opt_cfg)
     # the convex sub-problem: KYP certificates of the optimum's rational C7 models (cvxpy)

@@ -498,11 +498,13 @@ def _compare(stable_at, lo: float, hi: float, ivs: list, points: int) -> dict:
 
 
 @one_blas_thread
-def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
+def check_design(cfg, human_intervals, environment_intervals, points: int = CHECK_POINTS) -> dict:
     """Sampled-data check of one design at ``implementation.sample_rate_hz`` against its continuous
-    report (:func:`exotune.analysis.analyze_design`): the free and locked verdicts, and for each
+    analysis (:func:`exotune.analysis.analyze_design`): the free and locked verdicts, and for each
     rational human family the verdict at ``points`` log-spaced values of its range compared with
-    the continuous stable intervals. Disagreements are listed (value, continuous, sampled)."""
+    the continuous stable intervals (``human_intervals``, ``environment_intervals``: one sequence
+    of (lo, hi) per family or environment of ``cfg``, None for a box or a single loop).
+    Disagreements are listed (value, continuous, sampled)."""
     from ..model.controller import build_controller
 
     fs = float(cfg.implementation.sample_rate_hz)
@@ -525,7 +527,7 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
         "locked_stable": locked,
         "humans": [],
     }
-    for fam, rep in zip(cfg.humans, continuous["humans"]):
+    for fam, ivs in zip(cfg.humans, human_intervals):
         entry = {"kind": fam.kind, "parameter": fam.param}
         if fam.kind == "complex_stiffness" or fam.box:
             entry["skipped"] = ("not rational (evaluated on the frequency axis only)" if fam.kind == "complex_stiffness"
@@ -534,14 +536,14 @@ def check_design(cfg, continuous: dict, points: int = CHECK_POINTS) -> dict:
             continue
         h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
         entry.update(_compare(lambda v, h=h, q=fam.param: run(human={**h, q: v})[0], fam.lo, fam.hi,
-                              rep["stable_intervals"] or [], points))
+                              ivs or [], points))
         out["humans"].append(entry)
     out["environment"] = []
-    for e, rep in zip(cfg.environment, continuous.get("environment", [])):
+    for e, ivs in zip(cfg.environment, environment_intervals):
         if e.kind not in ("spring", "mass"):
             continue
         entry = {"kind": e.kind, "parameter": e.param, "note": "cuff free, environment at the joint"}
         entry.update(_compare(lambda v, e=e: run(env={e.param: v, "damping": e.damping})[0], e.lo, e.hi,
-                              rep["stable_intervals"] or [], points))
+                              ivs or [], points))
         out["environment"].append(entry)
     return out

@@ -48,7 +48,7 @@ def check_consistent(doc: dict) -> None:
     ----------
     docs/cli.md#certify.
     """
-    rep = certify(doc)
+    rep = certify(doc).to_dict()
     mism = rep.get("prediction_mismatches") or []
     if mism:
         raise ConfigError(mism[0].split(" ")[0], "disagrees with the sampled-data analysis of the file's own plant, "

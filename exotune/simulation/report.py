@@ -11,6 +11,7 @@ import numpy as np
 
 from ..controllerfile import Runtime
 from .engine import bumpless_start, simulate, strip_dob
+from .result import SimulationRun
 from .scenarios import SCENARIOS, Nonlinearities, Scenario
 from .verdict import (FIT_FRACTION, MARGINAL_TOL, classify, dominant_frequency, envelope_growth,
                       loop_spectral_radius)
@@ -202,7 +203,7 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
 
 def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None = None,
                  duration_s: float | None = None, start: str = "bumpless",
-                 progress: Callable[[float], None] | None = None) -> dict:
+                 progress: Callable[[float], None] | None = None) -> SimulationRun:
     """Run a scenario and summarize it.
 
     Parameters
@@ -222,11 +223,11 @@ def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None 
 
     Returns
     -------
-    dict
-        ``scenario``, ``description``, ``human``, ``nonlinearities``, ``sample_rate_hz``,
-        ``delay_samples``, ``summary`` and the scenario's measurements (``windup_recovery``,
-        ``limit_cycle``, ``friction_estimate``, ``friction_sensitivity``), and ``runs`` (the time
-        series, keyed ``controller``, ``without_dob``, ``without_clamp``).
+    SimulationRun
+        ``to_dict()``: ``scenario``, ``description``, ``human``, ``nonlinearities``,
+        ``sample_rate_hz``, ``delay_samples``, ``summary`` and the scenario's measurements
+        (``windup_recovery``, ``limit_cycle``, ``friction_estimate``, ``friction_sensitivity``);
+        ``runs``: the time series, keyed ``controller``, ``without_dob``, ``without_clamp``.
 
     References
     ----------
@@ -276,7 +277,7 @@ def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None 
                                                 "true friction F_c·tanh(θ̇_m/ε)"}
     if sc.compare_without_dob and (doc.get("dob") or {}).get("filters"):
         _friction_sensitivity(doc, sc, sim, rep, alpha, start)
-    return rep
+    return SimulationRun.from_report(rep)
 
 
 def _friction_sensitivity(doc, sc, sim, rep, alpha, start) -> None:

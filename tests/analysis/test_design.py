@@ -137,7 +137,7 @@ def _ref_human(kind, fam, p):
 # 2. docs/design-file.md reference values
 # ---------------------------------------------------------------------------------------------
 def test_paper_reference_values():
-    r = analyze_design(load_design(PAPER))
+    r = analyze_design(load_design(PAPER)).to_dict()
     assert r["amplification"]["dc"] == pytest.approx(8.0, rel=1e-9)
     assert r["dob"]["phase_margin_deg"] == pytest.approx(51.2, abs=0.05)
     assert r["dob"]["gain_margin_db"] == pytest.approx(12.05, abs=0.01)
@@ -159,7 +159,7 @@ def test_paper_reference_values():
 
 def test_paper_lightest_inertia_is_a_reference_boundary():
     """The lightest stable inertia of §9 against the reference eigenvalues (Padé 10 and 14)."""
-    r = analyze_design(load_design(PAPER))
+    r = analyze_design(load_design(PAPER)).to_dict()
     lo = next(h for h in r["humans"] if h["kind"] == "mass")["stable_intervals"][0][0]
     plant, gains, impl = _reference_inputs(PAPER_MAP)
     for order in (10, 14):
@@ -613,7 +613,7 @@ def test_paper_minimum_phase(T, expected):
             assert rhp.size == 2
             assert rhp[1].real == pytest.approx(650.0, rel=0.01) and abs(rhp[1].imag) == pytest.approx(1469.0, rel=0.01)
     if T == 0.001:  # the §9 file itself (same design) through the single-design report
-        assert analyze_design(load_design(PAPER))["amplification"]["minimum_phase"] is False
+        assert analyze_design(load_design(PAPER)).to_dict()["amplification"]["minimum_phase"] is False
 
 
 def test_dob_unstable_loop_has_zero_delay_margin():
@@ -623,10 +623,10 @@ def test_dob_unstable_loop_has_zero_delay_margin():
     import dataclasses
 
     cfg = load_design(PAPER)
-    lim = 0.001 + analyze_design(cfg)["dob"]["delay_margin_s"]
+    lim = 0.001 + analyze_design(cfg).to_dict()["dob"]["delay_margin_s"]
     for T, stable in ((lim * 0.999, True), (lim * 1.001, False), (0.006, False)):
         c = dataclasses.replace(cfg, implementation=dataclasses.replace(cfg.implementation, delay_s=T))
-        d = analyze_design(c)["dob"]
+        d = analyze_design(c).to_dict()["dob"]
         assert d["stable"] is stable
         assert (d["delay_margin_s"] > 0) is stable
         assert (d["phase_margin_deg"] > 0) is stable
@@ -660,10 +660,10 @@ def test_passivity_does_not_depend_on_the_human_families():
     from exotune.model.humans import HumanFamily
 
     cfg = load_design(PAPER)
-    ref = analyze_design(cfg)["passivity"]
+    ref = analyze_design(cfg).to_dict()["passivity"]
     assert ref["max_phase_excess_deg"] > 1.0
     for humans in ((), (HumanFamily("msd", "inertia", 0.06, 0.15, damping=1.0, stiffness=20.0),),
                    (HumanFamily("spring", "stiffness", 1.0, 100.0, damping=3.0),)):
-        r = analyze_design(dataclasses.replace(cfg, humans=humans))["passivity"]
+        r = analyze_design(dataclasses.replace(cfg, humans=humans)).to_dict()["passivity"]
         assert r["max_phase_excess_deg"] == pytest.approx(ref["max_phase_excess_deg"], rel=1e-6)
         assert np.allclose(r["nonpassive_band_hz"], ref["nonpassive_band_hz"], rtol=1e-6)

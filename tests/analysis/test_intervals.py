@@ -167,7 +167,7 @@ def test_single_design_report_verifies_intervals(monkeypatch):
     from exotune.analysis import analyze_design
 
     cfg = load_design(ROOT / "examples" / "paper.yaml")
-    good = analyze_design(cfg)["humans"][0]
+    good = analyze_design(cfg).to_dict()["humans"][0]
     assert good["verification_mismatches"] == [] and good["verified_points"] == 64
 
     def no_crossings(Nd, ct_, cp, cw, lo, hi):
@@ -175,7 +175,7 @@ def test_single_design_report_verifies_intervals(monkeypatch):
         return (bv, np.arange(Nd + 1) * 2), [[] for _ in range(Nd)]
 
     monkeypatch.setattr(intervals_mod, "_bounds", no_crossings)
-    bad = analyze_design(cfg)["humans"][0]
+    bad = analyze_design(cfg).to_dict()["humans"][0]
     assert bad["kind"] == "mass"
     assert bad["verification_mismatches"], bad
     assert bad["robust"] is False and bad["conclusive"] is False

@@ -125,7 +125,7 @@ def test_delay_free_shortage_equals_frequency_minimum(changes):
 def test_paper_example_verdicts():
     """The paper's claim (§IV-A): the nominal operator compliance is passive, the implemented one
     (filters) is not — here already without the delay."""
-    r = analyze_design(load_design(PAPER))
+    r = analyze_design(load_design(PAPER)).to_dict()
     kyp = r["passivity"]["kyp"]
     assert kyp["nominal"]["passive"] is True and kyp["nominal"]["shortage"] == 0.0
     assert kyp["delay_free"]["passive"] is False

@@ -168,7 +168,7 @@ def test_analyze_reports_both_margins_with_units():
 
     mp = _robust_mapping()
     mp["uncertainty"] = {"motor_inertia": 0.1, "motor_damping": 0.3, "sea_stiffness": 0.05, "cuff_stiffness": 0.2}
-    rec = analyze_with_margins(design_from_mapping(mp))
+    rec = analyze_with_margins(design_from_mapping(mp)).to_dict()
     assert list(rec)[0] == "margins"
     lat, pm = rec["margins"]["latency"], rec["margins"]["plant_uncertainty"]
     assert lat["units"]["extra_delay_s"] == "s" and lat["extra_delay_s"] > 0

@@ -54,13 +54,13 @@ def design(tmp_path_factory):
 @pytest.fixture(scope="module")
 def exported(design):
     out = design.parent / "ctl.yaml"
-    doc = export_design(design, FS, out)
+    doc = export_design(design, FS, out).to_dict()
     return out, doc
 
 
 @pytest.fixture(scope="module")
 def certified(exported):
-    return certify(load_controller(exported[0]))
+    return certify(load_controller(exported[0])).to_dict()
 
 
 def test_predicted_margin_is_the_continuous_margin(exported):
@@ -234,7 +234,7 @@ def test_file_without_the_new_sections_still_certifies(exported, tmp_path):
     del doc["predicted"]["latency_margin"]
     p = tmp_path / "legacy.yaml"
     p.write_text(yaml.safe_dump(doc, allow_unicode=True, sort_keys=False), encoding="utf-8")
-    rep = certify(load_controller(p))
+    rep = certify(load_controller(p)).to_dict()
     assert rep["certified"], rep["problems"]
     lm = rep["latency_margin"]
     assert lm["predicted_continuous_s"] is None and lm["required_s"] is None and lm["confirmed"] is True

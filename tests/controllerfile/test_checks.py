@@ -74,14 +74,14 @@ def _certify(tmp_path, doc):
 @pytest.fixture(scope="module")
 def doc1k():
     doc = _export(_design())
-    assert certify(copy.deepcopy(doc))["certified"]
+    assert certify(copy.deepcopy(doc)).to_dict()["certified"]
     return doc
 
 
 def test_box_family_is_not_certified():
     raw = _design(humans=[{"kind": "mass", "inertia": [0.02, 1.0], "damping": 0.0},
                           {"kind": "msd", "inertia": [0.001, 1.0], "stiffness": [1.0, 100.0], "damping": 0.0}])
-    rep = certify(_export(raw))
+    rep = certify(_export(raw)).to_dict()
     assert not rep["certified"]
     assert any("box" in p and "not certified" in p for p in rep["problems"]), rep["problems"]
 
@@ -215,7 +215,7 @@ def _predict_a_skipped_family(d):
 def test_missing_or_extra_predictions_are_mismatches(doc1k, tmp_path, edit, name):
     doc = copy.deepcopy(doc1k)
     edit(doc["predicted"]["sampled"])
-    rep = certify(load_controller(_write(tmp_path, doc)))
+    rep = certify(load_controller(_write(tmp_path, doc))).to_dict()
     assert not rep["certified"] and name in rep["prediction_mismatches"], rep["prediction_mismatches"]
 
 
@@ -223,9 +223,9 @@ def test_prediction_for_a_skipped_family_is_a_mismatch(tmp_path):
     raw = _design(humans=[{"kind": "mass", "inertia": [0.02, 1.0], "damping": 0.0},
                           {"kind": "complex_stiffness", "stiffness": [10.0, 1000.0], "eta": 0.2}])
     doc = _export(raw)
-    assert certify(copy.deepcopy(doc))["certified"]
+    assert certify(copy.deepcopy(doc)).to_dict()["certified"]
     doc["predicted"]["sampled"]["humans"][1].update(robust=True, stable_intervals=[[10.0, 1000.0]])
-    rep = certify(load_controller(_write(tmp_path, doc)))
+    rep = certify(load_controller(_write(tmp_path, doc))).to_dict()
     assert "predicted.sampled.humans[1].robust" in rep["prediction_mismatches"], rep["prediction_mismatches"]
 
 
@@ -236,7 +236,7 @@ def test_every_sampled_prediction_is_compared(doc1k, tmp_path, path, value, name
     for k in path[:-1]:
         d = d[k]
     d[path[-1]] = value
-    rep = certify(load_controller(_write(tmp_path, doc)))
+    rep = certify(load_controller(_write(tmp_path, doc))).to_dict()
     assert not rep["certified"] and name in rep["prediction_mismatches"], rep["prediction_mismatches"]
 
 
@@ -247,14 +247,14 @@ def scheduled():
     import tempfile
 
     with tempfile.TemporaryDirectory() as d:
-        return export_design(ROOT / "examples" / "scheduled.yaml", 1000.0, Path(d) / "c.yaml")
+        return export_design(ROOT / "examples" / "scheduled.yaml", 1000.0, Path(d) / "c.yaml").to_dict()
 
 
 @pytest.mark.parametrize("key, value", [("free_stable", False), ("locked_stable", False)])
 def test_schedule_entry_predictions_are_compared(scheduled, tmp_path, key, value):
     doc = copy.deepcopy(scheduled)
     doc["gain_schedule"]["entries"][1]["predicted_sampled"][key] = value
-    rep = certify(load_controller(_write(tmp_path, doc)))
+    rep = certify(load_controller(_write(tmp_path, doc))).to_dict()
     assert any(m.startswith("gain_schedule[") and m.endswith(key) for m in rep["prediction_mismatches"]), rep
 
 
@@ -439,6 +439,6 @@ def test_high_rate_family_is_resolved_and_converges_to_the_continuous_boundary()
     mass = sampled_analysis(doc)["humans"][0]
     assert mass["kind"] == "mass" and mass["loop_states"] > 100
     assert mass["unresolved"] == [] and not mass["budget_spent"]
-    cont = analyze_design(load_design(PAPER))["humans"][0]["stable_intervals"]
+    cont = analyze_design(load_design(PAPER)).to_dict()["humans"][0]["stable_intervals"]
     assert len(mass["stable_intervals"]) == 1 and mass["stable_intervals"][0][1] == 1.0
     assert mass["stable_intervals"][0][0] == pytest.approx(cont[0][0], rel=5e-3)

@@ -124,7 +124,7 @@ def test_gains_in_file_are_the_torque_unit_gains(paper_doc):
 
 def test_round_trip_through_yaml_reproduces_golden_bit_for_bit(tmp_path):
     out = tmp_path / "ctl.yaml"
-    doc = export_design(PAPER, 1000.0, out)
+    doc = export_design(PAPER, 1000.0, out).to_dict()
     loaded = load_controller(out)
     assert loaded["controller"] == doc["controller"]
     ins = {s: np.asarray(v["values"]) for s, v in loaded["golden"]["inputs"].items()}
@@ -142,12 +142,12 @@ def test_certify_intervals_agree_with_analyze_sampled_check(paper_doc):
     cfg, doc = paper_doc
     sa = doc["predicted"]["sampled"]
     lo_cert = _boundary(sa["humans"])[0][0]
-    rep = analyze_design(cfg)["sampled_data"]
+    rep = analyze_design(cfg).to_dict()["sampled_data"]
     b = next(h for h in rep["humans"] if h["kind"] == "mass")["boundaries"]
     lo_an = next(x["sampled"] for x in b if x["sampled"] is not None)
     assert lo_cert == pytest.approx(lo_an, rel=1e-6)
     # and the sampled boundary lies above the continuous one (the ZOH costs phase)
-    assert lo_cert > analyze_design(load_design(PAPER))["humans"][0]["stable_intervals"][0][0]
+    assert lo_cert > analyze_design(load_design(PAPER)).to_dict()["humans"][0]["stable_intervals"][0][0]
     assert sa["free_stable"] == rep["free_stable"] and sa["locked_stable"] == rep["locked_stable"]
 
 
@@ -200,7 +200,7 @@ def test_fractional_delay_export_certifies_like_analyze():
     doc = build_export(cfg, 1000.0)
     assert doc["delay_s"]["samples"] == pytest.approx(1.5)
     lo_cert = _boundary(doc["predicted"]["sampled"]["humans"])[0][0]
-    b = next(h for h in analyze_design(cfg)["sampled_data"]["humans"] if h["kind"] == "mass")["boundaries"]
+    b = next(h for h in analyze_design(cfg).to_dict()["sampled_data"]["humans"] if h["kind"] == "mass")["boundaries"]
     lo_an = next(x["sampled"] for x in b if x["sampled"] is not None)
     assert lo_cert == pytest.approx(lo_an, rel=1e-6)
     # more latency, heavier lightest stable inertia than at 1 sample
@@ -209,14 +209,14 @@ def test_fractional_delay_export_certifies_like_analyze():
 
 def test_certify_catches_an_edited_file(paper_doc):
     _, doc = paper_doc
-    assert certify(doc)["prediction_mismatches"] == []
+    assert certify(doc).to_dict()["prediction_mismatches"] == []
     bad = copy.deepcopy(doc)
     bad["controller"]["gains"]["omega_m"]["gain"] *= 1.5  # someone retuned B1 by hand
     with pytest.raises(ConfigError) as e:  # not the controller its sections build
         certify(copy.deepcopy(bad))
     assert e.value.field == "implementation" and "controller.gains.omega_m" in e.value.reason
     bad["provenance"]["hand_tuned"] = True  # declared: analysed as it is, and its golden vectors fail
-    rep = certify(bad)
+    rep = certify(bad).to_dict()
     assert not rep["certified"]
     assert any("golden" in p for p in rep["problems"])
     bad2 = copy.deepcopy(doc)
@@ -225,7 +225,7 @@ def test_certify_catches_an_edited_file(paper_doc):
         certify(copy.deepcopy(bad2))
     assert "implementation.sample_rate_hz 1000.0 is not the file's sample_rate_hz 500.0" in e.value.reason
     bad2["provenance"]["hand_tuned"] = True
-    rep2 = certify(bad2)
+    rep2 = certify(bad2).to_dict()
     assert rep2["prediction_mismatches"], rep2["problems"]
 
 
@@ -233,7 +233,7 @@ def test_certified_when_every_family_is_stable():
     humans = [{"kind": "mass", "inertia": [0.01, 1.0], "damping": 0.0},
               {"kind": "spring", "stiffness": [1.0, 10000.0], "damping": 0.0}]
     doc = build_export(_cfg(humans=humans), 1000.0)
-    rep = certify(doc)
+    rep = certify(doc).to_dict()
     assert rep["certified"], rep["problems"]
     assert all(h["robust"] for h in rep["sampled"]["humans"])
 
@@ -333,7 +333,7 @@ def test_runtime_follows_the_schedule_and_certify_checks_every_entry():
     b = Runtime(schedule_entry_doc(doc, e2)).run(ins)
     np.testing.assert_array_equal(a, b)
     assert np.max(np.abs(a - Runtime(doc).run(ins))) > 1e-3 * np.max(np.abs(a))
-    rep = certify(doc)
+    rep = certify(doc).to_dict()
     # nominal robust, the ratio-2 entry not: the schedule entry is what fails certification
     assert rep["sampled"]["humans"][0]["robust"]
     assert [e["robust"] for e in rep["gain_schedule"]] == [True, False]
@@ -346,7 +346,7 @@ def test_runtime_follows_the_schedule_and_certify_checks_every_entry():
     assert e.value.field == "implementation" and "gain_schedule.entries[0].controller.gains.tau_s" in e.value.reason
     # ... and, declared hand-tuned, no longer matches its prediction
     bad["provenance"]["hand_tuned"] = True
-    rep_bad = certify(bad)
+    rep_bad = certify(bad).to_dict()
     assert not rep_bad["certified"] and any("gain schedule entry at 0 rad" in p for p in rep_bad["problems"])
 
 
@@ -393,10 +393,10 @@ def test_analyze_checks_every_scheduled_angle_like_export():
     raw = copy.deepcopy(load_design(PAPER).raw)
     raw["humans"] = [{"kind": "mass", "inertia": [0.0048, 1.0], "damping": 0.0}]
     raw["transmission"] = {"joint_angle_rad": [0.0, 1.0, 2.0], "ratio": [0.5, 1.0, 2.0]}
-    rep = analyze_design(design_from_mapping(raw))
+    rep = analyze_design(design_from_mapping(raw)).to_dict()
     assert len(rep["gain_schedule"]) == 3
     for e in rep["gain_schedule"]:
-        single = analyze_design(design_from_mapping(reflected_mapping(raw, e["ratio"])))
+        single = analyze_design(design_from_mapping(reflected_mapping(raw, e["ratio"]))).to_dict()
         assert e["robust"] == (single["humans"][0]["robust"] and single["free_stable"] and single["locked_stable"])
         for k, v in single["gains"].items():
             assert e["gains"][k] == pytest.approx(v, rel=1e-12, abs=1e-15)
@@ -405,7 +405,7 @@ def test_analyze_checks_every_scheduled_angle_like_export():
 
 def test_shipped_scheduled_example_certifies():
     cfg = load_design(ROOT / "examples" / "scheduled.yaml")
-    rep = certify(build_export(cfg, 1000.0))
+    rep = certify(build_export(cfg, 1000.0)).to_dict()
     assert rep["certified"], rep["problems"]
     assert len(rep["gain_schedule"]) == 5 and all(e["robust"] for e in rep["gain_schedule"])
 
@@ -416,10 +416,10 @@ def test_certify_fails_on_unresolved_eigenvalue_paths(paper_doc, monkeypatch):
     from exotune.controllerfile import continuation as C
 
     _, doc = paper_doc
-    assert not any("not resolved" in p for p in certify(doc)["problems"])
+    assert not any("not resolved" in p for p in certify(doc).to_dict()["problems"])
     monkeypatch.setattr(C, "CHORD", 0.0)
     monkeypatch.setattr(C, "MAX_DEPTH", 0)
-    rep = certify(doc)
+    rep = certify(doc).to_dict()
     assert not rep["certified"]
     assert any("eigenvalue paths not resolved" in p for p in rep["problems"]), rep["problems"]
 

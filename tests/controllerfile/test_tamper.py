@@ -98,7 +98,7 @@ def test_hand_tuned_file_is_certified_for_its_controller_only(doc, tmp_path):
     d["design"]["amplification"]["value"] = 20.0  # the design section no longer describes the controller
     d["provenance"]["hand_tuned"] = True
     check_built_from_design(d)  # no error: declared hand-tuned
-    rep = certify(copy.deepcopy(d))
+    rep = certify(copy.deepcopy(d)).to_dict()
     assert rep["scope"].startswith("controller only") and rep["method"].startswith("hand-tuned controller")
     res = CliRunner().invoke(cli, ["certify", str(_write(tmp_path, d))])
     assert res.exit_code == (0 if rep["certified"] else 1), res.output  # analysed: no design check refusal
@@ -114,7 +114,7 @@ def test_hand_tuned_must_be_a_boolean(doc):
 
 
 def test_untouched_export_has_no_scope_note(doc):
-    rep = certify(copy.deepcopy(doc))
+    rep = certify(copy.deepcopy(doc)).to_dict()
     assert "scope" not in rep and not rep["method"].startswith("hand-tuned")
 
 
@@ -159,8 +159,8 @@ def test_a_file_without_an_implementation_section_still_certifies(doc):
     d = copy.deepcopy(doc)
     del d["implementation"]  # files written before the section existed
     assert design_mismatches(d) == []
-    rep = certify(d)
-    assert rep["certified"] == certify(copy.deepcopy(doc))["certified"]
+    rep = certify(d).to_dict()
+    assert rep["certified"] == certify(copy.deepcopy(doc)).to_dict()["certified"]
     # ... but its report says what was not checked
     assert "only by their DC gains" in rep["scope"] and rep["method"].startswith("no implementation section")
 

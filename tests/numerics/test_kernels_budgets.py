@@ -107,7 +107,7 @@ def test_pathological_design_report_ends_with_a_warning():
     from exotune.analysis import analyze_design
     from exotune.text.analysis import format_report
 
-    out = format_report(analyze_design(_pathological()))
+    out = format_report(analyze_design(_pathological()).to_dict())
     assert "budget" in out and "robust yes" not in out
 
 
@@ -234,5 +234,5 @@ def test_overflowing_design_is_inconclusive_without_warnings():
 
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
-        out = format_report(analyze_design(unchecked(load_design(PAPER), design__zeta=1e300)))
+        out = format_report(analyze_design(unchecked(load_design(PAPER), design__zeta=1e300)).to_dict())
     assert "Free exoskeleton (cuff free) stable: NO" in out and "inconclusive" in out

@@ -53,7 +53,7 @@ def test_optimum_is_feasible_by_the_single_design_analysis(result):
     spec, r = result
     assert r["feasible"]
     cfg = design_from_mapping(optimized_design_mapping(spec, r))
-    rep = analyze_design(cfg)
+    rep = analyze_design(cfg).to_dict()
     assert rep["free_stable"] and rep["locked_stable"]
     assert all(h["robust"] for h in rep["humans"])
     assert rep["passivity"]["max_phase_excess_deg"] <= 20.0 + 1e-9
@@ -67,7 +67,7 @@ def test_active_constraint_is_broken_just_past_the_optimum(result):
     raw = optimized_design_mapping(spec, r)
     raw["design"]["amplification"] *= 1.002
     cfg = design_from_mapping(raw)
-    rep = analyze_design(cfg)
+    rep = analyze_design(cfg).to_dict()
     broken = {
         "robust": not all(h["robust"] for h in rep["humans"]),
         "max_phase_excess_deg": rep["passivity"]["max_phase_excess_deg"] > 20.0,
@@ -173,7 +173,7 @@ def test_optimum_is_checked_in_the_sampled_data_loop_when_a_rate_is_given():
                                     constraints={"latency_margin_s": 0.0}, budget=100))
     r = optimize(spec)
     assert r["feasible"]
-    rep = analyze_design(design_from_mapping(optimized_design_mapping(spec, r)))
+    rep = analyze_design(design_from_mapping(optimized_design_mapping(spec, r))).to_dict()
     expected = [w for w in rep["warnings"] if "sampled-data" in w]
     assert expected and r["sampled_data_warnings"] == expected
     assert "WARNING" in format_optimize(r)
@@ -203,7 +203,7 @@ def test_felt_compliance_objective_minimizes_felt_inertia():
         raw = optimized_design_mapping(load_optimize_spec(s), r)
         raw["design"]["felt_inertia"] *= 0.995
         cfg = design_from_mapping(raw)
-        rep = analyze_design(cfg)
+        rep = analyze_design(cfg).to_dict()
         # the default latency margin (0.5 ms) is the constraint that binds here
         assert (not all(h["robust"] for h in rep["humans"])) or rep["amplification"]["bandwidth_hz"] < 2.0 \
             or not rep["free_stable"] or not rep["locked_stable"] or latency_margin(cfg).extra_delay_s < 0.0005
@@ -312,7 +312,7 @@ def test_robust_is_reported_binding_when_it_limits_the_dob_delay_margin():
     assert r["at_bounds"] == []
     raw = optimized_design_mapping(spec, r)
     raw["implementation"]["dob"]["cutoff_hz"] *= 0.997
-    rep = analyze_design(design_from_mapping(raw))
+    rep = analyze_design(design_from_mapping(raw)).to_dict()
     assert not all(h["robust"] for h in rep["humans"])
     assert "active constraints (binding at the optimum): robust" in format_optimize(r)
 
@@ -333,7 +333,7 @@ def test_infeasible_report_names_every_broken_constraint_with_its_bound():
     assert un and all(1e-4 <= a < b <= 1.0 for a, b in un)
     assert sum(b - a for a, b in st + un) == pytest.approx(1.0 - 1e-4, rel=1e-12)
     cfg = design_from_mapping(optimized_design_mapping(load_optimize_spec(s), r))
-    rep = analyze_design(cfg)
+    rep = analyze_design(cfg).to_dict()
     assert not rep["humans"][0]["robust"]
     text = format_optimize(r)
     assert "NO FEASIBLE DESIGN" in text and "dob_delay_margin_s" in text and "needed >= 1 s" in text

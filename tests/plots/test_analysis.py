@@ -25,7 +25,7 @@ FIGURE_FUNCS = ("_fig_bode_compliances", "_fig_nyquist_humans", "_fig_dob_loop",
 @pytest.fixture(scope="module")
 def paper():
     cfg = load_design(PAPER)
-    return cfg, analyze_design(cfg)
+    return cfg, analyze_design(cfg).to_dict()
 
 
 def _assert_png(p: Path):
@@ -60,7 +60,7 @@ def _stub(monkeypatch, keep=()):
 def test_without_dob_the_dob_plot_is_skipped(paper, tmp_path, monkeypatch):
     cfg, _ = paper
     cfg = dataclasses.replace(cfg, implementation=dataclasses.replace(cfg.implementation, dob=None))
-    result = analyze_design(cfg)
+    result = analyze_design(cfg).to_dict()
     assert result["dob"] is None
     called = []
     real_dob = plots._fig_dob_loop
@@ -150,7 +150,7 @@ def msd_box(tmp_path_factory):
     p = tmp_path_factory.mktemp("box") / "box.yaml"
     p.write_text(head + BOX_HUMANS, encoding="utf-8")
     cfg = load_design(p)
-    return cfg, analyze_design(cfg)
+    return cfg, analyze_design(cfg).to_dict()
 
 
 def test_msd_box_nyquist_panels_per_edge(msd_box):

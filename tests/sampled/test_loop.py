@@ -200,7 +200,7 @@ def test_sampled_data_agrees_with_continuous_at_high_rate():
 def test_light_inertia_boundary_converges_to_continuous():
     """§9 design: the lightest stable human inertia of the sampled-data loop at 20 kHz is within
     1 % of the exact continuous one (4.79e-3 kg·m²); at 1 kHz sampling moves it up."""
-    r = analyze_design(BASE)
+    r = analyze_design(BASE).to_dict()
     m_cont = r["humans"][0]["stable_intervals"][0][0]
     cfg, cs = _cfg()
 
@@ -239,9 +239,9 @@ def test_analyze_with_sample_rate_reports_the_sampled_data_check():
     but sampling raises the lightest stable inertia by > 5 % — reported as a boundary move and as
     a warning (the continuous analysis alone would call those inertias stable); at 20 kHz the
     move is < 1 %. Without a sample rate there is no sampled-data section."""
-    assert analyze_design(BASE)["sampled_data"] is None
+    assert analyze_design(BASE).to_dict()["sampled_data"] is None
     cfg = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=1000.0))
-    r = analyze_design(cfg)
+    r = analyze_design(cfg).to_dict()
     sd = r["sampled_data"]
     assert sd["sample_rate_hz"] == 1000.0 and sd["free_stable"] and sd["locked_stable"]
     mass, spring, cplx = sd["humans"]
@@ -257,7 +257,7 @@ def test_analyze_with_sample_rate_reports_the_sampled_data_check():
     assert sampled_stable(cfg.plant, cs, 1000.0, {"inertia": 1.01 * b["sampled"]}, prewarp={"tau_c": 80.0, "dob": 60.0})[0]
     assert any("UNSTABLE for human mass inertia" in w for w in r["warnings"])
     cfg20 = dataclasses.replace(BASE, implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=20000.0))
-    b20 = analyze_design(cfg20)["sampled_data"]["humans"][0]["boundaries"][0]
+    b20 = analyze_design(cfg20).to_dict()["sampled_data"]["humans"][0]["boundaries"][0]
     assert abs(b20["sampled"] / b20["continuous"] - 1) < 0.01
 
 
@@ -293,7 +293,7 @@ def test_sampled_check_covers_environment_ranges():
     env = (EnvModel("locked"), EnvModel("spring", "stiffness", 10.0, 1e4), EnvModel("mass", "inertia", 0.01, 10.0))
     cfg = dataclasses.replace(BASE, environment=env,
                               implementation=dataclasses.replace(BASE.implementation, sample_rate_hz=1000.0))
-    r = analyze_design(cfg)
+    r = analyze_design(cfg).to_dict()
     sd = r["sampled_data"]["environment"]
     assert [e["kind"] for e in sd] == ["spring", "mass"]
     cont = {e["kind"]: e for e in r["environment"] if e["kind"] != "locked"}

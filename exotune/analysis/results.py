@@ -1,0 +1,376 @@
+"""Typed results of the analysis layer: ``exotune design``, ``exotune sea`` and ``exotune analyze``.
+
+:class:`DesignAnalysis` and its parts (:class:`FamilyResult`, :class:`EnvironmentResult`,
+:class:`PassivityResult`, :class:`DobMargins`, :class:`Amplification`) are built field by field
+by :func:`exotune.analysis.analyze_design` from the one-design batch; their ``to_dict`` assembles
+the ``exotune analyze --json`` object from those fields. :class:`DesignSummary` and
+:class:`SeaReport` keep the report of ``exotune design`` / ``exotune sea`` whole
+(:class:`exotune.record.Record`).
+
+References
+----------
+docs/api.md#typed-results; docs/method.md#analyses-and-metrics.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from ..record import Record, Result, opt_float
+from ..units import GAIN_UNITS_TORQUE, METRIC_UNITS
+
+__all__ = [
+    "DesignSummary",
+    "SeaReport",
+    "FamilyResult",
+    "EnvironmentResult",
+    "PassivityResult",
+    "DobMargins",
+    "Amplification",
+    "DesignAnalysis",
+    "ANALYSIS_MODEL",
+    "RIGID_BODY_NOTE",
+    "BOX_METHOD",
+]
+
+ANALYSIS_MODEL = ("continuous-time, exact delay e^{-sT} (docs/method.md#controller); verdicts by the argument "
+                  "principle on the closed-loop characteristic quasi-polynomial")
+RIGID_BODY_NOTE = ("the rigid-body root at s = 0 (K1 = 0, cuff free) is physical and removed exactly "
+                   "(docs/method.md#double-compliance-shaping)")
+BOX_METHOD = "Edge Theorem: the box is robustly stable iff each of its edges is (exact intervals per edge)"
+
+Interval = tuple[float, float]
+
+
+def _pairs(xs) -> tuple[Interval, ...]:
+    return tuple((a, b) for a, b in xs)
+
+
+def _lists(pairs) -> list[list[float]]:
+    return [[a, b] for a, b in pairs]
+
+
+# ---------------------------------------------------------------------------------------------
+# design, sea
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class DesignSummary(Record):
+    """``exotune design``: the six gains (torque units, ``units``), the shape, the nominal transfer
+    functions and warnings of a design (paper §IV; docs/method.md#double-compliance-shaping)."""
+
+    gains: Mapping[str, float] = field(default_factory=dict)
+    units: Mapping[str, str] = field(default_factory=dict)
+    approximation_valid_below_hz: float | None = None
+    warnings: tuple[str, ...] = ()
+    config: Any = field(default=None, repr=False, compare=False)
+
+    @classmethod
+    def from_record(cls, rec: dict, config=None) -> "DesignSummary":
+        """The summary of the report ``rec`` of :func:`exotune.analysis.design_report` (``config``:
+        the design it came from, for :meth:`transfer_functions`)."""
+        return cls(rec, dict(rec["gains"]), dict(rec["units"]), opt_float(rec["approximation"]["valid_below_hz"]),
+                   tuple(rec["warnings"]), config)
+
+    def transfer_functions(self) -> dict:
+        """The nominal C4, C5, Ĉ5, C7 and G_v (zero delay, no filters, no DOB) as
+        ``control.TransferFunction`` objects (descending coefficients, as python-control).
+
+        Returns
+        -------
+        dict
+            ``{"C4", "C5", "C5_hat", "C7_nominal", "G_v"}`` → ``control.TransferFunction``
+            (compliances in rad/(N·m); G_v dimensionless).
+
+        References
+        ----------
+        Paper §II-B–§II-D, eqs. (8), (10)–(12) and (16); docs/method.md#double-compliance-shaping.
+        """
+        from ..model.interop import nominal_transfer_functions_control
+
+        return nominal_transfer_functions_control(self.config)
+
+    def to_text(self) -> str:
+        from ..text.design import format_design
+
+        return format_design(self.to_dict())
+
+    def plot(self, ax=None):
+        """Bode magnitude of the nominal transfer functions; returns the matplotlib ``Figure``."""
+        import numpy as np
+
+        from ..plots.figures import bode_magnitude
+
+        f = np.geomspace(0.01, 1000.0, 800)
+        curves = [(name, f, np.asarray(tf(2j * np.pi * f)).ravel()) for name, tf in self.transfer_functions().items()]
+        return bode_magnitude(curves, ax=ax, title="nominal transfer functions (design)")
+
+
+@dataclass(frozen=True)
+class SeaReport(Record):
+    """``exotune sea``: a plain SEA compliance-shaping controller (paper §II-B) — its gains in both
+    conventions, the closed-loop compliance C5's poles and resonance, the passivity conditions."""
+
+    c5_stable: bool | None = None
+    passive: bool | None = None
+    low_frequency_stiffness: float | None = None
+    resonance_hz: float | None = None
+
+    @classmethod
+    def from_record(cls, rec: dict) -> "SeaReport":
+        """The typed view of the report ``rec`` of :func:`exotune.analysis.sea_report`."""
+        return cls(rec, bool(rec["c5_stable"]), bool(rec["passivity"]["passive"]),
+                   opt_float(rec["low_frequency_stiffness"]), opt_float(rec["resonance_hz"]))
+
+    def to_text(self) -> str:
+        from ..text.sea import format_sea
+
+        return format_sea(self.to_dict())
+
+
+# ---------------------------------------------------------------------------------------------
+# analyze
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class BoxEdge:
+    """One edge of a box human family (Edge Theorem): ``parameter`` ranges over ``range`` with the
+    other box parameters held ``at`` a corner; ``stable_intervals`` in the parameter's unit."""
+
+    parameter: str
+    range: Interval
+    at: Mapping[str, float]
+    stable_intervals: tuple[Interval, ...]
+
+    def to_dict(self) -> dict:
+        return {"parameter": self.parameter, "range": list(self.range), "at": dict(self.at),
+                "stable_intervals": _lists(self.stable_intervals)}
+
+
+@dataclass(frozen=True)
+class FamilyResult(Result):
+    """One human family: the exact stable member intervals of its ranged ``parameter`` (in
+    ``unit``) over ``range``, ``robust`` (stable over the whole range), ``conclusive``, the critical
+    members (value, crossing frequency [Hz]) and the spot check of the intervals at
+    ``verified_points`` members. A box family (``box``: every ranged parameter) is judged by its
+    ``edges`` and has no ``stable_intervals`` (None).
+
+    References
+    ----------
+    docs/method.md#analyses-and-metrics (human families, Edge Theorem).
+    """
+
+    kind: str
+    parameter: str
+    unit: str
+    range: Interval
+    fixed: Mapping[str, float]
+    stable_intervals: tuple[Interval, ...] | None
+    robust: bool
+    conclusive: bool
+    critical: tuple[tuple[float, float], ...] = ()
+    verified_points: int = 0
+    verification_mismatches: tuple[float, ...] = ()
+    box: Mapping[str, Interval] | None = None
+    edges: tuple[BoxEdge, ...] | None = None
+
+    @property
+    def lowest_stable_value_below_range_top(self) -> float | None:
+        """The lower end of the stable interval that reaches the top of the range (e.g. the
+        lightest stable inertia), None when no interval reaches it or for a box."""
+        top = [a for a, b in self.stable_intervals or () if b == self.range[1]]
+        return top[0] if top else None
+
+    def to_dict(self) -> dict:
+        d = {
+            "kind": self.kind,
+            "parameter": self.parameter,
+            "unit": self.unit,
+            "range": list(self.range),
+            "fixed": dict(self.fixed),
+            "stable_intervals": None if self.stable_intervals is None else _lists(self.stable_intervals),
+            "robust": self.robust,
+            "conclusive": self.conclusive,
+            "critical": [{"value": p, "frequency_hz": f} for p, f in self.critical],
+            "verified_points": self.verified_points,
+            "verification_mismatches": list(self.verification_mismatches),
+        }
+        if self.box is not None:
+            d["box"] = {k: list(v) for k, v in self.box.items()}
+            d["method"] = BOX_METHOD
+            d["edges"] = [e.to_dict() for e in self.edges or ()]
+        elif self.stable_intervals:
+            d["lowest_stable_value_below_range_top"] = self.lowest_stable_value_below_range_top
+        return d
+
+
+@dataclass(frozen=True)
+class EnvironmentResult(Result):
+    """One environment model: ``locked`` and ``free`` are single loops (``robust`` is their
+    stability); a ranged one (``spring``…) has the stable intervals of ``parameter`` over ``range``.
+
+    References
+    ----------
+    docs/design-file.md#environment; docs/method.md#analyses-and-metrics.
+    """
+
+    kind: str
+    robust: bool
+    parameter: str | None = None
+    range: Interval | None = None
+    stable_intervals: tuple[Interval, ...] | None = None
+
+    @property
+    def ranged(self) -> bool:
+        return self.range is not None
+
+    def to_dict(self) -> dict:
+        if not self.ranged:
+            return {"kind": self.kind, "stable": self.robust}
+        return {"kind": self.kind, "parameter": self.parameter, "range": list(self.range),
+                "stable_intervals": _lists(self.stable_intervals or ()), "robust": self.robust}
+
+
+@dataclass(frozen=True)
+class PassivityResult(Result):
+    """Passivity of the operator-side compliance C7 (paper §IV-A, Fig. 5): the maximum phase
+    excess of s·C7 over ±90° [deg], the non-passive bands [Hz] and the KYP certificates of its
+    rational models (``kyp``; docs/method.md#analyses-and-metrics)."""
+
+    max_phase_excess_deg: float
+    nonpassive_band_hz: tuple[Interval, ...] = ()
+    kyp: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def passive(self) -> bool:
+        return self.max_phase_excess_deg <= 0.0
+
+    def to_dict(self) -> dict:
+        return {"max_phase_excess_deg": self.max_phase_excess_deg,
+                "nonpassive_band_hz": _lists(self.nonpassive_band_hz), "kyp": copy.deepcopy(dict(self.kyp))}
+
+
+@dataclass(frozen=True)
+class DobMargins(Result):
+    """Margins of the DOB Q-filter loop: gain [dB], phase [deg], delay [s], crossover [Hz]."""
+
+    gain_margin_db: float
+    phase_margin_deg: float
+    delay_margin_s: float
+    crossover_hz: float
+    stable: bool
+
+    def to_dict(self) -> dict:
+        return {"gain_margin_db": self.gain_margin_db, "phase_margin_deg": self.phase_margin_deg,
+                "delay_margin_s": self.delay_margin_s, "crossover_hz": self.crossover_hz, "stable": self.stable}
+
+
+@dataclass(frozen=True)
+class Amplification(Result):
+    """Delivered amplification |C6/C5| (paper §II-D): DC value [–], −3 dB bandwidth [Hz] and
+    whether C6/C5 is minimum phase."""
+
+    dc: float
+    bandwidth_hz: float
+    minimum_phase: bool
+
+    def to_dict(self) -> dict:
+        return {"dc": self.dc, "bandwidth_hz": self.bandwidth_hz, "minimum_phase": self.minimum_phase}
+
+
+@dataclass(frozen=True)
+class DesignAnalysis(Result):
+    """``exotune analyze``: every verdict and metric of one design (docs/method.md#analyses-and-metrics).
+
+    ``robust`` is true when the cuff-free exoskeleton, every environment and every human family
+    are stable over their whole ranges. ``margins`` holds the latency and plant-uncertainty
+    margins (:class:`exotune.analysis.LatencyMargin`, :class:`exotune.analysis.PlantMargin`) when
+    they were computed (:func:`exotune.analysis.analyze_with_margins`); ``sampled_data``,
+    ``gain_schedule`` and ``cross_check`` are the sections of the same names of the JSON object.
+    """
+
+    structure: str
+    delay_s: float
+    gains: Mapping[str, float]
+    free_stable: bool
+    free_rigid_body_roots: int
+    locked_stable: bool
+    humans: tuple[FamilyResult, ...]
+    environment: tuple[EnvironmentResult, ...]
+    passivity: PassivityResult
+    dob: DobMargins | None
+    amplification: Amplification
+    J_m_hat_over_J_j: float
+    warnings: tuple[str, ...] = ()
+    sampled_data: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
+    gain_schedule: tuple[Mapping[str, Any], ...] | None = field(default=None, repr=False, compare=False)
+    margins: tuple[Any, Any] | None = None
+    cross_check: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
+    config: Any = field(default=None, repr=False, compare=False)
+
+    units = GAIN_UNITS_TORQUE
+    metric_units = METRIC_UNITS
+
+    @property
+    def robust(self) -> bool:
+        return bool(self.free_stable) and all(bool(x.robust) for x in self.humans + self.environment)
+
+    @property
+    def latency_margin(self):
+        """The :class:`exotune.analysis.LatencyMargin` (None when margins were not computed)."""
+        return None if self.margins is None else self.margins[0]
+
+    @property
+    def plant_margin(self):
+        """The :class:`exotune.analysis.PlantMargin` (None when margins were not computed)."""
+        return None if self.margins is None else self.margins[1]
+
+    @property
+    def latency_margin_s(self) -> float | None:
+        """The extra delay the design tolerates [s] (None when margins were not computed)."""
+        return None if self.margins is None else float(self.margins[0].extra_delay_s)
+
+    def to_dict(self) -> dict:
+        """The ``exotune analyze --json`` object (docs/cli.md#exotune-analyze)."""
+        d = {}
+        if self.margins is not None:
+            d["margins"] = {"latency": self.margins[0].to_dict(), "plant_uncertainty": self.margins[1].to_dict()}
+        d.update({
+            "model": ANALYSIS_MODEL,
+            "structure": self.structure,
+            "delay_s": self.delay_s,
+            "gain_convention": "torque",
+            "gains": dict(self.gains),
+            "units": dict(self.units),
+            "free_stable": self.free_stable,
+            "free": {"stable": self.free_stable, "rigid_body_roots": self.free_rigid_body_roots, "note": RIGID_BODY_NOTE},
+            "locked_stable": self.locked_stable,
+            "humans": [h.to_dict() for h in self.humans],
+            "environment": [e.to_dict() for e in self.environment],
+            "passivity": self.passivity.to_dict(),
+            "dob": None if self.dob is None else self.dob.to_dict(),
+            "amplification": self.amplification.to_dict(),
+            "J_m_hat_over_J_j": self.J_m_hat_over_J_j,
+            "sampled_data": copy.deepcopy(self.sampled_data),
+            "gain_schedule": None if self.gain_schedule is None else copy.deepcopy(list(self.gain_schedule)),
+            "metric_units": dict(self.metric_units),
+            "warnings": list(self.warnings),
+        })
+        if self.cross_check is not None:
+            d["cross_check"] = copy.deepcopy(dict(self.cross_check))
+        return d
+
+    def to_text(self) -> str:
+        from ..text.analysis import format_report
+
+        return format_report(self.to_dict())
+
+    def plot(self, ax=None):
+        """Bode plot of the operator-side compliance C7 with its non-passive bands shaded and the
+        passivity limits drawn; returns the matplotlib ``Figure``."""
+        from ..plots.figures import compliance_phase
+        from .responses import c7_frequency_response
+
+        f, H = c7_frequency_response(self.config)
+        return compliance_phase(f, H, self.passivity.nonpassive_band_hz, ax=ax,
+                                title="operator-side compliance C7 (paper Fig. 5)")

@@ -1,0 +1,81 @@
+"""The typed result of a sweep: its directory, manifest and rows (docs/sweep-spec.md).
+
+References
+----------
+docs/api.md#typed-results; docs/sweep-spec.md.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+from ..record import Record
+
+__all__ = ["SweepResult"]
+
+
+@dataclass(frozen=True)
+class SweepResult(Record):
+    """A sweep directory (docs/sweep-spec.md): its manifest (``to_dict()``) and the Parquet rows
+    on demand (:meth:`table`)."""
+
+    directory: str = ""
+    status: str | None = None
+    points_total: int | None = None
+
+    @classmethod
+    def from_directory(cls, directory) -> "SweepResult":
+        """The sweep written into ``directory`` (its ``manifest.json``)."""
+        from pathlib import Path
+
+        d = Path(directory)
+        man = json.loads((d / "manifest.json").read_text())
+        total = man.get("points_total", man.get("n_points"))
+        return cls(man, str(d), man.get("status"), None if total is None else int(total))
+
+    def table(self):
+        """Every computed row as one ``pyarrow.Table`` (chunks in design-index order)."""
+        from pathlib import Path
+
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        files = sorted((Path(self.directory) / "chunks").glob("*.parquet"))
+        return pa.concat_tables([pq.read_table(f) for f in files]) if files else pa.table({})
+
+    def to_text(self) -> str:
+        return json.dumps(self.to_dict(), indent=2)
+
+    def map_data(self, column: str = "robust", axes: tuple[str, str] | None = None):
+        """One value per cell of two sweep axes (default: the first two), reduced over the others:
+        ``column`` "robust" → the fraction of robust designs; a numeric column → its worst case
+        (the minimum; ``passivity_max_phase_excess_deg``: the maximum).
+
+        Returns (grid[iy, ix], x values, y values, x path, y path)."""
+        import numpy as np
+
+        from .metrics import aggregate, robust_mask
+
+        man_axes = [a["path"] for a in self.to_dict()["axes"]]
+        xp, yp = axes or (man_axes[0], man_axes[1] if len(man_axes) > 1 else man_axes[0])
+        t = self.table()
+        cols = {c: t.column(c).to_numpy(zero_copy_only=False) for c in t.column_names
+                if c == "free_stable" or c == column or c.endswith(("_robust", "_stable")) or c in (xp, yp)}
+        if column == "robust":
+            vals, how = robust_mask(cols)[0].astype(float), "mean"
+        else:
+            vals, how = np.asarray(cols[column], float), "max" if column.startswith("passivity") else "min"
+        xs, ix = np.unique(cols[xp], return_inverse=True)
+        ys, iy = np.unique(cols[yp], return_inverse=True)
+        grid = aggregate(iy * xs.size + ix, xs.size * ys.size, vals, how).reshape(ys.size, xs.size)
+        return grid, xs, ys, xp, yp
+
+    def plot(self, column: str = "robust", axes: tuple[str, str] | None = None, ax=None):
+        """A heatmap of :meth:`map_data` (fraction robust or a column's worst case) over two axes;
+        returns the matplotlib ``Figure``."""
+        from ..plots.results import sweep_map
+
+        grid, xs, ys, xp, yp = self.map_data(column, axes)
+        what = "fraction of robust designs" if column == "robust" else f"{column} (worst case)"
+        return sweep_map(grid, xs, ys, xp, yp, what, "fraction" if column == "robust" else column, ax=ax)
