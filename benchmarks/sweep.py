@@ -97,7 +97,7 @@ def main() -> None:
     tracemalloc.start()
     t0 = time.perf_counter()
     progress = TqdmProgress(sys.stderr) if sys.stderr.isatty() else None
-    manifest = run_sweep(spec_path, out, workers=args.workers, sample=sample, seed=seed, progress=progress)
+    manifest = run_sweep(spec_path, out, workers=args.workers, sample=sample, seed=seed, progress=progress).to_dict()
     wall = time.perf_counter() - t0
     _, py_peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()

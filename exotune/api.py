@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from .numerics.engine import numpy_engine
@@ -27,6 +26,7 @@ from .results import (
     DesignSummary,
     OptimizeResult,
     SimulationRun,
+    SweepReport,
     SweepResult,
 )
 
@@ -185,27 +185,34 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     """
     from .sweeps import run_sweep
 
-    run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
-              chunk_size=chunk_size, progress=progress)
-    return SweepResult.from_directory(out)
+    return run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
+                     chunk_size=chunk_size, progress=progress)
 
 
-def report(sweep_dir, out=None) -> Path:
+def report(sweep_dir, out=None) -> SweepReport:
     """Stability maps and summary tables of a sweep (the library twin of ``exotune report``).
+
+    Parameters
+    ----------
+    sweep_dir : path or SweepResult
+        The sweep directory, or the result of :func:`sweep`.
+    out : path, optional
+        The report directory (default ``sweep_dir/report``).
 
     Returns
     -------
-    pathlib.Path
-        The report directory that was written.
+    SweepReport
+        ``directory`` (the report directory that was written), ``files``, ``maps``; ``to_text()``
+        is the line the command prints.
 
     Examples
     --------
     >>> import os, tempfile
     >>> out = os.path.join(tempfile.mkdtemp(), "sweep")
     >>> _ = sweep({"base": "examples/scheduled.yaml", "axes": {"design.amplification": [4.0, 8.0]}}, out, workers=1)
-    >>> rep = report(out)
-    >>> rep.name, (rep / "summary.md").exists()
-    ('report', True)
+    >>> rep = report(SweepResult.from_directory(out))
+    >>> rep.directory.name, (rep.directory / "summary.md").exists(), rep.maps
+    ('report', True, ('profile_design.amplification.png',))
 
     References
     ----------
@@ -213,8 +220,9 @@ def report(sweep_dir, out=None) -> Path:
     """
     from .sweeps import make_report
 
-    where = make_report(sweep_dir, out)
-    return Path(where) if where is not None else Path(sweep_dir) / "report"
+    if isinstance(sweep_dir, SweepResult):
+        sweep_dir = sweep_dir.directory
+    return make_report(sweep_dir, out)
 
 
 def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
@@ -293,11 +301,16 @@ def certify(source) -> Certificate:
     (True, ())
     """
     from .controllerfile.certify import certify as _certify
-    from .controllerfile import load_controller
+    from .controllerfile import checked_controller, load_controller
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
-    doc = load_controller(source) if isinstance(source, (str, os.PathLike)) else dict(source)
+    if isinstance(source, (str, os.PathLike)):
+        doc = load_controller(source)
+    elif isinstance(source, Mapping):
+        doc = checked_controller(dict(source))  # validated as a file is
+    else:
+        raise TypeError(f"expected a controller file path, a mapping or an ExportedController, got {type(source).__name__}")
     with numpy_engine():
         return _certify(doc)
 
@@ -309,8 +322,9 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
 
     Parameters
     ----------
-    source : path
-        A design file (with ``sample_rate_hz``) or a controller file.
+    source : path, Mapping, DesignConfig or ExportedController
+        A design file (with ``sample_rate_hz``) or a controller file, the same content as a
+        mapping (validated as the file is), a loaded design, or the result of :func:`export`.
     scenario : str
         ``locked-output``, ``dob-friction``, ``light-mass``, ``saturation`` or ``backlash``.
     duration : float, optional
@@ -329,6 +343,8 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     """
     from .simulation import load_for_simulation, run_scenario
 
+    if isinstance(source, ExportedController):
+        source = source.path if source.path is not None else source.to_dict()
     with numpy_engine():
         doc = load_for_simulation(source, sample_rate_hz)
         return run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration)

@@ -287,11 +287,7 @@ def report_cmd(sweep_dir, out):
 
     check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"-o": out},
                   protected_dirs=[os.path.join(sweep_dir, "chunks")])
-    where = make_report(sweep_dir, out)
-    summary = where / "summary.md"
-    n_maps = sum(1 for line in summary.read_text(encoding="utf-8").splitlines()
-                 if line.startswith("- [") and ".png]" in line)
-    click.echo(f"wrote report to {where} ({n_maps} map{'' if n_maps == 1 else 's'}, summary.md)")
+    click.echo(make_report(sweep_dir, out).to_text())
 
 
 @cli.command("optimize")

@@ -24,7 +24,7 @@ from .controllerfile.results import Certificate, ExportedController
 from .optimization.result import OptimizeResult
 from .record import Record, Result
 from .simulation.result import SimulationRun
-from .sweeps.result import SweepResult
+from .sweeps.result import SweepReport, SweepResult
 
 __all__ = [
     "Result",
@@ -41,6 +41,7 @@ __all__ = [
     "ExportedController",
     "Certificate",
     "SweepResult",
+    "SweepReport",
     "OptimizeResult",
     "SimulationRun",
 ]

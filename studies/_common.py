@@ -52,7 +52,7 @@ def run_study(name: str, spec: str, doc: str, extra) -> Path:
         shutil.rmtree(data)
     t0 = time.perf_counter()
     progress = TqdmProgress(sys.stderr) if sys.stderr.isatty() else None
-    manifest = run_sweep(HERE / spec, data, workers=args.workers, progress=progress)
+    manifest = run_sweep(HERE / spec, data, workers=args.workers, progress=progress).to_dict()
     t_sweep = time.perf_counter() - t0
     out = Path(args.results) / name
     if out.exists():

@@ -197,6 +197,31 @@ def test_export_then_certify_round_trip(tmp_path):
     assert res.exit_code == 0 and res.stdout.rstrip("\n") == cf.summary().replace(str(out), str(tmp_path / "d.yaml"))
 
 
+def test_simulate_and_certify_accept_objects_and_validate_mappings(tmp_path):
+    """simulate takes a path, the design's mapping, a loaded design or an exported controller (the
+    same run each time); a controller mapping is validated as its file is, for certify and simulate."""
+    from exotune.config import read_yaml
+    from exotune.errors import ConfigError
+
+    design = ROOT / "examples" / "scheduled.yaml"
+    runs = [exotune.simulate(src, "locked-output", duration=0.3)
+            for src in (design, read_yaml(design), exotune.load_design(design))]
+    assert runs[0].to_json() == runs[1].to_json() == runs[2].to_json()
+    cf = exotune.export(design, 1000.0, tmp_path / "c.yaml")
+    from_file = exotune.simulate(cf, "locked-output", duration=0.3)
+    from_doc = exotune.simulate(cf.to_dict(), "locked-output", duration=0.3)
+    assert from_file.to_json() == from_doc.to_json()
+    assert from_file.to_dict()["summary"]["verdict"] == runs[0].to_dict()["summary"]["verdict"] == "decaying"
+    bad = cf.to_dict()
+    bad["sample_rate_hz"] = 3
+    for call in (lambda: exotune.certify(bad), lambda: exotune.simulate(bad, "locked-output")):
+        with pytest.raises(ConfigError) as e:
+            call()
+        assert e.value.field == "sample_rate_hz"
+    with pytest.raises(TypeError, match="controller file path"):
+        exotune.certify(42)
+
+
 def test_a_failed_certificate_lists_its_reasons(tmp_path):
     """``Certificate.reasons`` read a key the record does not have and was always empty."""
     out = tmp_path / "c.yaml"

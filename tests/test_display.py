@@ -103,6 +103,18 @@ def test_simulate_text_units_and_one_sample():
     assert "  amplification error: 0.1 – (relative)" in text.splitlines()
 
 
+def test_simulate_text_gives_the_tolerance_and_rates_their_unit():
+    """The verdict's tolerance is in the growth rate's unit and the loop's growth rate in 1/s: the
+    text says so (the JSON keeps them inside the quantity whose unit they share, or in the key)."""
+    rep = {"scenario": "step", "description": "a step", "sample_rate_hz": 1000.0, "delay_samples": 1.0,
+           "summary": {"start": "zero", "verdict": "decaying",
+                       "envelope_growth_rate": {"value": -1.5, "unit": "1/s", "signal": "tau_c", "tolerance": 0.05},
+                       "loop_spectral_radius": {"value": 0.998, "unit": "1", "growth_rate_per_s": -2.0, "note": "n"}}}
+    lines = format_simulation(rep).splitlines()
+    assert "  envelope growth rate: -1.5 1/s; signal tau_c; tolerance 0.05 1/s" in lines
+    assert "  loop spectral radius: 0.998 –; growth rate -2 1/s; note n" in lines
+
+
 def test_margins_text_one_sample():
     lines = format_margins({"latency": {"extra_delay_s": 0.001, "delay_s": 0.001, "extra_delay_samples": 1.0}})
     assert lines[1].endswith("(1 sample)"), lines

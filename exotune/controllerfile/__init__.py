@@ -10,7 +10,7 @@ from .certify import position_feedback, sampled_analysis
 from .continuation import stable_intervals
 from .checks import MIN_GOLDEN_SAMPLES, check_controller_file
 from .export import build_export, check_sample_rate, design_at_rate, export_design, reflected_mapping
-from .fileio import discrete_from_file, load_controller, plant_from_file, schedule_entry_doc, write_controller
+from .fileio import checked_controller, discrete_from_file, load_controller, plant_from_file, schedule_entry_doc, write_controller
 from .runtime import Runtime, SosFilter
 from .schema import SCHEMA_VERSION, SIGNAL_UNITS, ControllerFile, json_schema, schema_path, validate_controller, write_schema
 from .sos import sos_ss, tustin_sos
@@ -28,6 +28,7 @@ __all__ = [
     "tustin_sos",
     "sos_ss",
     "load_controller",
+    "checked_controller",
     "write_controller",
     "discrete_from_file",
     "plant_from_file",

@@ -13,18 +13,31 @@ from .checks import check_controller_file
 from .schema import validate_controller
 from .sos import sos_ss
 
-__all__ = ["load_controller", "check_file_limits", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc",
+__all__ = ["load_controller", "checked_controller", "check_file_limits", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc",
            "position_feedback"]
 
 
 def load_controller(path) -> dict:
     """Read (safe YAML loader) and validate a controller file (schema, then
     :func:`check_controller_file`); returns the mapping."""
-    from ..config import read_yaml, refuse_other_kind
+    from ..config import read_yaml
 
-    doc = read_yaml(path)
-    refuse_other_kind(doc, "controller", str(path))
-    validate_controller(doc, str(path))
+    return checked_controller(read_yaml(path), str(path))
+
+
+def checked_controller(doc, source: str = "<mapping>") -> dict:
+    """Validate a controller document already in memory exactly as :func:`load_controller`
+    validates a file (the kind, the schema, the accepted ranges, the file's own consistency
+    checks); returns it. ``source`` names it in errors.
+
+    References
+    ----------
+    docs/controller-file.md.
+    """
+    from ..config import refuse_other_kind
+
+    refuse_other_kind(doc, "controller", source)
+    validate_controller(doc, source)
     check_file_limits(doc)
     check_controller_file(doc)
     return doc

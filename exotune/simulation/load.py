@@ -4,7 +4,7 @@ consistency checks), or a design file exported in memory at a sample rate."""
 from __future__ import annotations
 
 from ..config import read_yaml
-from ..controllerfile import build_export, design_at_rate, load_controller
+from ..controllerfile import build_export, checked_controller, design_at_rate, load_controller
 from ..controllerfile.certify import certify
 from ..errors import ConfigError
 from .plant import MIN_HUMAN_INERTIA
@@ -65,16 +65,26 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
     ``implementation.sample_rate_hz``) — only what the runtime executes, without the sampled-data
     predictions of a written controller file (seconds at 100 kHz instead of minutes).
 
+    ``path`` may also be the content in memory: a controller document or a design mapping (both
+    validated as their files are), or a loaded design (its ``raw`` mapping).
+
     References
     ----------
     docs/cli.md#simulate.
     """
-    raw = read_yaml(path)
+    from collections.abc import Mapping
+
+    if hasattr(path, "raw") and hasattr(path, "plant"):  # a loaded design
+        raw, name, in_memory = path.raw, path.source or "<design>", True
+    elif isinstance(path, Mapping):
+        raw, name, in_memory = dict(path), "<mapping>", True
+    else:
+        raw, name, in_memory = read_yaml(path), str(path), False
     if isinstance(raw, dict) and "schema" in raw:
         if sample_rate_hz is not None:
             raise ConfigError("--sample-rate-hz", "a controller file carries the sample rate it was certified at; "
                               "the option applies to design files only")
-        doc = load_controller(path)
+        doc = checked_controller(raw, name) if in_memory else load_controller(path)
         if check:
             check_consistent(doc)
         return doc
@@ -84,6 +94,6 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
     if fs is None:
         raise ConfigError("--sample-rate-hz", "a design file needs a sample rate to be simulated (give "
                           "--sample-rate-hz or implementation.sample_rate_hz, or simulate an exported controller file)")
-    cfg = design_at_rate(raw, fs, str(path))
+    cfg = design_at_rate(raw, fs, name)
     fs = float(cfg.implementation.sample_rate_hz)
-    return build_export(cfg, fs, source=str(path), analyses=False)  # the runtime's sections only
+    return build_export(cfg, fs, source=name, analyses=False)  # the runtime's sections only

@@ -116,6 +116,7 @@ from .metrics import AXIS_UNITS, derived_metrics, interval_ends, robust_mask
 from .plan import SweepPlan, chunk_points
 from .progress import LineProgress, SweepProgress, TqdmProgress
 from .report import make_report
+from .result import SweepReport, SweepResult
 from .run import SweepError, run_sweep
 from .spec import DEFAULT_CHUNK_SIZE, load_base, load_spec
 from .dataset import load_results, read_tables, verified_manifest
@@ -126,6 +127,8 @@ from .summary import display_path, value_runs
 
 __all__ = [
     "run_sweep",
+    "SweepResult",
+    "SweepReport",
     "SweepError",
     "SweepProgress",
     "TqdmProgress",

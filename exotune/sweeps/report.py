@@ -52,6 +52,7 @@ from ..jsonio import write_files
 from .figures import heatmap, heatmap_panels, profile_figure
 from .dataset import read_tables, verified_manifest
 from .manifest import refuse_link
+from .result import SweepReport
 from .metrics import AXIS_UNITS, MAX_PAIR_AXES, METRICS, TABLE_METRICS, aggregate, derived_metrics, robust_mask
 from .summary import safe_name, summary_md
 
@@ -68,7 +69,7 @@ def _axis_label(path: str) -> str:
     return f"{path} [{AXIS_UNITS.get(path, '?')}]"
 
 
-def make_report(sweep_dir, out_dir=None) -> Path:
+def make_report(sweep_dir, out_dir=None) -> SweepReport:
     """Write stability maps and summary tables of a sweep.
 
     The files (``summary.md``, ``axis_<path>.csv``, ``robust_<a>__<b>.png``,
@@ -84,8 +85,9 @@ def make_report(sweep_dir, out_dir=None) -> Path:
 
     Returns
     -------
-    pathlib.Path
-        The output directory.
+    SweepReport
+        The output directory (``directory``), the files written and the maps among them;
+        ``to_text()`` is the line ``exotune report`` prints.
 
     Raises
     ------
@@ -122,7 +124,7 @@ def make_report(sweep_dir, out_dir=None) -> Path:
         write_files(out, files)  # all or none: staged in a temporary directory, then renamed
     except OSError as e:
         raise ConfigError(str(out), f"cannot write the report: {e.strerror or e}") from None
-    return out
+    return SweepReport(out, tuple(files), tuple(name for name, _ in figures))
 
 
 def _read_sweep(sweep_dir: str, m: dict) -> dict:

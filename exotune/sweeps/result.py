@@ -1,4 +1,4 @@
-"""The typed result of a sweep: its directory, manifest and rows (docs/sweep-spec.md).
+"""The typed results of a sweep (its directory, manifest and rows) and of its report (docs/sweep-spec.md).
 
 References
 ----------
@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 
-from ..record import Record
+from ..record import Record, Result
 
-__all__ = ["SweepResult"]
+__all__ = ["SweepResult", "SweepReport"]
 
 
 @dataclass(frozen=True)
@@ -27,17 +28,17 @@ class SweepResult(Record):
     @classmethod
     def from_directory(cls, directory) -> "SweepResult":
         """The sweep written into ``directory`` (its ``manifest.json``)."""
-        from pathlib import Path
-
         d = Path(directory)
-        man = json.loads((d / "manifest.json").read_text())
+        return cls.from_manifest(json.loads((d / "manifest.json").read_text()), d)
+
+    @classmethod
+    def from_manifest(cls, man: dict, directory) -> "SweepResult":
+        """The sweep in ``directory`` whose manifest is ``man``."""
         total = man.get("points_total", man.get("n_points"))
-        return cls(man, str(d), man.get("status"), None if total is None else int(total))
+        return cls(man, str(directory), man.get("status"), None if total is None else int(total))
 
     def table(self):
         """Every computed row as one ``pyarrow.Table`` (chunks in design-index order)."""
-        from pathlib import Path
-
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -79,3 +80,22 @@ class SweepResult(Record):
         grid, xs, ys, xp, yp = self.map_data(column, axes)
         what = "fraction of robust designs" if column == "robust" else f"{column} (worst case)"
         return sweep_map(grid, xs, ys, xp, yp, what, "fraction" if column == "robust" else column, ax=ax)
+
+
+@dataclass(frozen=True)
+class SweepReport(Result):
+    """``exotune report``: where the report of a sweep went (``directory``), the files written
+    (``files``: ``summary.md``, the per-axis CSV tables, the PNG maps) and the maps among them
+    (``maps``, in the order ``summary.md`` lists them)."""
+
+    directory: Path
+    files: tuple[str, ...] = ()
+    maps: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        return {"directory": str(self.directory), "files": list(self.files), "maps": list(self.maps)}
+
+    def to_text(self) -> str:
+        """The line ``exotune report`` prints."""
+        n = len(self.maps)
+        return f"wrote report to {self.directory} ({n} map{'' if n == 1 else 's'}, summary.md)"

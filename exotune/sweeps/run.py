@@ -16,6 +16,7 @@ from .manifest import (MANIFEST, check_compatible, dir_lock, load_manifest, new_
                        write_manifest)
 from .plan import SweepPlan
 from .progress import SweepProgress, as_progress
+from .result import SweepResult
 from .spec import int_option, load_spec
 from .store import CHUNK_DIR
 
@@ -46,8 +47,9 @@ def run_sweep(
     seed: int | None = None,
     chunk_size: int | None = None,
     progress: SweepProgress | Callable[[str], None] | None = None,
-) -> dict:
-    """Run (or resume) the sweep ``spec_path`` into ``out_dir``; returns the manifest.
+) -> SweepResult:
+    """Run (or resume) the sweep ``spec_path`` into ``out_dir``; returns the sweep
+    (:class:`~exotune.sweeps.result.SweepResult`: ``to_dict()`` is the manifest, ``table()`` the rows).
 
     See the :mod:`exotune.sweeps` package docstring for the spec format, the directory layout and
     the backends.
@@ -73,8 +75,8 @@ def run_sweep(
 
     Returns
     -------
-    dict
-        The manifest as written to ``out_dir/manifest.json``.
+    SweepResult
+        ``to_dict()``: the manifest as written to ``out_dir/manifest.json``; ``table()``: the rows.
 
     Raises
     ------
@@ -121,7 +123,7 @@ def run_sweep(
                 check_compatible(out_dir, manifest, plan)
             else:
                 manifest = new_manifest(plan)
-            return _execute(plan, out_dir, manifest, workers, dask, progress)
+            return SweepResult.from_manifest(_execute(plan, out_dir, manifest, workers, dask, progress), out_dir)
     finally:
         if dask is not None:
             dask.close()

@@ -11,11 +11,20 @@ def _num(v, fmt: str = ".6g") -> str:
     return "null" if v is None else format(v, fmt)
 
 
+def _extra(name: str, y, unit: str) -> str:
+    """One attribute of a quantity: a ``tolerance`` is in the quantity's own unit, a ``…_per_s``
+    rate in 1/s; the others are words or plain numbers."""
+    text = _num(y) if isinstance(y, float) or y is None else str(y)
+    if name == "tolerance" and isinstance(y, (int, float)):
+        return f"tolerance {text} {unit_text(unit)}"
+    if name.endswith("_per_s") and (y is None or isinstance(y, (int, float))):
+        return f"{name[: -len('_per_s')].replace('_', ' ')} {text} 1/s"
+    return f"{name.replace('_', ' ')} {text}"
+
+
 def _line(k: str, v, indent: str = "  ") -> str:
     if isinstance(v, dict) and "value" in v:
-        extra = {x: y for x, y in v.items() if x not in ("value", "unit")}
-        tail = "".join(f"; {x.replace('_', ' ')} {_num(y) if isinstance(y, float) or y is None else y}"
-                       for x, y in extra.items())
+        tail = "".join(f"; {_extra(x, y, v['unit'])}" for x, y in v.items() if x not in ("value", "unit"))
         return f"{indent}{k.replace('_', ' ')}: {_num(v['value'])} {unit_text(v['unit'])}{tail}"
     return f"{indent}{k.replace('_', ' ')}: {v}"
 

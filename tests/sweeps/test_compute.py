@@ -63,7 +63,7 @@ def test_not_robust_rows_have_zero_margins(swept):
 
 def test_report_maps_and_tables_the_lower_bound(swept):
     _base_, out, df = swept
-    rep = make_report(out)
+    rep = make_report(out).directory
     md = (rep / "summary.md").read_text(encoding="utf-8")
     assert "plant_margin_lower" in md
     csv_text = (rep / "axis_implementation.delay_s.csv").read_text(encoding="utf-8")

@@ -72,9 +72,9 @@ def test_out_of_space_leaves_a_consistent_sweep(tmp_path):
     m = verified_manifest(saved)  # what `report` sees: every chunk on disk recorded, the run interrupted
     assert [c["file"].split("/")[-1] for c in m["chunks"] if c["status"] == "done"] == on_disk
     assert m["status"] == "interrupted" and load_manifest(saved)["status"] == "interrupted"
-    md = (make_report(saved, tmp_path / "rep") / "summary.md").read_text(encoding="utf-8")
+    md = (make_report(saved, tmp_path / "rep").directory / "summary.md").read_text(encoding="utf-8")
     assert f"designs: {len(on_disk)} of 25" in md
-    m = run_sweep(spec, saved, workers=1, progress=False)  # room again: the rest is computed
+    m = run_sweep(spec, saved, workers=1, progress=False).to_dict()  # room again: the rest is computed
     assert m["status"] == "complete" and m["runs"][-1]["chunks_computed"] == 25 - len(on_disk)
     run_sweep(spec, tmp_path / "clean", workers=1, progress=False)
     a, b = load_results(saved), load_results(tmp_path / "clean")

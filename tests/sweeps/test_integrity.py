@@ -193,7 +193,7 @@ def test_damaged_chunk_is_recomputed_on_resume(sweeps, tmp_path, tamper):
     error tells the user to do): the dataset is the uninterrupted one, byte for byte."""
     d = _copy(sweeps, tmp_path)
     tamper(d, sweeps[2])
-    m = run_sweep(sweeps[0], d, workers=1, progress=False)
+    m = run_sweep(sweeps[0], d, workers=1, progress=False).to_dict()
     assert m["status"] == "complete" and m["runs"][-1]["chunks_computed"] == 1
     for i in range(5):
         assert sha256_file(_chunk(d, i)) == sha256_file(_chunk(sweeps[1], i)) == m["chunks"][i]["sha256"]
@@ -243,7 +243,7 @@ def _forget(d: Path, indices, status="running"):
 def test_report_reconciles_unrecorded_chunks(sweeps, tmp_path):
     d = _copy(sweeps, tmp_path)
     _forget(d, [1, 2, 3, 4])
-    out = make_report(d, tmp_path / "rep")
+    out = make_report(d, tmp_path / "rep").directory
     md = (out / "summary.md").read_text(encoding="utf-8")
     assert "designs: 9 of 9" in md and "partial" not in md
     m = load_manifest(d)
@@ -255,7 +255,7 @@ def test_running_manifest_is_reported_interrupted_with_correct_counts(sweeps, tm
     d = _copy(sweeps, tmp_path)
     _forget(d, [2, 3, 4])
     _chunk(d, 4).unlink()  # the run was killed before chunk 4 was written
-    md = (make_report(d, tmp_path / "rep") / "summary.md").read_text(encoding="utf-8")
+    md = (make_report(d, tmp_path / "rep").directory / "summary.md").read_text(encoding="utf-8")
     assert "status: interrupted" in md and "designs: 8 of 9" in md and "1 chunk(s) missing" in md
     assert load_manifest(d)["status"] == "interrupted"
 
@@ -264,7 +264,7 @@ def test_resume_records_unrecorded_chunks_without_recomputing(sweeps, tmp_path):
     d = _copy(sweeps, tmp_path)
     _forget(d, [0, 3])
     before = {i: _chunk(d, i).stat().st_mtime_ns for i in range(5)}
-    m = run_sweep(sweeps[0], d, workers=1, progress=False)
+    m = run_sweep(sweeps[0], d, workers=1, progress=False).to_dict()
     assert m["runs"][-1]["chunks_skipped"] == 5 and m["runs"][-1]["chunks_computed"] == 0
     assert before == {i: _chunk(d, i).stat().st_mtime_ns for i in range(5)}
     assert [c["sha256"] for c in m["chunks"]] == [c["sha256"] for c in load_manifest(sweeps[1])["chunks"]]
@@ -345,7 +345,7 @@ def test_failing_design_is_a_failed_row(sweeps, tmp_path, monkeypatch):
 
     row4 = pq.read_table(_chunk(out, 2)).slice(0, 1).to_pylist()
     assert json.dumps(row4, default=str) == json.dumps(pq.read_table(_chunk(ref, 2)).slice(0, 1).to_pylist(), default=str)
-    md = (make_report(out, tmp_path / "rep") / "summary.md").read_text(encoding="utf-8")
+    md = (make_report(out, tmp_path / "rep").directory / "summary.md").read_text(encoding="utf-8")
     assert "failed designs**: 1 design(s)" in md
     # the CLI: exit 1, one line; rerunning does not recompute (the chunk is done) and says so again
     res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(out), "--workers", "1"])

@@ -39,7 +39,7 @@ def two_axes(tmp_path_factory):
     bp.write_text(yaml.safe_dump(base))
     d = sweep(tmp, {"design.amplification": [2.0, 8.0, 20.0], "implementation.delay_s": [0.0, 0.002, 0.004]},
               "s2", base=str(bp))
-    return d, make_report(d)
+    return d, make_report(d).directory
 
 
 def test_two_axis_report_files(two_axes):
@@ -130,7 +130,7 @@ def test_three_axes_pairs_and_partial(tmp_path):
     df = load_results(d)
     assert df["dob_delay_margin_s"].isna().all() and df["dob_phase_margin_deg"].isna().all()
     os.unlink(d / "chunks" / "part-000002.parquet")  # lose the last chunk (rows 6, 7)
-    out = make_report(d, tmp_path / "r3")
+    out = make_report(d, tmp_path / "r3").directory
     names = set(os.listdir(out))
     for a, b in (("design.amplification", "design.zeta_hat"), ("design.amplification", "implementation.delay_s"),
                  ("design.zeta_hat", "implementation.delay_s")):
@@ -172,9 +172,9 @@ def test_unsorted_axis_is_reported_by_value(tmp_path):
     bp.write_text(yaml.safe_dump(base))
     amp, delay = [8.0, 1.5, 30.0, 2.0, 4.0], [0.002, 0.0, 0.001]
     a = make_report(sweep(tmp_path, {"design.amplification": amp, "implementation.delay_s": delay}, "unsorted",
-                          base=str(bp)))
+                          base=str(bp))).directory
     b = make_report(sweep(tmp_path, {"design.amplification": sorted(amp), "implementation.delay_s": sorted(delay)},
-                          "sorted", base=str(bp)))
+                          "sorted", base=str(bp))).directory
     for name in ("axis_design.amplification.csv", "axis_implementation.delay_s.csv"):
         assert (a / name).read_text() == (b / name).read_text(), name
     robust_line = lambda d: [ln for ln in (d / "summary.md").read_text().splitlines() if "Robust designs exist" in ln]  # noqa: E731
@@ -191,7 +191,7 @@ def test_box_family_has_no_lightest_inertia(tmp_path):
     base["humans"] = [{"kind": "msd", "inertia": [0.001, 1.0], "stiffness": [1.0, 100.0], "damping": 0.0}]
     bp = tmp_path / "boxbase.yaml"
     bp.write_text(yaml.safe_dump(base))
-    out = make_report(sweep(tmp_path, {"design.amplification": [1.5, 8.0]}, "box", base=str(bp)))
+    out = make_report(sweep(tmp_path, {"design.amplification": [1.5, 8.0]}, "box", base=str(bp))).directory
     assert "human0_lightest_stable_inertia" not in (out / "summary.md").read_text()
 
 
@@ -205,3 +205,18 @@ def test_report_refuses_a_manifest_without_axes(tmp_path):
     with pytest.raises(ConfigError) as e:
         make_report(d)
     assert "axes" in e.value.field
+
+
+def test_report_result_lists_what_was_written(two_axes, tmp_path):
+    """make_report returns a SweepReport: its files are exactly the directory's, its maps the PNGs
+    summary.md links (the line the CLI prints counts them)."""
+    from exotune.sweeps import SweepReport
+
+    d, _ = two_axes
+    rep = make_report(d, tmp_path / "again")
+    assert isinstance(rep, SweepReport) and rep.directory == tmp_path / "again"
+    assert set(rep.files) == set(os.listdir(rep.directory))
+    md = (rep.directory / "summary.md").read_text(encoding="utf-8")
+    linked = [line.split("]")[0][3:] for line in md.splitlines() if line.startswith("- [") and ".png]" in line]
+    assert list(rep.maps) == linked and all(m in rep.files for m in rep.maps)
+    assert rep.to_text() == f"wrote report to {rep.directory} ({len(linked)} maps, summary.md)"

@@ -62,13 +62,24 @@ def ref(tmp_path_factory):
     d = tmp_path_factory.mktemp("ref")
     spec = write_spec(d)
     out = d / "out"
-    manifest = run_sweep(spec, out, workers=1, progress=False)
+    manifest = run_sweep(spec, out, workers=1, progress=False).to_dict()
     return spec, out, manifest, load_results(out)
 
 
 # --------------------------------------------------------------------------------------------
 # output format and agreement with analyze_batch
 # --------------------------------------------------------------------------------------------
+def test_run_sweep_returns_the_sweep_on_disk(ref):
+    """run_sweep's SweepResult is the sweep as written: its manifest is manifest.json and its
+    table() the Parquet rows load_results reads."""
+    from exotune.sweeps import SweepResult
+
+    spec, out, m, df = ref
+    on_disk = SweepResult.from_directory(out)
+    assert json.loads(json.dumps(m)) == json.loads((out / "manifest.json").read_text()) == on_disk.to_dict()
+    assert on_disk.status == "complete" and on_disk.points_total == len(df) == on_disk.table().num_rows
+
+
 def test_layout_columns_and_manifest(ref):
     spec, out, m, df = ref
     assert len(df) == 9
@@ -129,7 +140,7 @@ def test_values_agree_with_analyze_batch(ref):
 
 def test_local_processes_identical(ref, tmp_path):
     spec, _, _, df = ref
-    m = run_sweep(spec, tmp_path / "p2", workers=2, progress=False)
+    m = run_sweep(spec, tmp_path / "p2", workers=2, progress=False).to_dict()
     assert m["runs"][-1]["backend"] == "local-processes" and m["runs"][-1]["workers"] == 2
     assert_frames_equal(load_results(tmp_path / "p2"), df)
 
@@ -139,7 +150,7 @@ def test_dask_localcluster_identical(ref, tmp_path):
     spec, _, _, df = ref
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
-        m = run_sweep(spec, tmp_path / "dk", dask_address=cluster.scheduler_address, progress=False)
+        m = run_sweep(spec, tmp_path / "dk", dask_address=cluster.scheduler_address, progress=False).to_dict()
     assert m["runs"][-1]["backend"] == "dask"
     assert sorted(os.listdir(tmp_path / "dk" / "chunks")) == [f"part-{i:06d}.parquet" for i in range(5)]
     assert_frames_equal(load_results(tmp_path / "dk"), df)
@@ -148,7 +159,7 @@ def test_dask_localcluster_identical(ref, tmp_path):
 def test_rerun_complete_is_noop_and_cli(ref, tmp_path):
     spec, out, _, df = ref
     before = {f: os.stat(out / "chunks" / f).st_mtime_ns for f in os.listdir(out / "chunks")}
-    m = run_sweep(spec, out, workers=1, progress=False)
+    m = run_sweep(spec, out, workers=1, progress=False).to_dict()
     assert m["runs"][-1]["chunks_skipped"] == 5 and m["runs"][-1]["chunks_computed"] == 0
     assert before == {f: os.stat(out / "chunks" / f).st_mtime_ns for f in os.listdir(out / "chunks")}
     # the CLI on the same directory: resumes (nothing to do), exit 0
@@ -202,7 +213,7 @@ def test_kill_and_resume_matches_uninterrupted(tmp_path):
     with pytest.raises(ConfigError, match="incomplete"):
         load_results(killed)
 
-    m = run_sweep(spec, killed, workers=1, progress=False)
+    m = run_sweep(spec, killed, workers=1, progress=False).to_dict()
     assert m["status"] == "complete"
     assert m["runs"][-1]["chunks_skipped"] >= len(done_before)
     assert m["runs"][-1]["chunks_computed"] == 12 - m["runs"][-1]["chunks_skipped"]
@@ -281,7 +292,7 @@ def test_sigterm_interrupts_the_sweep_cleanly(tmp_path):
     assert "rerun the same command" in err and "Traceback" not in err
     assert load_manifest(out)["status"] == "interrupted"
     assert _all_gone(kids)
-    m = run_sweep(tmp_path / "spec.yaml", out, workers=1, progress=False)
+    m = run_sweep(tmp_path / "spec.yaml", out, workers=1, progress=False).to_dict()
     assert m["status"] == "complete" and m["runs"][-1]["chunks_skipped"] >= 2
 
 
@@ -456,7 +467,7 @@ def test_sampling_deterministic_uniform_without_replacement():
 
 def test_sampled_sweep_rows(tmp_path):
     spec = write_spec(tmp_path, chunk_size=2)
-    m = run_sweep(spec, tmp_path / "s", workers=1, sample=3, seed=7, progress=False)
+    m = run_sweep(spec, tmp_path / "s", workers=1, sample=3, seed=7, progress=False).to_dict()
     assert m["n_points"] == 3 and m["sampling"]["seed"] == 7 and m["n_chunks"] == 2
     df = load_results(tmp_path / "s")
     plan = load_spec(spec, sample=3, seed=7)
@@ -514,7 +525,7 @@ def test_failing_chunk_reported_and_retried(ref, tmp_path, monkeypatch, capsys):
     assert res.exit_code == 1 and "chunks failed" in res.stderr and "Traceback" not in res.output
     # fixed: rerunning computes only the failed chunk and matches the uninterrupted run
     monkeypatch.setattr(sw, "analyze_batch", real)
-    m = run_sweep(spec, out, workers=1, progress=False)
+    m = run_sweep(spec, out, workers=1, progress=False).to_dict()
     assert m["status"] == "complete" and m["runs"][-1]["chunks_computed"] == 1
     assert_frames_equal(load_results(out), df)
 
