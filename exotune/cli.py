@@ -20,7 +20,7 @@ from __future__ import annotations
 import click
 
 from .version import __version__
-from .errors import ConfigError, ExotuneError
+from .errors import ExotuneError
 
 __all__ = ["main", "cli"]
 
@@ -384,7 +384,7 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
 
     from .jsonio import write_files
     from .plots.simulate import plot_simulation
-    from .simulation import load_for_simulation, number_option, run_scenario
+    from .simulation import at_joint_angle, load_for_simulation, number_option, run_scenario
 
     from .jsonio import check_outputs
 
@@ -394,12 +394,7 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
     joint_angle = number_option("--joint-angle", joint_angle)
     doc = load_for_simulation(input_file, sample_rate_hz)
     if joint_angle is not None:
-        from .controllerfile import schedule_entry_doc
-
-        if not doc.get("gain_schedule"):
-            raise ConfigError("--joint-angle", "the controller has no gain schedule (no transmission section)")
-        e = min(doc["gain_schedule"]["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle))
-        doc = schedule_entry_doc(doc, e)
+        doc = at_joint_angle(doc, joint_angle)
 
     def progress(frac):  # long runs on a terminal only
         click.echo(f"\rexotune simulate: {frac:4.0%}", err=True, nl=frac >= 1.0)

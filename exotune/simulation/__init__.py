@@ -8,12 +8,12 @@ linearized sampled-data loop's spectral radius beside it (:mod:`.verdict`); the 
 """
 
 from .engine import STARTS, bumpless_start, simulate
-from .load import check_consistent, load_for_simulation, number_option
+from .load import at_joint_angle, check_consistent, load_for_simulation, number_option
 from .plant import MIN_HUMAN_INERTIA, JointPlant
 from .report import dob_estimate, run_scenario, summarize
 from .scenarios import SCENARIOS, Nonlinearities, Scenario, deadzone
 from .verdict import MARGINAL_TOL, classify, envelope_growth, loop_spectral_radius
 
 __all__ = ["Nonlinearities", "Scenario", "SCENARIOS", "deadzone", "simulate", "run_scenario", "summarize",
-           "bumpless_start", "STARTS", "JointPlant", "load_for_simulation", "check_consistent", "MARGINAL_TOL",
+           "bumpless_start", "STARTS", "JointPlant", "load_for_simulation", "at_joint_angle", "check_consistent", "MARGINAL_TOL",
            "classify", "envelope_growth", "loop_spectral_radius", "dob_estimate", "number_option", "MIN_HUMAN_INERTIA"]

@@ -4,12 +4,12 @@ consistency checks), or a design file exported in memory at a sample rate."""
 from __future__ import annotations
 
 from ..config import read_yaml
-from ..controllerfile import build_export, checked_controller, design_at_rate, load_controller
+from ..controllerfile import build_export, checked_controller, design_at_rate, load_controller, schedule_entry_doc
 from ..controllerfile.certify import certify
 from ..errors import ConfigError
 from .plant import MIN_HUMAN_INERTIA
 
-__all__ = ["load_for_simulation", "check_consistent", "number_option"]
+__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "number_option"]
 
 
 def number_option(name: str, text, positive: bool = False) -> float | None:
@@ -97,3 +97,22 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
     cfg = design_at_rate(raw, fs, name)
     fs = float(cfg.implementation.sample_rate_hz)
     return build_export(cfg, fs, source=name, analyses=False)  # the runtime's sections only
+
+
+def at_joint_angle(doc: dict, joint_angle_rad: float) -> dict:
+    """The controller document of the gain-schedule entry nearest ``joint_angle_rad`` [rad]: its
+    plant and controller in place of the nominal ones (``simulate --joint-angle``).
+
+    Raises
+    ------
+    ConfigError
+        ``--joint-angle``: the controller has no gain schedule.
+
+    References
+    ----------
+    docs/cli.md#simulate; paper §VI (the transmission's gain schedule).
+    """
+    if not doc.get("gain_schedule"):
+        raise ConfigError("--joint-angle", "the controller has no gain schedule (no transmission section)")
+    e = min(doc["gain_schedule"]["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle_rad))
+    return schedule_entry_doc(doc, e)
