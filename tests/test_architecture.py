@@ -244,3 +244,18 @@ def test_long_functions_say_why():
             if node.end_lineno - start + 1 > MAX_FUNCTION_LINES and "One function" not in doc:
                 bad.append(f"{mod}.{node.name}: {node.end_lineno - start + 1} lines of code, no reason in its docstring")
     assert not bad, "\n".join(bad)
+
+
+def test_documented_layer_table_matches_the_enforced_layers():
+    """docs/architecture.md's layer table names every layer's modules in the order enforced here."""
+    import re
+
+    doc = (PKG.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = [line for line in doc.splitlines() if re.match(r"\| \d", line)]
+    named = [re.findall(r"`([\w_]+)`", row.split("|")[2]) for row in rows]
+    flat = [m for row in named for m in row]
+    assert set(flat) == set(LEVEL), sorted(set(flat) ^ set(LEVEL))
+    levels = [LEVEL[m] for m in flat]
+    assert levels == sorted(levels), list(zip(flat, levels))
+    for row in named:  # one table row never spans two layers unless it says "<" (12–13: api < __init__)
+        assert len({LEVEL[m] for m in row}) == 1 or len(row) == len({LEVEL[m] for m in row})
