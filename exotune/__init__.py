@@ -26,12 +26,13 @@ __all__ = [
     "optimize",
     "export",
     "certify",
+    "codegen",
     "simulate",
     "ConfigError",
     "ExotuneError",
 ]
 
-_API = {"load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "simulate"}
+_API = {"load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"}
 
 
 def __getattr__(name: str):

@@ -22,6 +22,7 @@ from .numerics.engine import numpy_engine
 from .results import (
     Certificate,
     ExportedController,
+    GeneratedC,
     DesignAnalysis,
     DesignSummary,
     OptimizeResult,
@@ -30,7 +31,7 @@ from .results import (
     SweepResult,
 )
 
-__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "simulate"]
+__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"]
 
 
 
@@ -313,6 +314,45 @@ def certify(source) -> Certificate:
         raise TypeError(f"expected a controller file path, a mapping or an ExportedController, got {type(source).__name__}")
     with numpy_engine():
         return _certify(doc)
+
+
+def codegen(source, out) -> GeneratedC:
+    """The C99 port of a controller file's runtime, with its golden-vector test, written into
+    ``out`` (the library twin of ``exotune codegen``).
+
+    Parameters
+    ----------
+    source : path or ExportedController
+        A controller file (certify it first), or the result of :func:`export`.
+    out : path
+        Directory for ``exotune_controller.h``, ``exotune_controller.c`` and
+        ``exotune_golden_test.c`` (all written or none).
+
+    Returns
+    -------
+    GeneratedC
+        Where the files went, the number of controllers and sections, the compiler flags.
+
+    References
+    ----------
+    docs/controller-file.md#c-runtime.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> d = tempfile.mkdtemp()
+    >>> c = export("examples/scheduled.yaml", 1000.0, os.path.join(d, "c.yaml"))
+    >>> g = codegen(c, os.path.join(d, "c_src"))
+    >>> g.files[1], g.controllers, g.flags
+    ('exotune_controller.c', 6, '-std=c99 -O2 -ffp-contract=off')
+    """
+    from .controllerfile import write_c_sources
+
+    if isinstance(source, ExportedController):
+        if source.path is None:
+            raise TypeError("codegen needs a written controller file (export it to a path first)")
+        source = source.path
+    return write_c_sources(source, out)
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,

@@ -133,7 +133,7 @@ def _note_first_compile() -> None:
                    "later runs start at once)", err=True)
 
 
-SINGLE_DESIGN_COMMANDS = ("design", "sea", "analyze", "export", "certify", "simulate", "init")
+SINGLE_DESIGN_COMMANDS = ("design", "sea", "analyze", "export", "certify", "codegen", "simulate", "init")
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -359,6 +359,20 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s):
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.certified:
         ctx.exit(1)
+
+
+@cli.command("codegen")
+@click.argument("controller_file", metavar="CONTROLLER.yaml")
+@click.option("-o", "--out", "out_dir", required=True, metavar="DIR", help="Directory for the C files.")
+def codegen_cmd(controller_file, out_dir):
+    """Write the C99 port of a controller file's runtime (docs/controller-file.md#c-runtime):
+    exotune_controller.{h,c} and exotune_golden_test.c, which checks the port against the file's
+    golden vectors on the target. Certify the file first; all files are written or none."""
+    from .controllerfile import write_c_sources
+    from .jsonio import check_outputs
+
+    check_outputs([controller_file], out_dirs={"-o": out_dir})
+    click.echo(write_c_sources(controller_file, out_dir).to_text())
 
 
 @cli.command("simulate")

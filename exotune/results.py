@@ -20,7 +20,7 @@ from .analysis.results import (
     PassivityResult,
     SeaReport,
 )
-from .controllerfile.results import Certificate, ExportedController
+from .controllerfile.results import Certificate, ExportedController, GeneratedC
 from .optimization.result import OptimizeResult
 from .record import Record, Result
 from .simulation.result import SimulationRun
@@ -40,6 +40,7 @@ __all__ = [
     "DesignAnalysis",
     "ExportedController",
     "Certificate",
+    "GeneratedC",
     "SweepResult",
     "SweepReport",
     "OptimizeResult",

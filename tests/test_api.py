@@ -32,7 +32,7 @@ def _cli_json(*args) -> dict:
 
 
 def test_public_names_and_cheap_import():
-    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "simulate"):
+    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"):
         assert name in exotune.__all__ and callable(getattr(exotune, name))
     code = "import sys, exotune; print(sorted(m for m in sys.modules if m.startswith(('exotune.', 'control', 'cvxpy', 'matplotlib'))))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout

@@ -6,6 +6,7 @@ sections (:mod:`.sos`), building it from a design (:mod:`.export`), the referenc
 (The function ``certify`` is not re-exported here: ``exotune.controllerfile.certify`` is the
 module.)"""
 
+from .ccode import c_sources, write_c_sources
 from .certify import position_feedback, sampled_analysis
 from .continuation import stable_intervals
 from .checks import MIN_GOLDEN_SAMPLES, check_controller_file
@@ -16,6 +17,8 @@ from .schema import SCHEMA_VERSION, SIGNAL_UNITS, ControllerFile, json_schema, s
 from .sos import sos_ss, tustin_sos
 
 __all__ = [
+    "c_sources",
+    "write_c_sources",
     "SCHEMA_VERSION",
     "SIGNAL_UNITS",
     "ControllerFile",

@@ -33,7 +33,7 @@ from .latency import requirement_problems, sampled_latency_margin
 from .results import Certificate
 
 __all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify", "design_mismatches",
-           "check_built_from_design", "hand_tuned"]
+           "check_built_from_design", "hand_tuned", "golden_problems"]
 
 def _human_dict(fam, v: float) -> dict:
     h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
@@ -327,7 +327,7 @@ def refuse_excess_work(doc: dict, entries: int | None = None) -> None:
     refuse_if_over((1 + entries) * (2 + fams * POINTS), states, *b)
 
 
-def _golden_problems(doc: dict) -> tuple[list[str], int, float]:
+def golden_problems(doc: dict) -> tuple[list[str], int, float]:
     """(problems, samples, max error [N·m]) of the golden vectors through the reference runtime,
     for the file's controller and each gain-schedule entry's."""
     from .fileio import schedule_entry_doc
@@ -404,7 +404,7 @@ def _certify(doc: dict) -> dict:
     refuse_excess_work(doc)
     rep = {"schema": doc["schema"], "sample_rate_hz": doc["sample_rate_hz"], "delay_s": doc["delay_s"]["value"],
            "provenance": doc.get("provenance")}
-    problems, samples, err = _golden_problems(doc)
+    problems, samples, err = golden_problems(doc)
     rep["golden"] = {"samples": samples, "max_abs_error": {"value": err, "unit": "N·m"}}
     sa = sampled_analysis(doc)
     rep["sampled"] = sa

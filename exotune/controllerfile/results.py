@@ -8,10 +8,11 @@ docs/api.md#typed-results; docs/controller-file.md (the file and its certificati
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
-from ..record import Record
+from ..record import Record, Result
 
-__all__ = ["ExportedController", "Certificate"]
+__all__ = ["ExportedController", "Certificate", "GeneratedC"]
 
 
 @dataclass(frozen=True)
@@ -59,3 +60,28 @@ class Certificate(Record):
         from ..text.certify import format_certify
 
         return format_certify(self.to_dict())
+
+
+@dataclass(frozen=True)
+class GeneratedC(Result):
+    """``exotune codegen``: the C99 port of a controller file written into ``directory``
+    (``files``), its controllers (1 + gain-schedule entries) and second-order sections, and the
+    compiler flags it is checked with (docs/controller-file.md#c-runtime)."""
+
+    directory: Path
+    files: tuple[str, ...]
+    controllers: int
+    sections: int
+    flags: str
+
+    def to_dict(self) -> dict:
+        return {"directory": str(self.directory), "files": list(self.files), "controllers": self.controllers,
+                "sections": self.sections, "compile_flags": self.flags}
+
+    def to_text(self) -> str:
+        """The lines ``exotune codegen`` prints: what was written and how to check it on the target."""
+        d = self.directory
+        return (f"wrote {', '.join(self.files)} to {d} ({self.controllers} controller"
+                f"{'' if self.controllers == 1 else 's'}, {self.sections} sections)\n"
+                f"check on the target: cc {self.flags} -o exotune_golden_test {d / self.files[1]} "
+                f"{d / self.files[2]} -lm && ./exotune_golden_test")

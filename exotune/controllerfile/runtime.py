@@ -23,7 +23,7 @@ import numpy as np
 
 from ..sampled import Measured  # the runtime's input signals
 
-__all__ = ["SosFilter", "Runtime"]
+__all__ = ["SosFilter", "Runtime", "loop_feedthrough"]
 
 
 class SosFilter:
@@ -39,6 +39,11 @@ class SosFilter:
         self._coef = [(float(b0), float(b1), float(b2), float(a1), float(a2)) for b0, b1, b2, _a0, a1, a2 in self.sos]
         self._s = [[0.0, 0.0] for _ in self._coef]
         self.feedthrough = float(np.prod(self.sos[:, 0]))  # output per unit input at zero state
+
+    @property
+    def coefficients(self) -> tuple[tuple[float, float, float, float, float], ...]:
+        """(b0, b1, b2, a1, a2) of each section, as the step uses them (a0 = 1)."""
+        return tuple(self._coef)
 
     @property
     def z(self) -> np.ndarray:
@@ -79,6 +84,15 @@ class SosFilter:
         return x
 
 
+def loop_feedthrough(loop) -> float:
+    """g: the output per unit τ_cmd at zero state of the filters on τ_cmd (the DOB's algebraic
+    loop), their feed-throughs summed left to right."""
+    g = 0.0
+    for f in loop:
+        g += f.feedthrough
+    return g
+
+
 class Runtime:
     """Steps the controller of a validated controller-file mapping (see the module docstring)."""
 
@@ -100,7 +114,8 @@ class Runtime:
         self.filters = [(f["input"], SosFilter(f["sos"])) for f in c["filters"] if f["input"] != "tau_cmd"]
         self.loop = [SosFilter(f["sos"]) for f in c["filters"] if f["input"] == "tau_cmd"]
         self._all = [f for _, f in self.filters] + self.loop
-        if abs(1.0 - sum(f.feedthrough for f in self.loop)) < 1e-9:
+        self.loop_feedthrough = loop_feedthrough(self.loop)
+        if abs(1.0 - self.loop_feedthrough) < 1e-9:
             raise ValueError("the DOB's algebraic loop is singular (the feed-throughs of the filters on tau_cmd add "
                              "up to 1)")
 
@@ -130,12 +145,19 @@ class Runtime:
             raise ValueError(f"non-finite input {bad[0]} = {vals[bad[0]]!r}: refused, controller state unchanged "
                              "(a sensor fault: command zero torque)")
         saved = [f.save() for f in self._all]
-        # Python floats: an overflow gives ±inf or nan (no exception), refused just below
-        rest = sum(g * vals[s] for s, g in self.gains.items())
-        rest += sum(f.step(vals[s]) for s, f in self.filters)
-        g = sum(f.feedthrough for f in self.loop)
-        h = sum(f.peek(0.0) for f in self.loop)
-        u = (rest + h) / (1.0 - g)
+        # Python floats: an overflow gives ±inf or nan (no exception), refused just below. Sums are
+        # explicit left-to-right loops (the order a C port uses; Python ≥ 3.12's sum() compensates)
+        rest = 0.0
+        for s, g in self.gains.items():
+            rest += g * vals[s]
+        filtered = 0.0
+        for s, f in self.filters:
+            filtered += f.step(vals[s])
+        rest += filtered
+        h = 0.0
+        for f in self.loop:
+            h += f.peek(0.0)
+        u = (rest + h) / (1.0 - self.loop_feedthrough)
         if self.limit_nm is not None and math.isfinite(u):  # anti-windup: the DOB sees the applied command
             u = min(self.limit_nm, max(-self.limit_nm, u))
         for f in self.loop:
