@@ -274,7 +274,7 @@ def test_the_public_api_has_examples():
     for mod in ("exotune.api", "exotune.model.interop", "exotune.analysis.margins", "exotune.starter"):
         assert mod in EXAMPLE_MODULES
     # every API twin of a command shows how it is called
-    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "simulate"):
+    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"):
         assert ">>>" in (getattr(exotune, name).__doc__ or ""), name
 
 
