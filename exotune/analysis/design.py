@@ -11,7 +11,8 @@ import numpy as np
 
 from .batch import GAIN_NAMES, analyze_batch
 from .intervals import MAX_FAMILY_PIECES
-from .results import Amplification, BoxEdge, DesignAnalysis, DobMargins, EnvironmentResult, FamilyResult, PassivityResult
+from .results import (Amplification, BoxEdge, DesignAnalysis, DobMargins, EnvironmentResult, FamilyResult, PassivityResult,
+                      ScheduleEntry)
 from ..units import METRIC_UNITS  # re-exported
 
 __all__ = ["analyze_design", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
@@ -69,29 +70,29 @@ def _sampled_check(cfg, cols, humans, env, warnings: list):
     the continuous verdicts are appended to ``warnings``."""
     sampled = None
     if cfg.implementation.sample_rate_hz:
-        from ..sampled.loop import check_design
+        from ..sampled import check_design
 
         sampled = check_design(cfg, [h.stable_intervals for h in humans], [e.stable_intervals for e in env])
-        fs = sampled["sample_rate_hz"]
-        for name in ("free", "locked"):
+        fs = sampled.sample_rate_hz
+        for name, verdict in (("free", sampled.free_stable), ("locked", sampled.locked_stable)):
             where = 'with the cuff free' if name == 'free' else 'with the output locked'
-            if sampled[f"{name}_stable"] is None:
+            if verdict is None:
                 warnings.append(f"at {fs:g} Hz the sampled-data verdict {where} is inconclusive (spectral radius within "
                                 "rounding of 1)")
-            elif sampled[f"{name}_stable"] != bool(cols[f"{name}_stable"][0]):
-                warnings.append(f"at {fs:g} Hz the sampled-data loop is {'stable' if sampled[f'{name}_stable'] else 'UNSTABLE'} "
+            elif verdict != bool(cols[f"{name}_stable"][0]):
+                warnings.append(f"at {fs:g} Hz the sampled-data loop is {'stable' if verdict else 'UNSTABLE'} "
                                 f"{where}, unlike the continuous analysis")
-        for side, fams in (("human", sampled["humans"]), ("environment", sampled["environment"])):
+        for side, fams in (("human", sampled.humans), ("environment", sampled.environment)):
             for h in fams:
-                for b in h.get("boundaries", []):
-                    if b["sampled_unstable_where_continuous_stable"]:
-                        lo_, hi_ = b["sampled_unstable_where_continuous_stable"]
-                        warnings.append(f"at {fs:g} Hz the sampled-data loop is UNSTABLE for {side} {h['kind']} "
-                                        f"{h['parameter']} in [{lo_:.5g}, {hi_:.5g}], where the continuous analysis says stable")
-                if h.get("disagreements"):
-                    vals = ", ".join(f"{d['value']:.4g}" for d in h["disagreements"][:6])
-                    warnings.append(f"at {fs:g} Hz the sampled-data loop disagrees with the continuous {side} {h['kind']} "
-                                    f"intervals at {h['parameter']} = {vals}" + (" …" if len(h["disagreements"]) > 6 else ""))
+                for b in h.boundaries:
+                    if b.unsafe:
+                        lo_, hi_ = b.unsafe
+                        warnings.append(f"at {fs:g} Hz the sampled-data loop is UNSTABLE for {side} {h.kind} "
+                                        f"{h.parameter} in [{lo_:.5g}, {hi_:.5g}], where the continuous analysis says stable")
+                if h.disagreements:
+                    vals = ", ".join(f"{d.value:.4g}" for d in h.disagreements[:6])
+                    warnings.append(f"at {fs:g} Hz the sampled-data loop disagrees with the continuous {side} {h.kind} "
+                                    f"intervals at {h.parameter} = {vals}" + (" …" if len(h.disagreements) > 6 else ""))
     return sampled
 
 
@@ -114,9 +115,9 @@ def _analyze_design(cfg) -> DesignAnalysis:
     sampled = _sampled_check(cfg, cols, humans, env, warnings)
     schedule = _schedule_check(cfg) if cfg.raw.get("transmission") else None
     for e in schedule or []:
-        if not e["robust"]:
-            warnings.append(f"at joint angle {e['joint_angle_rad']:g} rad (transmission ratio {e['ratio']:g}) the "
-                            f"rescheduled design is not robust: {', '.join(e['not_robust'])}")
+        if not e.robust:
+            warnings.append(f"at joint angle {e.joint_angle_rad:g} rad (transmission ratio {e.ratio:g}) the "
+                            f"rescheduled design is not robust: {', '.join(e.not_robust)}")
     kyp = kyp_certificates(cfg)  # a non-passive nominal C7 is the B2_hat < 0 warning of shaping
     if not bool(cols["passivity_conclusive"][0]):
         warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis, or the "
@@ -158,7 +159,7 @@ def kyp_certificates(cfg) -> dict:
         return {"error": f"KYP certificates not computed: {type(e).__name__}: {e}"}
 
 
-def _schedule_check(cfg) -> list[dict]:
+def _schedule_check(cfg) -> list[ScheduleEntry]:
     """Continuous analysis of the design rescheduled at every joint angle of its ``transmission``
     section (paper §VI: J_m, B_m, K_s × ratio², gains recomputed; one batch over the angles)."""
     tr = cfg.raw["transmission"]
@@ -175,8 +176,8 @@ def _schedule_check(cfg) -> list[dict]:
         bad = [k for k in fams if not bool(cols[f"{k}_robust"][i])]
         bad += [k for k in ("free_stable", "locked_stable") if not bool(cols[k][i])]
         bad += [k for k in cols if k.startswith("env") and k.endswith("_stable") and not bool(cols[k][i])]
-        out.append({"joint_angle_rad": float(angle), "ratio": float(ratio), "robust": not bad, "not_robust": bad,
-                    "gains": {k: float(cols[k][i]) for k in GAIN_NAMES},
-                    "human_stable_intervals": {k: cols[f"{k}_stable_intervals"][i] for k in fams
-                                               if f"{k}_stable_intervals" in cols}})
+        out.append(ScheduleEntry(float(angle), float(ratio), not bad, tuple(bad),
+                                 {k: float(cols[k][i]) for k in GAIN_NAMES},
+                                 {k: tuple((a, b) for a, b in cols[f"{k}_stable_intervals"][i]) for k in fams
+                                  if f"{k}_stable_intervals" in cols}))
     return out

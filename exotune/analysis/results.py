@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from ..record import Record, Result, opt_float
+from ..sampled import SampledCheck
 from ..units import GAIN_UNITS_TORQUE, METRIC_UNITS
 
 __all__ = [
@@ -30,6 +31,7 @@ __all__ = [
     "DobMargins",
     "Amplification",
     "DesignAnalysis",
+    "ScheduleEntry",
     "ANALYSIS_MODEL",
     "RIGID_BODY_NOTE",
     "BOX_METHOD",
@@ -279,14 +281,36 @@ class Amplification(Result):
 
 
 @dataclass(frozen=True)
+class ScheduleEntry(Result):
+    """The design rescheduled at one joint angle of its ``transmission`` table (paper §VI: J_m,
+    B_m, K_s × ratio², gains recomputed): whether it is robust, the loops that are not
+    (``not_robust``, column names), its six gains (torque units) and its human families' stable
+    intervals."""
+
+    joint_angle_rad: float
+    ratio: float
+    robust: bool
+    not_robust: tuple[str, ...]
+    gains: Mapping[str, float]
+    human_stable_intervals: Mapping[str, tuple[Interval, ...]]
+
+    def to_dict(self) -> dict:
+        return {"joint_angle_rad": self.joint_angle_rad, "ratio": self.ratio, "robust": self.robust,
+                "not_robust": list(self.not_robust), "gains": dict(self.gains),
+                "human_stable_intervals": {k: _lists(v) for k, v in self.human_stable_intervals.items()}}
+
+
+@dataclass(frozen=True)
 class DesignAnalysis(Result):
     """``exotune analyze``: every verdict and metric of one design (docs/method.md#analyses-and-metrics).
 
     ``robust`` is true when the cuff-free exoskeleton, every environment and every human family
     are stable over their whole ranges. ``margins`` holds the latency and plant-uncertainty
     margins (:class:`exotune.analysis.LatencyMargin`, :class:`exotune.analysis.PlantMargin`) when
-    they were computed (:func:`exotune.analysis.analyze_with_margins`); ``sampled_data``,
-    ``gain_schedule`` and ``cross_check`` are the sections of the same names of the JSON object.
+    they were computed (:func:`exotune.analysis.analyze_with_margins`); ``sampled_data`` is the
+    :class:`exotune.sampled.SampledCheck` at the design's sample rate (None without one),
+    ``gain_schedule`` one :class:`ScheduleEntry` per joint angle of a ``transmission`` table, and
+    ``cross_check`` the Padé cross-check's record (``analyze(..., cross_check=True)``).
     """
 
     structure: str
@@ -302,8 +326,8 @@ class DesignAnalysis(Result):
     amplification: Amplification
     J_m_hat_over_J_j: float
     warnings: tuple[str, ...] = ()
-    sampled_data: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
-    gain_schedule: tuple[Mapping[str, Any], ...] | None = field(default=None, repr=False, compare=False)
+    sampled_data: SampledCheck | None = field(default=None, repr=False, compare=False)
+    gain_schedule: tuple[ScheduleEntry, ...] | None = field(default=None, repr=False, compare=False)
     margins: tuple[Any, Any] | None = None
     cross_check: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
     config: Any = field(default=None, repr=False, compare=False)
@@ -351,8 +375,8 @@ class DesignAnalysis(Result):
             "dob": None if self.dob is None else self.dob.to_dict(),
             "amplification": self.amplification.to_dict(),
             "J_m_hat_over_J_j": self.J_m_hat_over_J_j,
-            "sampled_data": copy.deepcopy(self.sampled_data),
-            "gain_schedule": None if self.gain_schedule is None else copy.deepcopy(list(self.gain_schedule)),
+            "sampled_data": None if self.sampled_data is None else self.sampled_data.to_dict(),
+            "gain_schedule": None if self.gain_schedule is None else [e.to_dict() for e in self.gain_schedule],
             "metric_units": dict(self.metric_units),
             "warnings": list(self.warnings),
         })

@@ -1,13 +1,12 @@
 """exotune.sampled: the exact sampled-data model (zero-order hold, fractional delay, the Tustin
 controller) and its stability verdicts (:mod:`.loop`)."""
 
+from .check import CHECK_POINTS, Boundary, Disagreement, SampledCheck, SampledFamilyCheck, check_design
 from .loop import (
-    CHECK_POINTS,
     Block,
     DiscreteController,
     Measured,
     assemble,
-    check_design,
     closed_loop_matrix,
     controller_blocks,
     default_prewarp,
@@ -43,4 +42,8 @@ __all__ = [
     "default_prewarp",
     "check_design",
     "CHECK_POINTS",
+    "SampledCheck",
+    "SampledFamilyCheck",
+    "Disagreement",
+    "Boundary",
 ]

@@ -35,11 +35,9 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-from ..numerics.threads import one_blas_thread
-
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
            "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "tustin", "prewarped",
-           "zoh_fractional", "default_prewarp", "check_design"]
+           "zoh_fractional", "default_prewarp"]
 
 # sampled signals the controller may use (order of the plant's output vector)
 Measured = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
@@ -457,93 +455,3 @@ def default_prewarp(impl) -> dict:
     if impl.velocity_filter is not None:
         pw["theta_m"] = pw["tau_s"] = f(impl.velocity_filter.cutoff_hz)
     return pw
-
-
-CHECK_POINTS = 24
-
-
-def _compare(stable_at, lo: float, hi: float, ivs: list, points: int) -> dict:
-    """Sampled verdicts of one family against its continuous stable intervals ``ivs``: at
-    ``points`` log-spaced values, and near every interior interval end (the sampled boundary,
-    bisected in [e/2, 2e] ∩ [lo, hi], 40 steps)."""
-    vals = np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points)
-    mism = []
-    n_stable = 0
-    for v in vals.tolist():
-        s = stable_at(v)
-        c = any(a <= v <= b for a, b in ivs)
-        n_stable += bool(s)
-        if s != c:
-            mism.append({"value": v, "continuous_stable": c, "sampled_stable": bool(s)})
-    ends = []
-    for e in sorted({x for iv in ivs for x in iv if lo < x < hi}):
-        a, b = max(lo, e / 2), min(hi, 2 * e)
-        sa, sb = stable_at(a), stable_at(b)
-        found = None
-        if sa != sb and a > 0:
-            for _ in range(40):
-                m = math.sqrt(a * b)
-                if stable_at(m) == sa:
-                    a = m
-                else:
-                    b = m
-            found = math.sqrt(a * b)
-        unsafe = None
-        if found is not None and abs(found / e - 1.0) > 1e-6:
-            mid = math.sqrt(e * found)
-            if any(a_ <= mid <= b_ for a_, b_ in ivs):  # continuous stable there, sampled not
-                unsafe = sorted([e, found])
-        ends.append({"continuous": e, "sampled": found, "sampled_unstable_where_continuous_stable": unsafe})
-    return {"points": int(vals.size), "stable_points": n_stable, "disagreements": mism, "boundaries": ends}
-
-
-@one_blas_thread
-def check_design(cfg, human_intervals, environment_intervals, points: int = CHECK_POINTS) -> dict:
-    """Sampled-data check of one design at ``implementation.sample_rate_hz`` against its continuous
-    analysis (:func:`exotune.analysis.analyze_design`): the free and locked verdicts, and for each
-    rational human family the verdict at ``points`` log-spaced values of its range compared with
-    the continuous stable intervals (``human_intervals``, ``environment_intervals``: one sequence
-    of (lo, hi) per family or environment of ``cfg``, None for a box or a single loop).
-    Disagreements are listed (value, continuous, sampled)."""
-    from ..model.controller import build_controller
-
-    fs = float(cfg.implementation.sample_rate_hz)
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    pw = default_prewarp(cfg.implementation)
-    run = lambda human=None, env="free": sampled_stable(cfg.plant, cs, fs, human, env, prewarp=pw)  # noqa: E731
-    free, rho_free, _ = sampled_verdict(cfg.plant, cs, fs, prewarp=pw)
-    locked, _, _ = sampled_verdict(cfg.plant, cs, fs, env="locked", prewarp=pw)
-    Ts = 1.0 / fs
-    q = float(np.ravel(cfg.implementation.delay_s)[0]) / Ts
-    out = {
-        "sample_rate_hz": fs,
-        "method": ("plant (+ human) discretized exactly with a zero-order hold, delay as "
-                   f"{q:.4g} sample{'' if q == 1 else 's'} (shift states, fractional part exact); controller blocks by "
-                   "Tustin prewarped at " + ", ".join(f"{k}: {v:g} Hz" for k, v in pw.items())
-                   + ("; velocities by the discretized velocity filter" if cfg.implementation.velocity_filter is not None
-                      else "; ideal sampled velocities") + "; DOB algebraic loop solved"),
-        "free_stable": free,  # None: inconclusive (spectral radius within rounding of 1)
-        "free_spectral_radius": rho_free,
-        "locked_stable": locked,
-        "humans": [],
-    }
-    for fam, ivs in zip(cfg.humans, human_intervals):
-        entry = {"kind": fam.kind, "parameter": fam.param}
-        if fam.kind == "complex_stiffness" or fam.box:
-            entry["skipped"] = ("not rational (evaluated on the frequency axis only)" if fam.kind == "complex_stiffness"
-                                else "box family: see the per-edge continuous intervals")
-            out["humans"].append(entry)
-            continue
-        h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
-        entry.update(_compare(lambda v, h=h, q=fam.param: run(human={**h, q: v})[0], fam.lo, fam.hi,
-                              ivs or [], points))
-        out["humans"].append(entry)
-    out["environment"] = []
-    for e, ivs in zip(cfg.environment, environment_intervals):
-        if e.kind not in ("spring", "mass"):
-            continue
-        entry = {"kind": e.kind, "parameter": e.param, "note": "cuff free, environment at the joint"}
-        entry.update(_compare(lambda v, e=e: run(env={e.param: v, "damping": e.damping})[0], e.lo, e.hi,
-                              ivs or [], points))
-        out["environment"].append(entry)
-    return out

@@ -151,4 +151,21 @@ def test_check_design_takes_the_continuous_intervals(paper):
                               humans=cfg.humans[:1], environment=())
     a = check_design(cfg, [r.humans[0].stable_intervals], [], points=8)
     b = check_design(cfg, [r.to_dict()["humans"][0]["stable_intervals"]], [], points=8)
-    assert a == b and a["humans"][0]["points"] == 8
+    assert a == b and a.humans[0].points == 8 and a.to_dict()["humans"][0]["points"] == 8
+    # the boundary near the continuous light-mass end: a typed pair, a JSON list
+    (bd,) = a.humans[0].boundaries
+    assert bd.continuous == pytest.approx(r.humans[0].stable_intervals[0][0], rel=1e-12)
+    assert bd.to_dict()["sampled_unstable_where_continuous_stable"] == (None if bd.unsafe is None else list(bd.unsafe))
+
+
+def test_schedule_entries_are_typed():
+    from exotune.analysis.results import ScheduleEntry
+
+    r = analyze_design(load_design(ROOT / "examples" / "scheduled.yaml"))
+    assert r.gain_schedule and all(isinstance(e, ScheduleEntry) for e in r.gain_schedule)
+    d = r.to_dict()["gain_schedule"]
+    assert d == [e.to_dict() for e in r.gain_schedule]
+    for e, ed in zip(r.gain_schedule, d):
+        assert ed["robust"] is e.robust is (not e.not_robust)
+        assert set(ed["gains"]) == set(r.gains) and ed["ratio"] == e.ratio
+
