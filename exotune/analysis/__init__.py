@@ -29,6 +29,7 @@ from .plant_margin import LoopPlantMargin, PlantMargin, PlantWitness, plant_loop
 from .kyp import (
     KypCertificate,
     admittance_certificate,
+    certificates_dict,
     compliance_certificate,
     format_certificates,
     nominal_shortage,
@@ -71,6 +72,7 @@ __all__ = [
     "VERIFY_POINTS",
     "KypCertificate",
     "admittance_certificate",
+    "certificates_dict",
     "compliance_certificate",
     "operator_certificates",
     "nominal_shortage",

@@ -149,8 +149,9 @@ def _analyze_design(cfg) -> DesignAnalysis:
 
 
 def kyp_certificates(cfg) -> dict:
-    """KYP passivity certificates of the rational models of C7 (:mod:`exotune.kyp`, cvxpy); a
-    missing or failing SDP solver is reported in the result, not raised."""
+    """KYP passivity certificates of the rational models of C7 (:mod:`exotune.analysis.kyp`, cvxpy):
+    name → :class:`~exotune.analysis.KypCertificate`; a missing or failing SDP solver is reported as
+    ``{"error": text}``, not raised."""
     try:
         from .kyp import operator_certificates
 

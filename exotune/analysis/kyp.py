@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["KypCertificate", "admittance_certificate", "compliance_certificate", "operator_certificates",
-           "nominal_shortage", "format_certificates", "realization_error", "SHORTAGE_UNIT"]
+           "certificates_dict", "nominal_shortage", "format_certificates", "realization_error", "SHORTAGE_UNIT"]
 
 SHORTAGE_UNIT = "rad/(N·m·s)"  # admittance: angular velocity per torque
 LOSSLESS_UNIT = "rad/(N·m)"  # compliance of the lossless spring-like term q1·s of Y
@@ -351,7 +351,8 @@ def nominal_shortage(alpha, felt_inertia, felt_damping, K_c, zeta_hat):
 
 
 def operator_certificates(cfg, tol: float = TOL) -> dict:
-    """Both certificates of a single-design config: {"nominal": …, "delay_free": …} (as dicts)."""
+    """Both certificates of a single-design config: {"nominal": …, "delay_free": …} (each a
+    :class:`KypCertificate`; :func:`certificates_dict` gives their JSON records)."""
     from .charfun import char_terms
     from ..model.controller import build_controller
     from ..numerics.poly import padd
@@ -365,7 +366,12 @@ def operator_certificates(cfg, tol: float = TOL) -> dict:
     d00 = padd(ct.qp("00").p0, ct.qp("00").p1)[0]
     d10 = padd(ct.qp("10").p0, ct.qp("10").p1)[0]
     dfree = compliance_certificate(d10, d00, model="implemented C7 = Δ10/Δ00 with T = 0 (filters and DOB included)", tol=tol)
-    return {"nominal": nom.as_dict(), "delay_free": dfree.as_dict()}
+    return {"nominal": nom, "delay_free": dfree}
+
+
+def certificates_dict(certs) -> dict:
+    """The JSON records of :func:`operator_certificates` (an ``error`` entry is kept as its text)."""
+    return {name: (c if isinstance(c, str) else c.as_dict()) for name, c in certs.items()}
 
 
 def format_certificates(certs: dict, indent: str = "  ") -> list[str]:

@@ -20,6 +20,7 @@ from typing import Any, Mapping
 
 from ..record import Record, Result, opt_float
 from ..sampled import SampledCheck
+from .kyp import certificates_dict
 from ..units import GAIN_UNITS_TORQUE, METRIC_UNITS
 
 __all__ = [
@@ -237,11 +238,12 @@ class EnvironmentResult(Result):
 class PassivityResult(Result):
     """Passivity of the operator-side compliance C7 (paper §IV-A, Fig. 5): the maximum phase
     excess of s·C7 over ±90° [deg], the non-passive bands [Hz] and the KYP certificates of its
-    rational models (``kyp``; docs/method.md#analyses-and-metrics)."""
+    rational models (``kyp``: ``nominal`` and ``delay_free`` → :class:`exotune.analysis.KypCertificate`,
+    or ``error`` → why they were not computed; docs/method.md#analyses-and-metrics)."""
 
     max_phase_excess_deg: float
     nonpassive_band_hz: tuple[Interval, ...] = ()
-    kyp: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    kyp: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)  # name → KypCertificate (or "error" → text)
 
     @property
     def passive(self) -> bool:
@@ -249,7 +251,7 @@ class PassivityResult(Result):
 
     def to_dict(self) -> dict:
         return {"max_phase_excess_deg": self.max_phase_excess_deg,
-                "nonpassive_band_hz": _lists(self.nonpassive_band_hz), "kyp": copy.deepcopy(dict(self.kyp))}
+                "nonpassive_band_hz": _lists(self.nonpassive_band_hz), "kyp": certificates_dict(self.kyp)}
 
 
 @dataclass(frozen=True)

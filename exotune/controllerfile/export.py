@@ -102,6 +102,7 @@ def _predicted(cfg) -> dict:
     import dataclasses
 
     from ..analysis import analyze_design
+    from ..analysis.kyp import SHORTAGE_UNIT
 
     # continuous metrics only: the sampled-data intervals are computed once, by certify's own
     # analysis of the file (predicted.sampled), not a second time inside analyze_design
@@ -119,8 +120,7 @@ def _predicted(cfg) -> dict:
         "passivity": {"max_phase_excess_deg": _q(pas.max_phase_excess_deg, "deg"),
                       "nonpassive_band_hz": {"value": [list(b) for b in pas.nonpassive_band_hz], "unit": "Hz"},
                       "kyp": {name: (c if name == "error" else
-                                     {"model": c["model"], "passive": c["passive"],
-                                      "shortage": _q(c["shortage"], c["shortage_unit"])})
+                                     {"model": c.model, "passive": c.passive, "shortage": _q(c.shortage, SHORTAGE_UNIT)})
                               for name, c in pas.kyp.items()}},
         "dob": None if dob is None else {
             "gain_margin_db": _q(dob.gain_margin_db, "dB"),

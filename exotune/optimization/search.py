@@ -197,7 +197,7 @@ def _infeasible(ar: Archive, spec: OptimizeSpec) -> dict:
 
 
 def _certificates(spec, out) -> None:
-    from ..analysis import analyze_design, kyp_certificates
+    from ..analysis import analyze_design, certificates_dict, kyp_certificates
     from ..config import design_from_mapping
 
     opt_cfg = design_from_mapping(optimized_design_mapping(spec, out))
@@ -206,9 +206,9 @@ def _certificates(spec, out) -> None:
         # sampled-data loop too and say where sampling breaks what the search accepted
         rep = analyze_design(opt_cfg)
         out["sampled_data_warnings"] = [w for w in rep.warnings if "sampled-data" in w]
-        certs = dict(rep.passivity.kyp)
+        certs = certificates_dict(rep.passivity.kyp)
     else:
-        certs = kyp_certificates(opt_cfg)
+        certs = certificates_dict(kyp_certificates(opt_cfg))
     # the convex sub-problem: KYP certificates of the optimum's rational C7 models (cvxpy)
     out["passivity_certificates"] = certs
     nom = certs.get("nominal") or {}

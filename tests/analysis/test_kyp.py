@@ -111,7 +111,7 @@ CASES = [
 def test_delay_free_shortage_equals_frequency_minimum(changes):
     cfg = with_changes(**changes)
     certs = operator_certificates(cfg)
-    c = certs["delay_free"]
+    c = certs["delay_free"].as_dict()
     ref = max(0.0, -min_re(y_delay_free(cfg)))
     assert c["shortage"] == pytest.approx(ref, rel=1e-5, abs=1e-9)
     assert c["certificate_residual"] < 1e-6
@@ -219,7 +219,7 @@ def test_delay_free_poles_agree_with_the_argument_principle(alpha, fi, fd, zh, f
                        design__zeta_hat=zh, implementation__gv_filter={"cutoff_hz": fv, "damping": 0.7},
                        implementation__dob=None if dob is None else {"cutoff_hz": dob, "damping": 0.7},
                        implementation__delay_s=0.0)
-    c = operator_certificates(cfg)["delay_free"]
+    c = operator_certificates(cfg)["delay_free"].as_dict()
     free = bool(analyze_batch(cfg)["free_stable"][0])
     assert ("right half plane" in c["reason"]) == (not free), c
     if free:
@@ -244,7 +244,7 @@ def test_far_filter_cutoffs_certified_or_undecided_never_wrong():
         cfg = with_changes(implementation__gv_filter={"cutoff_hz": fc, "damping": 0.7})
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            c = operator_certificates(cfg)["delay_free"]
+            c = operator_certificates(cfg)["delay_free"].as_dict()
         ref = max(0.0, -min_re(y_delay_free(cfg), lo=1e-2, hi=1e10, n=400_001))
         if fc >= 1e6 and c["passive"] is None:  # undecided allowed here (never a wrong verdict)
             assert math.isnan(c["shortage"]) and c["reason"]  # ill-conditioned model, or SDP not solved
@@ -265,7 +265,7 @@ def test_far_filter_cutoffs_certified_or_undecided_never_wrong():
     cfg = unchecked(load_design(PAPER), implementation__gv_filter={"cutoff_hz": 1e9, "damping": 0.7})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        c = operator_certificates(cfg)["delay_free"]
+        c = operator_certificates(cfg)["delay_free"].as_dict()
     assert c["passive"] is None and math.isnan(c["shortage"])
     assert "ill-conditioned" in c["reason"]
 

@@ -54,6 +54,11 @@ def test_analyze_design_returns_typed_parts(paper):
     assert isinstance(r.passivity, PassivityResult) and isinstance(r.dob, DobMargins)
     assert isinstance(r.amplification, Amplification)
     assert r.margins is None and r.latency_margin_s is None  # analyze_with_margins adds them
+    from exotune.analysis import KypCertificate
+
+    kyp = r.passivity.kyp
+    assert set(kyp) == {"nominal", "delay_free"} and all(isinstance(c, KypCertificate) for c in kyp.values())
+    assert r.to_dict()["passivity"]["kyp"] == {k: c.as_dict() for k, c in kyp.items()}
 
 
 def test_fields_agree_with_the_batch_columns(paper):
