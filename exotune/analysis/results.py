@@ -177,6 +177,15 @@ class FamilyResult(Result):
     box: Mapping[str, Interval] | None = None
     edges: tuple[BoxEdge, ...] | None = None
 
+    def __repr__(self) -> str:
+        if self.box is not None:
+            where = f"box {', '.join(self.box)}, {len(self.edges or ())} edges"
+        else:
+            where = "stable " + (" ∪ ".join(f"[{a:.6g}, {b:.6g}]" for a, b in self.stable_intervals) or "nowhere")
+        flags = ("robust" if self.robust else "not robust") + ("" if self.conclusive else ", inconclusive")
+        return (f"FamilyResult({self.kind} {self.parameter} in [{self.range[0]:.6g}, {self.range[1]:.6g}] {self.unit}: "
+                f"{where} ({flags}))")
+
     @property
     def lowest_stable_value_below_range_top(self) -> float | None:
         """The lower end of the stable interval that reaches the top of the range (e.g. the
@@ -340,6 +349,21 @@ class DesignAnalysis(Result):
     @property
     def robust(self) -> bool:
         return bool(self.free_stable) and all(bool(x.robust) for x in self.humans + self.environment)
+
+    def __repr__(self) -> str:
+        parts = [f"robust={self.robust}", f"free_stable={self.free_stable}", f"locked_stable={self.locked_stable}",
+                 f"humans={list(self.humans)!r}",
+                 f"passivity max excess {self.passivity.max_phase_excess_deg:.4g} deg"]
+        if self.dob is not None:
+            parts.append(f"DOB phase margin {self.dob.phase_margin_deg:.4g} deg")
+        parts.append(f"amplification {self.amplification.dc:.6g} –, {self.amplification.bandwidth_hz:.4g} Hz")
+        if self.margins is not None:
+            parts.append(f"latency margin {self.margins[0].extra_delay_s * 1e3:.4g} ms")
+        if self.sampled_data is not None:
+            parts.append(f"sampled at {self.sampled_data.sample_rate_hz:g} Hz")
+        if self.warnings:
+            parts.append(f"{len(self.warnings)} warning{'' if len(self.warnings) == 1 else 's'}")
+        return "DesignAnalysis(" + ", ".join(parts) + ")"
 
     @property
     def latency_margin(self):

@@ -174,3 +174,13 @@ def test_schedule_entries_are_typed():
         assert ed["robust"] is e.robust is (not e.not_robust)
         assert set(ed["gains"]) == set(r.gains) and ed["ratio"] == e.ratio
 
+
+
+def test_repr_is_a_readable_summary(paper, box):
+    _, r = paper
+    text = repr(r)
+    assert text.startswith("DesignAnalysis(robust=False, free_stable=True") and len(text) < 800
+    lo = r.humans[0].stable_intervals[0][0]
+    assert f"mass inertia in [0.001, 1] kg·m²: stable [{lo:.6g}, 1] (not robust)" in text
+    assert "DOB phase margin" in text and "1 warning" in text
+    assert "box inertia, stiffness, 4 edges" in repr(box[1].humans[0])
