@@ -27,12 +27,13 @@ __all__ = [
     "export",
     "certify",
     "codegen",
+    "identify",
     "simulate",
     "ConfigError",
     "ExotuneError",
 ]
 
-_API = {"load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"}
+_API = {"load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"}
 
 
 def __getattr__(name: str):

@@ -23,6 +23,7 @@ from .results import (
     Certificate,
     ExportedController,
     GeneratedC,
+    PlantEstimate,
     DesignAnalysis,
     DesignSummary,
     OptimizeResult,
@@ -31,7 +32,7 @@ from .results import (
     SweepResult,
 )
 
-__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"]
+__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"]
 
 
 
@@ -353,6 +354,53 @@ def codegen(source, out) -> GeneratedC:
             raise TypeError("codegen needs a written controller file (export it to a path first)")
         source = source.path
     return write_c_sources(source, out)
+
+
+def identify(source, out=None, *, delay_s: float = 0.0, filter_hz: float | None = None) -> PlantEstimate:
+    """The plant parameters a measured log determines, with standard errors (the library twin of
+    ``exotune identify``).
+
+    Parameters
+    ----------
+    source : path or Mapping
+        A CSV log (docs/identification.md#the-log), or its columns as a mapping name → sequence.
+    out : path, optional
+        Write the ``plant`` and ``uncertainty`` sections (YAML) there (a path source only; only
+        when every estimate is physical).
+    delay_s : float
+        Delay [s] from ``tau_cmd`` to the applied torque (logs with ``tau_cmd``).
+    filter_hz : float, optional
+        Corner of the state-variable filter [Hz].
+
+    Returns
+    -------
+    PlantEstimate
+        ``parameters`` (value, standard error, unit), ``fits``, ``design_sections()``.
+
+    References
+    ----------
+    docs/identification.md; paper eq. (1).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(2000) / 1000.0                      # 2 s at 1 kHz
+    >>> th = 0.01 * np.sin(2 * np.pi * 3 * t) + 0.004 * np.sin(2 * np.pi * 17 * t + 1)   # motor angle [rad]
+    >>> w = 2 * np.pi * np.array([3.0, 17.0])
+    >>> thd = 0.01 * w[0] * np.cos(w[0] * t) + 0.004 * w[1] * np.cos(w[1] * t + 1)
+    >>> thdd = -0.01 * w[0] ** 2 * np.sin(w[0] * t) - 0.004 * w[1] ** 2 * np.sin(w[1] * t + 1)
+    >>> tau_s = np.zeros_like(t)                          # SEA unloaded: τ_m drives J_m, B_m alone
+    >>> r = identify({"t": t, "theta_m": th, "tau_s": tau_s, "tau_m": 0.44 * thdd + 17.9 * thd})
+    >>> round(r["motor_inertia"].value, 3), round(r["motor_damping"].value, 2), r["motor_inertia"].unit
+    (0.44, 17.9, 'kg·m²')
+    """
+    from .identification import identify_file, identify_plant, log_from_columns
+
+    if isinstance(source, Mapping):
+        if out is not None:
+            raise TypeError("identify writes its sections only for a log file (give a path)")
+        return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s), filter_hz=filter_hz)
+    return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz)
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,

@@ -133,7 +133,7 @@ def _note_first_compile() -> None:
                    "later runs start at once)", err=True)
 
 
-SINGLE_DESIGN_COMMANDS = ("design", "sea", "analyze", "export", "certify", "codegen", "simulate", "init")
+SINGLE_DESIGN_COMMANDS = ("design", "sea", "analyze", "export", "certify", "codegen", "identify", "simulate", "init")
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -373,6 +373,35 @@ def codegen_cmd(controller_file, out_dir):
 
     check_outputs([controller_file], out_dirs={"-o": out_dir})
     click.echo(write_c_sources(controller_file, out_dir).to_text())
+
+
+@cli.command("identify")
+@click.argument("log_file", metavar="LOG.csv")
+@click.option("-o", "--out", "out", default=None, metavar="PLANT.yaml",
+              help="Write the plant and uncertainty sections (YAML) for a design file.")
+@click.option("--delay-s", "delay_s", default=None, metavar="S",
+              help="Delay [s] from tau_cmd to the applied torque (logs with a tau_cmd column; default 0).")
+@click.option("--filter-hz", "filter_hz", default=None, metavar="F",
+              help="Corner of the state-variable filter [Hz] (default 20, at most a hundredth of the rate).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+@click.pass_context
+def identify_cmd(ctx, log_file, out, delay_s, filter_hz, as_json):
+    """Identify the plant (J_m, B_m, K_s, J_j, K_c) from a measured log (docs/identification.md).
+
+    LOG.csv holds a header row of column names and one row per sample (t, theta_m, tau_s, tau_m or
+    tau_cmd; theta_j, tau_c, theta_h for more parameters). Exit code 1 when an estimate is not
+    physical (≤ 0): nothing is written then."""
+    from .identification import identify_file
+    from .jsonio import check_outputs
+    from .options import number_value
+
+    check_outputs([log_file], outputs={"-o": out})
+    delay = 0.0 if delay_s is None else number_value("--delay-s", delay_s, False)
+    fh = None if filter_hz is None else number_value("--filter-hz", filter_hz, True)
+    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh)
+    click.echo(r.to_json() if as_json else r.to_text())
+    if not r.physical:
+        ctx.exit(1)
 
 
 @cli.command("simulate")

@@ -21,6 +21,7 @@ from .analysis.results import (
     SeaReport,
 )
 from .controllerfile.results import Certificate, ExportedController, GeneratedC
+from .identification.result import PlantEstimate
 from .optimization.result import OptimizeResult
 from .record import Record, Result
 from .simulation.result import SimulationRun
@@ -45,4 +46,5 @@ __all__ = [
     "SweepReport",
     "OptimizeResult",
     "SimulationRun",
+    "PlantEstimate",
 ]

@@ -32,7 +32,7 @@ def _cli_json(*args) -> dict:
 
 
 def test_public_names_and_cheap_import():
-    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"):
+    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"):
         assert name in exotune.__all__ and callable(getattr(exotune, name))
     code = "import sys, exotune; print(sorted(m for m in sys.modules if m.startswith(('exotune.', 'control', 'cvxpy', 'matplotlib'))))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
@@ -274,7 +274,7 @@ def test_the_public_api_has_examples():
     for mod in ("exotune.api", "exotune.model.interop", "exotune.analysis.margins", "exotune.starter"):
         assert mod in EXAMPLE_MODULES
     # every API twin of a command shows how it is called
-    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "simulate"):
+    for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"):
         assert ">>>" in (getattr(exotune, name).__doc__ or ""), name
 
 

@@ -24,7 +24,7 @@ LAYERS = [
     {"config"},
     {"sampled"},
     {"analysis"},
-    {"controllerfile", "sweeps"},
+    {"controllerfile", "sweeps", "identification"},
     {"optimization", "simulation"},
     {"text", "plots"},
     {"results"},

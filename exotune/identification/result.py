@@ -1,0 +1,127 @@
+"""The typed result of ``exotune identify``: the plant parameters with their standard errors, the
+fit of each equation, and the design-file sections they give.
+
+References
+----------
+docs/identification.md; docs/design-file.md#uncertainty-optional-the-unit-of-the-plant-uncertainty-margin.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..record import Result
+
+__all__ = ["ParameterEstimate", "EquationFit", "PlantEstimate", "UNCERTAINTY_SIGMAS"]
+
+UNCERTAINTY_SIGMAS = 3.0  # the uncertainty section's relative range: this many standard errors
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One plant parameter: ``key`` (design-file name), ``symbol``, ``value`` and ``std_error``
+    in ``unit`` (the spread of the estimates over the log's ``batches`` parts / √batches)."""
+
+    key: str
+    symbol: str
+    value: float
+    std_error: float
+    unit: str
+
+    @property
+    def relative_std_error(self) -> float:
+        return abs(self.std_error / self.value) if self.value != 0 else math.inf
+
+    def to_dict(self) -> dict:
+        return {"value": self.value, "std_error": self.std_error, "unit": self.unit,
+                "relative_std_error": self.relative_std_error}
+
+
+@dataclass(frozen=True)
+class EquationFit:
+    """One regression: its ``equation`` (text), the parameters it gave, the sensor offset it
+    absorbed [``offset_unit``], its coefficient of determination ``r2`` [–] and the RMS residual
+    [``residual_unit``]."""
+
+    equation: str
+    parameters: tuple[str, ...]
+    offset: float
+    offset_unit: str
+    r2: float
+    rms_residual: float
+    residual_unit: str
+
+    def to_dict(self) -> dict:
+        return {"equation": self.equation, "parameters": list(self.parameters),
+                "offset": {"value": self.offset, "unit": self.offset_unit}, "r2": self.r2,
+                "rms_residual": {"value": self.rms_residual, "unit": self.residual_unit}}
+
+
+@dataclass(frozen=True)
+class PlantEstimate(Result):
+    """``exotune identify``: the plant parameters the log determines (``parameters``, design-file
+    keys), the fit of each equation, and what was used: ``samples`` at ``sample_rate_hz`` [Hz]
+    after the filter's transient, the state-variable filter's corner ``filter_hz`` [Hz] and the
+    number of ``batches`` of the standard errors. ``missing`` names the parameters the log's
+    columns cannot determine, with the columns they need."""
+
+    parameters: tuple[ParameterEstimate, ...]
+    fits: tuple[EquationFit, ...]
+    sample_rate_hz: float
+    samples: int
+    filter_hz: float
+    batches: int
+    missing: tuple[tuple[str, str], ...] = ()
+    source: str = "<log>"
+
+    def __getitem__(self, key: str) -> ParameterEstimate:
+        for p in self.parameters:
+            if p.key == key:
+                return p
+        raise KeyError(key)
+
+    @property
+    def physical(self) -> bool:
+        """Every estimate positive (a negative inertia, damping or stiffness is not a plant)."""
+        return all(p.value > 0 for p in self.parameters)
+
+    def design_sections(self) -> dict:
+        """``{"plant": …, "uncertainty": …}`` for a design file: the estimates, and as relative
+        range of each the :data:`UNCERTAINTY_SIGMAS`-standard-error band (capped below 1)."""
+        return {"plant": {p.key: p.value for p in self.parameters},
+                "uncertainty": {p.key: min(0.99, UNCERTAINTY_SIGMAS * p.relative_std_error) for p in self.parameters}}
+
+    def to_dict(self) -> dict:
+        return {
+            "source": self.source,
+            "sample_rate_hz": self.sample_rate_hz,
+            "samples": self.samples,
+            "filter_hz": self.filter_hz,
+            "batches": self.batches,
+            "parameters": {p.key: p.to_dict() for p in self.parameters},
+            "fits": [f.to_dict() for f in self.fits],
+            "not_identified": {k: why for k, why in self.missing},
+            "physical": self.physical,
+            "uncertainty_sigmas": UNCERTAINTY_SIGMAS,
+            "method": ("least squares on the plant equations (docs/method.md#physical-model), every signal through "
+                       "the state-variable filter ω³/(s + ω)³ and its s-, s²-multiples (first-order hold), a sensor "
+                       "offset and the filters' start-up transients per equation; standard errors from the spread over consecutive parts of the log"),
+        }
+
+    def to_text(self) -> str:
+        lines = [f"exotune identify — {self.source}: {self.samples} samples at {self.sample_rate_hz:g} Hz, "
+                 f"filter {self.filter_hz:g} Hz, standard errors over {self.batches} parts"]
+        for p in self.parameters:
+            lines.append(f"  {p.key} ({p.symbol}): {p.value:.6g} ± {p.std_error:.3g} {p.unit} "
+                         f"({100 * p.relative_std_error:.2g} %)")
+        for f in self.fits:
+            lines.append(f"  fit {f.equation}: R² {f.r2:.6f}, RMS residual {f.rms_residual:.3g} {f.residual_unit}, "
+                         f"offset {f.offset:.3g} {f.offset_unit}")
+        for k, why in self.missing:
+            lines.append(f"  {k}: not identified ({why})")
+        if not self.physical:
+            bad = ", ".join(p.key for p in self.parameters if p.value <= 0)
+            lines.append(f"  NOT A PLANT: {bad} ≤ 0 (too little excitation, or the log's signs or units differ from "
+                         "docs/identification.md)")
+        return "\n".join(lines)
