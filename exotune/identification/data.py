@@ -92,7 +92,8 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s: float = 0.0)
     Ts = float(np.median(dt))
     if not Ts > 0 or np.max(np.abs(dt - Ts)) > 1e-6 * Ts + 1e-12 * abs(float(sig["t"][-1])):
         k = int(np.argmax(np.abs(dt - Ts)))
-        raise ConfigError("t", f"not uniformly sampled (step {dt[k]!r} s after sample {k}, median {Ts!r} s)")
+        raise ConfigError("t", f"not uniformly sampled, increasing (step {float(dt[k]):.6g} s after sample {k}, "
+                          f"median {Ts:.6g} s)")
     if not (isinstance(delay_s, (int, float)) and math.isfinite(delay_s) and delay_s >= 0):
         raise ConfigError("--delay-s", f"{delay_s!r} is not a delay ≥ 0 s")
     if "tau_cmd" in sig:

@@ -55,6 +55,11 @@ _EQUATIONS = {
 }
 
 
+# equation → (filtered left-hand side, [(filtered signal, power of s)] of its regressors)
+_ROWS = {"motor": ("motor_y", [("theta_m", 2), ("theta_m", 1)]), "sea": ("tau_s", [("sea_x", 0)]),
+         "joint": ("joint_y", [("theta_j", 2)]), "cuff": ("tau_c", [("cuff_x", 0)])}
+
+
 def svf(x: np.ndarray, sample_rate_hz: float, filter_hz: float,
         hold: str = "foh") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """H[x], sH[x], s²H[x] for H(s) = ω³/(s + ω)³, ω = 2π·filter_hz, from the zero state;
@@ -71,7 +76,7 @@ def svf(x: np.ndarray, sample_rate_hz: float, filter_hz: float,
 
 def _solve(X: np.ndarray, y: np.ndarray, what: str, column: str) -> np.ndarray:
     """Least squares with scaled columns; a log that does not excite the regressors is refused."""
-    scale = np.sqrt(np.sum(X * X, axis=0))
+    scale = np.max(np.abs(X), axis=0)  # (not the 2-norm: it overflows for values near 1e300)
     if np.any(scale == 0):
         raise ConfigError(column, f"the log does not excite {what} (a regressor is identically zero)")
     Xs = X / scale
@@ -80,7 +85,10 @@ def _solve(X: np.ndarray, y: np.ndarray, what: str, column: str) -> np.ndarray:
         raise ConfigError(column, f"the log does not excite {what} (condition number {s[0] / max(s[-1], 1e-300):.3g} "
                           "of the regression): excite the joint over the plant's bandwidth")
     beta, *_ = np.linalg.lstsq(Xs, y, rcond=None)
-    return beta / scale
+    beta = beta / scale
+    if not np.all(np.isfinite(beta)):
+        raise ConfigError(column, f"the estimates of {what} overflow: check the log's units")
+    return beta
 
 
 def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEstimate:
@@ -130,11 +138,20 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEst
                  "joint_y": lambda: S["tau_c"] - S["tau_s"], "cuff_x": lambda: S["theta_h"] - S["theta_j"]
                  }.get(expr, lambda: S[expr])()
             hold = "zoh" if expr == "tau_m" and log.tau_m_held else "foh"
-            cache[expr] = tuple(v[skip:] for v in svf(np.asarray(a, float), fs, fh, hold))
+            with np.errstate(over="ignore", invalid="ignore"):
+                out = tuple(v[skip:] for v in svf(np.asarray(a, float), fs, fh, hold))
+            if not all(np.all(np.isfinite(v)) for v in out):
+                col = {"sea_x": "theta_j", "joint_y": "tau_c", "cuff_x": "theta_h"}.get(expr, expr)
+                raise ConfigError(col, "values too large for the filters (they overflow): check the units")
+            cache[expr] = out
         return cache[expr][k]
 
-    rows = {"motor": ("motor_y", [("theta_m", 2), ("theta_m", 1)]), "sea": ("tau_s", [("sea_x", 0)]),
-            "joint": ("joint_y", [("theta_j", 2)]), "cuff": ("tau_c", [("cuff_x", 0)])}
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _identify(log, S, f, n, fs, fh, skip)
+
+
+def _identify(log, S, f, n, fs, fh, skip) -> PlantEstimate:
+    """The regressions of :func:`identify_plant` (``f``: the filtered signals)."""
     params, fits, missing = [], [], []
     edges = np.linspace(0, n, BATCHES + 1).astype(int)
     wt = 2 * math.pi * fh * (np.arange(skip, log.samples) / fs)
@@ -144,7 +161,7 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEst
         if lacking:
             missing += [(key, f"needs the column{'s' if len(lacking) > 1 else ''} {', '.join(lacking)}") for key, _s, _u in pars]
             continue
-        yname, regs = rows[name]
+        yname, regs = _ROWS[name]
         y = f(yname, 0)
         X = np.column_stack([f(e, k) for e, k in regs] + [f("one", 0)])
         what = " and ".join(sym for _k, sym, _u in pars)
