@@ -225,3 +225,18 @@ def test_bad_csv_files_are_one_line_errors(smooth, tmp_path):
         assert res.exit_code == 2 and res.output.startswith("exotune: error: --"), (opt, res.output)
     with pytest.raises(ConfigError):
         identify_file(tmp_path)  # a directory
+
+
+def test_absurd_magnitudes_are_refused_without_numpy_warnings(smooth):
+    import warnings
+
+    for factor in (1e300, 1e-300):
+        cols = {k: (v if k == "t" else np.asarray(v) * factor) for k, v in smooth.items()}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            try:
+                r = identify_plant(log_from_columns(cols))
+            except ConfigError as e:
+                assert e.field in ("theta_m", "tau_s", "tau_m", "theta_j", "tau_c", "theta_h"), str(e)
+            else:  # the equations are homogeneous: a uniform scale leaves the estimates
+                assert r["motor_inertia"].value == pytest.approx(TRUE["motor_inertia"], rel=1e-4)
