@@ -16,21 +16,23 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 from .numerics.engine import numpy_engine
-from .results import (
-    Certificate,
-    ExportedController,
-    GeneratedC,
-    PlantEstimate,
-    DesignAnalysis,
-    DesignSummary,
-    OptimizeResult,
-    SimulationRun,
-    SweepReport,
-    SweepResult,
-)
+
+if TYPE_CHECKING:  # each function imports what it returns: `exotune analyze` loads no controller-file code
+    from .results import (
+        Certificate,
+        DesignAnalysis,
+        DesignSummary,
+        ExportedController,
+        GeneratedC,
+        OptimizeResult,
+        PlantEstimate,
+        SimulationRun,
+        SweepReport,
+        SweepResult,
+    )
 
 __all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"]
 
@@ -212,6 +214,7 @@ def report(sweep_dir, out=None) -> SweepReport:
     >>> import os, tempfile
     >>> out = os.path.join(tempfile.mkdtemp(), "sweep")
     >>> _ = sweep({"base": "examples/scheduled.yaml", "axes": {"design.amplification": [4.0, 8.0]}}, out, workers=1)
+    >>> from exotune.results import SweepResult
     >>> rep = report(SweepResult.from_directory(out))
     >>> rep.directory.name, (rep.directory / "summary.md").exists(), rep.maps
     ('report', True, ('profile_design.amplification.png',))
@@ -220,7 +223,7 @@ def report(sweep_dir, out=None) -> SweepReport:
     ----------
     docs/sweep-spec.md#report.
     """
-    from .sweeps import make_report
+    from .sweeps import SweepResult, make_report
 
     if isinstance(sweep_dir, SweepResult):
         sweep_dir = sweep_dir.directory
@@ -304,6 +307,7 @@ def certify(source) -> Certificate:
     """
     from .controllerfile.certify import certify as _certify
     from .controllerfile import checked_controller, load_controller
+    from .controllerfile.results import ExportedController
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
@@ -348,6 +352,7 @@ def codegen(source, out) -> GeneratedC:
     ('exotune_controller.c', 6, '-std=c99 -O2 -ffp-contract=off')
     """
     from .controllerfile import write_c_sources
+    from .controllerfile.results import ExportedController
 
     if isinstance(source, ExportedController):
         if source.path is None:
@@ -429,6 +434,7 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     >>> s["verdict"], round(s["delivered_amplification"]["value"], 4)
     ('decaying', 8.0)
     """
+    from .controllerfile.results import ExportedController
     from .simulation import load_for_simulation, run_scenario
 
     if isinstance(source, ExportedController):

@@ -37,6 +37,12 @@ def test_public_names_and_cheap_import():
     code = "import sys, exotune; print(sorted(m for m in sys.modules if m.startswith(('exotune.', 'control', 'cvxpy', 'matplotlib'))))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
     assert out.strip() == "['exotune.version']"
+    # the API module and the analysis (a sweep worker's imports) load no sampled-data, controller-file
+    # or simulation code and not scipy.signal (about a second each time a process starts)
+    code = ("import sys, exotune.api, exotune.analysis, exotune.sweeps.compute; print(sorted(m for m in "
+            "('scipy.signal', 'exotune.sampled', 'exotune.controllerfile', 'exotune.simulation') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
+    assert out.strip() == "[]"
     with pytest.raises(AttributeError):
         exotune.no_such_thing  # noqa: B018
     # no subpackage shadows an API function once imported (import exotune.<sub> sets the attribute)

@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from ..record import Record, Result, opt_float
-from ..sampled import SampledCheck
+if TYPE_CHECKING:  # the sampled-data model imports scipy.signal (a second): only for the annotation
+    from ..sampled import SampledCheck
 from .kyp import certificates_dict
 from ..units import GAIN_UNITS_TORQUE, METRIC_UNITS
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.signal
 
 from ..errors import ConfigError
 from .data import MeasuredLog
@@ -65,6 +64,8 @@ def svf(x: np.ndarray, sample_rate_hz: float, filter_hz: float,
     """H[x], sH[x], s²H[x] for H(s) = ω³/(s + ω)³, ω = 2π·filter_hz, from the zero state;
     ``hold``: "foh" for a measured signal (linear between samples), "zoh" for a command held
     between samples."""
+    import scipy.signal  # here: importing it costs about a second, and only identify needs it
+
     w = 2 * math.pi * filter_hz
     den = np.polymul(np.polymul([1.0, w], [1.0, w]), [1.0, w])
     out = []
