@@ -28,7 +28,8 @@ import math
 from ..errors import ConfigError
 from ..sampled import Measured
 from .results import GeneratedC
-from .runtime import SosFilter, loop_feedthrough
+from .fileio import schedule_entry_doc
+from .runtime import Runtime
 
 __all__ = ["c_sources", "write_c_sources", "C_FILES", "C_FLAGS", "GOLDEN_TOLERANCE"]
 
@@ -48,13 +49,14 @@ def _d(x: float) -> str:
     return s if any(c in s for c in ".en") else s + ".0"
 
 
-def _controllers(doc: dict) -> list[tuple[str, float | None, dict]]:
-    """(label, joint angle [rad] or None, controller section): the nominal controller, then every
-    gain-schedule entry (complete controllers, as the reference runtime runs them)."""
-    out = [("nominal", None, doc["controller"])]
+def _controllers(doc: dict) -> list[tuple[str, float | None, Runtime]]:
+    """(label, joint angle [rad] or None, reference runtime): the nominal controller, then every
+    gain-schedule entry — each as the reference runtime runs it, so that the tables below hold its
+    gains, its sensed filters and its loop filters in its order."""
+    out = [("nominal", None, Runtime(doc))]
     for e in (doc.get("gain_schedule") or {}).get("entries", []):
         out.append((f"joint angle {e['joint_angle_rad']!r} rad", float(e["joint_angle_rad"]),
-                    {**doc["controller"], **e["controller"]}))
+                    Runtime(schedule_entry_doc(doc, e))))
     return out
 
 
@@ -62,19 +64,15 @@ def _tables(ctrls) -> dict:
     """Flat coefficient tables of every controller, in the reference runtime's order."""
     gains, filters, sections = [], [], []
     ctrl_rows = []
-    for _label, _angle, c in ctrls:
+    for _label, _angle, rt in ctrls:
         g0 = len(gains)
-        for s, v in c["gains"].items():
-            gains.append((_SIGNALS.index(s), float(v["gain"])))
-        sensed = [f for f in c["filters"] if f["input"] != "tau_cmd"]
-        loop = [f for f in c["filters"] if f["input"] == "tau_cmd"]
+        gains += [(_SIGNALS.index(s), g) for s, g in rt.gains.items()]
         f0 = len(filters)
-        for f in sensed + loop:
-            coef = SosFilter(f["sos"]).coefficients
-            filters.append((-1 if f["input"] == "tau_cmd" else _SIGNALS.index(f["input"]), len(sections), len(coef)))
+        for signal, f in [(s, f) for s, f in rt.filters] + [("tau_cmd", f) for f in rt.loop]:
+            coef = f.coefficients
+            filters.append((-1 if signal == "tau_cmd" else _SIGNALS.index(signal), len(sections), len(coef)))
             sections.extend(coef)
-        feed = loop_feedthrough([SosFilter(f["sos"]) for f in loop])
-        ctrl_rows.append((g0, len(gains) - g0, f0, len(sensed), len(loop), feed))
+        ctrl_rows.append((g0, len(gains) - g0, f0, len(rt.filters), len(rt.loop), rt.loop_feedthrough))
     return {"gains": gains, "filters": filters, "sections": sections, "controllers": ctrl_rows}
 
 

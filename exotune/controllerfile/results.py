@@ -84,4 +84,5 @@ class GeneratedC(Result):
         return (f"wrote {', '.join(self.files)} to {d} ({self.controllers} controller"
                 f"{'' if self.controllers == 1 else 's'}, {self.sections} sections)\n"
                 f"check on the target: cc {self.flags} -o exotune_golden_test {d / self.files[1]} "
-                f"{d / self.files[2]} -lm && ./exotune_golden_test")
+                f"{d / self.files[2]} -lm && ./exotune_golden_test\n"
+                "the port runs what the file holds: certify the file (`exotune certify`) before it drives a joint")

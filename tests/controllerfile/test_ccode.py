@@ -169,6 +169,7 @@ def test_codegen_command_writes_all_files_or_refuses(tmp_path):
     assert res.exit_code == 0, res.output
     assert {p.name: p.read_text(encoding="utf-8") for p in (tmp_path / "c").iterdir()} == c_sources(doc)
     assert "6 controllers, 30 sections" in res.output and "-ffp-contract=off" in res.output
+    assert "certify the file (`exotune certify`)" in res.output  # codegen does not certify
     # a file whose golden vectors its controller does not reproduce: refused, nothing written
     bad = copy.deepcopy(doc)
     bad["golden"]["tau_cmd"]["values"][10] += 1.0
