@@ -113,7 +113,9 @@ def design(source) -> DesignSummary:
 
 def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
     """Coupled stability, robust intervals, passivity, DOB margins, amplification and the
-    latency margin of one design (the library twin of ``exotune analyze``).
+    latency margin of one design (the library twin of ``exotune analyze``). With a sample rate,
+    the margins and verdicts of record are the sampled-data loop's, as ``certify`` judges the
+    exported controller (``r.sampled``; docs/method.md#one-model-of-record).
 
     Parameters
     ----------
@@ -137,11 +139,11 @@ def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
     >>> r.free_stable, r.robust
     (True, False)
     """
-    from .analysis import analyze_with_margins
+    from .controllerfile.verdicts import analyze_of_record
 
     cfg = load_design(source)
     with numpy_engine():
-        r = analyze_with_margins(cfg)
+        r = analyze_of_record(cfg)
         if cross_check:
             from .analysis import pade_crosscheck
 
@@ -252,22 +254,30 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     return run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv)
 
 
-def export(source, sample_rate_hz: float, out) -> ExportedController:
-    """Export the discrete-time runtime controller of a design file at ``sample_rate_hz`` [Hz]
-    to ``out`` (YAML, written atomically; the library twin of ``exotune export``).
+def export(source, sample_rate_hz: float | None = None, out=None, *, require_latency_margin_s: float | None = None,
+           time_budget_s: float | None = None, allow_uncertified: bool = False) -> ExportedController:
+    """Export the discrete-time runtime controller of a design file to ``out`` (YAML, written
+    atomically; the library twin of ``exotune export``).
 
     Parameters
     ----------
     source : path or DesignConfig loaded from a file
         The design file (its bytes are hashed into the controller file's provenance).
-    sample_rate_hz : float
-        Runtime sample rate [Hz].
+    sample_rate_hz : float, optional
+        Runtime sample rate [Hz] (default: the design's ``implementation.sample_rate_hz``).
     out : path
         Controller file to write (docs/controller-file.md).
+    require_latency_margin_s : float, optional
+        Latency margin [s] the file must keep (default: the design's ``requirements``, else one
+        sample period; 0: none).
+    time_budget_s : float, optional
+        Seconds after which the export is refused or stopped (default 600).
+    allow_uncertified : bool
+        Write the file even when it fails its own requirements (else :class:`~exotune.errors.RunFailed`).
 
     References
     ----------
-    docs/controller-file.md; paper §V (the experiments' 1 kHz runtime).
+    docs/controller-file.md; docs/method.md#one-model-of-record; paper §V (the experiments' 1 kHz runtime).
 
     Examples
     --------
@@ -281,8 +291,11 @@ def export(source, sample_rate_hz: float, out) -> ExportedController:
     path = source if isinstance(source, (str, os.PathLike)) else getattr(source, "source", None)
     if path is None:
         raise TypeError("export needs the design file (a path, or a design loaded from a file)")
+    if out is None:
+        raise TypeError("export needs out, the controller file to write")
     with numpy_engine():
-        return export_design(path, sample_rate_hz, out)
+        return export_design(path, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
+                             time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
 
 
 def certify(source) -> Certificate:

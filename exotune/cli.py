@@ -316,23 +316,29 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
 
 @cli.command("export")
 @click.argument("design_file", metavar="DESIGN.yaml")
-@click.option("--sample-rate-hz", "sample_rate_hz", required=True, metavar="F", help="Runtime sample rate [Hz].")
+@click.option("--sample-rate-hz", "sample_rate_hz", default=None, metavar="F",
+              help="Runtime sample rate [Hz] (default: the design's implementation.sample_rate_hz).")
 @click.option("-o", "--out", "out", required=True, metavar="CONTROLLER.yaml", help="Controller file to write.")
 @click.option("--require-latency-margin-s", "require_latency_margin_s", default=None, metavar="S",
-              help="Latency margin [s] the file must keep; certify fails below it (default: one sample period; 0: none).")
+              help="Latency margin [s] the file must keep; certify fails below it (default: the design's "
+                   "requirements section, else one sample period; 0: none).")
 @click.option("--time-budget-s", "time_budget_s", default=None, metavar="S",
               help="Refuse or stop the export beyond this many seconds (default 600); nothing is written then.")
-def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_budget_s):
+@click.option("--allow-uncertified", "allow_uncertified", is_flag=True,
+              help="Write the file even when it fails its own requirements (recorded in its provenance).")
+def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_budget_s, allow_uncertified):
     """Export the discrete-time runtime controller as YAML.
 
     DESIGN.yaml is a design file (docs/design-file.md); the controller file -o (docs/controller-
-    file.md) is written atomically; `exotune certify CONTROLLER.yaml` next."""
+    file.md) is written atomically; `exotune certify CONTROLLER.yaml` next. Exit code 1, nothing
+    written, when the controller would not certify (its sampled-data verdicts or latency margin
+    against its requirements), unless --allow-uncertified."""
     from .controllerfile import export_design
     from .jsonio import check_outputs
 
     check_outputs([design_file], outputs={"-o": out})
     c = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
-                      time_budget_s=time_budget_s)
+                      time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
     click.echo(c.summary())
 
 

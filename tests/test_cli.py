@@ -183,7 +183,8 @@ USAGE_ERRORS = [
     # (case, arguments ({out} is a path inside tmp_path), named option, words of the reason)
     ("workers-zero", ["sweep", "spec.yaml", "-o", "{out}", "--workers", "0"], "--workers", "0 is not in the range x>=1"),
     ("seed-negative", ["optimize", "spec.yaml", "-o", "{out}/d.yaml", "--seed", "-1"], "--seed", "-1 is not in the range x>=0"),
-    ("missing-sample-rate", ["export", PAPER, "-o", "{out}/c.yaml"], "--sample-rate-hz", "missing required option"),
+    ("missing-sample-rate", ["export", PAPER, "-o", "{out}/c.yaml"], "--sample-rate-hz",
+     "the design sets no implementation.sample_rate_hz"),
     ("unknown-scenario", ["simulate", PAPER, "--scenario", "moonwalk", "--plots", "{out}"], "--scenario",
      "'moonwalk' is not one of"),
     ("bad-inertia", ["simulate", PAPER, "--scenario", "light-mass", "--human-inertia", "abc", "--plots", "{out}"],
@@ -413,14 +414,19 @@ def test_analyze_with_sample_rate_text_and_json(tmp_path):
     p = bad_design(tmp_path, "sample_rate_hz: null", "sample_rate_hz: 1000", name="fs.yaml")
     res = run("analyze", p)
     assert res.exit_code == 0, res.output
-    assert "Sampled-data check at 1000 Hz" in res.stdout
-    assert "UNSTABLE for human mass inertia" in res.stdout
+    head = res.stdout.splitlines()[3]  # the verdicts of record come first
+    assert head.startswith("Sampled-data verdicts of record at 1000 Hz"), res.stdout
+    assert "NOT CERTIFIABLE" in res.stdout and "NOT robust" in res.stdout
     res = run("analyze", p, "--json")
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
     sd = d["sampled_data"]
-    assert sd["sample_rate_hz"] == 1000.0 and sd["free_stable"] is True
+    assert sd["sample_rate_hz"] == 1000.0 and sd["free_stable"] is True and sd["certifiable"] is False
     assert [h["kind"] for h in sd["humans"]] == ["mass", "spring", "complex_stiffness"]
+    mass = sd["humans"][0]
+    assert mass["robust"] is False and 0.001 < mass["stable_intervals"][0][0] < 0.1  # light masses destabilize
+    assert d["margins"]["model_of_record"] == "sampled-data at 1000 Hz"
+    assert d["margins"]["latency"]["extra_delay_s"] == 0.0  # not robust at the nominal delay
 
 
 def test_report_says_where_it_wrote_and_sweep_says_workers_unused(tmp_path):

@@ -82,7 +82,7 @@ def assert_input_error(res, field: str, out: Path | None = None) -> str:
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
     out = tmp_path_factory.mktemp("export") / "paper_1000.yaml"
-    res = run("export", PAPER, "--sample-rate-hz", "1000", "-o", out)
+    res = run("export", "--allow-uncertified", PAPER, "--sample-rate-hz", "1000", "-o", out)
     assert res.exit_code == 0, (res.output, res.exception)
     assert out.is_file()
     return out, res
@@ -232,7 +232,7 @@ def test_validate_controller_refuses_non_mapping():
 @pytest.mark.parametrize("rate", ["0", "-3", "nan", "abc", "inf", "-0"])
 def test_export_bad_sample_rate(tmp_path, rate):
     out = tmp_path / "ctl.yaml"
-    res = run("export", PAPER, "--sample-rate-hz", rate, "-o", out)
+    res = run("export", "--allow-uncertified", PAPER, "--sample-rate-hz", rate, "-o", out)
     assert_input_error(res, "--sample-rate-hz", out)
     assert list(tmp_path.iterdir()) == []  # no temporary files either
 
@@ -244,7 +244,7 @@ def test_export_bad_sample_rate(tmp_path, rate):
 ])
 def test_export_cutoff_above_nyquist(tmp_path, rate, field):
     out = tmp_path / "ctl.yaml"
-    res = run("export", PAPER, "--sample-rate-hz", rate, "-o", out)
+    res = run("export", "--allow-uncertified", PAPER, "--sample-rate-hz", rate, "-o", out)
     line = assert_input_error(res, field, out)
     assert "Nyquist" in line
     assert list(tmp_path.iterdir()) == []
@@ -259,7 +259,7 @@ def test_export_missing_design_file(tmp_path):
 
 def test_export_error_in_a_real_process_has_no_traceback(tmp_path):
     out = tmp_path / "ctl.yaml"
-    p = subprocess.run([sys.executable, "-m", "exotune", "export", str(PAPER), "--sample-rate-hz", "abc",
+    p = subprocess.run([sys.executable, "-m", "exotune", "export", "--allow-uncertified", str(PAPER), "--sample-rate-hz", "abc",
                         "-o", str(out)], capture_output=True, text=True, cwd=tmp_path, timeout=120,
                        env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert p.returncode == 2, p.stderr
@@ -276,7 +276,7 @@ def test_failing_export_leaves_existing_output_unchanged(tmp_path, args):
     old = b"# an older controller file\nschema: exotune.controller/1\n"
     out.write_bytes(old)
     before = out.stat().st_mtime_ns
-    res = run("export", PAPER, *args, "-o", out)
+    res = run("export", "--allow-uncertified", PAPER, *args, "-o", out)
     assert res.exit_code == 2, res.output
     assert clean_exit(res)
     assert out.read_bytes() == old
@@ -368,7 +368,7 @@ def test_export_to_a_directory_is_an_input_error(tmp_path, exported_doc, monkeyp
     monkeypatch.setattr(export_mod, "build_export", lambda *a, **k: copy.deepcopy(exported_doc))
     out = tmp_path / "outdir"
     out.mkdir()
-    res = run("export", PAPER, "--sample-rate-hz", "1000", "-o", out)
+    res = run("export", "--allow-uncertified", PAPER, "--sample-rate-hz", "1000", "-o", out)
     assert_input_error(res, str(out))
     assert out.is_dir() and list(out.iterdir()) == []
     assert sorted(p.name for p in tmp_path.iterdir()) == ["outdir"]

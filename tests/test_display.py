@@ -76,7 +76,7 @@ def test_dimensionless_gains_print_a_dash(box_text):
 def test_certify_text_of_a_box_file(box_file, tmp_path):
     """Was: KeyError 'robust' in format_certify (``--json`` worked)."""
     ctrl = tmp_path / "c.yaml"
-    assert run("export", box_file, "--sample-rate-hz", 1000, "-o", ctrl).exit_code == 0
+    assert run("export", box_file, "--sample-rate-hz", 1000, "-o", ctrl, "--allow-uncertified").exit_code == 0
     res = run("certify", ctrl)
     assert res.exit_code == 1, res.output  # a box is not certifiable: NOT CERTIFIED, no traceback
     out = res.stdout.splitlines()

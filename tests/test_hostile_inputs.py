@@ -322,17 +322,17 @@ def _optimize_spec(tmp_path: Path) -> Path:
 
 
 OUTPUTS = {
-    "export -o input": lambda t: (["export", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
+    "export -o input": lambda t: (["export", "--allow-uncertified", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
                                    t / "in.yaml"], "-o "),
-    "export -o ./input": lambda t: (["export", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
+    "export -o ./input": lambda t: (["export", "--allow-uncertified", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
                                      f"{t}/./in.yaml"], "-o "),
-    "export -o hard link": lambda t: (["export", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
+    "export -o hard link": lambda t: (["export", "--allow-uncertified", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
                                        (os.link(t / "in.yaml", t / "h.yaml"), t / "h.yaml")[1]], "-o "),
-    "export -o symlink": lambda t: (["export", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
+    "export -o symlink": lambda t: (["export", "--allow-uncertified", _copy(PAPER, t / "in.yaml"), "--sample-rate-hz", "1000", "-o",
                                      (os.symlink(t / "in.yaml", t / "s.yaml"), t / "s.yaml")[1]], "-o "),
-    "export -o directory": lambda t: (["export", PAPER, "--sample-rate-hz", "1000", "-o",
+    "export -o directory": lambda t: (["export", "--allow-uncertified", PAPER, "--sample-rate-hz", "1000", "-o",
                                        (os.mkdir(t / "d"), t / "d")[1]], "-o "),
-    "export -o under a file": lambda t: (["export", PAPER, "--sample-rate-hz", "1000", "-o",
+    "export -o under a file": lambda t: (["export", "--allow-uncertified", PAPER, "--sample-rate-hz", "1000", "-o",
                                           _copy(PAPER, t / "f.yaml") / "c.yaml"], "-o "),
     "optimize -o spec": lambda t: (["optimize", _optimize_spec(t), "-o", t / "o.yaml"], "-o "),
     "optimize -o base": lambda t: (["optimize", (_copy(PAPER, t / "b.yaml"), (t / "o.yaml").write_text(

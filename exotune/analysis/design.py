@@ -21,14 +21,16 @@ __all__ = ["analyze_design", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"
 VERIFY_POINTS = 64
 
 
-def analyze_design(cfg) -> DesignAnalysis:
+def analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
     """All docs/method.md#analyses-and-metrics metrics for one design, as a typed
     :class:`~exotune.analysis.results.DesignAnalysis` (its ``to_dict()`` is ``exotune analyze
     --json`` without the margins; :func:`exotune.analysis.analyze_with_margins` adds them).
     Overflow in an extreme design is reported through the inconclusive flags and warnings of
-    the result, not as numpy's floating-point warnings."""
+    the result, not as numpy's floating-point warnings. ``sampled_check=False`` leaves out the
+    sampled-data grid check at the design's rate (``exotune analyze`` replaces it with the exact
+    verdicts of record, :func:`exotune.controllerfile.verdicts.analyze_of_record`)."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return _analyze_design(cfg)
+        return _analyze_design(cfg, sampled_check)
 
 
 def _human_result(cols, i: int, fam) -> FamilyResult:
@@ -96,7 +98,7 @@ def _sampled_check(cfg, cols, humans, env, warnings: list):
     return sampled
 
 
-def _analyze_design(cfg) -> DesignAnalysis:
+def _analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
     from ..model.shaping import double_compliance_shaping
 
     from ..config import check_analysis_filters
@@ -112,7 +114,7 @@ def _analyze_design(cfg) -> DesignAnalysis:
         dob = DobMargins(g("dob_gain_margin_db"), g("dob_phase_margin_deg"), g("dob_delay_margin_s"),
                          g("dob_crossover_hz"), bool(cols["dob_stable"][0]))
     warnings = list(ds.warnings)
-    sampled = _sampled_check(cfg, cols, humans, env, warnings)
+    sampled = _sampled_check(cfg, cols, humans, env, warnings) if sampled_check else None
     schedule = _schedule_check(cfg) if cfg.raw.get("transmission") else None
     for e in schedule or []:
         if not e.robust:

@@ -473,7 +473,7 @@ def _member_minimum(a0, a1, b0, b1, a: float, b: float, T: float, n: int = 17):
     return dT, w, best_p
 
 
-def analyze_with_margins(cfg):
+def analyze_with_margins(cfg, sampled_check: bool = True):
     """The single-design analysis (``exotune analyze``) with its margins: the latency margin of
     :func:`latency_margin` and the plant-uncertainty margin of
     :func:`exotune.analysis.plant_margin.plant_uncertainty_margin` (weights from the design's
@@ -502,7 +502,7 @@ def analyze_with_margins(cfg):
 
     from .batch import analyze_batch
 
-    rec = analyze_design(cfg)
+    rec = analyze_design(cfg, sampled_check)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         cols = analyze_batch(cfg)  # the nominal verdicts, shared by both margins
         lm = latency_margin(cfg, nominal=cols)

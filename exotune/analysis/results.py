@@ -323,6 +323,14 @@ class DesignAnalysis(Result):
     :class:`exotune.sampled.SampledCheck` at the design's sample rate (None without one),
     ``gain_schedule`` one :class:`ScheduleEntry` per joint angle of a ``transmission`` table, and
     ``cross_check`` the Padé cross-check's record (``analyze(..., cross_check=True)``).
+
+    ``sampled`` holds the verdicts of record of a design with a sample rate
+    (:class:`exotune.controllerfile.verdicts.SampledVerdicts`, set by ``exotune analyze``): the
+    sampled-data loop of the exported controller, as ``certify`` judges it. Then ``to_dict()``'s
+    ``margins.latency`` is the sampled-data margin (the continuous one beside it as
+    ``margins.latency_continuous``), ``sampled_data`` the exact sampled-data intervals, and the
+    top-level verdicts and intervals stay the continuous analysis's, labelled so
+    (docs/method.md#one-model-of-record).
     """
 
     structure: str
@@ -343,6 +351,7 @@ class DesignAnalysis(Result):
     margins: tuple[Any, Any] | None = None
     cross_check: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
     config: Any = field(default=None, repr=False, compare=False)
+    sampled: Any = field(default=None, repr=False, compare=False)
 
     units = GAIN_UNITS_TORQUE
     metric_units = METRIC_UNITS
@@ -360,7 +369,10 @@ class DesignAnalysis(Result):
         parts.append(f"amplification {self.amplification.dc:.6g} –, {self.amplification.bandwidth_hz:.4g} Hz")
         if self.margins is not None:
             parts.append(f"latency margin {self.margins[0].extra_delay_s * 1e3:.4g} ms")
-        if self.sampled_data is not None:
+        if self.sampled is not None:
+            parts.append(f"sampled at {self.sampled.sample_rate_hz:g} Hz: robust={self.sampled.robust}, latency margin "
+                         f"{self.sampled.latency_margin_s * 1e3:.4g} ms, certifiable={self.sampled.certifiable}")
+        elif self.sampled_data is not None:
             parts.append(f"sampled at {self.sampled_data.sample_rate_hz:g} Hz")
         if self.warnings:
             parts.append(f"{len(self.warnings)} warning{'' if len(self.warnings) == 1 else 's'}")
@@ -378,7 +390,16 @@ class DesignAnalysis(Result):
 
     @property
     def latency_margin_s(self) -> float | None:
-        """The extra delay the design tolerates [s] (None when margins were not computed)."""
+        """The extra delay the design tolerates [s] (None when margins were not computed): the
+        sampled-data loop's when the verdicts of record were computed (``sampled``), else the
+        continuous one."""
+        if self.sampled is not None:
+            return self.sampled.latency_margin_s
+        return None if self.margins is None else float(self.margins[0].extra_delay_s)
+
+    @property
+    def continuous_latency_margin_s(self) -> float | None:
+        """The continuous-time latency margin [s] (None when margins were not computed)."""
         return None if self.margins is None else float(self.margins[0].extra_delay_s)
 
     def to_dict(self) -> dict:
@@ -386,8 +407,16 @@ class DesignAnalysis(Result):
         d = {}
         if self.margins is not None:
             d["margins"] = {"latency": self.margins[0].to_dict(), "plant_uncertainty": self.margins[1].to_dict()}
+            if self.sampled is not None:
+                sd = self.sampled.to_dict()
+                cont = {**d["margins"]["latency"], "model": "continuous time, exact delay"}
+                d["margins"] = {"model_of_record": f"sampled-data at {self.sampled.sample_rate_hz:g} Hz",
+                                "latency": {**sd["latency_margin"], "delay_s": self.sampled.delay_s},
+                                "latency_continuous": cont, "plant_uncertainty": d["margins"]["plant_uncertainty"]}
         d.update({
-            "model": ANALYSIS_MODEL,
+            "model": ANALYSIS_MODEL if self.sampled is None else
+            ANALYSIS_MODEL + f" (the continuous figures; the verdicts of record at {self.sampled.sample_rate_hz:g} Hz are "
+                             "under margins and sampled_data)",
             "structure": self.structure,
             "delay_s": self.delay_s,
             "gain_convention": "torque",
@@ -402,7 +431,8 @@ class DesignAnalysis(Result):
             "dob": None if self.dob is None else self.dob.to_dict(),
             "amplification": self.amplification.to_dict(),
             "J_m_hat_over_J_j": self.J_m_hat_over_J_j,
-            "sampled_data": None if self.sampled_data is None else self.sampled_data.to_dict(),
+            "sampled_data": (self.sampled.to_dict() if self.sampled is not None else
+                             None if self.sampled_data is None else self.sampled_data.to_dict()),
             "gain_schedule": None if self.gain_schedule is None else [e.to_dict() for e in self.gain_schedule],
             "metric_units": dict(self.metric_units),
             "warnings": list(self.warnings),

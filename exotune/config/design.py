@@ -112,6 +112,7 @@ class DesignConfig:
     raw: dict
     source: str | None = None
     uncertainty: dict | None = None  # relative range per plant parameter (None: weight 1 each)
+    requirements: dict | None = None  # {latency_margin_s [s] or None, source} (docs/design-file.md#requirements)
 
 
 @dataclass(frozen=True)
@@ -333,8 +334,12 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
         if given and not any(v > 0 for v in given.values()):
             raise ConfigError("uncertainty", "every given relative range is 0: at least one plant parameter must be uncertain")
         unc = {k: given.get(k, 0.0) for k in raw["uncertainty"]} if given else None
+    req = None
+    if top.requirements is not None:  # likewise
+        raw["requirements"] = {k: v for k, v in top.requirements.model_dump().items() if v is not None}
+        req = dict(raw["requirements"])
     _check_gains_finite(plant, design)
-    return DesignConfig(plant, design, _implementation(impl_in), tuple(humans), tuple(envs), raw, source, unc)
+    return DesignConfig(plant, design, _implementation(impl_in), tuple(humans), tuple(envs), raw, source, unc, req)
 
 
 def _check_gains_finite(plant, design) -> None:

@@ -48,6 +48,7 @@ __all__ = [
     "Filter1In",
     "ImplementationIn",
     "TransmissionIn",
+    "RequirementsIn",
     "DesignFileIn",
     "SeaGainsIn",
     "SeaFileIn",
@@ -148,6 +149,15 @@ class UncertaintyIn(_Strict):
     cuff_stiffness: Optional[RelativeRange] = None
 
 
+class RequirementsIn(_Strict):
+    """What the design must keep once it runs (docs/design-file.md#requirements): the latency
+    margin [s] of its sampled-data loop (0: none; absent: one sample period at the design's rate),
+    and where the requirement came from (written by ``exotune optimize``)."""
+
+    latency_margin_s: Optional[Delay] = None
+    source: Optional[str] = None
+
+
 class DesignFileIn(_Strict):
     plant: PlantIn
     design: DesignIn
@@ -156,6 +166,7 @@ class DesignFileIn(_Strict):
     environment: Optional[list[Any]] = None
     transmission: Optional[TransmissionIn] = None
     uncertainty: Optional[UncertaintyIn] = None
+    requirements: Optional[RequirementsIn] = None
 
 
 class HumanMassIn(_Strict):

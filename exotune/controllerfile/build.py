@@ -122,7 +122,8 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
                 out.append(f"{where}controller.filters[{f_have['name']}] is not the filter the implementation "
                            "section builds")
     # after design_from_mapping has validated the section (a non-number is a ConfigError naming its field)
+    # (a missing or null value is NaN, never close; 0.0 is a value: a delay-free runtime)
     timing = [f"implementation.{key} {impl.get(key)!r} is not the file's {key} {doc[key]['value']!r}"
               for key in ("delay_s", "sample_rate_hz")
-              if not close(float(impl.get(key, math.nan) or math.nan), float(doc[key]["value"]), rtol)]
+              if not close(math.nan if impl.get(key) is None else float(impl[key]), float(doc[key]["value"]), rtol)]
     return timing + out

@@ -32,8 +32,8 @@ from .fileio import position_feedback
 from .latency import requirement_problems, sampled_latency_margin
 from .results import Certificate
 
-__all__ = ["POINTS", "sampled_analysis", "stable_intervals", "position_feedback", "certify", "design_mismatches",
-           "check_built_from_design", "hand_tuned", "golden_problems"]
+__all__ = ["POINTS", "sampled_analysis", "sampled_decision", "sampled_problems", "schedule_section", "stable_intervals", "position_feedback",
+           "certify", "design_mismatches", "check_built_from_design", "hand_tuned", "golden_problems"]
 
 def _human_dict(fam, v: float) -> dict:
     h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
@@ -350,7 +350,7 @@ def golden_problems(doc: dict) -> tuple[list[str], int, float]:
     return problems, int(ref.size), err
 
 
-def _sampled_problems(sa: dict) -> list[str]:
+def sampled_problems(sa: dict) -> list[str]:
     """Why the file's own sampled-data analysis ``sa`` does not certify it (free/locked verdicts,
     families not robust, not certifiable or inconclusive, unresolved cells)."""
     problems = []
@@ -378,7 +378,32 @@ def _sampled_problems(sa: dict) -> list[str]:
     return problems + _unresolved(sa, "")
 
 
-def _schedule_section(doc: dict) -> tuple[list, list[str], list[str]]:
+def sampled_decision(doc: dict, sa: dict | None = None) -> tuple[dict, dict, list[str]]:
+    """certify's sampled-data decision on a controller document: (its sampled-data analysis
+    :func:`sampled_analysis`, its sampled-data latency margin
+    :func:`~exotune.controllerfile.latency.sampled_latency_margin`, the problems that refuse it —
+    loops or families not stable, inconclusive or unresolved, the margin below
+    ``requirements.latency_margin_s``). The one implementation behind ``certify``, ``export``'s
+    refusal, ``analyze`` with a sample rate and ``optimize``'s final check (docs/method.md#one-model-of-record).
+
+    Parameters
+    ----------
+    doc : dict
+        A controller document (a validated file, or one :func:`exotune.controllerfile.export.build_export` builds).
+    sa : dict, optional
+        Its :func:`sampled_analysis` when already computed.
+
+    Returns
+    -------
+    (dict, dict, list of str)
+    """
+    if sa is None:
+        sa = sampled_analysis(doc)
+    lm = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
+    return sa, lm, sampled_problems(sa) + requirement_problems(lm)
+
+
+def schedule_section(doc: dict) -> tuple[list, list[str], list[str]]:
     """(report entries, problems, prediction mismatches) of the gain schedule's entries, each
     analysed as a controller of its own."""
     from .fileio import schedule_entry_doc
@@ -406,14 +431,12 @@ def _certify(doc: dict) -> dict:
            "provenance": doc.get("provenance")}
     problems, samples, err = golden_problems(doc)
     rep["golden"] = {"samples": samples, "max_abs_error": {"value": err, "unit": "N·m"}}
-    sa = sampled_analysis(doc)
-    rep["sampled"] = sa
-    problems += _sampled_problems(sa)
-    rep["latency_margin"] = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
-    problems += requirement_problems(rep["latency_margin"])
+    rep["sampled"], rep["latency_margin"], decided = sampled_decision(doc)
+    sa = rep["sampled"]
+    problems += decided
     mism = []
     if doc.get("gain_schedule"):
-        rep["gain_schedule"], sched_problems, mism = _schedule_section(doc)
+        rep["gain_schedule"], sched_problems, mism = schedule_section(doc)
         problems += sched_problems
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the file names no rational human family to certify against (certify.humans)")

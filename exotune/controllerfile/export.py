@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..sampled import Measured
 from .build import controller_section, quantity, reflected_mapping
-from .certify import refuse_excess_work, sampled_analysis
+from .certify import refuse_excess_work, sampled_analysis, sampled_decision
 from .fileio import schedule_entry_doc, write_controller
 from .results import ExportedController
 from .runtime import Runtime
@@ -44,7 +44,9 @@ from .schema import DESIGN_UNITS, PLANT_UNITS, SCHEMA_VERSION, SIGNAL_UNITS, val
 __all__ = [
     "build_export",
     "predicted_latency_margin",
+    "latency_hint",
     "requirements_section",
+    "schedule_problems",
     "export_design",
     "design_at_rate",
     "check_sample_rate",
@@ -152,7 +154,12 @@ def predicted_latency_margin(cfg) -> dict:
     """
     from ..analysis import latency_margin
 
-    m = latency_margin(cfg)
+    return latency_hint(latency_margin(cfg))
+
+
+def latency_hint(m) -> dict:
+    """A continuous :class:`~exotune.analysis.LatencyMargin` as a controller file's
+    ``predicted.latency_margin`` (where the sampled-data margin's search starts; untrusted)."""
     fin = math.isfinite(m.extra_delay_s)
     c = m.critical
     return {
@@ -167,16 +174,21 @@ def predicted_latency_margin(cfg) -> dict:
     }
 
 
-def requirements_section(fs: float, require_latency_margin_s: float | None = None) -> dict:
-    """The ``requirements`` section: the latency margin the file must keep (default one sample
-    period 1/fs; 0 disables the requirement).
+def requirements_section(fs: float, require_latency_margin_s: float | None = None,
+                         design_requirements: dict | None = None) -> dict:
+    """The ``requirements`` section: the latency margin the file must keep. The command line's
+    ``--require-latency-margin-s`` wins; else the design's own ``requirements`` section (written by
+    ``exotune optimize`` with the margin it was asked for); else one sample period 1/fs. 0 disables
+    the requirement.
 
     Parameters
     ----------
     fs : float
         Sample rate [Hz].
     require_latency_margin_s : float, optional
-        Required extra delay [s] (``--require-latency-margin-s``); None: one sample period.
+        Required extra delay [s] (``--require-latency-margin-s``).
+    design_requirements : dict, optional
+        The design file's ``requirements`` section ({latency_margin_s, source}).
 
     Returns
     -------
@@ -185,9 +197,14 @@ def requirements_section(fs: float, require_latency_margin_s: float | None = Non
 
     References
     ----------
-    docs/controller-file.md#latency-margin.
+    docs/controller-file.md#latency-margin; docs/design-file.md#requirements.
     """
     if require_latency_margin_s is None:
+        dm = (design_requirements or {}).get("latency_margin_s")
+        if dm is not None:
+            src = (design_requirements or {}).get("source")
+            return {"latency_margin_s": float(dm), "unit": "s",
+                    "source": "the design's requirements section" + (f" ({src})" if src else "")}
         return {"latency_margin_s": 1.0 / fs, "unit": "s", "source": "default: one sample period (1/sample_rate_hz)"}
     try:
         v = float(require_latency_margin_s)
@@ -256,14 +273,20 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         "transmission": raw.get("transmission"),
         "certify": {"humans": raw["humans"], "environment": raw["environment"]},
     }
-    doc["requirements"] = requirements_section(fs, require_latency_margin_s)
+    doc["requirements"] = requirements_section(fs, require_latency_margin_s, getattr(cfg, "requirements", None))
     doc["predicted"] = None
+    problems: list[str] = []
     if analyses:
         doc["predicted"] = {"continuous": _predicted(cfg), "latency_margin": predicted_latency_margin(cfg)}
         refuse_excess_work(doc, entries=len((raw.get("transmission") or {}).get("ratio") or []))
-        doc["predicted"]["sampled"] = sampled_analysis(doc)
+        # certify's own decision on this very document (docs/method.md#one-model-of-record)
+        sa, lm, problems = sampled_decision(doc)
+        doc["predicted"]["sampled"] = sa
+        doc["predicted"]["sampled_latency_margin"] = lm
     if raw.get("transmission"):
         doc["gain_schedule"] = _gain_schedule(cfg, fs, doc, analyses)
+        if analyses:
+            problems += schedule_problems(doc)
         doc["gain_schedule_note"] = (
             "paper §VI: the gains are recomputed from the joint-reflected J_m, B_m, K_s at each scheduled joint angle "
             "(transmission ratio r: J_m, B_m, K_s scale with r²), so the compliance the human feels stays the "
@@ -283,32 +306,90 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         "created_utc": (now or _dt.datetime.now(_dt.timezone.utc)).replace(microsecond=0).isoformat(),
     }
     if analyses:
+        if not [h for h in doc["predicted"]["sampled"]["humans"] if "skipped" not in h]:
+            problems.append("the design names no rational human family to certify against (humans)")
+        if problems:  # why certify would refuse it (export_design writes it only when allowed)
+            doc["provenance"]["uncertified"] = list(problems)
         validate_controller(doc)
     return doc
 
 
-def export_design(design_file, sample_rate_hz: float, out, require_latency_margin_s: float | None = None,
-                  time_budget_s: float | None = None) -> ExportedController:
-    """``exotune export``: validate the design at ``sample_rate_hz`` (cutoffs below Nyquist), build
-    the controller file and write it atomically as YAML. Returns the written file
-    (:class:`~exotune.controllerfile.results.ExportedController`; ``to_dict()`` is the document).
-    ``require_latency_margin_s`` [s]: the ``requirements.latency_margin_s`` certify enforces
-    (None: one sample period; 0: none). ``time_budget_s`` [s] (default 600): work beyond it is
-    refused before it starts when its lower bound exceeds it, and stopped when it runs over
-    (:mod:`exotune.numerics.timebudget`); nothing is written then."""
+def schedule_problems(doc: dict) -> list[str]:
+    """certify's problems of the gain-schedule entries of a document whose entries carry their
+    ``predicted_sampled`` analysis (as :func:`build_export` writes them)."""
+    from .certify import sampled_problems
+
+    out = []
+    for e in (doc.get("gain_schedule") or {}).get("entries", []):
+        where = f"gain schedule at joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
+        out += [where + p for p in sampled_problems(e["predicted_sampled"])]
+    return out
+
+
+def export_design(design_file, sample_rate_hz: float | None, out, require_latency_margin_s: float | None = None,
+                  time_budget_s: float | None = None, allow_uncertified: bool = False) -> ExportedController:
+    """``exotune export``: validate the design at its rate (cutoffs below Nyquist), build the
+    controller file, decide on it exactly as ``certify`` does (its sampled-data verdicts, family
+    intervals and latency margin against its ``requirements``) and write it atomically as YAML.
+
+    Parameters
+    ----------
+    design_file : path
+        The design file.
+    sample_rate_hz : float or None
+        Runtime rate [Hz]; None takes the design's ``implementation.sample_rate_hz``.
+    out : path
+        The controller file to write.
+    require_latency_margin_s : float, optional
+        The ``requirements.latency_margin_s`` [s] certify enforces (None: the design's
+        ``requirements`` section, else one sample period; 0: none).
+    time_budget_s : float, optional
+        [s] (default 600): work beyond it is refused before it starts when its lower bound
+        exceeds it, and stopped when it runs over (:mod:`exotune.numerics.timebudget`).
+    allow_uncertified : bool
+        Write a file that fails its own requirements anyway (recorded in ``provenance``).
+
+    Returns
+    -------
+    ExportedController
+        The written file (``to_dict()`` is the document).
+
+    Raises
+    ------
+    RunFailed
+        The controller fails certify's checks (exit 1; nothing written) and ``allow_uncertified`` is false.
+
+    References
+    ----------
+    docs/controller-file.md; docs/method.md#one-model-of-record.
+    """
     import hashlib
 
     from ..config import read_yaml
+    from ..errors import RunFailed
     from ..numerics.timebudget import check_budget_option, time_budget
 
     budget = check_budget_option(time_budget_s)
     raw = read_yaml(design_file)
+    if sample_rate_hz is None:
+        impl = raw.get("implementation") if isinstance(raw, dict) else None
+        sample_rate_hz = impl.get("sample_rate_hz") if isinstance(impl, dict) else None
+        if sample_rate_hz is None:
+            raise ConfigError("--sample-rate-hz", "the design sets no implementation.sample_rate_hz: give the runtime's "
+                                                  "rate (e.g. --sample-rate-hz 1000)")
     cfg = design_at_rate(raw, sample_rate_hz, str(design_file))
     fs = float(cfg.implementation.sample_rate_hz)
     digest = hashlib.sha256(Path(design_file).read_bytes()).hexdigest()
     with time_budget(budget, f"exporting at {fs:g} Hz", "lower --sample-rate-hz"):
         doc = build_export(cfg, fs, source=str(design_file), input_hash=digest,
                            require_latency_margin_s=require_latency_margin_s)
+    problems = doc["provenance"].get("uncertified") or []
+    if problems and not allow_uncertified:
+        raise RunFailed(f"not written: {out} would not certify — {'; '.join(problems[:3])}"
+                        + (f"; and {len(problems) - 3} more" if len(problems) > 3 else "")
+                        + " (--allow-uncertified writes it anyway)")
+    if problems:
+        doc["provenance"]["allow_uncertified"] = True
     write_controller(doc, out)
     return ExportedController.from_document(doc, out)
 

@@ -70,7 +70,31 @@ def _latency_line(r: dict) -> str:
     n = lm.get("achieved_samples")
     smp = f" = {n:.3g} sample{'' if n == 1 else 's'}" if n is not None else ""
     need = f"required ≥ {_ms(req)} ({lm['required_from']})" if req > 0 else f"none required ({lm['required_from']})"
+    if lm.get("model"):  # a sample rate: decided on the sampled-data loop
+        cont = lm.get("continuous_s")
+        return (f"  latency margin ({lm['model']}, the model of record): {_ms(ach)}{smp}; {need}; "
+                f"continuous-time {_ms(cont)} (not what the runtime tolerates)")
     return f"  latency margin (exact): {_ms(ach)}{smp}; {need}"
+
+
+def _sampled_lines(r: dict) -> list[str]:
+    """How the optimum was decided on the sampled-data loop (rounds, polish, verdict)."""
+    sd = r.get("sampled_data")
+    if not sd:
+        return []
+    v = sd["verdicts"]
+    lines = [f"  sampled-data verdicts of record at {v['sample_rate_hz']:g} Hz: "
+             + ("CERTIFIABLE (export writes it, certify accepts it)" if sd["certifiable"] else "NOT CERTIFIABLE")
+             + f"; {sd['rounds']} tightening round{'' if sd['rounds'] == 1 else 's'} of the continuous search"
+             + (f" (continuous latency constraint raised to {_ms(sd['continuous_constraint_s'])})" if sd["rounds"] else "")
+             + ("; objective polished on the sampled-data verdicts" if sd["polished"] else "")]
+    for h in v["humans"] + v["environment"]:
+        if "stable_intervals" in h:
+            lines.append(f"    sampled-data {h['kind']} {h['parameter']}: stable on "
+                         + (", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in h["stable_intervals"]) or "nowhere")
+                         + f" {_unit(h['unit'])}")
+    lines += [f"    - {p}" for p in sd["problems"]]
+    return lines
 
 
 def format_optimize(r: dict) -> str:
@@ -90,6 +114,7 @@ def format_optimize(r: dict) -> str:
         lines.append("  within 1 % of their bound: " + ", ".join(r["near_binding"]))
     if "latency_margin" in r:
         lines.append(_latency_line(r))
+    lines += _sampled_lines(r)
     for k, m in r["metrics"].items():
         if k == "human_stable_intervals":
             for fk, iv in m.items():

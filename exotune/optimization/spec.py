@@ -246,4 +246,10 @@ def optimized_design_mapping(spec: OptimizeSpec, result: dict) -> dict:
         for k in keys[:-1]:
             node = node[k]
         node[keys[-1]] = float(v)
+    lm = result.get("latency_margin")
+    if lm is not None and (spec.cfg.implementation.sample_rate_hz or spec.latency_default is None):
+        # the margin asked of optimize travels with the design: export and certify hold it to it
+        # (docs/design-file.md#requirements); without a rate only a margin the spec set explicitly
+        raw["requirements"] = {"latency_margin_s": float(lm["required_s"]),
+                               "source": "exotune optimize (" + (spec.latency_default or "the spec's constraints") + ")"}
     return raw

@@ -6,6 +6,7 @@ from ..analysis import format_certificates
 from ..model.humans import PARAM_UNITS
 from .margins import format_margins
 from .numbers import unit_text
+from .verdicts import format_verdicts
 
 __all__ = ["format_report", "TEXT_LIST_MAX"]
 
@@ -57,7 +58,7 @@ def _sampled_and_crosscheck_lines(r: dict, yn) -> list[str]:
     """The lines of the sampled-data check and of the Padé cross-check (when present)."""
     L = []
     sd = r.get("sampled_data")
-    if sd:
+    if sd and "certifiable" not in sd:  # the grid check (the verdicts of record come first in the report)
         L.append(f"Sampled-data check at {sd['sample_rate_hz']:g} Hz ({sd['method']}):")
         sv = lambda b: "inconclusive (spectral radius within rounding of 1)" if b is None else yn(b)  # noqa: E731
         L.append(f"  cuff free stable: {sv(sd['free_stable'])}; output locked stable: {sv(sd['locked_stable'])}")
@@ -92,9 +93,15 @@ def format_report(r: dict) -> str:
     L.append("exotune analyze — " + r["model"])
     L.append(f"delay T = {r['delay_s'] * 1e3:.4g} ms, controller structure '{r['structure']}'")
     L.append("")
+    sd = r.get("sampled_data")
+    if sd and "certifiable" in sd:
+        L += format_verdicts(sd)
+        L.append("")
     if r.get("margins"):
         L += format_margins(r["margins"])
         L.append("")
+    if sd and "certifiable" in sd:
+        L.append("Continuous-time analysis (exact delay, no sampling; the verdicts of record are the sampled-data ones above):")
     L.append("Gains (torque units, docs/method.md#double-compliance-shaping):")
     for k, v in r["gains"].items():
         L.append(f"  {k:7s} = {v:12.6g}  [{unit_text(r['units'][k])}]")

@@ -5,10 +5,10 @@ from __future__ import annotations
 from ..model.humans import PARAM_UNITS
 from .numbers import interval_text, sampled_verdict_word
 
-__all__ = ["format_certify"]
+__all__ = ["format_certify", "family_line", "margin_line"]
 
 
-def _family_line(h: dict) -> str:
+def family_line(h: dict) -> str:
     """One human or environment family: its range(s) with units and its verdict."""
     head = f"  {h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}"
     for q, (a, b) in (h.get("box") or {}).items():
@@ -26,7 +26,7 @@ def _ms(x) -> str:
     return "none" if x is None else f"{x * 1e3:.4g} ms"
 
 
-def _margin_line(lm: dict) -> str:
+def margin_line(lm: dict) -> str:
     """The sampled-data latency margin, its critical member, the file's prediction and requirement."""
     if lm["extra_delay_s"] is None:
         head = "  latency margin (sampled-data): no instability up to 200 samples of total delay"
@@ -71,9 +71,9 @@ def format_certify(rep: dict) -> str:
     for e in rep.get("gain_schedule", []):
         lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
                      + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
-    lines += [_family_line(h) for h in sa["humans"] + sa["environment"]]
+    lines += [family_line(h) for h in sa["humans"] + sa["environment"]]
     if rep.get("latency_margin"):
-        lines.append(_margin_line(rep["latency_margin"]))
+        lines.append(margin_line(rep["latency_margin"]))
     lines.append("  method: " + rep["method"])
     if rep["certified"]:
         lines.append("CERTIFIED")

@@ -20,7 +20,7 @@ def format_export(doc: dict, out) -> str:
     Returns
     -------
     str
-        ``wrote OUT: F Hz, N sos filters, sampled-data loop free …, locked …; continuous latency margin … (required …); run `exotune certify OUT```.
+        ``wrote OUT: F Hz, N sos filters, sampled-data loop free …, locked …; sampled-data latency margin … (required …); continuous …; run `exotune certify OUT```.
 
     References
     ----------
@@ -29,12 +29,21 @@ def format_export(doc: dict, out) -> str:
     sa = doc["predicted"]["sampled"]
     n = len(doc["controller"]["filters"])
     lm = doc["predicted"].get("latency_margin")
+    slm = doc["predicted"].get("sampled_latency_margin")
     req = (doc.get("requirements") or {}).get("latency_margin_s")
+    ms = lambda m: "none" if m is None else f"{m * 1e3:.4g} ms"  # noqa: E731 (None: no extra delay destabilizes)
     margin = ""
+    if slm is not None:
+        margin = f"; sampled-data latency margin {ms(slm['extra_delay_s'])}"
+        if slm.get("extra_delay_samples") is not None:
+            margin += f" ({slm['extra_delay_samples']:.4g} samples)"
+    if req:
+        margin += f" (required {req * 1e3:.4g} ms)"
     if lm is not None:
-        m = lm["extra_delay_s"]
-        margin = ("; continuous latency margin " + ("none" if m is None else f"{m * 1e3:.4g} ms")
-                  + (f" (required {req * 1e3:.4g} ms)" if req else ""))
+        margin += f"; continuous {ms(lm['extra_delay_s'])}"
+    bad = (doc.get("provenance") or {}).get("uncertified")
+    tail = (f"; WRITTEN UNCERTIFIED (--allow-uncertified): {'; '.join(bad)}" if bad
+            else f"; run `exotune certify {out}`")
     return (f"wrote {out}: {doc['sample_rate_hz']['value']:g} Hz, {n} sos filters, "
             f"sampled-data loop free {sampled_verdict_word(sa['free_stable'])}, "
-            f"locked {sampled_verdict_word(sa['locked_stable'])}{margin}; run `exotune certify {out}`")
+            f"locked {sampled_verdict_word(sa['locked_stable'])}{margin}{tail}")

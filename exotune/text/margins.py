@@ -24,6 +24,21 @@ def format_margins(margins: dict | None) -> list[str]:
         return []
     L = ["Margins:"]
     lm = margins.get("latency")
+    if margins.get("model_of_record"):  # a sample rate: the sampled-data margin decides
+        s = (f"  latency margin ({margins['model_of_record']}, the model of record): "
+             + ("no instability up to 200 samples of total delay" if lm["extra_delay_s"] is None else
+                f"{lm['extra_delay_s'] * 1e3:.4g} ms ({count_text(lm['extra_delay_samples'], 'sample')})")
+             + f" of extra delay on top of T = {lm['delay_s'] * 1e3:.4g} ms")
+        req = lm.get("required_s")
+        if req:
+            s += f"; required ≥ {req * 1e3:.4g} ms: " + ("met" if lm.get("met") else "NOT MET")
+        L.append(s)
+        c = lm.get("critical")
+        if c:
+            L.append(f"    critical: {c['loop']}" + (f" at {c['parameter']} = {fmt_num(c['value'], 6)} {c['unit']}"
+                                                   if c.get("parameter") else ""))
+        lm = margins.get("latency_continuous")
+        L.append("  continuous-time figure (exact delay, no sampling; not what the runtime tolerates):")
     if lm:
         s = f"  latency margin: {_delay(lm['extra_delay_s'])} of extra delay on top of T = {lm['delay_s'] * 1e3:.4g} ms"
         n = lm.get("extra_delay_samples")

@@ -81,7 +81,7 @@ def test_export_whose_base_work_exceeds_the_budget_is_refused_before_it_starts(t
 
 def test_certify_over_budget_is_stopped(tmp_path):
     out = tmp_path / "c.yaml"
-    assert _run(["export", str(EXAMPLES / "paper.yaml"), "--sample-rate-hz", "1000", "-o", str(out)]).exit_code == 0
+    assert _run(["export", "--allow-uncertified", str(EXAMPLES / "paper.yaml"), "--sample-rate-hz", "1000", "-o", str(out)]).exit_code == 0
     res = _run(["certify", str(out), "--time-budget-s", "0.01"])
     assert res.exit_code == 2 and "--time-budget-s: certifying c.yaml" in res.output
     assert _run(["certify", str(out)]).exit_code in (0, 1)  # the default budget is ample at 1 kHz

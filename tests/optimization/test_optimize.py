@@ -8,6 +8,7 @@ property and the CLI contract (issue 14 item 4)."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from pathlib import Path
 
@@ -161,22 +162,36 @@ def test_infeasible_problem_exits_1_and_writes_nothing(tmp_path):
     assert "NO FEASIBLE DESIGN" in res.output and not o.exists()
 
 
-def test_optimum_is_checked_in_the_sampled_data_loop_when_a_rate_is_given():
+def test_optimum_with_a_rate_is_decided_on_the_sampled_data_loop():
     """At 1 kHz the zero-order hold costs phase: masses just above 0.005 kg·m², robust in the
     continuous search, are unstable in the sampled-data loop (its boundary is ≈ 0.0055 for the
-    §9 design). The result must carry the sampled-data warning of the single-design analysis."""
+    §9 design). The returned design must certify on the sampled-data loop (certify's own
+    decision, recomputed here), and be within 0.5 % of the best sampled-feasible α: α·1.005 is
+    refused by the sampled-data verdicts or breaks a continuous constraint."""
+    from exotune.controllerfile.verdicts import design_verdicts
+    from exotune.optimization.sampled import verdicts_at
+
     raw = _base(mass_lo=0.005, delay=0.001)
     raw["implementation"].update(sample_rate_hz=1000.0)
-    # latency_margin_s: 0 — with the default margin (one sample) the search stays away from the
-    # boundary that sampling moves; the property tested is the warning when it does not
     spec = load_optimize_spec(_spec(base=raw, free={"design.amplification": [1.5, 60.0]},
                                     constraints={"latency_margin_s": 0.0}, budget=100))
     r = optimize(spec)
-    assert r["feasible"]
-    rep = analyze_design(design_from_mapping(optimized_design_mapping(spec, r))).to_dict()
-    expected = [w for w in rep["warnings"] if "sampled-data" in w]
-    assert expected and r["sampled_data_warnings"] == expected
-    assert "WARNING" in format_optimize(r)
+    assert r["feasible"] and r["sampled_data"]["certifiable"] and r["sampled_data"]["rounds"] >= 1
+    mapping = optimized_design_mapping(spec, r)
+    assert mapping["requirements"]["latency_margin_s"] == 0.0
+    v = design_verdicts(design_from_mapping(mapping))
+    assert v.certifiable and v.robust
+    a = r["x"]["design.amplification"]
+    x_up = np.array([a * 1.005])
+    ok_other = optimize_other_constraints_ok(spec, x_up)
+    assert not (ok_other and verdicts_at(spec, x_up).certifiable)
+    assert "CERTIFIABLE" in format_optimize(r)
+
+
+def optimize_other_constraints_ok(spec, x):
+    """Every continuous constraint but the latency margin holds at x (re-derived from evaluate)."""
+    s = dataclasses.replace(spec, constraints={**spec.constraints, "latency_margin_s": 0.0}, latency_deltas=())
+    return bool(evaluate(s, x[None, :])["feasible"][0])
 
 
 def test_relaxing_a_constraint_never_lowers_the_optimum():
@@ -382,10 +397,20 @@ def test_exact_margin_of_the_returned_design_meets_the_requirement(margins_1d, c
     least the one required (and the reported value is that exact margin)."""
     spec, r = margins_1d[case]
     assert r["feasible"]
-    m = latency_margin(design_from_mapping(optimized_design_mapping(spec, r)))
+    cfg = design_from_mapping(optimized_design_mapping(spec, r))
+    m = latency_margin(cfg)
     req = r["latency_margin"]["required_s"]
-    assert req > 0 and m.extra_delay_s >= req
-    assert r["latency_margin"]["achieved_s"] == pytest.approx(m.extra_delay_s, rel=1e-9)
+    if case == "rate":  # decided on the sampled-data loop (certify's margin); the continuous one beside it
+        from exotune.controllerfile.verdicts import design_verdicts
+
+        v = design_verdicts(cfg)
+        assert v.certifiable and v.required_latency_margin_s == pytest.approx(req)
+        assert r["latency_margin"]["achieved_s"] == pytest.approx(v.latency_margin_s, rel=1e-9) and v.latency_margin_s >= req
+        assert r["latency_margin"]["continuous_s"] == pytest.approx(m.extra_delay_s, rel=1e-9)
+        assert m.extra_delay_s > v.latency_margin_s  # the zero-order hold costs margin
+    else:
+        assert req > 0 and m.extra_delay_s >= req
+        assert r["latency_margin"]["achieved_s"] == pytest.approx(m.extra_delay_s, rel=1e-9)
     assert r["latency_margin"]["met"] is True
 
 
