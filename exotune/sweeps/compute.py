@@ -54,6 +54,10 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
         cols[k] = np.array([len(m) for m in cols[k]], dtype=np.int64)  # count per design
     if "plant_margin" in plan.spec:
         cols.update(_plant_margin_columns(cfg, cols, plan.spec["plant_margin"]["budget"]))
+    if plan.spec.get("sampled"):
+        from .sampledcols import sampled_columns
+
+        cols.update(sampled_columns(cfg, cols))
     names, arrays = ["point_index"], [np_arrow(g, "i")]
     for p in plan.paths:
         names.append(p)

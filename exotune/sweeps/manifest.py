@@ -192,7 +192,7 @@ def _spec_diff(a: dict, b: dict) -> list[str]:
     return [k for k in keys if hash_mapping(a.get(k)) != hash_mapping(b.get(k))]
 
 
-_ENGINE_PACKAGES = ("numerics", "model", "config", "analysis")
+_ENGINE_PACKAGES = ("numerics", "model", "config", "sampled", "analysis")
 
 
 def engine_hash() -> str:
@@ -213,7 +213,10 @@ def _model_note(plan: SweepPlan) -> str:
     note = ("continuous-time analysis with the exact delay e^{-sT} (docs/method.md#analyses-and-metrics): every column is the "
             "exact continuous verdict or metric")
     fs = plan.cfg.implementation.sample_rate_hz
-    if fs:
+    if fs and plan.spec.get("sampled"):
+        note += (f"; the sampled_* columns are the exact sampled-data verdicts at {fs:g} Hz (zero-order hold, "
+                 "fractional delay, the controller as `exotune export` writes it; docs/sweep-spec.md#sampled-data-columns)")
+    elif fs:
         note += (f"; the base design sets sample_rate_hz = {fs:g} Hz, used here only to validate the "
                  "cutoffs against Nyquist — run `exotune analyze` with it on a chosen design for the "
                  "sampled-data check (the zero-order hold costs about half a sample of extra delay)")

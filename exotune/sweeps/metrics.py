@@ -25,6 +25,7 @@ AXIS_UNITS = {p: path_unit(p, dimensionless="–") for p in (
 # column -> (title, unit shown, display factor, worst-case reduction "min"|"max", colormap)
 METRICS = {
     "latency_margin_s": ("latency margin (extra delay every loop tolerates)", "ms", 1e3, "min", "viridis"),
+    "sampled_latency_margin_samples": ("sampled-data latency margin (extra delay the runtime's loop tolerates)", "samples", 1.0, "min", "viridis"),
     "plant_margin_lower": ("plant-uncertainty margin, certified lower bound (multiples of the declared uncertainty)", "–", 1.0, "min", "viridis"),
     "dob_delay_margin_s": ("DOB delay margin (extra delay tolerated)", "ms", 1e3, "min", "viridis"),
     "dob_phase_margin_deg": ("DOB phase margin", "deg", 1.0, "min", "viridis"),
@@ -32,9 +33,9 @@ METRICS = {
     "passivity_max_phase_excess_deg": ("max phase excess of C7 outside [−180°, 0°]", "deg", 1.0, "max", "magma_r"),
     "amplification_bandwidth_hz": ("amplification −3 dB bandwidth", "Hz", 1.0, "min", "viridis"),
 }
-TABLE_METRICS = ("latency_margin_s", "plant_margin_lower", "dob_delay_margin_s", "passivity_max_phase_excess_deg", "amplification_bandwidth_hz")
+TABLE_METRICS = ("latency_margin_s", "sampled_latency_margin_samples", "plant_margin_lower", "dob_delay_margin_s", "passivity_max_phase_excess_deg", "amplification_bandwidth_hz")
 MAX_PAIR_AXES = 4
-_FAMILY_RE = re.compile(r"^(human|env)(\d+)_(.+)_stable_intervals$")
+_FAMILY_RE = re.compile(r"^(sampled_)?(human|env)(\d+)_(.+)_stable_intervals$")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -102,7 +103,7 @@ def derived_metrics(table, manifest: dict) -> dict[str, tuple[np.ndarray, dict]]
         mt = _FAMILY_RE.match(name)
         if not mt:
             continue
-        side, i, kind = mt.group(1), int(mt.group(2)), mt.group(3)
+        pre, side, i, kind = mt.group(1) or "", mt.group(2), int(mt.group(3)), mt.group(4)
         fi = _family_info(manifest, side, i)
         if fi is None:
             continue
@@ -113,25 +114,28 @@ def derived_metrics(table, manifest: dict) -> dict[str, tuple[np.ndarray, dict]]
         if param == "inertia":
             reach = (cnt > 0) & (lhi >= hi * (1 - tol))
             vals = np.where(reach, llo, np.inf)
-            out[f"{side}{i}_lightest_stable_inertia"] = (vals, {
-                "title": f"lightest stable inertia, {who} {i} ({kind}, range [{lo:g}, {hi:g}] kg·m²)",
+            out[f"{pre}{side}{i}_lightest_stable_inertia"] = (vals, {
+                "title": f"{'sampled-data ' if pre else ''}lightest stable inertia, {who} {i} ({kind}, range [{lo:g}, {hi:g}] kg·m²)",
                 "unit": "kg·m²", "factor": 1.0, "worst": "max", "cmap": "magma", "log": True,
                 "family": name, "range": (lo, hi)})
         elif param == "stiffness":
             reach = (cnt > 0) & (flo <= lo * (1 + tol))
             vals = np.where(reach, fhi, 0.0)
-            out[f"{side}{i}_stiffest_stable_stiffness"] = (vals, {
-                "title": f"stiffest stable spring, {who} {i} ({kind}, range [{lo:g}, {hi:g}] N·m/rad)",
+            out[f"{pre}{side}{i}_stiffest_stable_stiffness"] = (vals, {
+                "title": f"{'sampled-data ' if pre else ''}stiffest stable spring, {who} {i} ({kind}, range [{lo:g}, {hi:g}] N·m/rad)",
                 "unit": "N·m/rad", "factor": 1.0, "worst": "min", "cmap": "viridis", "log": True,
                 "family": name, "range": (lo, hi)})
     return out
 
 
 def robust_mask(columns: dict) -> tuple[np.ndarray, list[str]]:
-    """robust = free_stable ∧ human*_robust ∧ env*_stable/env*_robust; returns (mask, columns used)."""
+    """robust = free_stable ∧ human*_robust ∧ env*_stable/env*_robust, and with sampled-data columns
+    also sampled_free_stable ∧ sampled_locked_stable ∧ sampled_*_robust; returns (mask, columns used)."""
     used = [c for c in columns if c == "free_stable"]
     used += sorted(c for c in columns if re.match(r"^human\d+_.+_robust$", c))
     used += sorted(c for c in columns if re.match(r"^env\d+_.+_(stable|robust)$", c))
+    used += sorted(c for c in columns if c in ("sampled_free_stable", "sampled_locked_stable"))
+    used += sorted(c for c in columns if re.match(r"^sampled_(human|env)\d+_.+_robust$", c))
     n = len(next(iter(columns.values()))) if columns else 0
     mask = np.ones(n, dtype=bool)
     for c in used:

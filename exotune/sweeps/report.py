@@ -26,7 +26,8 @@ Definitions
 -----------
 * robust = ``free_stable`` ∧ every ``human*_robust`` ∧ every environment verdict
   (``env*_stable`` for locked/free environments, ``env*_robust`` for spring/mass environment
-  ranges). Inconclusive analyses already count as not robust (``*_robust`` requires conclusive).
+  ranges); a sweep with ``sampled: true`` also requires its sampled-data verdicts
+  (``sampled_free_stable``, ``sampled_locked_stable``, every ``sampled_*_robust``). Inconclusive analyses already count as not robust (``*_robust`` requires conclusive).
 * lightest stable inertia of a mass family with inertia range [lo, hi]: the lower end of the stable
   interval that contains hi (∞ when hi itself is unstable: no inertia near the heavy end is stable).
 * stiffest stable spring of a spring/complex-stiffness family with range [lo, hi]: the upper end of
@@ -140,15 +141,16 @@ def _read_sweep(sweep_dir: str, m: dict) -> dict:
     shape = tuple(v.size for v in values)
 
     want = {"point_index", "free_stable", *paths, *METRICS, "amplification_dc"}
-    want |= {c for c in col_names if re.match(r"^(human|env)\d+_.+_(robust|stable|conclusive|stable_intervals)$", c)}
+    want |= {c for c in col_names if re.match(r"^(sampled_)?(human|env)\d+_.+_(robust|stable|conclusive|stable_intervals)$", c)}
+    want |= {"sampled_free_stable", "sampled_locked_stable"} & set(col_names)
     want |= {c for c in col_names if c.endswith("_conclusive")}
     cols = [c for c in col_names if c in want]
     _, table, missing = read_tables(sweep_dir, cols, allow_partial=True, manifest=m)
     if table is None:
         raise ConfigError(sweep_dir, "the sweep has no results yet (no chunk finished); run `exotune sweep` first")
     simple = {c: table.column(c).to_numpy() for c in cols if "intervals" not in c}
-    robust, used = robust_mask({c: simple[c] for c in simple if c == "free_stable"
-                                or re.match(r"^(human|env)\d+_.+_(robust|stable)$", c)})
+    robust, used = robust_mask({c: simple[c] for c in simple if c in ("free_stable", "sampled_free_stable", "sampled_locked_stable")
+                                or re.match(r"^(sampled_)?(human|env)\d+_.+_(robust|stable)$", c)})
     gidx = np.asarray(simple["point_index"], dtype=np.int64)
     axis_idx = list(np.unravel_index(gidx, shape))
     # maps, ranges and tables go by value: an axis listed out of order is sorted here

@@ -21,7 +21,7 @@ __all__ = ["load_spec", "load_base", "is_number", "int_option", "DEFAULT_CHUNK_S
            "MAX_AXIS_VALUES"]
 
 DEFAULT_CHUNK_SIZE = 10000
-_SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points", "plant_margin")
+_SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points", "plant_margin", "sampled")
 DEFAULT_PLANT_MARGIN_BUDGET = 150_000  # interval evaluations per loop and certification attempt
 _AXIS_KEYS = ("start", "stop", "num", "scale")
 _MAX_POINTS = 2**62
@@ -118,6 +118,21 @@ def _plant_margin_option(v: Any) -> dict | None:
     if unknown:
         raise ConfigError(f"plant_margin.{unknown[0]}", "unknown key (allowed: budget)")
     return {"budget": int_option("plant_margin.budget", v.get("budget", DEFAULT_PLANT_MARGIN_BUDGET), 1000)}
+
+
+def _sampled_option(v: Any, cfg) -> bool:
+    """The spec key ``sampled``: true adds the exact sampled-data columns (the base must set
+    ``implementation.sample_rate_hz``; docs/sweep-spec.md#sampled-data-columns)."""
+    if v is None or v is False:
+        return False
+    if v is not True:
+        raise ConfigError("sampled", f"expected true or false, got {v!r}")
+    from .sampledcols import sampled_refusal
+
+    why = sampled_refusal(cfg)
+    if why:
+        raise ConfigError("sampled", why)
+    return True
 
 
 def int_option(field: str, v: Any, minimum: int) -> int:
@@ -248,4 +263,6 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
     pm = _plant_margin_option(mapping.get("plant_margin", False))
     if pm is not None:  # likewise
         normalized["plant_margin"] = pm
+    if _sampled_option(mapping.get("sampled", False), cfg):  # likewise
+        normalized["sampled"] = True
     return SweepPlan(normalized, cfg=cfg, source=source, base_source=base_source)

@@ -1,0 +1,100 @@
+"""The sweep's exact sampled-data columns (spec key ``sampled: true``, docs/sweep-spec.md#sampled-data-columns):
+every design's loop as ``exotune export`` writes it and ``exotune certify`` judges it, batched over
+the designs of a chunk (:mod:`exotune.sampled.batch`, :mod:`exotune.sampled.families`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["sampled_columns", "sampled_refusal"]
+
+
+def sampled_refusal(cfg) -> str | None:
+    """Why the base design ``cfg`` cannot have sampled-data columns (None: it can)."""
+    if not cfg.implementation.sample_rate_hz:
+        return ("needs a sample rate: the base design sets no implementation.sample_rate_hz (the sampled-data "
+                "loop is the one the runtime runs at that rate)")
+    for i, fam in enumerate(cfg.humans):
+        if fam.box:
+            return (f"humans[{i}] is a box of several uncertain msd parameters: the sampled-data check (as "
+                    "`exotune certify`) covers one-parameter families only; fix all but one parameter")
+    return None
+
+
+def _families(cfg):
+    """(column prefix, Loop, lo, hi) of every rational human family and environment range."""
+    from ..sampled.batch import Loop
+
+    out = []
+    for i, fam in enumerate(cfg.humans):
+        if fam.kind == "complex_stiffness":
+            continue  # not rational: no finite-dimensional sampled-data model (certify skips it too)
+        fixed = {k: v for k, v in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
+        out.append((f"sampled_human{i}_{fam.kind}", Loop(f"human{i}", human=fixed, param=fam.param), fam.lo, fam.hi))
+    for i, env in enumerate(cfg.environment):
+        if env.kind in ("spring", "mass"):
+            out.append((f"sampled_env{i}_{env.kind}", Loop(f"env{i}", env_param=env.param, env_damping=env.damping),
+                        env.lo, env.hi))
+    return out
+
+
+def sampled_columns(cfg, cols: dict) -> dict:
+    """The sampled-data columns of a batch of designs ``cfg`` (:func:`exotune.config.batch_config`).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The chunk's batch (its base sets ``implementation.sample_rate_hz``).
+    cols : dict
+        The continuous columns of the same batch; ``latency_margin_s`` (when present) only chooses
+        where the sampled margin's bracket starts.
+
+    Returns
+    -------
+    dict
+        ``sampled_free_stable``, ``sampled_locked_stable``; per rational human family
+        ``sampled_human{i}_{kind}_robust``, ``…_stable_intervals``, ``…_critical``,
+        ``…_critical_spectral_radius``; per environment range ``sampled_env{i}_{kind}_robust``
+        and ``…_stable_intervals``; ``sampled_latency_margin_samples``.
+
+    References
+    ----------
+    docs/sweep-spec.md#sampled-data-columns; docs/controller-file.md#latency-margin.
+    """
+    from ..config import design_row
+    from ..numerics.threads import one_blas_thread
+    from ..sampled.batch import BatchLoops, Loop
+    from ..sampled.families import family_check, latency_margin
+
+    @one_blas_thread
+    def run():
+        n = len(cols["free_stable"])
+        bl = BatchLoops([design_row(cfg, i) for i in range(n)], float(np.ravel(cfg.implementation.sample_rate_hz)[0]))
+        des = np.arange(n)
+        out = {}
+        ok = np.ones(n, bool)
+        for name, loop in (("free", Loop("free")), ("locked", Loop("locked", env="locked"))):
+            rho, _ = bl.spectra(des, loop)
+            out[f"sampled_{name}_stable"] = rho < 1.0
+            ok &= rho < 1.0
+        fams = []
+        for prefix, loop, lo, hi in _families(cfg):
+            chk = family_check(bl, des, loop, lo, hi)
+            out[f"{prefix}_robust"] = chk["robust"]
+            out[f"{prefix}_stable_intervals"] = chk["stable_intervals"]
+            if prefix.startswith("sampled_human"):
+                out[f"{prefix}_critical"] = chk["critical"]
+                out[f"{prefix}_critical_spectral_radius"] = chk["critical_radius"]
+            ok &= chk["robust"]
+            fams.append((loop, lo, hi, chk["critical"]))
+        margin = np.zeros(n)
+        rows = np.nonzero(ok)[0]
+        if rows.size:
+            hint = cols.get("latency_margin_s")
+            hint = None if hint is None else np.asarray(hint, float)[rows]
+            margin[rows] = latency_margin(bl, rows, [(lp, lo, hi, c[rows]) for lp, lo, hi, c in fams], hint)
+        out["sampled_latency_margin_samples"] = margin * bl.fs
+        return out
+
+    return run()

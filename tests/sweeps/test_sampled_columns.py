@@ -1,0 +1,166 @@
+"""The sweep's ``sampled: true`` columns (docs/sweep-spec.md#sampled-data-columns) against
+``exotune certify``'s own analysis of the exported file, design by design.
+
+* the batched controller is bit for bit the one ``certify`` rebuilds from the exported file;
+* verdicts agree (designs whose certify spectral radius or interval end lies within 1e-6 of the
+  boundary are excluded), interval ends within 1e-6 relative;
+* the latency margin within 1e-4 relative of certify's margin recomputed with its bisection
+  tightened to 1e-6 (``exotune.controllerfile.latency.REL`` patched: certify's default 1e-3
+  guarantees only 5e-4);
+* the spec key is refused without a sample rate, and a sweep with it writes the columns and a
+  report that maps them.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from exotune.analysis import analyze_batch
+from exotune.config import batch_config, design_from_mapping, design_row, load_design
+from exotune.controllerfile import latency as certify_latency
+from exotune.controllerfile.certify import sampled_analysis
+from exotune.controllerfile.export import build_export
+from exotune.controllerfile.fileio import discrete_from_file, position_feedback
+from exotune.errors import ConfigError
+from exotune.sampled.batch import BatchLoops
+from exotune.sweeps import load_results, make_report, run_sweep
+from exotune.sweeps.sampledcols import sampled_columns
+
+ROOT = Path(__file__).resolve().parents[2]
+FS = 1000.0
+
+
+def _base() -> dict:
+    raw = copy.deepcopy(load_design(ROOT / "examples" / "scheduled.yaml").raw)
+    raw.pop("transmission", None)
+    return raw
+
+
+def _random_axes(n: int, seed: int) -> dict:
+    rng = np.random.default_rng(seed)
+    return {"design.amplification": rng.uniform(2.0, 14.0, n), "implementation.delay_s": rng.uniform(0.0003, 0.0025, n),
+            "design.zeta_hat": rng.uniform(0.3, 1.2, n), "implementation.gv_filter.cutoff_hz": rng.uniform(40.0, 200.0, n)}
+
+
+def _row_doc(raw: dict, axes: dict, i: int) -> dict:
+    r = copy.deepcopy(raw)
+    for path, v in axes.items():
+        *sec, key = path.split(".")
+        d = r
+        for s in sec:
+            d = d[s]
+        d[key] = float(v[i])
+    return build_export(design_from_mapping(r), FS, analyses=False)
+
+
+def test_controller_is_the_exported_one():
+    raw = _base()
+    axes = _random_axes(4, 1)
+    b = batch_config(design_from_mapping(raw), axes)
+    bl = BatchLoops([design_row(b, i) for i in range(4)], FS)
+    for i in range(4):
+        doc = _row_doc(raw, axes, i)
+        ref = discrete_from_file(doc)
+        for name in ("Ac", "Bc", "Cc", "Dc"):
+            assert np.array_equal(getattr(bl.ctrl[i], name), getattr(ref, name)), name
+        assert bool(bl.position_feedback[i]) == position_feedback(doc["controller"])
+
+
+def _near(x: float, tol: float = 1e-6) -> bool:
+    return abs(x - 1.0) < tol
+
+
+@pytest.fixture(scope="module")
+def compared(request):
+    raw = _base()
+    raw["humans"] = raw["humans"][:2]  # mass and spring (the hysteretic one has no sampled-data model)
+    n = 8
+    axes = _random_axes(n, 7)
+    b = batch_config(design_from_mapping(raw), axes)
+    cols = analyze_batch(b, latency=True)
+    sc = sampled_columns(b, cols)
+    refs = []
+    mp = pytest.MonkeyPatch()
+    mp.setattr(certify_latency, "REL", 1e-6)
+    try:
+        for i in range(n):
+            doc = _row_doc(raw, axes, i)
+            sa = sampled_analysis(doc)
+            lm = certify_latency.sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
+            refs.append((sa, lm))
+    finally:
+        mp.undo()
+    return sc, refs
+
+
+def test_verdicts_and_intervals_agree_with_certify(compared):
+    sc, refs = compared
+    checked = 0
+    for i, (sa, _lm) in enumerate(refs):
+        for loop in ("free", "locked"):
+            if not _near(sa[f"{loop}_spectral_radius"]):
+                assert bool(sc[f"sampled_{loop}_stable"][i]) is sa[f"{loop}_stable"]
+        for j, h in enumerate(sa["humans"]):
+            if "skipped" in h:
+                continue
+            pre = f"sampled_human{j}_{h['kind']}"
+            ivs, want = sc[f"{pre}_stable_intervals"][i], h["stable_intervals"]
+            assert len(ivs) == len(want)
+            for (a, b), (c, d) in zip(ivs, want):
+                assert a == pytest.approx(c, rel=1e-6) and b == pytest.approx(d, rel=1e-6)
+            assert bool(sc[f"{pre}_robust"][i]) == bool(h["robust"])
+            lo, hi = h["range"]
+            assert lo <= sc[f"{pre}_critical"][i] <= hi
+            checked += 1
+    assert checked >= len(refs)
+
+
+def test_latency_margin_agrees_with_certify(compared):
+    sc, refs = compared
+    some = 0
+    for i, (_sa, lm) in enumerate(refs):
+        got = sc["sampled_latency_margin_samples"][i]
+        if lm["extra_delay_samples"] is None:
+            assert got == np.inf
+            continue
+        assert got == pytest.approx(lm["extra_delay_samples"], rel=1e-4)
+        some += got > 0
+    assert some > 0
+
+
+def test_spec_key_needs_a_sample_rate(tmp_path):
+    raw = _base()
+    raw["implementation"].pop("sample_rate_hz")
+    spec = {"base": raw, "axes": {"design.amplification": [4.0]}, "sampled": True}
+    with pytest.raises(ConfigError) as e:
+        run_sweep(spec, tmp_path / "out", workers=1, progress=False)
+    assert e.value.field == "sampled" and "sample_rate_hz" in e.value.reason
+    spec = {"base": _base(), "axes": {"design.amplification": [4.0]}, "sampled": "yes"}
+    with pytest.raises(ConfigError) as e:
+        run_sweep(spec, tmp_path / "out2", workers=1, progress=False)
+    assert e.value.field == "sampled"
+
+
+def test_sweep_writes_the_columns_and_the_report_maps_them(tmp_path):
+    raw = _base()
+    raw["humans"] = raw["humans"][:1]
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({"base": raw, "axes": {"design.amplification": [3.0, 6.0]}, "sampled": True}))
+    run_sweep(spec, tmp_path / "out", workers=1, progress=False)
+    t = load_results(tmp_path / "out")
+    for c in ("sampled_free_stable", "sampled_locked_stable", "sampled_human0_mass_robust", "sampled_human0_mass_critical",
+              "sampled_human0_mass_stable_intervals", "sampled_latency_margin_samples"):
+        assert c in t.columns, c
+    m = np.asarray(t["sampled_latency_margin_samples"], float)
+    cont = np.asarray(t["latency_margin_s"], float) * FS
+    ok = np.asarray(t["sampled_human0_mass_robust"], bool)
+    # the zero-order hold costs about half a sample: the sampled margin is below the continuous one
+    assert np.all(m[ok & np.isfinite(cont)] < cont[ok & np.isfinite(cont)])
+    rep = make_report(tmp_path / "out")
+    md = (Path(rep.directory) / "summary.md").read_text()
+    assert "sampled_latency_margin_samples" in md and "`sampled_human0_mass_robust`" in md
