@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from ..numerics.threads import one_blas_thread
-from ..sampled import loop_stable
+from ..sampled import loop_eigenvalues
 from ..units import PARAM_UNITS
 from .fileio import discrete_from_file, plant_from_file
 
@@ -121,15 +121,35 @@ def _nominal_ok(sa: dict) -> bool:
             and not any(h.get("unresolved") for h in fams))
 
 
-def _first_unstable(plant, ctrl, grounded: bool, probes, delay: float):
-    """The probe with the largest spectral radius ≥ 1 at the total delay ``delay``, or None."""
+def _first_unstable(plant, ctrl, grounded: bool, probes, delay: float, worst: bool = True, hot: list | None = None):
+    """The probe with the largest spectral radius ≥ 1 at the total delay ``delay``, or None.
+
+    The spectral radius alone decides (one eigenvalue problem per probe): a radius ≥ 1 is never a
+    stable verdict whatever the rounding estimate (:func:`exotune.sampled.loop_verdict`), and a
+    radius < 1 never names a probe, so ``loop_verdict``'s rounding trials would not change the
+    answer. ``worst=False`` (a bisection only asks whether some probe is unstable) returns the first
+    unstable probe found, starting with the one found last (``hot``: a one-element list, updated)."""
     c = dataclasses.replace(ctrl, delay_s=delay)
-    worst, rho_w = None, 1.0
+    if not worst:
+        start = hot[0] if hot and hot[0] < len(probes) else 0
+        for k in list(range(start, len(probes))) + list(range(start)):
+            if _radius(plant, c, grounded, probes[k]) >= 1.0:
+                if hot:
+                    hot[0] = k
+                return probes[k]
+        return None
+    found, rho_w = None, 1.0
     for p in probes:
-        st, rho = loop_stable(plant, c, grounded, p.human, p.env)
-        if not st and rho >= rho_w:
-            worst, rho_w = p, rho
-    return worst
+        rho = _radius(plant, c, grounded, p)
+        if rho >= rho_w:
+            found, rho_w = p, rho
+    return found
+
+
+def _radius(plant, ctrl, grounded: bool, p: _Probe) -> float:
+    """Spectral radius of a probe's sampled-data loop (the rigid-body z = 1 of an ungrounded one excluded)."""
+    lam = loop_eigenvalues(plant, ctrl, grounded, p.human, p.env)
+    return float(np.max(np.abs(lam))) if lam.size else 0.0
 
 
 def _bisect(unstable, lo: float, hi: float | None, hint: float | None, Ts: float, cap: float):
@@ -202,7 +222,8 @@ def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dic
     plant, ctrl = plant_from_file(doc), discrete_from_file(doc)
     probes = _probes(doc, hint_loop, hint_value, 0)  # free, locked, family ends, the predicted critical member
     scan = _probes(doc, None, None, SCAN)
-    unstable = lambda dT, ps=probes: _first_unstable(plant, ctrl, grounded, ps, T + dT)  # noqa: E731
+    hot = [0]
+    unstable = lambda dT, ps=probes, worst=False: _first_unstable(plant, ctrl, grounded, ps, T + dT, worst, hot)  # noqa: E731
     cap = MAX_SAMPLES * Ts - T
     lo, hi, sa_lo = 0.0, None, None
     for _ in range(ROUNDS):
@@ -214,7 +235,7 @@ def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dic
         dT = 0.5 * (lo + hi)
         x = dT * (1 - REL)
         sa_lo = None
-        p = unstable(x, scan)  # interior members of every family, then certify's full check
+        p = unstable(x, scan, True)  # interior members of every family, then certify's full check
         if p is None:
             sa_lo = analysis(dict(doc, delay_s={**doc["delay_s"], "value": T + x, "samples": (T + x) * fs}))
             if _nominal_ok(sa_lo):
@@ -227,7 +248,7 @@ def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dic
         if lo > 0 and unstable(lo) is not None:  # the old lower end fails for a new probe
             lo, hi = 0.0, lo
     ok = sa_lo is not None and _nominal_ok(sa_lo)
-    crit = unstable(dT * (1 + REL))
+    crit = unstable(dT * (1 + REL), worst=True)
     out.update(extra_delay_s=dT, extra_delay_samples=dT * fs, confirmed=bool(ok and crit is not None),
                critical=None if crit is None else {"loop": crit.loop, "parameter": crit.parameter,
                                                    "value": crit.value, "unit": crit.unit},

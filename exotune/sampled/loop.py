@@ -347,8 +347,8 @@ def loop_verdict(plant, ctrl: DiscreteController, position_feedback: bool, human
     """(stable, spectral radius, rounding) of the sampled-data loop, where ``stable`` is None
     (inconclusive) when an eigenvalue's modulus is within its rounding bound of 1
     (:func:`spectral_verdict`)."""
-    M, _lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
-    return spectral_verdict(M, rigid_tol=None if drop is None else rigid_tol)
+    M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
+    return _verdict(M, lam, None if drop is None else rigid_tol)
 
 
 NEAR_UNIT = 1e-4  # eigenvalues whose modulus is this close to 1 get a rounding estimate
@@ -383,7 +383,13 @@ def spectral_verdict(M: np.ndarray, rigid_tol: float | None = None) -> tuple[boo
     M = np.asarray(M, dtype=float)
     if M.size == 0:
         return True, 0.0, 0.0
-    w = np.linalg.eigvals(M)
+    return _verdict(M, np.linalg.eigvals(M), rigid_tol)
+
+
+def _verdict(M: np.ndarray, w: np.ndarray, rigid_tol: float | None) -> tuple[bool | None, float, float]:
+    """:func:`spectral_verdict` of ``M`` whose eigenvalues ``w`` (``np.linalg.eigvals(M)``) are known."""
+    if M.size == 0:
+        return True, 0.0, 0.0
     keep = np.ones(w.size, dtype=bool)
     if rigid_tol is not None:
         i = int(np.argmin(np.abs(w - 1.0)))
