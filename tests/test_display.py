@@ -111,7 +111,7 @@ def test_simulate_text_gives_the_tolerance_and_rates_their_unit():
                        "envelope_growth_rate": {"value": -1.5, "unit": "1/s", "signal": "tau_c", "tolerance": 0.05},
                        "loop_spectral_radius": {"value": 0.998, "unit": "1", "growth_rate_per_s": -2.0, "note": "n"}}}
     lines = format_simulation(rep).splitlines()
-    assert "  envelope growth rate: -1.5 1/s; signal tau_c; tolerance 0.05 1/s" in lines
+    assert "  envelope growth rate: -1.5 1/s; measured on tau_c; tolerance 0.05 1/s" in lines
     assert "  loop spectral radius: 0.998 –; growth rate -2 1/s; note n" in lines
 
 

@@ -19,13 +19,31 @@ def _extra(name: str, y, unit: str) -> str:
         return f"tolerance {text} {unit_text(unit)}"
     if name.endswith("_per_s") and (y is None or isinstance(y, (int, float))):
         return f"{name[: -len('_per_s')].replace('_', ' ')} {text} 1/s"
+    if name == "signal":
+        return f"measured on {y}"
     return f"{name.replace('_', ' ')} {text}"
 
 
-def _line(k: str, v, indent: str = "  ") -> str:
+#: unit suffixes of metric keys (``cuff_oscillation_start_rad``): the unit is printed after the value
+_KEY_UNITS = ("_rad", "_s", "_nm", "_hz")
+
+
+def _label(k: str) -> str:
+    for suffix in _KEY_UNITS:
+        if k.endswith(suffix):
+            k = k[: -len(suffix)]
+            break
+    return k.replace("_", " ")
+
+
+def _line(k: str, v, indent: str = "  ", missing: str = "not measured") -> str:
+    """One quantity: ``label: value unit; attributes``; a quantity without a value says so in words
+    (``missing``, e.g. why a growing run has no metrics) instead of printing "null"."""
     if isinstance(v, dict) and "value" in v:
+        if v["value"] is None:
+            return f"{indent}{_label(k)}: {missing}"
         tail = "".join(f"; {_extra(x, y, v['unit'])}" for x, y in v.items() if x not in ("value", "unit"))
-        return f"{indent}{k.replace('_', ' ')}: {_num(v['value'])} {unit_text(v['unit'])}{tail}"
+        return f"{indent}{_label(k)}: {_num(v['value'])} {unit_text(v['unit'])}{tail}"
     return f"{indent}{k.replace('_', ' ')}: {v}"
 
 
@@ -53,7 +71,11 @@ def format_simulation(rep: dict) -> str:
     out = [f"exotune simulate — {rep['scenario']}: {rep['description']}",
            f"  sample rate {rep['sample_rate_hz']:g} Hz, delay {count_text(rep['delay_samples'], 'sample')}, start {sm['start']}",
            f"  verdict: {sm['verdict']}"]
-    out += [_line(k, v) for k, v in sm.items() if k not in ("start", "verdict")]
+    why = sm.get("metrics_null_reason")
+    out += [_line(k, v, missing="not measured" + (" (see below)" if why else ""))
+            for k, v in sm.items() if k not in ("start", "verdict", "metrics_null_reason")]
+    if why:
+        out.append(f"  why these metrics were not measured: {why}")
     w = rep.get("windup_recovery")
     if w:
         out.append(f"  windup recovery after the release at {w['release_at']['value']:g} s:")

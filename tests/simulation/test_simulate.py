@@ -531,3 +531,18 @@ def test_fast_recursion_equals_the_sample_by_sample_run(delay_samples, fs, coulo
     eps = sc.nonlinear.friction_eps_rad_s
     np.testing.assert_allclose(a["series"]["friction"], b["series"]["friction"], rtol=0,
                                atol=1e-6 * max(coulomb, 1e-12) + coulomb / eps * tol["omega_m"], err_msg="friction")
+
+
+def test_growing_run_text_says_what_was_not_measured_in_words():
+    """A growing run has no oscillation or peak metrics: the text says "not measured" and why, in
+    words, never "null rad"; a metric key's unit suffix is not printed twice."""
+    import exotune
+    from exotune.text.simulate import format_simulation
+
+    r = exotune.simulate(ROOT / "examples" / "paper.yaml", scenario="light-mass", sample_rate_hz=1000.0,
+                         human_inertia=0.003)
+    text = format_simulation(r.to_dict())
+    assert r.to_dict()["summary"]["verdict"] == "growing"
+    assert "null" not in text and "not measured (see below)" in text
+    assert "why these metrics were not measured: growing run" in text
+    assert "cuff oscillation start:" in text and "start rad" not in text and "measured on tau_s" in text
