@@ -15,6 +15,14 @@ Per rate it prints
   reference knows nothing of friction, backlash or saturation; it is the floor a per-sample
   nonlinear simulation is measured against.
 
+* ``certify`` of the template (``exotune init``'s design.yaml) at 20 kHz with its 1 ms delay (20
+  whole samples; ``--certify-rate`` changes the rate), CPU and wall seconds of a warm run, beside
+  a *point-wise reference* in the same process: python-control's ZOH (``c2d``) of the plant, the
+  delay as z^-d and the file's controller closed by ``control.feedback``, numpy eigenvalues, at the
+  free and locked loops and certify's 96 log-spaced members of each rational human family — the
+  verdicts alone, without certify's step control between the members, its interval ends, its
+  rounding estimates or its latency margin (issue 23, item 5: "under 3 s").
+
 Timings are wall-clock on whatever machine runs this; compare ratios, not seconds.
 """
 
@@ -57,11 +65,69 @@ def reference_seconds(doc: dict, scenario, samples: int) -> float:
     return time.perf_counter() - t0
 
 
+def pointwise_reference(doc: dict) -> tuple[float, int, bool]:
+    """(seconds, loops, every loop stable) of a point-wise check of a controller file with a
+    whole-sample delay, built with python-control, not with exotune's loop assembly: the free and
+    locked loops and certify's ``POINTS`` log-spaced members of each rational human family; the
+    rigid-body z = 1 of an ungrounded loop set aside as certify does."""
+    import control
+
+    from exotune.config import parse_human
+    from exotune.controllerfile.certify import POINTS, position_feedback
+
+    plant, ctrl = plant_from_file(doc), discrete_from_file(doc)
+    Ts, d = 1.0 / ctrl.sample_rate_hz, round(ctrl.delay_s * ctrl.sample_rate_hz)
+    assert abs(d - ctrl.delay_s * ctrl.sample_rate_hz) < 1e-9, "the reference takes whole-sample delays only"
+    K = control.ss(ctrl.Ac, ctrl.Bc, ctrl.Cc, ctrl.Dc, Ts)
+    delay = control.ss(control.tf([1.0], [1.0] + [0.0] * d, Ts))
+    loops = [(None, "free"), (None, "locked")]
+    for i, item in enumerate(doc["certify"]["humans"]):
+        fam, _ = parse_human(i, item)
+        if fam.kind != "complex_stiffness" and not fam.box:
+            fixed = {k: v for k, v in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
+            loops += [({**fixed, fam.param: float(v)}, "free") for v in np.geomspace(fam.lo, fam.hi, POINTS)]
+    feedback = position_feedback(doc["controller"])
+    t0, ok = time.perf_counter(), True
+    for human, env in loops:
+        A, B, C = plant_ss(plant, human, env)
+        P = control.c2d(control.ss(A, B, C, np.zeros((C.shape[0], 1))), Ts, "zoh")
+        lam = np.linalg.eigvals(control.feedback(P * delay, K, sign=1).A)
+        grounded = feedback or env == "locked" or (human or {}).get("stiffness", 0.0) > 0
+        i = int(np.argmin(np.abs(lam - 1.0)))
+        if not grounded and abs(lam[i] - 1.0) <= 1e-7:
+            lam = np.delete(lam, i)
+        ok = ok and bool(np.max(np.abs(lam)) < 1.0)
+    return time.perf_counter() - t0, len(loops), ok
+
+
+def certify_line(fs: float) -> None:
+    """The template at ``fs`` (its 1 ms delay), exported, then certified (a warm run: CPU and
+    wall seconds) beside :func:`pointwise_reference`."""
+    from exotune.controllerfile import load_controller
+    from exotune.starter import template_text
+
+    with tempfile.TemporaryDirectory() as d:
+        design, out = Path(d) / "design.yaml", Path(d) / "c.yaml"
+        design.write_text(template_text("design.yaml").replace("sample_rate_hz: 1000.0", f"sample_rate_hz: {fs:g}"))
+        exotune.export(design, fs, out)
+        exotune.certify(out)  # imports and first-call costs out of the timing
+        w0, c0 = time.perf_counter(), time.process_time()
+        cert = exotune.certify(out)
+        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+        ref, loops, ok = pointwise_reference(load_controller(out))
+    samples = cert.to_dict()["delay_s"] * fs
+    print(f"certify template at {fs:g} Hz ({samples:g}-sample delay)   {cpu:6.2f} s CPU {wall:6.2f} s wall   "
+          f"certified: {cert.certified}   point-wise python-control reference ({loops} loops) {ref:6.2f} s   "
+          f"all stable: {ok}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rates", type=float, nargs="+", default=[10000.0, 100000.0])
     ap.add_argument("--skip-export", action="store_true")
+    ap.add_argument("--certify-rate", type=float, default=20000.0)
     a = ap.parse_args()
+    certify_line(a.certify_rate)
     for fs in a.rates:
         print(f"== {fs:g} Hz")
         if not a.skip_export:

@@ -76,14 +76,15 @@ def plant_ss(plant, human: dict | None = None, env: str | dict = "free"):
     A = np.zeros((n, n))
     B = np.zeros((n, 1))
     # linear forms (row vectors over the states) of the signals
-    th_m = np.eye(n)[ix["theta_m"]]
-    om_m = np.eye(n)[ix["omega_m"]]
-    th_j = np.zeros(n) if locked else np.eye(n)[ix["theta_j"]]
-    om_j = np.zeros(n) if locked else np.eye(n)[ix["omega_j"]]
+    eye = np.eye(n)
+    th_m = eye[ix["theta_m"]]
+    om_m = eye[ix["omega_m"]]
+    th_j = np.zeros(n) if locked else eye[ix["theta_j"]]
+    om_j = np.zeros(n) if locked else eye[ix["omega_j"]]
     if human is None:
         tau_c = np.zeros(n)
     elif "theta_h" in ix:
-        tau_c = Kc * (np.eye(n)[ix["theta_h"]] - th_j)
+        tau_c = Kc * (eye[ix["theta_h"]] - th_j)
     else:  # massless, undamped: K_c in series with k
         tau_c = -Kc * hk / (Kc + hk) * th_j if (Kc + hk) > 0 else np.zeros(n)
     tau_s = Ks * (th_j - th_m)
@@ -95,10 +96,10 @@ def plant_ss(plant, human: dict | None = None, env: str | dict = "free"):
         A[ix["theta_j"]] = om_j
         A[ix["omega_j"]] = (tau_c - tau_s - be * om_j - ke * th_j) / (Jj + me)
     if "omega_h" in ix:
-        A[ix["theta_h"]] = np.eye(n)[ix["omega_h"]]
-        A[ix["omega_h"]] = (-tau_c - hb * np.eye(n)[ix["omega_h"]] - hk * np.eye(n)[ix["theta_h"]]) / hm
+        A[ix["theta_h"]] = eye[ix["omega_h"]]
+        A[ix["omega_h"]] = (-tau_c - hb * eye[ix["omega_h"]] - hk * eye[ix["theta_h"]]) / hm
     elif "theta_h" in ix:
-        A[ix["theta_h"]] = (-tau_c - hk * np.eye(n)[ix["theta_h"]]) / hb
+        A[ix["theta_h"]] = (-tau_c - hk * eye[ix["theta_h"]]) / hb
     C = np.vstack([th_m, om_m, tau_s, dtau_s, tau_c])
     return A, B, C
 
@@ -282,7 +283,8 @@ def zoh_fractional(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
     M[:n, :n] = A
     M[:n, n:] = B
     E0 = scipy.linalg.expm(M * (1.0 - f) * Ts)
-    E1 = scipy.linalg.expm(M * f * Ts)
+    # a whole-sample delay (f = 0): e^0 = I, exactly what scipy.linalg.expm returns, without its cost
+    E1 = np.eye(n + m) if f == 0.0 else scipy.linalg.expm(M * f * Ts)
     Phi0, G0 = E0[:n, :n], E0[:n, n:]
     Phi = Phi0 @ E1[:n, :n]
     G1 = Phi0 @ E1[:n, n:]
@@ -306,15 +308,23 @@ def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
     u[:n] = (ctrl.Dc @ C).reshape(-1)
     u[n:n + nz] = ctrl.Cc.reshape(-1)
     s0 = n + nz  # shift state j (0-based) holds τ_cmd[k−1−j]
-    cur = u if d == 0 else np.eye(N)[s0 + d - 1]  # τ_cmd[k−d]
-    old = np.eye(N)[s0 + d]  # τ_cmd[k−d−1]
-    M[:n] = np.hstack([Phi, np.zeros((n, nz + ns))]) + np.outer(G0[:, 0], cur) + np.outer(G1[:, 0], old)
+    cur = u if d == 0 else _unit(N, s0 + d - 1)  # τ_cmd[k−d]
+    old = _unit(N, s0 + d)  # τ_cmd[k−d−1]
+    top = np.zeros((n, N))
+    top[:, :n] = Phi
+    M[:n] = top + np.outer(G0[:, 0], cur) + np.outer(G1[:, 0], old)
     M[n:n + nz, :n] = ctrl.Bc @ C
     M[n:n + nz, n:n + nz] = ctrl.Ac
     M[s0] = u
-    for j in range(1, ns):
-        M[s0 + j, s0 + j - 1] = 1.0
+    j = np.arange(1, ns)
+    M[s0 + j, s0 + j - 1] = 1.0  # the delay line: a shift register
     return M
+
+
+def _unit(N: int, i: int) -> np.ndarray:
+    e = np.zeros(N)
+    e[i] = 1.0
+    return e
 
 
 def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, env: str | dict = "free",
