@@ -15,7 +15,9 @@
     heatmap over axes a × b of the fraction of robust designs, the other axes aggregated (all
     pairs when there are at most 4 axes, else the pairs of the first 4).
 ``metrics_<a>__<b>.png``
-    one panel per key metric over the same pair, worst case over the other axes: DOB delay margin
+    one panel per key metric over the same pair, sliced at the base design's value of every other
+    axis along which the design runs into instability (some of its values have no robust design),
+    worst case over the remaining axes: DOB delay margin
     (min), phase and gain margins (min), max phase excess of C7 (max), amplification bandwidth
     (min), the lightest stable inertia of each mass family (max) and the stiffest stable spring of
     each spring-like family (min, only when some design is not robust for that family).
@@ -161,7 +163,33 @@ def _read_sweep(sweep_dir: str, m: dict) -> dict:
         axis_idx[j], values[j] = rank[axis_idx[j]], v[order]
     return {"paths": paths, "values": values, "scales": scales, "shape": shape, "n": table.num_rows,
             "missing": missing, "simple": simple, "robust": robust, "used": used, "axis_idx": tuple(axis_idx),
-            "metrics": _key_metrics(table, m, simple)}
+            "metrics": _key_metrics(table, m, simple), "base": (m.get("spec") or {}).get("base")}
+
+
+def _base_value(base, path: str):
+    """The base design's value of a dotted ``path`` (None when absent or not a number)."""
+    node = base
+    for k in path.split("."):
+        if not isinstance(node, dict) or k not in node:
+            return None
+        node = node[k]
+    return float(node) if isinstance(node, (int, float)) and not isinstance(node, bool) else None
+
+
+def _slices(d: dict, others: list[int]) -> dict[int, int]:
+    """{axis: value index} of the other axes a metrics map is sliced at: an axis along which the
+    design runs into instability (some of its values have no robust design, others have) is held
+    at the value nearest the base design's — the worst case over it would be that of the unstable
+    values in every cell — the others stay aggregated (worst case)."""
+    out = {}
+    for j in others:
+        n = d["shape"][j]
+        frac = aggregate(d["axis_idx"][j], n, d["robust"].astype(float), "mean")
+        b = _base_value(d.get("base"), d["paths"][j])
+        if b is None or not (np.any(frac == 0.0) and np.any(frac > 0.0)):
+            continue
+        out[j] = int(np.argmin(np.abs(d["values"][j] - b)))
+    return out
 
 
 def _key_metrics(table, m: dict, simple: dict) -> dict[str, tuple[np.ndarray, dict]]:
@@ -205,18 +233,24 @@ def _pair_maps(d: dict, files: dict, figures: list) -> None:
                               title, "fraction robust", vmin=0.0, vmax=1.0, cmap="RdYlGn", fmt="{:.2f}")
         figures.append((name, f"{title} ({paths[a]} × {paths[b]})"))
         panels = []
+        sl = _slices(d, [j for j in range(k) if j not in (a, b)])
+        rows = np.ones(robust.size, dtype=bool)
+        for j, i in sl.items():
+            rows &= d["axis_idx"][j] == i
+        rest = [paths[j] for j in range(k) if j not in (a, b) and j not in sl]
         for mk, (v, info) in metrics.items():
-            grid = aggregate(cells, nx * ny, v * info["factor"], info["worst"]).reshape(nx, ny).T
+            grid = aggregate(cells[rows], nx * ny, (v * info["factor"])[rows], info["worst"]).reshape(nx, ny).T
             if np.all(np.isnan(grid)):
                 continue
-            wc = f"worst case ({info['worst']})" if others else ""
+            wc = f"worst case ({info['worst']})" if rest else ""
             panels.append({"grid": grid, "title": _wrap(info["title"] + (f" — {wc}" if wc else "")),
                            "cbar_label": f"{mk} [{info['unit']}]", "cmap": info["cmap"],
                            "log": info.get("log", False), "fmt": "{:.3g}"})
         if panels:
             name = f"metrics_{safe_name(paths[a])}__{safe_name(paths[b])}.png"
-            sup = f"key metrics over {paths[a]} × {paths[b]}" + (
-                f" (worst case over {', '.join(others)})" if others else "")
+            at = [f"{paths[j]} = {values[j][i]:.6g} (the base design's; it runs into instability)" for j, i in sl.items()]
+            sup = f"key metrics over {paths[a]} × {paths[b]}" + (f" at {', '.join(at)}" if at else "") + (
+                f" (worst case over {', '.join(rest)})" if rest else "")
             files[name] = heatmap_panels(panels, values[a], values[b], _axis_label(paths[a]),
                                          _axis_label(paths[b]), sup)
             figures.append((name, sup + ": " + ", ".join(metrics)))

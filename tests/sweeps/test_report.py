@@ -220,3 +220,22 @@ def test_report_result_lists_what_was_written(two_axes, tmp_path):
     linked = [line.split("]")[0][3:] for line in md.splitlines() if line.startswith("- [") and ".png]" in line]
     assert list(rep.maps) == linked and all(m in rep.files for m in rep.maps)
     assert rep.to_text() == f"wrote report to {rep.directory} ({len(linked)} maps, summary.md)"
+
+
+def test_metrics_maps_are_sliced_at_the_base_value_of_an_axis_that_runs_into_instability(tmp_path):
+    """Issue 24 (display): the worst case over a delay axis that runs into instability made every
+    panel one colour; the maps hold such an axis at the base design's value and say so, and keep
+    the worst case over the other axes."""
+    base = yaml.safe_load(PAPER.read_text())
+    base["humans"][0]["inertia"] = [0.05, 1.0]  # a realistic arm: some designs are robust
+    base["implementation"]["delay_s"] = 0.002
+    bp = tmp_path / "base.yaml"
+    bp.write_text(yaml.safe_dump(base))
+    d = sweep(tmp_path, {"design.amplification": [2.0, 8.0, 16.0], "implementation.delay_s": [0.0, 0.002, 0.008],
+                         "design.zeta_hat": [0.5, 1.0]}, "sliced", base=str(bp))
+    make_report(d)
+    text = (d / "report" / "summary.md").read_text()
+    sliced = [ln for ln in text.splitlines() if "metrics_design.amplification__design.zeta_hat.png" in ln and "](" in ln]
+    assert sliced and "at implementation.delay_s = 0.002 (the base design's" in sliced[0]
+    other = [ln for ln in text.splitlines() if "metrics_design.amplification__implementation.delay_s.png" in ln and "](" in ln]
+    assert other and "worst case over design.zeta_hat" in other[0]
