@@ -156,7 +156,7 @@ def table2(out: Path, cfg) -> dict:
         "S7": ("Series(S6, 1/K_c)", "θ_h", "τ_c", "τ_6"),
     }
     s1, s10 = np.array([2j * np.pi * 1.0]), np.array([2j * np.pi * 10.0])
-    lines = ["| system | definition (paper Table II) | position | external torque | motor torque | "
+    lines = ["| system | definition (paper Table II, S2 corrected\\*) | position | external torque | motor torque | "
              "\\|C\\| at 1 Hz [rad/(N·m)] | ∠C at 1 Hz | \\|C\\| at 10 Hz | ∠C at 10 Hz |",
              "|---|---|---|---|---|---|---|---|---|"]
     for name, (d, pos, ext, mot) in defs.items():
@@ -165,6 +165,9 @@ def table2(out: Path, cfg) -> dict:
         lines.append(f"| {'Ŝ5' if name == 'S5_hat' else name} | {d} | {pos} | {ext} | {mot} | {m1:.4g} | {p1:.1f}° | "
                      f"{m10:.4g} | {p10:.1f}° |")
     table = "\n".join(lines)
+    table += ("\n\n\\* Table II as typeset defines S2 = Parallel(S1, −1/G_θ C1 H1), whose second element is not a "
+              "compliance (read as (1/G_θ)·C1·H1 it has the units of a compliance cubed, read as 1/(G_θ C1 H1) those of a stiffness); Proposition 3 gives the virtual parallel compliance −C1/(G_θ H1), "
+              "which is used here (listed with the errata in docs/method.md).")
     _write(out, "table2_interconnections.md", f"""# Table II — the seven system interconnections
 
 ![compliances of the seven systems](table2_interconnections.png)
@@ -272,8 +275,9 @@ through its resonance instead of falling — the "unstable pole behavior" of the
 unstable pole pair shifts the phase by +180° instead of −180°).
 
 **Where they differ and why.** The paper's figure is qualitative and its Q and T are not stated,
-so only the shape can be compared: exotune's lines have the same structure (|L| ≫ 1 below the
-cutoff, a −40 dB/decade roll-off above, the delay's unbounded phase lag). The two bad tunings
+so only the shape can be compared: exotune's lines have the same structure (|L| ≫ 1 only well below
+the gain crossover — 4.3 at 10 Hz for the paper design, 1 at its 38.9 Hz crossover, 0.58 at the
+60 Hz cutoff —, a −40 dB/decade roll-off above, the delay's unbounded phase lag). The two bad tunings
 are exotune's illustration of the caption's warning, not curves from the paper.
 """)
     return {t: m for t, m, _ in res}
@@ -363,7 +367,11 @@ def fig5(out: Path, cfg, ana: dict) -> dict:
 
     srows = "\n".join(f"| {T * 1e3:g} | {nz} | {min_phase(C)[0]:.1f} at {min_phase(C)[1]:.1f} Hz |" for T, C, nz in simple)
     erows = "\n".join(f"| {T * 1e3:g} | {'yes' if fs else 'no'} | {'yes' if am['locked_stable'] else 'no'} | "
-                      f"{'yes' if am['minimum_phase'] else 'no'} | {am['bandwidth_hz']:.2f} |" for T, _, am, fs in exo)
+                      f"{'yes' if am['minimum_phase'] else 'no'} | "
+                      + (f"{am['bandwidth_hz']:.2f} |" if fs and am['locked_stable'] else "— (loop unstable) |")
+                      for T, _, am, fs in exo)
+    onset = {lp["loop"]: ana["margins"]["latency"]["delay_s"] + lp["extra_delay_s"]
+             for lp in ana["margins"]["latency"]["loops"]}
     bands = ", ".join(f"{a:.1f}–{b:.1f} Hz" for a, b in band) or "none"
     px = (ana.get("passivity") or {}).get("max_phase_excess_deg")
     _write(out, "fig5_amplification.md", f"""# Fig. 5 — amplification, delay and the passive phase band
@@ -401,9 +409,12 @@ phase debt of the caption; the cuff spring brings C7 back to 1/K_c (phase 0°) a
 **Where they differ and why.** The left panel reproduces the caption's claims (stable and minimum
 phase at the small delay, unstable impedance at the large one, non-passive phase in both), but its
 parameters are exotune's guesses, so the curves are not the paper's. For the full design the loss
-of stability between 4 and 5 ms comes from the DOB loop (its delay margin is 4.65 ms at T = 0,
-see Fig. 4: delay margin 3.65 ms at T = 1 ms; the 38 Hz spike of the 5 ms curve is the DOB's
-crossover), and C6/C5 is non-minimum phase at both delays (exotune counts its zeros exactly; it is
+of stability between 4 and 5 ms is at T = {onset['free'] * 1e3:.2f} ms for the free exoskeleton and
+{onset['env0_locked'] * 1e3:.2f} ms with the output locked (`exotune analyze`'s latency margins of
+the whole loop, added to T = 1 ms); both cross at about 38.5–38.8 Hz, near the DOB loop's crossover (the 38 Hz
+spike of the 5 ms curve), close to the delay margin of the isolated DOB loop of Fig. 4 (4.65 ms at
+T = 0) but not equal to it: the rest of the controller and the plant shift it. The
+bandwidth of an unstable loop is not reported. C6/C5 is non-minimum phase at both delays (exotune counts its zeros exactly; it is
 minimum phase only below T ≈ {T_mp * 1e3:.2f} ms), while the paper's Fig. 5 concerns the simple system without a DOB.
 """)
     return {"simple": [(T, nz) for T, _, nz in simple], "exo": [(T, am, fs) for T, _, am, fs in exo]}
@@ -463,9 +474,11 @@ the paper's eq. (20)–(21) give spring-deflection gains K_s times larger: K2 = 
 B2 = {g['B2'] * cfg.plant.K_s:.4g} N·m·s/rad). Shape: K̃2 = K_s/Ĵ_m = {sh['K2_tilde']:.4g} s⁻², B̃1 = {sh['B1_tilde']:.4g} s⁻¹,
 Ĵ_m = {sh['J_m_hat']:.4g} kg·m², B̂_m = {sh['B_m_hat']:.4g} N·m·s/rad. The zero pair of C7 sits at
 {zc7:.3g} Hz (ζ̂ = 0.7), that of C4 at {zc4:.3g} Hz (ζ = 0.7). C5 follows Ĉ5 within 10 % below
-{d['approximation']['valid_below_hz']:.3g} Hz (C4 and C5 coincide in magnitude below ≈ 3 Hz, where the
-joint inertia is negligible). At low frequency the implemented C7 is α = 8 times C5: the human feels
-the environment's compliance amplified by α, the definition of strength amplification.
+{d['approximation']['valid_below_hz']:.3g} Hz (there |C5/C4| ≈ 0.93 at 1–2 Hz: it is C4 that matches
+Ĉ5 to a few per cent at 1–2 Hz, while the joint inertia already takes about 7 % off C5). At low
+frequency the implemented C7 is α = 8 times C5: the person feels α times the compliance that the
+exoskeleton presents to the environment (C5, the joint compliance the environment sees), the
+definition of strength amplification.
 
 **Where they differ and why.** The paper's plant and gains are in a commented-out table (J_m, B_m,
 K_s, J_j match examples/paper.yaml; its gains K1 = 69 480, B1 = 1 387, K2 = −41 690, B2 = −1 183 come
@@ -510,6 +523,9 @@ def fig8(out: Path) -> dict:
         m = t >= 1.0
         spec = np.abs(np.fft.rfft((err[m] - np.mean(err[m])) * np.hanning(int(m.sum()))))
         f_osc = float(np.fft.rfftfreq(int(m.sum()), t[1] - t[0])[np.argmax(spec)])
+        f_bin = 1.0 / (int(m.sum()) * (t[1] - t[0]))  # FFT bin width
+        K_c = float(yaml.safe_load(PAPER_YAML.read_text())["plant"]["cuff_stiffness"])
+        f_hc = float(np.sqrt(K_c / 0.5 - (2.0 / (2 * 0.5)) ** 2) / (2 * np.pi))  # the human (0.5 kg·m², 2 N·m·s/rad) on the cuff spring
         z = t >= 4.0
         c.plot(t[z], act[z], color="C0", lw=1.3)
         c.plot(t[z], target[z], color="C3", lw=1.0, ls="--")
@@ -547,15 +563,25 @@ plant): after the 5 N·m push the actuator torque −τ_s settles on (α − 1)�
 | peak \\|−τ_s − 7·τ_c\\| (transient) | {peak:.3g} N·m |
 | RMS tracking error after 1 s / over the last 1 s | {rms_1s * 1e3:.3g} mN·m / {rms_late * 1e3:.3g} mN·m |
 | peak tracking error over the last 1 s | {env_last * 1e3:.3g} mN·m |
-| dominant frequency of the residual after 1 s | {f_osc:.2f} Hz (the human–cuff mode) |
+| dominant frequency of the residual after 1 s | {f_osc:.2f} Hz (FFT peak, {f_bin:.1f} Hz bins; the human–cuff mode's damped frequency is {f_hc:.3f} Hz) |
 | peak motor torque | {_fmt(summ.get('peak_motor_torque', {}).get('value'), 4)} N·m |
 
+With the joint locked the controller cannot act on the human–cuff mode: the locked loop's
+characteristic function factors as Δ01 + zΔ11 = (K_c + z)·Δ01/K_c, so the mass of the assumed
+human (m = 0.5 kg·m², b = 2 N·m·s/rad) rings on the cuff spring whatever the gains. The headline
+decay rate (−b/2m = −2 1/s), the spectral radius (e^{{−2 · 0.001}} = 0.998002) and the residual
+frequency (√(K_c/m − (b/2m)²)/2π = {f_hc:.3f} Hz) are therefore that human's, not the controller's;
+the controller's own locked-output modes are faster (its verdict is `exotune analyze`'s).
+
 **Where they differ and why.** exotune's τ_s is the spring torque with the sign of eq. (5), so on
-a locked output the actuator's torque is −τ_s (the paper plots it positive). The paper's human
+a locked output the actuator's torque is −τ_s (the paper plots it positive): eq. (5) with θ_j = 0
+and the environment's torque −α·τ_c (eqs. (13)–(14)) gives τ_s = −(α − 1)·τ_c, so the paper's
+"τ_s is clearly tracking 7·τ_c" contradicts its own eq. (5) in sign (listed with the errata in
+docs/method.md). The paper's human
 input is an operator's free push of several seconds; here it is a 5 N·m step from a human
 modelled as 0.5 kg·m² with 2 N·m·s/rad. The simulated loop is linear (no backlash, no joint limit,
 no sensor bias), so the 17.5 Hz residual oscillation of the experiment does not appear: the
-only residual is the lightly damped {f_osc:.1f} Hz oscillation of the human mass on the cuff spring,
+only residual is the lightly damped {f_hc:.2f} Hz oscillation of the human mass on the cuff spring,
 which decays (panel (c)). This is consistent with the paper's
 own explanation (backlash near zero force), which the linear model does not contain. The sample
 rate of the experiments is not stated in the paper; 1 kHz is assumed.
@@ -637,7 +663,12 @@ median offset in the table). That offset follows the motor speed: a least-square
 discrete, delayed motor model sees a slightly different damping than the continuous plant and
 books the difference as disturbance. This was not investigated further. The paper's test used position-control gains and a position input
 without cuff feedback; exotune's scenario drives the full amplification controller with a human
-torque — the DOB sees the same motor-side equation error either way. No hardware numbers are
+torque. The two are not equivalent: with the delay the DOB's input is the equation error
+δ_f + (e^{{−sT}} − 1)·τ_cmd (the command it books is applied T later), so its estimate
+Q[δ_f + (e^{{−sT}} − 1)·τ_cmd] depends on the controller that produces τ_cmd; the paper's test ran
+position-control SEA gains (plausibly those of the gain table commented out of the paper's source,
+K1 = 69 480 N·m/rad, B1 = 1 387 N·m·s/rad, K2 = −41 690 N·m/rad, B2 = −1 183 N·m·s/rad), not the
+amplifier. No hardware numbers are
 given in the paper to compare with.
 """)
     return {"relative_error": fe["relative_error"]["value"]}

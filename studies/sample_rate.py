@@ -2,7 +2,7 @@
 
     python studies/sample_rate.py [--results DIR]
 
-The §9 design (examples/paper.yaml) with a total latency T of 0.5, 1 and 2 ms, run by a discrete
+The paper example design (examples/paper.yaml) with a total latency T of 0.5, 1 and 2 ms, run by a discrete
 controller at 500 Hz … 20 kHz (exotune.sampled.loop: exact zero-order-hold plant, Tustin prewarped
 controller, the latency as whole + fractional samples). For each (T, f_s) the lightest stable pure
 inertia of the stable interval reaching 1 kg·m² is found on the sampled-data verdict (a 100-point
@@ -107,13 +107,13 @@ def main() -> None:
                    label=f"T = {T * 1e3:g} ms, continuous (exact)")
     ax.set_xlabel("controller sample rate f_s [Hz]")
     ax.set_ylabel("lightest stable inertia on the cuff [10⁻³ kg·m²]")
-    ax.set_title("§9 design: what sampling costs (zero-order hold + Tustin controller)")
+    ax.set_title("paper example design: what sampling costs (zero-order hold + Tustin controller)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     save_png(fig, out / "lightest_inertia_vs_sample_rate.png")
 
     lines = ["# Lightest stable human inertia vs controller sample rate", "",
-             "§9 design (α = 8, K_c = 300 N·m/rad, DOB 60 Hz); pure inertia on the cuff; the total latency T "
+             "paper example design, examples/paper.yaml (α = 8, K_c = 300 N·m/rad, DOB 60 Hz); pure inertia on the cuff; the total latency T "
              "is held fixed while the sample rate changes (so T is a non-integer number of samples at some rates). "
              "Sampled-data verdicts by `exotune.sampled.loop` (exact ZOH plant, Tustin prewarped controller); "
              "continuous values are the exact ends of the continuous stable intervals.", "",

@@ -2,7 +2,7 @@
 
 The modules, lowest first (each imports only the ones above it):
 
-``charfun``             the closed-loop characteristic function Δ = Δ00 + z Δ10 + z_e Δ01 + z z_e Δ11 (paper §V)
+``charfun``             the closed-loop characteristic function Δ = Δ00 + z Δ10 + z_e Δ01 + z z_e Δ11 (paper §II model, Fig. 3 controller)
 ``counting``            exact right-half-plane root counts (argument principle), batched
 ``brackets``            refinement of crossing brackets, compiled or numpy
 ``intervals``           exact stable intervals of an impedance family (human, environment)

@@ -1,4 +1,4 @@
-"""The closed-loop characteristic function of the coupled exoskeleton (paper §V).
+"""The closed-loop characteristic function of the coupled exoskeleton (the model of paper §II closed by the controller of Fig. 3).
 
 For a plant with a human impedance z(s) at θ_h and an environment impedance z_e(s) at θ_j, closed
 by any :class:`~exotune.model.controller.ControllerStructure`, the closed-loop characteristic
@@ -16,7 +16,7 @@ structurally — never a rounding decision. C7(jω) = Δ10/Δ00 is the operator-
 
 References
 ----------
-Paper §V (characteristic function), §II-D (amplification); docs/method.md#one-characteristic-function.
+Paper §II, Table II (the model; the paper writes no characteristic function), §II-D (amplification); docs/method.md#one-characteristic-function.
 """
 
 from __future__ import annotations
@@ -106,7 +106,8 @@ def char_terms(plant: Plant, cs: ControllerStructure, N: int, *, dob_model=None)
     (θ_m, τ_s, τ_c responses to τ_m are N_x/det). With blocks G_x = n_x/d_x, d = Π d_x and
     Q = n_q/d_q:  P0 = det·d·(d_q − n_q),  P1 = det·d·n_q − d_q Σ_x n_x (d/d_x) N_x.
 
-    ``dob_model=(Ĵ_m, B̂_m)`` (scalars or (N,) arrays): the DOB's model M0 = Ĵ_m s² + B̂_m s differs
+    ``dob_model=(J_m0, B_m0)`` (scalars or (N,) arrays): the DOB's nominal motor model M0 = J_m0 s² + B_m0 s
+    (paper eq. (15) with the nominal plant's J_m, B_m) differs
     from the plant's M (plant-uncertainty analysis, :mod:`exotune.analysis.plant_margin`). Its
     law δ̂ = Q (M0 θ_m − τ_s − τ_cmd) gives τ_cmd = (Σ_x G_x x − Q M0 θ_m + Q τ_s)/(1 − Q), so P0
     is unchanged and P1 = d·n_q·(M0 N_θm − N_τs) − d_q Σ_x n_x (d/d_x) N_x; with M0 = M this is the

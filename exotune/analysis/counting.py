@@ -7,7 +7,7 @@ vectorized (compiled or numpy) call of the argument principle
 
 References
 ----------
-Paper §V (stability of the coupled system); docs/method.md#free-and-locked-stability.
+Paper §IV (coupled stability with the person); docs/method.md#free-and-locked-stability.
 """
 
 from __future__ import annotations

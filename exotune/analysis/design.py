@@ -164,7 +164,7 @@ def kyp_certificates(cfg) -> dict:
 
 def _schedule_check(cfg) -> list[ScheduleEntry]:
     """Continuous analysis of the design rescheduled at every joint angle of its ``transmission``
-    section (paper §VI: J_m, B_m, K_s × ratio², gains recomputed; one batch over the angles)."""
+    section (paper §IV gain scheduling: J_m, B_m, K_s × ratio², gains recomputed; one batch over the angles)."""
     tr = cfg.raw["transmission"]
     r2 = np.asarray(tr["ratio"], float) ** 2
     g = lambda x: float(np.ravel(x)[0])  # noqa: E731

@@ -1,10 +1,10 @@
-"""Margins of the disturbance-observer loop L_dob = Q e^{−sT}/(1 − Q) (paper Fig. DOBtune).
+"""Margins of the disturbance-observer loop L_dob = Q e^{−sT}/(1 − Q) (paper Fig. 4).
 
 Gain crossovers are exact roots of |n_q|² = |d_q − n_q|², every crossover is considered.
 
 References
 ----------
-Paper §IV (disturbance observer, Fig. DOBtune); docs/method.md#dob-margins.
+Paper §III (disturbance observer, Fig. 4); docs/method.md#dob-margins.
 """
 
 from __future__ import annotations
@@ -93,7 +93,7 @@ def dob_margins_rows(nq, dq, T):
 
     References
     ----------
-    Paper §IV (Fig. DOBtune); docs/method.md#dob-margins.
+    Paper §III (Fig. 4); docs/method.md#dob-margins.
     """
     N = len(T)
     m = psub(dq, nq)

@@ -10,7 +10,7 @@ same with Δ01 in place of Δ10.
 
 References
 ----------
-Paper §V (robust coupled stability); docs/method.md#stable-intervals-of-a-human-family.
+Paper §IV (coupled stability: stiff springs versus light inertias); docs/method.md#stable-intervals-of-a-human-family.
 """
 
 from __future__ import annotations
@@ -337,7 +337,7 @@ def family_wmax(D0: QP, D1: QP, phi, factor, lo, hi):
 
     References
     ----------
-    Paper §V; docs/method.md#stable-intervals-of-a-human-family.
+    Paper §IV (coupled stability); docs/method.md#stable-intervals-of-a-human-family.
     """
     phi = np.asarray(phi, float)
     real = not any(np.iscomplexobj(x) for x in (D0.p0, D0.p1, D1.p0, D1.p1))

@@ -27,7 +27,8 @@ q1 = 1/K_c for C7):
 
    The smallest such d is the *passivity shortage* d* = max(0, −inf_ω Re Y(jω)) [rad/(N·m·s)]:
    a semidefinite program (minimize d), solved by cvxpy (Clarabel, SCS as fallback). d* = 0 ⇔
-   passive; d* > 0 is how much parallel admittance (viscous "give" at the cuff) the compliance lacks.
+   passive; d* > 0 is the admittance the compliance lacks: a damper of damping 1/d* in series with
+   the cuff would make it passive (admittances add in series, paper Proposition 2).
 3. Conditioning: the frequency is scaled (s = ω0 ŝ, ω0 the geometric mean of the pole magnitudes),
    Y_p is realized (``scipy.signal.tf2ss``) and balanced (square-root method from the two
    Gramians); Hankel singular values below 1e−12 of the largest are truncated and the truncation
@@ -46,6 +47,8 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+
+from .kyp_verify import lmi_holds, positive_on_axis
 
 __all__ = ["KypCertificate", "admittance_certificate", "compliance_certificate", "operator_certificates",
            "certificates_dict", "nominal_shortage", "format_certificates", "realization_error", "SHORTAGE_UNIT"]
@@ -71,6 +74,8 @@ class KypCertificate:
     reason: str
     shortage_upper: float = float("nan")  # the SDP's d* (an upper bound: the LMI holds at it)
     witness_frequency_hz: float = float("nan")  # where Re Y(jω) = −shortage (the non-passive proof)
+    verified: bool = False  # a passive verdict checked without the solver (kyp_verify); False otherwise
+    verification: str = ""  # how it was checked, or why the check did not go through
 
     def as_dict(self) -> dict:
         return {
@@ -86,9 +91,12 @@ class KypCertificate:
             "certificate_residual": self.certificate_residual,
             "shortage_upper": self.shortage_upper,
             "witness_frequency_hz": self.witness_frequency_hz,
+            "verified": self.verified,
+            "verification": self.verification,
             "solver": self.solver,
             "method": "KYP lemma: min d s.t. [[AᵀP+PA, PB−Cᵀ], [BᵀP−C, −2(q0+d)]] ⪯ 0 (cvxpy SDP): "
-                      "passive when d* ≈ 0; otherwise shortage = −Re{jω C7(jω)} at a witness frequency "
+                      "passive when d* ≈ 0 and verified without the solver (the LMI at d = 0 strictly "
+                      "negative for the returned P, or Re Y > 0 proven in exact arithmetic); otherwise shortage = −Re{jω C7(jω)} at a witness frequency "
                       "(refined minimum, a proof of non-passivity), bracketed above by d*",
             "reason": self.reason,
         }
@@ -312,9 +320,18 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     thr = tol * s1 + bound
     base.update(certificate_residual=resid, shortage_upper=upper)
     note = "; ill-conditioned Gramians (poles decades apart): truncation bound approximate" if ill else ""
-    if upper <= thr and lower <= thr:  # within the solver's accuracy: report the exact verdict's value
-        return KypCertificate(passive=True, shortage=0.0, relative_shortage=0.0,
-                              reason=f"positive real: certified by the KYP LMI ({status}){note}", **base)
+    if upper <= thr and lower <= thr:  # the solver says passive: believe it only once verified
+        ok, how = _verify_passive(Ab, Bg, Cg, g * q0, P, num, den)
+        if ok:
+            return KypCertificate(passive=True, shortage=0.0, relative_shortage=0.0, verified=True,
+                                  verification=how,
+                                  reason=f"positive real: KYP certificate ({status}) verified without the solver: "
+                                         f"{how}{note}", **base)
+        return KypCertificate(passive=None, shortage=float("nan"), relative_shortage=float("nan"),
+                              verification=how,
+                              reason=f"the SDP reports passive (d* = {upper:.2g}, {status}) but its answer was not "
+                                     f"verified ({how}): not decided by this certificate; the frequency metric "
+                                     f"stands{note}", **base)
     if lower > thr:  # proof by a frequency witness; the SDP brackets it from above
         base.update(witness_frequency_hz=w_hat * w0 / (2.0 * math.pi))
         why = ("not positive real: Re{Y(jω)} < 0 at the witness frequency; shortage = −min Re Y"
@@ -326,6 +343,18 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     return KypCertificate(passive=False, shortage=upper, relative_shortage=upper / s1,
                           reason="not positive real by the SDP optimum d* (no frequency witness found: "
                                  f"shortage is d*, an upper bound) ({status}){note}", **base)
+
+
+def _verify_passive(A, B, C, q0, P, num, den) -> tuple[bool, str]:
+    """A passive verdict of the SDP checked without the solver (:mod:`exotune.analysis.kyp_verify`):
+    the returned P in the LMI at d = 0, else Re Y > 0 in exact arithmetic on Y's coefficients."""
+    ok, lam, bound = lmi_holds(A, B, C, q0, P, 0.0)
+    if ok:
+        return True, f"the LMI at d = 0 with the solver's P is negative definite (λ_max = {lam:.2e} ≤ −{bound:.1e}, numpy)"
+    ok, why = positive_on_axis(num, den)
+    if ok:
+        return True, why
+    return False, f"LMI at d = 0: λ_max = {lam:.2e} > −{bound:.1e}; exact test: {why}"
 
 
 def compliance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCertificate:
@@ -381,7 +410,7 @@ def format_certificates(certs: dict, indent: str = "  ") -> list[str]:
         if name == "error":
             lines.append(indent + str(c))
             continue
-        verdict = {True: "passive (certified)", False: "NOT passive", None: "undecided"}[c["passive"]]
+        verdict = {True: "passive (verified)", False: "NOT passive", None: "undecided"}[c["passive"]]
         sh = c["shortage"]
         line = f"{indent}KYP certificate, {c['model']}: {verdict}"
         if sh is not None and math.isfinite(sh):

@@ -3,7 +3,7 @@
 Every loop of a design (the free exoskeleton, each environment, each member of each human family)
 has the characteristic quasi-polynomial Δ(s) = P0(s) + P1(s) e^{−sτ} with τ the total
 measured-to-applied latency (docs/method.md#analyses-and-metrics; the delay enters only through the
-actuator path, paper Fig. 2). An extra latency ΔT ≥ 0 turns τ = T into T + ΔT. A root reaches the
+actuator path, paper Fig. 3). An extra latency ΔT ≥ 0 turns τ = T into T + ΔT. A root reaches the
 imaginary axis at s = jω (ω > 0) for the delay τ exactly when
 
     |P0(jω)| = |P1(jω)|    and    e^{−jωτ} = −P0(jω)/P1(jω),

@@ -37,15 +37,15 @@ __all__ = [
 ]
 
 TF_INFO = {
-    "C4": ("θ_j/τ_s", "closed-loop SEA compliance (paper eq. (8)", "rad/(N·m)"),
-    "C5": ("θ_j/τ_j", "joint (virtual motor) compliance (paper eq. (10)", "rad/(N·m)"),
-    "C5_hat": ("θ_j/τ_j", "desired virtual motor compliance 1/(Ĵ_m s² + B̂_m s) (paper §III)", "rad/(N·m)"),
+    "C4": ("θ_j/τ_s", "closed-loop SEA compliance (paper eq. (8))", "rad/(N·m)"),
+    "C5": ("θ_j/τ_j", "joint compliance, the virtual motor (paper eq. (10))", "rad/(N·m)"),
+    "C5_hat": ("θ_j/τ_j", "desired virtual motor compliance 1/(Ĵ_m s² + B̂_m s) (paper §II-C, eq. (11))", "rad/(N·m)"),
     "C7_nominal": (
         "θ_h/τ_c",
         "nominal operator-side compliance (paper eq. (16), middle term 2ζ̂√(αK_c/Ĵ_m)·s per docs/method.md#double-compliance-shaping erratum)",
         "rad/(N·m)",
     ),
-    "G_v": ("τ_3/τ̂_m", "cuff-path compensator G_v(s) (paper §III, docs/method.md#controller; improper, filtered in the implementation)", "1"),
+    "G_v": ("τ_3/τ̂_m", "cuff-path compensator G_v(s) (paper §II-C, eq. (12), docs/method.md#controller; improper, filtered in the implementation)", "1"),
 }
 APPROX_TOL = 0.1
 GAIN_CONVENTION_NOTE = (
@@ -263,7 +263,7 @@ def phase_extremum(num, den, sign: int = +1):
 
     References
     ----------
-    Paper §II-B (a compliance is passive where its phase is in [−180°, 0°]); docs/method.md#passivity.
+    Paper §IV-A, Fig. 5 (a compliance is passive where its phase is in [−180°, 0°]); docs/method.md#passivity.
     """
     from scipy.optimize import minimize_scalar
 
@@ -308,7 +308,7 @@ def resonance(num, den):
 
     References
     ----------
-    Paper eq. (10); docs/method.md#controller.
+    Paper eq. (10) (the joint compliance C5, whose resonance this finds); docs/method.md#controller.
     """
     from scipy.optimize import minimize_scalar
 
@@ -372,7 +372,7 @@ def approximation_limit_hz(tfs) -> float:
 
     References
     ----------
-    Paper §III (the virtual motor approximation); docs/method.md#controller.
+    Paper §II-C (the virtual motor approximation); docs/method.md#controller.
     """
     from scipy.optimize import brentq
 
@@ -474,7 +474,7 @@ def design_bode_figures(cfg) -> dict[str, tuple]:
 
     References
     ----------
-    Paper §III–§IV; docs/method.md#controller.
+    Paper §II-C–§IV; docs/method.md#controller.
     """
     from ..model.shaping import double_compliance_shaping, nominal_transfer_functions
 

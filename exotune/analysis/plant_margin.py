@@ -1,7 +1,8 @@
 """Plant-uncertainty margin: how large a multiple of the declared plant uncertainty the design takes.
 
 The controller is designed once on the nominal plant q0 = (J_m, B_m, K_s, J_j, K_c) and kept
-fixed, its disturbance observer included (whose model M0 = Ĵ_m s² + B̂_m s stays the nominal one).
+fixed, its disturbance observer included (whose motor model M0 = J_m0 s² + B_m0 s, paper eq. (15) with the nominal plant's J_m and B_m,
+stays the nominal one).
 The actual plant is q_i = q0_i (1 + δ_i) with |δ_i| ≤ k·w_i (weights w_i, 1 by default). The margin
 k* is the largest k for which the cuff-free exoskeleton and every environment stay stable and every
 human family stays robust over its whole range, for every plant of the box.
@@ -30,7 +31,7 @@ kept containing 0; their centres are checked too (local refinement).
 
 References
 ----------
-Paper §V (characteristic function, DOB); docs/method.md#plant-uncertainty-margin. Zadeh & Desoer
+Paper §II (the plant), §III (the DOB); docs/method.md#plant-uncertainty-margin. Zadeh & Desoer
 (1963) mapping theorem; Fu, Olbrot & Polis (1989) for polytopes of quasi-polynomials.
 """
 
@@ -423,7 +424,7 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
 
     References
     ----------
-    docs/method.md#plant-uncertainty-margin; paper §V (characteristic function, DOB).
+    docs/method.md#plant-uncertainty-margin; paper §II (the plant), §III (the DOB).
     """
     from ..model.controller import build_controller
     from .batch import analyze_batch

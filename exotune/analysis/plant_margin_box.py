@@ -12,7 +12,7 @@ box (module :mod:`exotune.analysis.plant_margin` states the theorem and its assu
 
 References
 ----------
-Paper §V (characteristic function); docs/method.md#plant-uncertainty-margin.
+Paper §II (the plant); docs/method.md#plant-uncertainty-margin.
 """
 
 from __future__ import annotations

@@ -139,7 +139,7 @@ def compliance_responses(cfg, result: dict) -> dict:
 
     References
     ----------
-    Paper §V (characteristic function), §II-D (amplification); docs/cli.md#analyze.
+    Paper §II (the model), §II-D (amplification); docs/cli.md#analyze.
     """
     from .charfun import amplification_qps, char_terms
 
@@ -233,7 +233,7 @@ def box_edge_families(h: dict) -> list[dict]:
 
     References
     ----------
-    Paper §V (coupled stability); docs/method.md (msd boxes: the Edge Theorem); docs/cli.md#analyze.
+    Paper §IV (coupled stability); docs/method.md (msd boxes: the Edge Theorem); docs/cli.md#analyze.
     """
     from ..model.humans import PARAM_UNITS
 
@@ -302,7 +302,7 @@ def human_loops(cfg, result: dict) -> list[dict]:
 
     References
     ----------
-    Paper §V (coupled stability); docs/cli.md#analyze.
+    Paper §IV (coupled stability); docs/cli.md#analyze.
     """
     from .charfun import char_terms
 
@@ -316,7 +316,7 @@ def human_loops(cfg, result: dict) -> list[dict]:
 
 
 def dob_loop(cfg, result: dict) -> dict:
-    """The disturbance-observer loop of a design with its delay (the paper's Fig. DOBtune).
+    """The disturbance-observer loop of a design with its delay (the paper's Fig. 4).
 
     Parameters
     ----------
@@ -335,7 +335,7 @@ def dob_loop(cfg, result: dict) -> dict:
 
     References
     ----------
-    Paper §VI (DOB tuning, Fig. DOBtune); docs/cli.md#analyze.
+    Paper §III (DOB tuning, Fig. 4); docs/cli.md#analyze.
     """
     cs, _ds = _controller(cfg)
     T = float(np.asarray(cfg.implementation.delay_s))
@@ -364,7 +364,7 @@ def dob_loop(cfg, result: dict) -> dict:
 
 
 def amplification_at_delays(cfg, result: dict) -> tuple[np.ndarray, list[dict]]:
-    """C6/C5 at the configured delay T and at :func:`second_delay` (the paper's Fig. amplification).
+    """C6/C5 at the configured delay T and at :func:`second_delay` (the paper's Fig. 5).
 
     Parameters
     ----------

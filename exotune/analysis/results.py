@@ -294,7 +294,7 @@ class Amplification(Result):
 
 @dataclass(frozen=True)
 class ScheduleEntry(Result):
-    """The design rescheduled at one joint angle of its ``transmission`` table (paper §VI: J_m,
+    """The design rescheduled at one joint angle of its ``transmission`` table (paper §IV gain scheduling: J_m,
     B_m, K_s × ratio², gains recomputed): whether it is robust, the loops that are not
     (``not_robust``, column names), its six gains (torque units) and its human families' stable
     intervals."""

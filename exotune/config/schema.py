@@ -112,7 +112,7 @@ class ImplementationIn(_Strict):
 
 
 class TransmissionIn(_Strict):
-    """Joint-angle dependent transmission (paper §VI gain scheduling): at ``joint_angle_rad[i]``
+    """Joint-angle dependent transmission (paper §IV gain scheduling): at ``joint_angle_rad[i]``
     the transmission Jacobian is ``ratio[i]`` times the one the plant section is reflected with,
     so the joint-reflected motor inertia, motor damping and SEA stiffness scale with ratio²."""
 

@@ -1,4 +1,4 @@
-"""The controller the runtime executes, as an explicit, swappable structure (docs/method.md#controller, paper §III-V).
+"""The controller the runtime executes, as an explicit, swappable structure (docs/method.md#controller, paper §II-B–§IV).
 
 A :class:`ControllerStructure` is a set of rational blocks acting on the three sensed signals plus
 an optional transmission disturbance observer and the actuation delay:

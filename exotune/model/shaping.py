@@ -194,7 +194,7 @@ def _assumption_warnings(plant: Plant, gains: Gains, J_m_hat, zeta, zeta_hat) ->
     if err > 0.1:
         out.append(
             f"J_m_hat/J_j = {ratio:.3g}: the virtual motor inertia is not >> the joint inertia "
-            f"(paper §III assumes Ĵ_m ≫ J_j), so above the B̂_m/Ĵ_m corner C5 deviates from Ĉ5 by "
+            f"(paper §II-C assumes Ĵ_m ≫ J_j), so above the B̂_m/Ĵ_m corner C5 deviates from Ĉ5 by "
             f"≈ J_j/(Ĵ_m + J_j) = {100 * err:.3g} % (the joint inertia adds to the felt inertia)"
         )
     if float(gains.B2_hat) < 0:

@@ -13,7 +13,7 @@ dict of :func:`exotune.analysis.analyze_design`:
     critical point is −1) for the range ends, each critical value and a value inside each stable
     interval. The view is a fixed linear window around −1; the curves continue outside it.
 ``dob_loop.png`` (only with a DOB)
-    The paper's Fig. DOBtune: L_dob = Q e^{−jωT}/(1 − Q), the delay-distorted closed loop
+    The paper's Fig. 4: L_dob = Q e^{−jωT}/(1 − Q), the delay-distorted closed loop
     L/(1 + L) and the original Q, with the gain crossover, the phase crossover and the margins.
 ``amplification.png``
     |C6/C5| and its phase at the configured delay T and at a larger delay max(2T, T + 2 ms) (the
@@ -217,7 +217,7 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
 
 
 # ----------------------------------------------------------------------------------------------
-# 3. DOB loop (paper Fig. DOBtune)
+# 3. DOB loop (paper Fig. 4)
 # ----------------------------------------------------------------------------------------------
 def _fig_dob_loop(cfg, result: dict) -> bytes:
     from ..analysis.plot_data import dob_loop
@@ -284,7 +284,7 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
     ax2.set_xlim(f[0], f[-1])
     q = cfg.implementation.dob
     fig.suptitle(
-        f"DOB loop (paper Fig. DOBtune): Q at {float(np.asarray(q.cutoff_hz)):.4g} Hz, ζ_q = {float(np.asarray(q.damping)):.3g} — "
+        f"DOB loop (paper Fig. 4): Q at {float(np.asarray(q.cutoff_hz)):.4g} Hz, ζ_q = {float(np.asarray(q.damping)):.3g} — "
         + _design_label(cfg, result),
         fontsize=10,
     )
@@ -293,7 +293,7 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
 
 
 # ----------------------------------------------------------------------------------------------
-# 4. Amplification at two delays (paper Fig. amplification)
+# 4. Amplification at two delays (paper Fig. 5)
 # ----------------------------------------------------------------------------------------------
 def _fig_amplification(cfg, result: dict) -> bytes:
     from ..analysis.plot_data import amplification_at_delays

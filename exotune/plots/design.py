@@ -63,7 +63,7 @@ def design_plots(cfg) -> dict[str, bytes]:
 
     References
     ----------
-    Paper §III–§IV; docs/cli.md#design.
+    Paper §II-C–§IV; docs/cli.md#design.
     """
     from ..analysis.nominal import design_bode_figures
 

@@ -110,7 +110,7 @@ def at_joint_angle(doc: dict, joint_angle_rad: float) -> dict:
 
     References
     ----------
-    docs/cli.md#simulate; paper §VI (the transmission's gain schedule).
+    docs/cli.md#simulate; paper §IV (the transmission's gain schedule).
     """
     if not doc.get("gain_schedule"):
         raise ConfigError("--joint-angle", "the controller has no gain schedule (no transmission section)")

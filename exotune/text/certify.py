@@ -57,7 +57,7 @@ def format_certify(rep: dict) -> str:
 
     References
     ----------
-    Paper §V (sampled-data implementation); docs/cli.md#certify.
+    Paper §V (its stability predictions account for the discrete-time implementation); docs/cli.md#certify.
     """
     sa = rep["sampled"]
     lines = [f"exotune certify — {rep['schema']}, {rep['sample_rate_hz']['value']:g} Hz, "

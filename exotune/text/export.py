@@ -24,7 +24,7 @@ def format_export(doc: dict, out) -> str:
 
     References
     ----------
-    Paper §V (sampled-data implementation); docs/cli.md#export.
+    Paper §V (its stability predictions account for the discrete-time implementation); docs/cli.md#export.
     """
     sa = doc["predicted"]["sampled"]
     n = len(doc["controller"]["filters"])
