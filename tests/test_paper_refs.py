@@ -129,7 +129,7 @@ def check(text: str):
     The meaning is looked for in the whole block when it is short (a docstring's references
     apply to the whole docstring), else within a window around the citation."""
     flat = re.sub(r"\s+", " ", text)
-    for kind, key, group, shown, _ in citations(flat):
+    for kind, key, group, shown, pos in citations(flat):
         if kind == "figure labels":
             yield shown, "cite the figure by its number, not its LaTeX label"
             continue
@@ -137,7 +137,6 @@ def check(text: str):
         if entry is None:
             yield shown, f"no {kind[:-1]} {key} in the paper"
             continue
-        pos = flat.find(shown.split()[-1].strip("()"))
         around = (flat if len(flat) <= _BLOCK else flat[max(0, pos - _WINDOW): pos + _WINDOW]).lower()
         topics = [t for k in group for t in REFS[kind].get(k, {}).get("topics", [])]
         if not any(t.lower() in around for t in topics):

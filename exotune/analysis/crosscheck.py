@@ -120,7 +120,7 @@ def exact_rhp_roots(p0: np.ndarray, p1: np.ndarray, T: float, orders=(10, 16), n
 
 
 def pade_crosscheck(cfg, orders=(10, 16)) -> dict:
-    """Compare exotune's exact verdicts for one design with two Padé models (module docstring)."""
+    """Compare exotune's verdicts (exact delay) for one design with two Padé models (module docstring)."""
     cols = analyze_batch(cfg)
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, 1)

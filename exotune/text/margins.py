@@ -56,7 +56,7 @@ def format_margins(margins: dict | None) -> list[str]:
         if lm.get("note"):
             L.append(f"    note: {lm['note']}")
         if lm.get("verified") is True:
-            L.append("    confirmed by the exact verdicts just below and above the margin")
+            L.append("    confirmed by root-count verdicts just below and above the margin")
     pm = margins.get("plant_uncertainty")
     if pm:
         up = "∞" if pm["upper"] is None or (isinstance(pm["upper"], float) and math.isinf(pm["upper"])) else fmt_num(pm["upper"], 4)
