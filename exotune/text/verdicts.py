@@ -12,7 +12,7 @@ __all__ = ["format_verdicts"]
 def format_verdicts(sd: dict) -> list[str]:
     """Lines of the sampled-data verdicts of record (the ``sampled_data`` section of ``exotune
     analyze --json`` with a rate, :class:`exotune.controllerfile.verdicts.SampledVerdicts`): the
-    verdict, the free and locked loops, every family's exact intervals, the latency margin
+    verdict, the free and locked loops, every family's intervals, the latency margin
     against its requirement and, when the exported file would not certify, why."""
     req = sd["requirements"]
     lines = [f"Sampled-data verdicts of record at {sd['sample_rate_hz']:g} Hz, delay {sd['delay_s'] * 1e3:.6g} ms "
