@@ -422,7 +422,8 @@ def identify(source, out=None, *, delay_s: float = 0.0, filter_hz: float | None 
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
-             human_inertia: float | None = None, duration: float | None = None) -> SimulationRun:
+             human_inertia: float | None = None, duration: float | None = None, start: str = "bumpless",
+             joint_angle: float | None = None) -> SimulationRun:
     """Time-domain run of the runtime controller on the plant (the library twin of
     ``exotune simulate``).
 
@@ -433,8 +434,16 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
         mapping (validated as the file is), a loaded design, or the result of :func:`export`.
     scenario : str
         ``locked-output``, ``dob-friction``, ``light-mass``, ``saturation`` or ``backlash``.
+    sample_rate_hz : float, optional
+        Sample rate [Hz] for a design (default: its ``implementation.sample_rate_hz``).
+    human_inertia : float, optional
+        Human inertia [kg·m²] instead of the scenario's (``--human-inertia``).
     duration : float, optional
         Run length [s] instead of the scenario's (``--duration``).
+    start : {"bumpless", "zero"}
+        Initial controller state (``--start``).
+    joint_angle : float, optional
+        Run the gain-schedule entry nearest this joint angle [rad] (``--joint-angle``).
 
     References
     ----------
@@ -448,10 +457,12 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     ('decaying', 8.0)
     """
     from .controllerfile.results import ExportedController
-    from .simulation import load_for_simulation, run_scenario
+    from .simulation import at_joint_angle, load_for_simulation, run_scenario
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
     with numpy_engine():
         doc = load_for_simulation(source, sample_rate_hz)
-        return run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration)
+        if joint_angle is not None:
+            doc = at_joint_angle(doc, joint_angle)
+        return run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start)

@@ -291,3 +291,16 @@ def test_docstring_examples_run(module, monkeypatch):
     res = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert res.failed == 0
     assert res.attempted > 0
+
+
+def test_simulate_twin_takes_start_and_joint_angle():
+    """api.simulate has the command's --start and --joint-angle (issue 24: the API is the CLI's twin)."""
+    sched = ROOT / "examples" / "scheduled.yaml"
+    cli_res = CliRunner().invoke(cli, ["simulate", str(sched), "--scenario", "locked-output", "--start", "zero",
+                                       "--joint-angle", "1.0", "--json"])
+    assert cli_res.exit_code == 0, cli_res.output
+    r = exotune.simulate(sched, "locked-output", start="zero", joint_angle=1.0).to_dict()
+    assert json.loads(cli_res.stdout)["summary"] == json.loads(json.dumps(r["summary"]))
+    assert r["summary"]["start"] == "zero"
+    other = exotune.simulate(sched, "locked-output", start="zero", joint_angle=2.0).to_dict()
+    assert other["summary"] != r["summary"]  # another schedule entry (ratio 1.25, not 1): another plant
