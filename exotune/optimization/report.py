@@ -68,7 +68,7 @@ def _latency_line(r: dict) -> str:
     ach = lm["achieved_s"]
     req = lm["required_s"]
     n = lm.get("achieved_samples")
-    smp = f" = {n:.3g} sample{'' if n == 1 else 's'}" if n is not None else ""
+    smp = f" = {n:.3g} sample{'' if f'{n:.3g}' == '1' else 's'}" if n is not None else ""
     need = f"required ≥ {_ms(req)} ({lm['required_from']})" if req > 0 else f"none required ({lm['required_from']})"
     if lm.get("model"):  # a sample rate: decided on the sampled-data loop
         cont = lm.get("continuous_s")

@@ -226,7 +226,7 @@ def _sampled_latency_record(spec, lm, verdicts, srec) -> dict:
     fin = math.isfinite(ach)
     cont = rec["achieved_s"]
     crit = verdicts.latency_margin.get("critical")
-    return {**rec, "model": f"sampled-data at {fs:g} Hz (certify's)", "achieved_s": ach if fin else None,
+    return {**rec, "model": f"sampled-data at {fs:g} Hz", "achieved_s": ach if fin else None,
             "achieved_unbounded": not fin, "achieved_samples": ach * fs if fin else None,
             "met": bool(ach >= rec["required_s"]), "verified": verdicts.latency_margin.get("confirmed"),
             "critical": crit, "continuous_s": cont, "continuous_samples": None if cont is None else cont * fs,
