@@ -26,17 +26,7 @@ PENDING = {
     ("docs/identification.md", "eq. (1)"),              # the plant equations are eq. (5)
     ("exotune/identification/__init__.py", "eq. (1)"),
     ("exotune/identification/estimate.py", "eq. (1)"),
-    ("exotune/api.py", "eq. (1)"),
-    ("exotune/api.py", "§V"), ("exotune/api.py", "§VI"),
-    ("exotune/cli.py", "§VI"),
-    ("exotune/sampled/check.py", "§V"), ("exotune/sampled/loop.py", "§5"),
     ("exotune/controllerfile/ccode.py", "§V"), ("exotune/controllerfile/continuation.py", "§V"),
-    ("exotune/controllerfile/verdicts.py", "§V"), ("exotune/controllerfile/checks.py", "§VI"),
-    ("exotune/controllerfile/export.py", "§VI"), ("exotune/controllerfile/build.py", "§VI"),
-    ("exotune/controllerfile/certify.py", "§IV"),
-    ("exotune/optimization/__init__.py", "§V"), ("exotune/optimization/diagnose.py", "§V"),
-    ("exotune/optimization/evaluate.py", "§V"), ("exotune/optimization/search.py", "§V"),
-    ("exotune/optimization/spec.py", "§V"), ("exotune/optimization/search.py", "§IV-A"),
 }
 
 _EQ = re.compile(r"\b[Ee]q(?:uation)?s?\.?\s*((?:\(\d+\)(?:\s*(?:,|–|-|and|&)\s*)?)+)")

@@ -6,7 +6,7 @@ compares).
 
 References
 ----------
-docs/controller-file.md; paper §IV (double compliance shaping), §VI (gain scheduling).
+docs/controller-file.md; paper §IV (double compliance shaping), the end of §IV (gain scheduling).
 """
 
 from __future__ import annotations

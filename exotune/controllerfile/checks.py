@@ -100,7 +100,7 @@ def check_controller_file(doc: dict) -> None:
         for i, e in enumerate(sched["entries"]):
             w = f"gain_schedule.entries[{i}]"
             _check_plant(e["plant"], f"{w}.plant")
-            for k, q in e["plant"].items():  # the plant reflected at the entry's ratio (paper §VI)
+            for k, q in e["plant"].items():  # the plant reflected at the entry's ratio (paper §IV, gain scheduling)
                 reflected = doc["plant"][k]["value"] * (e["ratio"] ** 2 if k in _REFLECTED else 1.0)
                 if abs(q["value"] - reflected) > 1e-9 * max(abs(reflected), 1e-300):
                     raise ConfigError(f"{w}.plant.{k}.value",

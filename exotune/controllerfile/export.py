@@ -288,7 +288,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         if analyses:
             problems += schedule_problems(doc)
         doc["gain_schedule_note"] = (
-            "paper §VI: the gains are recomputed from the joint-reflected J_m, B_m, K_s at each scheduled joint angle "
+            "paper §IV (gain scheduling): the gains are recomputed from the joint-reflected J_m, B_m, K_s at each scheduled joint angle "
             "(transmission ratio r: J_m, B_m, K_s scale with r²), so the compliance the human feels stays the "
             "same; each entry is a complete controller, certified frozen at its angle (LTI) — the time-varying "
             "schedule itself has no stability guarantee (paper); the reference runtime uses the nearest entry")

@@ -67,7 +67,7 @@ certificate of global optimality.
 
 References
 ----------
-docs/optimize-spec.md; paper §V (robust stability), §IV-A (passivity), §II-D (amplification).
+docs/optimize-spec.md; paper §IV (coupled stability with the human), §IV-A (passivity), §II-D (amplification).
 """
 
 from .evaluate import evaluate

@@ -3,7 +3,7 @@ problem's best design breaks, and the exact latency margin of a returned design.
 
 References
 ----------
-docs/optimize-spec.md#result; paper §V.
+docs/optimize-spec.md#result; paper §IV (coupled stability).
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ found on the ladder; the optimizer evaluates the final short list with the exact
 
 References
 ----------
-docs/optimize-spec.md; paper §V (robust stability, delay in the actuator path).
+docs/optimize-spec.md; paper §IV (coupled stability, delay in the actuator path: Fig. 5).
 """
 
 from __future__ import annotations
@@ -181,7 +181,7 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
 
     References
     ----------
-    docs/optimize-spec.md; paper §V.
+    docs/optimize-spec.md; paper §IV (coupled stability).
     """
     from ..analysis import analyze_batch
     from ..config import batch_config

@@ -129,7 +129,7 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
 
     References
     ----------
-    docs/optimize-spec.md; paper §V, §IV-A.
+    docs/optimize-spec.md; paper §IV (coupled stability) and §IV-A (passivity).
     """
     rng = np.random.default_rng(spec.seed)
     verdicts = None

@@ -2,7 +2,7 @@
 
 References
 ----------
-docs/optimize-spec.md (the spec file); paper §V (robust stability), §IV-A (passivity).
+docs/optimize-spec.md (the spec file); paper §IV (coupled stability), §IV-A (passivity).
 """
 
 from __future__ import annotations
@@ -210,7 +210,7 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
 
     References
     ----------
-    docs/optimize-spec.md; paper §V.
+    docs/optimize-spec.md; paper §IV (coupled stability).
     """
     from ..sweeps import load_base
 

@@ -1,5 +1,5 @@
 """Sampled-data closed loop: a discrete controller on the continuous plant (docs/method.md#controller "Discrete
-implementation", §5 cross-check, the engine of a future ``exotune certify``).
+implementation", the cross-check of docs/method.md#sampled-data, the engine of ``exotune certify``).
 
 What the runtime does at sample rate f_s = 1/T_s: the sensors are sampled at t = kT_s, the
 controller computes τ_cmd[k], which is applied through a zero-order hold after the total latency
