@@ -334,26 +334,31 @@ def certify(source) -> Certificate:
         return _certify(doc)
 
 
-def codegen(source, out) -> GeneratedC:
+def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
     """The C99 port of a controller file's runtime, with its golden-vector test, written into
     ``out`` (the library twin of ``exotune codegen``).
 
     Parameters
     ----------
     source : path or ExportedController
-        A controller file (certify it first), or the result of :func:`export`.
+        A controller file, or the result of :func:`export`; it is certified first.
     out : path
         Directory for ``exotune_controller.h``, ``exotune_controller.c`` and
         ``exotune_golden_test.c`` (all written or none).
+    allow_uncertified : bool
+        Write the C of a file that does not certify (otherwise
+        :class:`~exotune.errors.RunFailed`, the reasons named, nothing written); the code says it
+        is uncertified.
 
     Returns
     -------
     GeneratedC
-        Where the files went, the number of controllers and sections, the compiler flags.
+        Where the files went, the number of controllers and sections, the compiler flags, the
+        file's sha256 and its certification (``certified``, ``reasons``).
 
     References
     ----------
-    docs/controller-file.md#c-runtime.
+    docs/deploying.md; docs/controller-file.md#c-runtime.
 
     Examples
     --------
@@ -361,8 +366,8 @@ def codegen(source, out) -> GeneratedC:
     >>> d = tempfile.mkdtemp()
     >>> c = export("examples/scheduled.yaml", 1000.0, os.path.join(d, "c.yaml"))
     >>> g = codegen(c, os.path.join(d, "c_src"))
-    >>> g.files[1], g.controllers, g.flags
-    ('exotune_controller.c', 6, '-std=c99 -O2 -ffp-contract=off')
+    >>> g.files[1], g.controllers, g.flags, g.certified
+    ('exotune_controller.c', 6, '-std=c99 -O2 -ffp-contract=off', True)
     """
     from .controllerfile import write_c_sources
     from .controllerfile.results import ExportedController
@@ -371,10 +376,11 @@ def codegen(source, out) -> GeneratedC:
         if source.path is None:
             raise TypeError("codegen needs a written controller file (export it to a path first)")
         source = source.path
-    return write_c_sources(source, out)
+    return write_c_sources(source, out, allow_uncertified=allow_uncertified)
 
 
-def identify(source, out=None, *, delay_s: float = 0.0, filter_hz: float | None = None) -> PlantEstimate:
+def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
+             sample_rate_hz: float | None = None) -> PlantEstimate:
     """The plant parameters a measured log determines, with standard errors (the library twin of
     ``exotune identify``).
 
@@ -385,10 +391,13 @@ def identify(source, out=None, *, delay_s: float = 0.0, filter_hz: float | None 
     out : path, optional
         Write the ``plant`` and ``uncertainty`` sections (YAML) there (a path source only; only
         when every estimate is physical).
-    delay_s : float
-        Delay [s] from ``tau_cmd`` to the applied torque (logs with ``tau_cmd``).
+    delay_s : float or "auto"
+        Delay [s] from ``tau_cmd`` to the applied torque (logs with ``tau_cmd``); ``"auto"``
+        estimates it.
     filter_hz : float, optional
         Corner of the state-variable filter [Hz].
+    sample_rate_hz : float, optional
+        Sample rate [Hz], overriding the time column (which may then be absent).
 
     Returns
     -------
@@ -397,7 +406,7 @@ def identify(source, out=None, *, delay_s: float = 0.0, filter_hz: float | None 
 
     References
     ----------
-    docs/identification.md; paper eq. (1).
+    docs/identification.md; paper eq. (5).
 
     Examples
     --------
@@ -417,8 +426,8 @@ def identify(source, out=None, *, delay_s: float = 0.0, filter_hz: float | None 
     if isinstance(source, Mapping):
         if out is not None:
             raise TypeError("identify writes its sections only for a log file (give a path)")
-        return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s), filter_hz=filter_hz)
-    return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz)
+        return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s, sample_rate_hz), filter_hz=filter_hz)
+    return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz)
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,

@@ -370,43 +370,53 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s):
 @cli.command("codegen")
 @click.argument("controller_file", metavar="CONTROLLER.yaml")
 @click.option("-o", "--out", "out_dir", required=True, metavar="DIR", help="Directory for the C files.")
-def codegen_cmd(controller_file, out_dir):
-    """Write the C99 port of a controller file's runtime (docs/controller-file.md#c-runtime):
-    exotune_controller.{h,c} and exotune_golden_test.c, which checks the port against the file's
-    golden vectors on the target. Certify the file first; all files are written or none."""
+@click.option("--allow-uncertified", "allow_uncertified", is_flag=True,
+              help="Write the C of a file that does not certify, stamped as uncertified.")
+def codegen_cmd(controller_file, out_dir, allow_uncertified):
+    """Write the C99 port of a controller file's runtime (docs/deploying.md):
+    exotune_controller.{h,c} and exotune_golden_test.c, which checks the port on the target. The
+    file is certified first: one that does not certify is refused (exit 1, the reasons named,
+    nothing written) unless --allow-uncertified. The code carries the file's sha256, the exotune
+    version and the verdict. All files are written or none."""
     from .controllerfile import write_c_sources
     from .jsonio import check_outputs
 
     check_outputs([controller_file], out_dirs={"-o": out_dir})
-    click.echo(write_c_sources(controller_file, out_dir).to_text())
+    click.echo(write_c_sources(controller_file, out_dir, allow_uncertified=allow_uncertified).to_text())
 
 
 @cli.command("identify")
 @click.argument("log_file", metavar="LOG.csv")
 @click.option("-o", "--out", "out", default=None, metavar="PLANT.yaml",
               help="Write the plant and uncertainty sections (YAML) for a design file.")
-@click.option("--delay-s", "delay_s", default=None, metavar="S",
-              help="Delay [s] from tau_cmd to the applied torque (logs with a tau_cmd column; default 0).")
+@click.option("--delay-s", "delay_s", default=None, metavar="S|auto",
+              help="Delay [s] from tau_cmd to the applied torque (logs with a tau_cmd column; default 0; auto: estimated).")
 @click.option("--filter-hz", "filter_hz", default=None, metavar="F",
               help="Corner of the state-variable filter [Hz] (default 20, at most a hundredth of the rate).")
+@click.option("--sample-rate-hz", "sample_rate_hz", default=None, metavar="F",
+              help="Sample rate [Hz], overriding the time column (which may then be absent).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.pass_context
-def identify_cmd(ctx, log_file, out, delay_s, filter_hz, as_json):
+def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, as_json):
     """Identify the plant (J_m, B_m, K_s, J_j, K_c) from a measured log (docs/identification.md).
 
     LOG.csv holds a header row of column names and one row per sample (t, theta_m, tau_s, tau_m or
-    tau_cmd; theta_j, tau_c, theta_h for more parameters). Exit code 1 when an estimate is not
-    physical (≤ 0): nothing is written then."""
+    tau_cmd; theta_j, tau_c, theta_h for more parameters). Exit code 0: every parameter the
+    columns allow identified; 1: some parameter not identified or not physical (≤ 0; nothing is
+    written then); 2: bad input, or a log without excitation."""
     from .identification import identify_file
     from .jsonio import check_outputs
     from .options import number_value
 
     check_outputs([log_file], outputs={"-o": out})
-    delay = 0.0 if delay_s is None else number_value("--delay-s", delay_s, False)
+    delay = "0" if delay_s is None else delay_s
+    if delay.strip().lower() != "auto":
+        delay = number_value("--delay-s", delay, False)
     fh = None if filter_hz is None else number_value("--filter-hz", filter_hz, True)
-    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh)
+    fs = None if sample_rate_hz is None else number_value("--sample-rate-hz", sample_rate_hz, True)
+    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs)
     click.echo(r.to_json() if as_json else r.to_text())
-    if not r.physical:
+    if not r.complete:
         ctx.exit(1)
 
 

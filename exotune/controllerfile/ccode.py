@@ -8,323 +8,234 @@ refusals (a non-finite input, a command or state that overflows: fault code, sta
 Every coefficient is written with 17 significant digits, so it is the file's double exactly, and
 every sum runs in the reference runtime's order: compiled without contraction of a·b + c into a
 fused multiply-add (``-ffp-contract=off``; GCC contracts by default on targets with FMA), the
-port reproduces the reference runtime's outputs to rounding. ``exotune_golden_test.c`` runs the
-file's golden vectors (the nominal controller and every gain-schedule entry) through the port
-and checks them as ``exotune certify`` checks the reference runtime (1e-9 of their scale): run
-it on the target before the controller drives a joint.
+port reproduces the reference runtime's outputs to rounding. The C text of the step, the
+hardening (fast-math refused, subnormals flushed, a self-check at init) and the schedule switch
+live in :mod:`exotune.controllerfile.cstep`; ``exotune_golden_test.c``
+(:mod:`exotune.controllerfile.cgolden`) checks every controller, every fault path and the clamp
+against the reference runtime with a tolerance per output derived from its rounding: run it on
+the target before the controller drives a joint.
 
-No allocation, no recursion, no library call except ``isfinite`` and ``fabs`` from ``math.h``;
-the state is a plain struct the caller owns (one per joint).
+:func:`write_c_sources` certifies the file first (once) and refuses one that does not certify
+unless told otherwise; the code carries the file's sha256, the exotune version and the verdict.
+
+No allocation, no recursion, no library call except ``isfinite``, ``isnan``, ``isinf`` and
+``fabs`` from ``math.h``; the state is a plain struct the caller owns (one per joint).
 
 References
 ----------
-docs/controller-file.md#c-runtime; paper §V (the 1 kHz runtime of the experiments).
+docs/deploying.md; docs/controller-file.md#c-runtime; paper §V (the 1 kHz runtime of the
+experiments).
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 
-from ..errors import ConfigError
-from ..sampled import Measured
+from ..errors import ConfigError, RunFailed
+from ..version import __version__
+from .cgolden import golden_program, golden_rows
+from .cstep import (BUMPLESS_TAU_S, CHECKS_C, FLUSH_BELOW, RETURN_CODES, SIGNALS, STEP_C, ascii_text, c_double,
+                    controllers_of, layouts_of, state_maps)
 from .results import GeneratedC
-from .fileio import schedule_entry_doc
-from .runtime import Runtime
 
-__all__ = ["c_sources", "write_c_sources", "C_FILES", "C_FLAGS", "GOLDEN_TOLERANCE"]
+__all__ = ["c_sources", "write_c_sources", "C_FILES", "C_FLAGS", "MIN_COEFFICIENT"]
 
 C_FILES = ("exotune_controller.h", "exotune_controller.c", "exotune_golden_test.c")
 C_FLAGS = "-std=c99 -O2 -ffp-contract=off"
-GOLDEN_TOLERANCE = 1e-9  # of the golden outputs' scale, as certify checks the reference runtime
-
-_SIGNALS = tuple(Measured)  # theta_m, omega_m, tau_s, dtau_s, tau_c
-
-
-def _d(x: float) -> str:
-    """A C double literal equal to ``x`` (17 significant digits round-trip exactly)."""
-    x = float(x)
-    if not math.isfinite(x):
-        raise ValueError(f"a controller coefficient is not finite: {x!r}")
-    s = repr(x)
-    return s if any(c in s for c in ".en") else s + ".0"
-
-
-def _controllers(doc: dict) -> list[tuple[str, float | None, Runtime]]:
-    """(label, joint angle [rad] or None, reference runtime): the nominal controller, then every
-    gain-schedule entry — each as the reference runtime runs it, so that the tables below hold its
-    gains, its sensed filters and its loop filters in its order."""
-    out = [("nominal", None, Runtime(doc))]
-    for e in (doc.get("gain_schedule") or {}).get("entries", []):
-        out.append((f"joint angle {e['joint_angle_rad']!r} rad", float(e["joint_angle_rad"]),
-                    Runtime(schedule_entry_doc(doc, e))))
-    return out
+# a nonzero coefficient below this magnitude could make a product with a flushed-size value subnormal
+MIN_COEFFICIENT = 1e-150
 
 
 def _tables(ctrls) -> dict:
-    """Flat coefficient tables of every controller, in the reference runtime's order."""
+    """Flat coefficient tables of every controller, in the reference runtime's order; a filter's
+    first section is counted from its controller's first section (the state's index)."""
     gains, filters, sections = [], [], []
-    ctrl_rows = []
-    for _label, _angle, rt in ctrls:
-        g0 = len(gains)
-        gains += [(_SIGNALS.index(s), g) for s, g in rt.gains.items()]
-        f0 = len(filters)
+    rows = []
+    for (_label, _angle, rt), layout in zip(ctrls, layouts_of(ctrls)):
+        g0, f0, s0 = len(gains), len(filters), len(sections)
+        gains += [(SIGNALS.index(s), g) for s, g in rt.gains.items()]
         for signal, f in [(s, f) for s, f in rt.filters] + [("tau_cmd", f) for f in rt.loop]:
             coef = f.coefficients
-            filters.append((-1 if signal == "tau_cmd" else _SIGNALS.index(signal), len(sections), len(coef)))
+            filters.append((-1 if signal == "tau_cmd" else SIGNALS.index(signal), len(sections) - s0, len(coef)))
             sections.extend(coef)
-        ctrl_rows.append((g0, len(gains) - g0, f0, len(rt.filters), len(rt.loop), rt.loop_feedthrough))
-    return {"gains": gains, "filters": filters, "sections": sections, "controllers": ctrl_rows}
+        rows.append((g0, len(gains) - g0, f0, len(rt.filters), len(rt.loop), s0, len(sections) - s0, layout,
+                     rt.loop_feedthrough))
+    small = [x for _s, g in gains for x in (g,)] + [x for c in sections for x in c] + [r[-1] for r in rows]
+    small = [x for x in small if x != 0.0 and abs(x) < MIN_COEFFICIENT]
+    if small:
+        raise ConfigError("controller", f"a coefficient of magnitude {abs(small[0]):.3g} < {MIN_COEFFICIENT:g}: "
+                          "the C port's constant step time needs every nonzero coefficient at least that large")
+    return {"gains": gains, "filters": filters, "sections": sections, "controllers": rows}
 
 
-def _header(doc: dict, n_ctrl: int, max_sections: int) -> str:
+def _trace(doc: dict, trace: dict | None) -> dict:
+    """The traceability constants: the file's sha256, the exotune version, the verdict."""
+    t = {"sha256": "unknown (generated from a document, not a file)", "certified": False,
+         "verdict": "NOT CHECKED", "reasons": ()}
+    t.update(trace or {})
+    return t
+
+
+def _header(doc: dict, n_ctrl: int, max_sections: int, trace: dict) -> str:
+    """``exotune_controller.h``. One function on purpose: the header is one template read top to
+    bottom as the user reads the file."""
     fs = float(doc["sample_rate_hz"]["value"])
     T = float(doc["delay_s"]["value"])
-    return f"""/* exotune_controller.h — generated by exotune codegen from a controller file (docs/controller-file.md#c-runtime).
- * Do not edit: regenerate from the controller file. Compile with {C_FLAGS} (no fused multiply-add),
- * then run exotune_golden_test on the target. */
+    decay = math.exp(-1.0 / (fs * BUMPLESS_TAU_S))
+    codes = "\n".join(f"#define {name} {v}  /* {ascii_text(what)} */" for name, v, what in RETURN_CODES)
+    reasons = "".join(f"\n *   - {ascii_text(r)}" for r in trace["reasons"])
+    return f"""/* exotune_controller.h - generated by exotune codegen from a controller file (docs/deploying.md,
+ * docs/controller-file.md#c-runtime). Do not edit: regenerate from the controller file.
+ * Source sha256 {trace['sha256']}, exotune {__version__}, certification: {trace['verdict']}{reasons}
+ * Build with {C_FLAGS} (no fused multiply-add); never with -ffast-math or -ffinite-math-only
+ * (refused by #error). Run exotune_golden_test on the target before the controller drives a joint. */
 #ifndef EXOTUNE_CONTROLLER_H
 #define EXOTUNE_CONTROLLER_H
 
-#define EXOTUNE_SAMPLE_RATE_HZ {_d(fs)}  /* [Hz] the rate the file was certified at */
-#define EXOTUNE_DELAY_S {_d(T)}  /* [s] measured-to-applied latency the file was certified with */
-#define EXOTUNE_N_CONTROLLERS {n_ctrl}  /* 0: nominal; 1…: gain-schedule entries (exotune_controller_for_angle) */
-#define EXOTUNE_MAX_SECTIONS {max_sections}
+#ifdef __cplusplus
+extern "C" {{
+#endif
 
-#define EXOTUNE_OK 0
-#define EXOTUNE_FAULT_INPUT 1     /* a non-finite input: refused, state unchanged (command zero torque) */
-#define EXOTUNE_FAULT_OVERFLOW 2  /* the command or a state overflows: refused, state unchanged */
+/* where the code came from: printed by exotune_golden_test; log exotune_build_info at start-up */
+#define EXOTUNE_SOURCE_SHA256 "{trace['sha256']}"  /* sha256 of the controller file's bytes */
+#define EXOTUNE_VERSION "{__version__}"  /* the exotune that generated this code */
+#define EXOTUNE_CERTIFIED {1 if trace['certified'] else 0}  /* 1: exotune certify passed on the file at generation */
+#define EXOTUNE_CERTIFICATION "{ascii_text(trace['verdict'])}"
+extern const char exotune_build_info[];  /* "exotune_controller sha256=... exotune=... certification=..." */
+
+#define EXOTUNE_SAMPLE_RATE_HZ {c_double(fs)}  /* [Hz] the rate the file was certified at */
+#define EXOTUNE_DELAY_S {c_double(T)}  /* [s] measured-to-applied latency the file was certified with */
+#define EXOTUNE_N_CONTROLLERS {n_ctrl}  /* 0: nominal; 1...: gain-schedule entries (exotune_controller_for_angle) */
+#define EXOTUNE_MAX_SECTIONS {max_sections}  /* sections of the largest controller */
+#define EXOTUNE_FLUSH_BELOW {c_double(FLUSH_BELOW)}  /* inputs and states below this magnitude are zero: constant step time */
+#ifndef EXOTUNE_BUMPLESS_DECAY  /* per sample: time constant {BUMPLESS_TAU_S:g} s (may be defined, 0 <= d < 1, when compiling) */
+#define EXOTUNE_BUMPLESS_DECAY {c_double(decay)}
+#endif
+
+/* return codes: every function returns one of these */
+{codes}
+
+/* exotune_switch / exotune_schedule modes */
+#define EXOTUNE_SWITCH_RESET 0     /* the new controller starts from the zero state */
+#define EXOTUNE_SWITCH_BUMPLESS 1  /* states carried over (same layout), command continuous at the switch */
 
 typedef struct {{
     double theta_m;  /* motor angle [rad] */
     double omega_m;  /* motor velocity [rad/s] */
-    double tau_s;    /* SEA spring torque [N·m] */
-    double dtau_s;   /* its rate [N·m/s] */
-    double tau_c;    /* cuff (human) torque [N·m] */
+    double tau_s;    /* SEA spring torque [N.m] */
+    double dtau_s;   /* its rate [N.m/s] */
+    double tau_c;    /* cuff (human) torque [N.m] */
 }} exotune_inputs;
 
 typedef struct {{
-    int controller;     /* which controller runs (0: nominal) */
-    double limit_nm;    /* clamp of the command [N·m] before the DOB sees it; 0: none */
-    double z[EXOTUNE_MAX_SECTIONS][2];  /* section states, DF-II transposed */
+    int controller;     /* which controller runs (0: nominal); -1: not initialized */
+    int has_last;       /* last[] holds the last accepted inputs */
+    double limit_nm;    /* clamp of the command [N.m] before the DOB sees it; 0: none */
+    double offset_nm;   /* bumpless-switch offset added to the command [N.m], decays */
+    double last[5];     /* the last accepted inputs (theta_m, omega_m, tau_s, dtau_s, tau_c) */
+    double z[EXOTUNE_MAX_SECTIONS][2];  /* section states of the running controller, DF-II transposed */
 }} exotune_state;
 
-/* Zero state; controller 0…EXOTUNE_N_CONTROLLERS−1; limit_nm > 0 clamps (0: no clamp).
- * Returns EXOTUNE_OK, or −1 for a controller index or limit out of range. */
+/* Zero state, controller 0...EXOTUNE_N_CONTROLLERS-1, limit_nm > 0 clamps (0: no clamp); checks the
+ * floating-point environment. EXOTUNE_OK, EXOTUNE_ERR_ARGUMENT (nothing changed) or
+ * EXOTUNE_ERR_FLOAT_ENV (the state cannot be stepped). */
 int exotune_init(exotune_state *st, int controller, double limit_nm);
 
-/* The gain-schedule entry nearest joint_angle_rad [rad] (0 when the file has no schedule). */
-int exotune_controller_for_angle(double joint_angle_rad);
+/* *controller = the gain-schedule entry nearest joint_angle_rad [rad] (0 when the file has no schedule).
+ * EXOTUNE_OK, EXOTUNE_FAULT_ANGLE (NaN or infinite angle; *controller unchanged) or EXOTUNE_ERR_ARGUMENT. */
+int exotune_controller_for_angle(double joint_angle_rad, int *controller);
 
-/* One sample: *tau_cmd [N·m] for the sampled inputs; EXOTUNE_OK, or a fault code with the state
- * and *tau_cmd unchanged. */
+/* Run controller `controller` from the next step. mode EXOTUNE_SWITCH_RESET: zero state.
+ * EXOTUNE_SWITCH_BUMPLESS: the states are carried over when both controllers have the same layout
+ * (zero otherwise) and the difference between the old controller's command and the new one's, both
+ * for the last accepted inputs, becomes an offset added to the command, which decays by
+ * EXOTUNE_BUMPLESS_DECAY per sample: the command does not jump at the switch. EXOTUNE_OK,
+ * EXOTUNE_ERR_ARGUMENT or EXOTUNE_FAULT_OVERFLOW (state unchanged). */
+int exotune_switch(exotune_state *st, int controller, int mode);
+
+/* exotune_controller_for_angle, then exotune_switch(st, that controller, mode) when it is not the
+ * running one. The return codes of those two. */
+int exotune_schedule(exotune_state *st, double joint_angle_rad, int mode);
+
+/* One sample: *tau_cmd [N.m] for the sampled inputs. EXOTUNE_OK, EXOTUNE_FAULT_INPUT,
+ * EXOTUNE_FAULT_OVERFLOW (state and *tau_cmd unchanged: command zero torque, latch the fault) or
+ * EXOTUNE_ERR_ARGUMENT. */
 int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd);
+
+#ifdef __cplusplus
+}}
+#endif
 
 #endif
 """
 
 
-# the functions of exotune_controller.c after its tables: the reference runtime's step, in C
-_STEP_C = r'''
-int exotune_init(exotune_state *st, int controller, double limit_nm)
-{
-    int i;
-    if (controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || !(limit_nm >= 0.0) || !isfinite(limit_nm))
-        return -1;
-    st->controller = controller;
-    st->limit_nm = limit_nm;
-    for (i = 0; i < EXOTUNE_MAX_SECTIONS; ++i)
-        st->z[i][0] = st->z[i][1] = 0.0;
-    return EXOTUNE_OK;
-}
-
-int exotune_controller_for_angle(double joint_angle_rad)
-{
-    int i, best = 0;
-    double d = 0.0;
-    for (i = 1; i < EXOTUNE_N_CONTROLLERS; ++i) {  /* the first nearest entry, as the reference runtime */
-        double e = fabs(ANGLES[i - 1] - joint_angle_rad);
-        if (best == 0 || e < d) {
-            best = i;
-            d = e;
-        }
-    }
-    return best;
-}
-
-static double filter_step(const exo_filter *f, double (*z)[2], double x)
-{
-    int k;
-    for (k = 0; k < f->count; ++k) {
-        const exo_section *c = &SECTIONS[f->first + k];
-        double *s = z[f->first + k];
-        double y = c->b0 * x + s[0];
-        s[0] = c->b1 * x - c->a1 * y + s[1];
-        s[1] = c->b2 * x - c->a2 * y;
-        x = y;
-    }
-    return x;
-}
-
-static double filter_peek_zero(const exo_filter *f, double (*z)[2])
-{
-    int k;
-    double x = 0.0;
-    for (k = 0; k < f->count; ++k)
-        x = SECTIONS[f->first + k].b0 * x + z[f->first + k][0];
-    return x;
-}
-
-int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
-{
-    const exo_controller *c;
-    double v[5], saved[EXOTUNE_MAX_SECTIONS][2], rest = 0.0, fsum = 0.0, h = 0.0, u;
-    int i, k, n;
-    if (st->controller < 0 || st->controller >= EXOTUNE_N_CONTROLLERS)
-        return -1;
-    c = &CONTROLLERS[st->controller];
-    v[0] = y->theta_m; v[1] = y->omega_m; v[2] = y->tau_s; v[3] = y->dtau_s; v[4] = y->tau_c;
-    for (i = 0; i < 5; ++i)
-        if (!isfinite(v[i]))
-            return EXOTUNE_FAULT_INPUT;
-    n = 0;
-    for (i = 0; i < c->n_sensed + c->n_loop; ++i)
-        n += FILTERS[c->filter0 + i].count;
-    for (k = 0; k < n; ++k) {  /* the controller's sections are contiguous from its first filter */
-        int j = FILTERS[c->filter0].first + k;
-        saved[k][0] = st->z[j][0];
-        saved[k][1] = st->z[j][1];
-    }
-    for (i = 0; i < c->n_gains; ++i)
-        rest += GAINS[c->gain0 + i].gain * v[GAINS[c->gain0 + i].signal];
-    for (i = 0; i < c->n_sensed; ++i) {
-        const exo_filter *f = &FILTERS[c->filter0 + i];
-        fsum += filter_step(f, st->z, v[f->signal]);
-    }
-    rest = rest + fsum;
-    for (i = 0; i < c->n_loop; ++i)
-        h += filter_peek_zero(&FILTERS[c->filter0 + c->n_sensed + i], st->z);
-    u = (rest + h) / (1.0 - c->g);
-    if (st->limit_nm > 0.0 && isfinite(u))  /* anti-windup: the DOB sees the applied command */
-        u = u > st->limit_nm ? st->limit_nm : (u < -st->limit_nm ? -st->limit_nm : u);
-    for (i = 0; i < c->n_loop; ++i)
-        filter_step(&FILTERS[c->filter0 + c->n_sensed + i], st->z, u);
-    {
-        int ok = isfinite(u);
-        for (k = 0; k < n && ok; ++k) {
-            int j = FILTERS[c->filter0].first + k;
-            ok = isfinite(st->z[j][0]) && isfinite(st->z[j][1]);
-        }
-        if (!ok) {
-            for (k = 0; k < n; ++k) {
-                int j = FILTERS[c->filter0].first + k;
-                st->z[j][0] = saved[k][0];
-                st->z[j][1] = saved[k][1];
-            }
-            return EXOTUNE_FAULT_OVERFLOW;
-        }
-    }
-    *tau_cmd = u;
-    return EXOTUNE_OK;
-}'''
-
-
-def _source(doc: dict, ctrls, t: dict) -> str:
-    L = ["/* exotune_controller.c — generated by exotune codegen (docs/controller-file.md#c-runtime).",
-         f" * Source: {doc.get('provenance', {}).get('source')!s}, exported by exotune "
-         f"{doc.get('provenance', {}).get('exotune_version')!s}. Compile with {C_FLAGS}. */",
-         "#include <math.h>", "#include \"exotune_controller.h\"", "",
+def _source(doc: dict, ctrls, t: dict, trace: dict) -> str:
+    prov = doc.get("provenance") or {}
+    L = ["/* exotune_controller.c - generated by exotune codegen (docs/deploying.md).",
+         f" * Source: {ascii_text(prov.get('source'))}, sha256 {trace['sha256']}, exported by exotune "
+         f"{ascii_text(prov.get('exotune_version'))}.",
+         f" * Build with {C_FLAGS}. */",
+         "#include <float.h>", "#include <math.h>", "#include \"exotune_controller.h\"", "", CHECKS_C,
          "/* per static gain: input signal (0 theta_m, 1 omega_m, 2 tau_s, 3 dtau_s, 4 tau_c), gain */",
          "typedef struct { int signal; double gain; } exo_gain;",
-         "/* per filter: input signal (−1: tau_cmd, the DOB loop), first section, number of sections */",
+         "/* per filter: input signal (-1: tau_cmd, the DOB loop), first section (of its controller), sections */",
          "typedef struct { int signal; int first; int count; } exo_filter;",
          "/* per section: b0, b1, b2, a1, a2 (a0 = 1) */",
          "typedef struct { double b0, b1, b2, a1, a2; } exo_section;",
-         "/* per controller: first gain, gains, first filter, sensed filters, loop filters, g = Σ loop feed-throughs */",
-         "typedef struct { int gain0, n_gains, filter0, n_sensed, n_loop; double g; } exo_controller;", ""]
+         "/* per section: M (DF-II-transposed state = M (w[k], w[k-1])) and W = M^-1 (0: singular), for a bumpless switch */",
+         "typedef struct { double m00, m01, m10, m11, w00, w01, w10, w11; } exo_map;",
+         "/* per controller: first gain, gains, first filter, sensed filters, loop filters, first section,",
+         " * sections, layout (same layout: a bumpless switch carries the states), g = sum of loop feed-throughs */",
+         "typedef struct { int gain0, n_gains, filter0, n_sensed, n_loop, sec0, n_sections, layout; double g; } "
+         "exo_controller;", ""]
     L.append(f"static const exo_gain GAINS[{max(len(t['gains']), 1)}] = {{")
-    L += [f"    {{{s}, {_d(g)}}}," for s, g in t["gains"]] or ["    {0, 0.0},"]
+    L += [f"    {{{s}, {c_double(g)}}}," for s, g in t["gains"]] or ["    {0, 0.0},"]
     L.append("};")
     L.append(f"static const exo_filter FILTERS[{max(len(t['filters']), 1)}] = {{")
     L += [f"    {{{s}, {a}, {n}}}," for s, a, n in t["filters"]] or ["    {0, 0, 0},"]
     L.append("};")
     L.append(f"static const exo_section SECTIONS[{max(len(t['sections']), 1)}] = {{")
-    L += [f"    {{{', '.join(_d(x) for x in c)}}}," for c in t["sections"]] or ["    {0.0, 0.0, 0.0, 0.0, 0.0},"]
+    L += [f"    {{{', '.join(c_double(x) for x in c)}}}," for c in t["sections"]] or ["    {0.0, 0.0, 0.0, 0.0, 0.0},"]
+    L.append("};")
+    L.append(f"static const exo_map MAPS[{max(len(t['sections']), 1)}] = {{")
+    L += [f"    {{{', '.join(c_double(x) for x in state_maps(c))}}}," for c in t["sections"]] or \
+        ["    {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0},"]
     L.append("};")
     L.append(f"static const exo_controller CONTROLLERS[{len(ctrls)}] = {{")
-    L += [f"    {{{g0}, {ng}, {f0}, {ns}, {nl}, {_d(g)}}},  /* {label} */"
-          for (g0, ng, f0, ns, nl, g), (label, _a, _c) in zip(t["controllers"], ctrls)]
+    L += [f"    {{{', '.join(str(x) for x in row[:-1])}, {c_double(row[-1])}}},  /* {ascii_text(label)} */"
+          for row, (label, _a, _c) in zip(t["controllers"], ctrls)]
     L.append("};")
     angles = [a for _l, a, _c in ctrls[1:]]
-    L.append(f"static const double ANGLES[{max(len(angles), 1)}] = {{{', '.join(_d(a) for a in angles) or '0.0'}}};")
-    L.append(_STEP_C)
+    L.append(f"static const double ANGLES[{max(len(angles), 1)}] = {{{', '.join(c_double(a) for a in angles) or '0.0'}}};")
+    L.append(STEP_C)
     return "\n".join(L) + "\n"
 
 
-def _golden_test(doc: dict, ctrls) -> str:
-    ins = doc["golden"]["inputs"]
-    n = len(doc["golden"]["tau_cmd"]["values"])
-    outs = [doc["golden"]["tau_cmd"]["values"]]
-    outs += [e["golden_tau_cmd"]["values"] for e in (doc.get("gain_schedule") or {}).get("entries", [])]
-    L = ["/* exotune_golden_test.c — generated by exotune codegen: the controller file's golden vectors",
-         " * through the C port (each controller from the zero state, no clamp), checked to 1e-9 of their",
-         " * scale as exotune certify checks the reference runtime. Exit 0: every controller reproduces them. */",
-         "#include <math.h>", "#include <stdio.h>", "#include \"exotune_controller.h\"", "",
-         f"#define N {n}"]
-    for s in _SIGNALS:
-        L.append(f"static const double IN_{s}[N] = {{{', '.join(_d(x) for x in ins[s]['values'])}}};")
-    L.append(f"static const double OUT[{len(outs)}][N] = {{")
-    L += ["    {" + ", ".join(_d(x) for x in o) + "}," for o in outs]
-    L.append("};")
-    L.append(r'''
-int main(void)
-{
-    int c, k, bad = 0;
-    for (c = 0; c < EXOTUNE_N_CONTROLLERS; ++c) {
-        exotune_state st;
-        double scale = 0.0, err = 0.0;
-        exotune_init(&st, c, 0.0);
-        for (k = 0; k < N; ++k)
-            scale = fabs(OUT[c][k]) > scale ? fabs(OUT[c][k]) : scale;
-        for (k = 0; k < N; ++k) {
-            exotune_inputs y;
-            double u = NAN;
-            y.theta_m = IN_theta_m[k]; y.omega_m = IN_omega_m[k]; y.tau_s = IN_tau_s[k];
-            y.dtau_s = IN_dtau_s[k]; y.tau_c = IN_tau_c[k];
-            if (exotune_step(&st, &y, &u) != EXOTUNE_OK) {
-                err = INFINITY;
-                break;
-            }
-            err = fabs(u - OUT[c][k]) > err ? fabs(u - OUT[c][k]) : err;
-        }
-        printf("controller %d: %d golden samples, max error %.3g N·m (tolerance %.3g N·m)\n", c, N, err,
-               %TOL% * (scale > 1.0 ? scale : 1.0));
-        if (!(err <= %TOL% * (scale > 1.0 ? scale : 1.0)))
-            bad = 1;
-    }
-    printf(bad ? "FAILED: the port does not reproduce the golden vectors\n" : "OK\n");
-    return bad;
-}'''.replace("%TOL%", _d(GOLDEN_TOLERANCE)))
-    return "\n".join(L) + "\n"
-
-
-def c_sources(doc: dict) -> dict[str, str]:
+def c_sources(doc: dict, trace: dict | None = None) -> dict[str, str]:
     """The C99 port of the runtime controller of a validated controller file.
 
     Parameters
     ----------
     doc : dict
         A controller file (:func:`exotune.controllerfile.load_controller`).
+    trace : dict, optional
+        What the code says about its origin: ``sha256`` (of the file's bytes), ``certified``
+        (bool), ``verdict`` (``"CERTIFIED"``, ``"UNCERTIFIED ..."``) and ``reasons``;
+        :func:`write_c_sources` fills it. Without it the code says ``NOT CHECKED``.
 
     Returns
     -------
     dict
-        ``{file name: text}`` for :data:`C_FILES`: the header (API, signal units, fault codes), the
-        controller (every controller of the file: nominal and gain-schedule entries) and the
-        golden-vector test program.
+        ``{file name: text}`` for :data:`C_FILES` (ASCII only): the header (API, signal units,
+        return codes, traceability constants), the controller (every controller of the file:
+        nominal and gain-schedule entries) and the golden test program.
 
     References
     ----------
-    docs/controller-file.md#c-runtime; the reference runtime :class:`exotune.controllerfile.Runtime`.
+    docs/deploying.md; docs/controller-file.md#c-runtime; the reference runtime
+    :class:`exotune.controllerfile.Runtime`.
 
     Examples
     --------
@@ -335,59 +246,71 @@ def c_sources(doc: dict) -> dict[str, str]:
     >>> sorted(files), "exotune_step" in files["exotune_controller.h"]
     (['exotune_controller.c', 'exotune_controller.h', 'exotune_golden_test.c'], True)
     """
-    return _generate(doc)[0]
+    return _generate(doc, _trace(doc, trace))[0]
 
 
-def _generate(doc: dict) -> tuple[dict[str, str], int, int]:
+def _generate(doc: dict, trace: dict) -> tuple[dict[str, str], int, int]:
     """(files, number of controllers, number of sections)."""
-    ctrls = _controllers(doc)
+    ctrls = controllers_of(doc)
     t = _tables(ctrls)
-    max_sections = max(1, len(t["sections"]))
+    max_sections = max([1] + [row[6] for row in t["controllers"]])
     files = {
-        "exotune_controller.h": _header(doc, len(ctrls), max_sections),
-        "exotune_controller.c": _source(doc, ctrls, t),
-        "exotune_golden_test.c": _golden_test(doc, ctrls),
+        "exotune_controller.h": _header(doc, len(ctrls), max_sections, trace),
+        "exotune_controller.c": _source(doc, ctrls, t, trace),
+        "exotune_golden_test.c": golden_program(doc, golden_rows(doc)),
     }
     return files, len(ctrls), len(t["sections"])
 
 
-def write_c_sources(controller_file, out_dir) -> GeneratedC:
-    """``exotune codegen``: validate a controller file, check that the reference runtime
-    reproduces its golden vectors, and write its C99 port (:func:`c_sources`) into ``out_dir``,
-    all files or none.
+def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -> GeneratedC:
+    """``exotune codegen``: validate and certify a controller file, and write its C99 port
+    (:func:`c_sources`) into ``out_dir``, all files or none.
 
     Parameters
     ----------
     controller_file : str or os.PathLike
-        A controller file (``exotune export``; certify it first: the port runs what the file
-        holds, it does not re-run the certification).
+        A controller file (``exotune export``).
     out_dir : str or os.PathLike
         Directory for :data:`C_FILES` (created; existing files of these names are replaced).
+    allow_uncertified : bool
+        Write the port of a file that does not certify; the code then says so
+        (``EXOTUNE_CERTIFIED 0``, the reasons in the header, a warning from the golden test).
 
     Returns
     -------
     GeneratedC
-        Where the files went, the number of controllers and sections, the compiler flags.
+        Where the files went, the number of controllers and sections, the compiler flags, the
+        file's sha256 and the certification verdict.
 
     Raises
     ------
     ConfigError
         An invalid file, or golden vectors its own controller does not reproduce (``golden``).
+    RunFailed
+        The file does not certify (:func:`exotune.controllerfile.certify.certify`, run once) and
+        ``allow_uncertified`` is false: the reasons are named, nothing is written.
 
     References
     ----------
-    docs/controller-file.md#c-runtime.
+    docs/deploying.md#traceability; docs/controller-file.md#c-runtime.
     """
     from pathlib import Path
 
     from ..jsonio import write_files
-    from .certify import golden_problems
+    from .certify import certify, golden_problems
     from .fileio import load_controller
 
     doc = load_controller(controller_file)
     problems, _n, _err = golden_problems(doc)
     if problems:
         raise ConfigError("golden", problems[0] + " (was the file edited? re-export it)")
-    files, n_ctrl, n_sec = _generate(doc)
-    write_files(out_dir, {k: v.encode("utf-8") for k, v in files.items()})
-    return GeneratedC(Path(out_dir), C_FILES, n_ctrl, n_sec, C_FLAGS)
+    sha = hashlib.sha256(Path(controller_file).read_bytes()).hexdigest()
+    cert = certify(doc)
+    if not cert.certified and not allow_uncertified:
+        raise RunFailed(f"not written: {controller_file} does not certify: {'; '.join(cert.reasons)} "
+                        "(--allow-uncertified writes C stamped as uncertified)")
+    verdict = "CERTIFIED" if cert.certified else "UNCERTIFIED (generated with --allow-uncertified)"
+    trace = {"sha256": sha, "certified": cert.certified, "verdict": verdict, "reasons": tuple(cert.reasons)}
+    files, n_ctrl, n_sec = _generate(doc, trace)
+    write_files(out_dir, {k: v.encode("ascii") for k, v in files.items()})
+    return GeneratedC(Path(out_dir), C_FILES, n_ctrl, n_sec, C_FLAGS, sha, cert.certified, tuple(cert.reasons))

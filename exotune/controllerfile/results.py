@@ -65,18 +65,24 @@ class Certificate(Record):
 @dataclass(frozen=True)
 class GeneratedC(Result):
     """``exotune codegen``: the C99 port of a controller file written into ``directory``
-    (``files``), its controllers (1 + gain-schedule entries) and second-order sections, and the
-    compiler flags it is checked with (docs/controller-file.md#c-runtime)."""
+    (``files``), its controllers (1 + gain-schedule entries) and second-order sections, the
+    compiler flags it is checked with, the sha256 of the controller file's bytes and its
+    certification (``certified``, ``reasons``), which the code carries
+    (docs/deploying.md#traceability)."""
 
     directory: Path
     files: tuple[str, ...]
     controllers: int
     sections: int
     flags: str
+    sha256: str = ""
+    certified: bool = False
+    reasons: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         return {"directory": str(self.directory), "files": list(self.files), "controllers": self.controllers,
-                "sections": self.sections, "compile_flags": self.flags}
+                "sections": self.sections, "compile_flags": self.flags, "source_sha256": self.sha256,
+                "certified": self.certified, "reasons": list(self.reasons)}
 
     def to_text(self) -> str:
         """The lines ``exotune codegen`` prints: what was written and how to check it on the target."""
@@ -85,4 +91,6 @@ class GeneratedC(Result):
                 f"{'' if self.controllers == 1 else 's'}, {self.sections} sections)\n"
                 f"check on the target: cc {self.flags} -o exotune_golden_test {d / self.files[1]} "
                 f"{d / self.files[2]} -lm && ./exotune_golden_test\n"
-                "the port runs what the file holds: certify the file (`exotune certify`) before it drives a joint")
+                f"source sha256 {self.sha256}: "
+                + ("certified (exotune certify passed)" if self.certified else
+                   "NOT CERTIFIED (--allow-uncertified; the code says so): it must not drive a joint"))

@@ -6,6 +6,7 @@ runtime's outputs (to rounding: no assertion depends on the exact bits a compile
 from __future__ import annotations
 
 import copy
+import hashlib
 import math
 import re
 import shutil
@@ -21,6 +22,7 @@ from exotune.config import read_yaml
 from exotune.controllerfile import (Runtime, SosFilter, build_export, c_sources, design_at_rate, export_design,
                                    write_controller)
 from exotune.controllerfile.ccode import C_FLAGS
+from exotune.controllerfile.cgolden import golden_rows
 from exotune.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -37,9 +39,11 @@ int main(void)
     char word[16];
     while (scanf("%15s", word) == 1) {
         if (word[0] == 'a') {
-            double a;
-            if (scanf("%lf", &a) != 1) return 3;
-            printf("%d\n", exotune_controller_for_angle(a));
+            char t[64];
+            int c = -7, rc;
+            if (scanf("%63s", t) != 1) return 3;
+            rc = exotune_controller_for_angle(strtod(t, 0), &c);
+            printf("%d %d\n", rc, c);
         } else {
             int c, n, k;
             double lim;
@@ -100,18 +104,21 @@ def test_coefficients_are_the_files_doubles(scheduled):
 
 
 @needs_cc
-def test_golden_test_passes_and_fails_when_the_file_lies(scheduled, tmp_path):
+def test_golden_test_passes_and_checks_the_files_vectors(scheduled, tmp_path):
+    """The generated golden test passes with -Werror and the pedantic warnings; its first rows per
+    controller are the file's golden inputs with the file's golden outputs (to their bounds)."""
     exe = _compile(tmp_path, scheduled, {}, "exotune_golden_test.c")
     res = subprocess.run([str(exe)], capture_output=True, text=True)
     assert res.returncode == 0 and res.stdout.rstrip().endswith("OK"), res.stdout
-    assert res.stdout.count("200 golden samples") == 6
-    bad = copy.deepcopy(scheduled)
-    v = bad["gain_schedule"]["entries"][2]["golden_tau_cmd"]["values"]
-    v[150] += 1e-6 * max(1.0, max(abs(x) for x in v))  # beyond 1e-9 of the scale
-    d = tmp_path / "bad"
-    d.mkdir()
-    res = subprocess.run([str(_compile(d, bad, {}, "exotune_golden_test.c"))], capture_output=True, text=True)
-    assert res.returncode == 1 and "FAILED" in res.stdout and "controller 3:" in res.stdout
+    rows = golden_rows(scheduled)
+    outs = [scheduled["golden"]["tau_cmd"]["values"]]
+    outs += [e["golden_tau_cmd"]["values"] for e in scheduled["gain_schedule"]["entries"]]
+    inits = [i for i, r in enumerate(rows) if r[0] == 0 and r[3] == 0 and r[2][0] == 0.0]
+    assert [rows[i][1] for i in inits] == list(range(6))
+    for c, i in enumerate(inits):
+        got = rows[i + 1:i + 201]
+        assert all(r[0] == 1 and r[3] == 0 for r in got)
+        assert all(abs(r[4] - want) <= r[5] for r, want in zip(got, outs[c]))
 
 
 @needs_cc
@@ -156,10 +163,11 @@ def test_controller_for_angle_is_the_nearest_entry(scheduled, tmp_path):
     exe = _compile(tmp_path, scheduled, {"harness.c": HARNESS}, "harness.c")
     angles = [e["joint_angle_rad"] for e in scheduled["gain_schedule"]["entries"]]
     queries = [-10.0, angles[0], (angles[1] + angles[2]) / 2, angles[-1] + 0.01, 1e9]
+    queries += [math.nan, math.inf, -math.inf]
     out = subprocess.run([str(exe)], input="".join(f"angle {q!r}\n" for q in queries), capture_output=True,
-                         text=True, check=True).stdout.split()
-    want = [1 + min(range(len(angles)), key=lambda i: abs(angles[i] - q)) for q in queries]
-    assert [int(x) for x in out] == want
+                         text=True, check=True).stdout.split("\n")
+    want = [f"0 {1 + min(range(len(angles)), key=lambda i: abs(angles[i] - q))}" for q in queries[:5]]
+    assert out[:8] == want + ["3 -7"] * 3  # a non-finite angle: EXOTUNE_FAULT_ANGLE, *controller untouched
 
 
 def test_codegen_command_writes_all_files_or_refuses(tmp_path):
@@ -167,9 +175,11 @@ def test_codegen_command_writes_all_files_or_refuses(tmp_path):
     doc = export_design(ROOT / "examples" / "scheduled.yaml", 1000.0, ctl).to_dict()
     res = CliRunner().invoke(cli, ["codegen", str(ctl), "-o", str(tmp_path / "c")])
     assert res.exit_code == 0, res.output
-    assert {p.name: p.read_text(encoding="utf-8") for p in (tmp_path / "c").iterdir()} == c_sources(doc)
+    sha = hashlib.sha256(ctl.read_bytes()).hexdigest()
+    trace = {"sha256": sha, "certified": True, "verdict": "CERTIFIED", "reasons": ()}
+    assert {p.name: p.read_text(encoding="ascii") for p in (tmp_path / "c").iterdir()} == c_sources(doc, trace)
     assert "6 controllers, 30 sections" in res.output and "-ffp-contract=off" in res.output
-    assert "certify the file (`exotune certify`)" in res.output  # codegen does not certify
+    assert f"source sha256 {sha}: certified" in res.output
     # a file whose golden vectors its controller does not reproduce: refused, nothing written
     bad = copy.deepcopy(doc)
     bad["golden"]["tau_cmd"]["values"][10] += 1.0

@@ -1,0 +1,338 @@
+"""The C text of the runtime's port (``exotune codegen``): the step, the schedule switch and the
+checks of the build, and the helpers the generators share (C literals, ASCII comments, the
+controllers of a file in the reference runtime's order).
+
+The step is the reference runtime's (:mod:`exotune.controllerfile.runtime`) operation for
+operation, with two additions that never change a result by more than 1e-100 of a signal's unit
+(docs/deploying.md#step-contract):
+
+* inputs, section states and the bumpless offset of magnitude below ``EXOTUNE_FLUSH_BELOW``
+  (1e-100) are set to zero, so that no operation of the step ever meets a subnormal number and the
+  step takes the same time whatever the data (x86 and many FPUs take 10-100 times longer on
+  subnormals; a decaying filter state otherwise settles into them);
+* a switch between gain-schedule entries either resets the states or is bumpless: between
+  controllers of the same layout each section's state is mapped through its direct-form-II state
+  (the last two values of the signal the section's denominator filters, which does not depend on
+  its numerator: for sections with the same poles the new section is then exactly as if it had run
+  all along on the same input), and the difference between the old controller's command and the
+  new one's (both for the last accepted inputs) becomes an offset added to the command that decays
+  by ``EXOTUNE_BUMPLESS_DECAY`` per sample.
+
+References
+----------
+docs/deploying.md; docs/controller-file.md#c-runtime.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..sampled import Measured
+from .fileio import schedule_entry_doc
+from .runtime import Runtime
+
+__all__ = ["SIGNALS", "RETURN_CODES", "FLUSH_BELOW", "BUMPLESS_TAU_S", "c_double", "ascii_text", "controllers_of",
+           "layouts_of", "state_maps", "CHECKS_C", "STEP_C"]
+
+SIGNALS = tuple(Measured)  # theta_m, omega_m, tau_s, dtau_s, tau_c: the order of exotune_inputs
+
+# every return code of the generated API: (macro, value, meaning) -- the header documents each
+RETURN_CODES = (
+    ("EXOTUNE_OK", 0, "success"),
+    ("EXOTUNE_FAULT_INPUT", 1, "exotune_step: an input is NaN or infinite; refused, state and *tau_cmd unchanged "
+                               "(a sensor fault: command zero torque and latch it)"),
+    ("EXOTUNE_FAULT_OVERFLOW", 2, "exotune_step / exotune_switch: the command, a state or the bumpless offset would "
+                                  "overflow (finite inputs too large); refused, state and *tau_cmd unchanged"),
+    ("EXOTUNE_FAULT_ANGLE", 3, "exotune_controller_for_angle / exotune_schedule: the joint angle is NaN or infinite; "
+                               "*controller and the state unchanged (keep the running controller, latch the fault)"),
+    ("EXOTUNE_ERR_ARGUMENT", 4, "a null pointer, a controller index outside 0..EXOTUNE_N_CONTROLLERS-1, a negative, "
+                                "NaN or infinite limit_nm, an unknown switch mode, or a state whose controller index "
+                                "is out of range (not initialized); nothing changed"),
+    ("EXOTUNE_ERR_FLOAT_ENV", 5, "exotune_init: the self-check of the floating-point environment failed (NaN not "
+                                 "detected, infinity not detected, or rounding not to nearest: a build with "
+                                 "finite-math or unsafe-math optimizations, or a changed rounding mode); the "
+                                 "state is not initialized and must not be stepped"),
+)
+
+FLUSH_BELOW = 1e-100  # inputs, states and the bumpless offset below this magnitude are zero in the port
+BUMPLESS_TAU_S = 0.02  # [s] time constant of the decay of the bumpless offset
+
+
+def c_double(x: float) -> str:
+    """A C double literal equal to ``x`` (``repr``: the shortest string that round-trips)."""
+    x = float(x)
+    if not math.isfinite(x):
+        raise ValueError(f"a controller coefficient is not finite: {x!r}")
+    s = repr(x)
+    return s if any(c in s for c in ".en") else s + ".0"
+
+
+def ascii_text(s) -> str:
+    """``s`` fit for a C comment or string: ASCII only (other characters as ``\\uXXXX``), no
+    comment terminator, no quote or backslash that would end a string literal."""
+    out = str(s).encode("ascii", "backslashreplace").decode("ascii")
+    return out.replace("*/", "* /").replace("\\", "/").replace('"', "'").replace("\n", " ")
+
+
+def controllers_of(doc: dict) -> list[tuple[str, float | None, Runtime]]:
+    """(label, joint angle [rad] or None, reference runtime): the nominal controller, then every
+    gain-schedule entry, each as the reference runtime runs it (its gains, its sensed filters and
+    its loop filters, in its order)."""
+    out = [("nominal", None, Runtime(doc))]
+    for e in (doc.get("gain_schedule") or {}).get("entries", []):
+        out.append((f"joint angle {e['joint_angle_rad']!r} rad", float(e["joint_angle_rad"]),
+                    Runtime(schedule_entry_doc(doc, e))))
+    return out
+
+
+def layouts_of(ctrls) -> list[int]:
+    """Per controller, a layout number: controllers with the same filters on the same signals with
+    the same numbers of sections share it (a bumpless switch carries their states over)."""
+    seen: dict[tuple, int] = {}
+    out = []
+    for _label, _angle, rt in ctrls:
+        key = (tuple((s, len(f.coefficients)) for s, f in rt.filters), tuple(len(f.coefficients) for f in rt.loop))
+        out.append(seen.setdefault(key, len(seen)))
+    return out
+
+
+def state_maps(coef) -> tuple[float, ...]:
+    """(M, W) of a section (b0, b1, b2, a1, a2), row by row: its DF-II-transposed state is
+    M·(w[k], w[k-1]), w the signal its denominator filters (w[k] = x[k] - a1 w[k-1] - a2 w[k-2],
+    y = b0 w[k] + b1 w[k-1] + b2 w[k-2]); W = M^-1, or zero when M is singular or its condition
+    number exceeds 1e10 (a numerator sharing a root with the denominator: the section then starts
+    a bumpless switch from the zero state)."""
+    import numpy as np
+
+    b0, b1, b2, a1, a2 = coef
+    M = np.array([[b1 - b0 * a1, b2 - b0 * a2], [b2 - a2 * b0, a1 * b2 - a2 * b1]])
+    ok = np.all(np.isfinite(M)) and np.linalg.cond(M) < 1e10
+    W = np.linalg.inv(M) if ok else np.zeros((2, 2))
+    return tuple(float(x) for x in [*M.ravel(), *W.ravel()])
+
+
+# compile-time checks of the build, at the top of exotune_controller.c
+CHECKS_C = r'''#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__) || defined(_M_FP_FAST)
+#error "exotune_controller.c must not be built with -ffast-math, -ffinite-math-only or /fp:fast: the NaN and overflow guards would be optimized away (docs/deploying.md)"
+#endif
+#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD > 0
+#error "exotune_controller.c needs double arithmetic evaluated in double (FLT_EVAL_METHOD 0): on x87 build with -msse2 -mfpmath=sse (docs/deploying.md)"
+#endif
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#endif
+#ifndef EXOTUNE_BUMPLESS_DECAY
+#error "EXOTUNE_BUMPLESS_DECAY is defined in exotune_controller.h"
+#endif
+'''
+
+# the functions of exotune_controller.c after its tables
+STEP_C = r'''
+const char exotune_build_info[] = "exotune_controller sha256=" EXOTUNE_SOURCE_SHA256 " exotune=" EXOTUNE_VERSION
+    " certification=" EXOTUNE_CERTIFICATION;
+
+/* zero below EXOTUNE_FLUSH_BELOW: no subnormal number ever enters the arithmetic (constant step time) */
+static double flush(double v)
+{
+    return fabs(v) < EXOTUNE_FLUSH_BELOW ? 0.0 : v;
+}
+
+/* NaN and infinity detected, rounding to nearest: what the guards and the golden vectors assume */
+static int float_env_ok(void)
+{
+    volatile double nan_ = NAN, inf_ = INFINITY, one = 1.0, eps = DBL_EPSILON;
+    double a = nan_, b = inf_;
+    return isnan(a) && !isfinite(a) && isinf(b) && !isfinite(b) && one + 0.5 * eps == one
+           && one + 0.75 * eps == one + eps && -one - 0.75 * eps == -one - eps;
+}
+
+int exotune_init(exotune_state *st, int controller, double limit_nm)
+{
+    int i;
+    if (st == 0 || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || !isfinite(limit_nm) || !(limit_nm >= 0.0))
+        return EXOTUNE_ERR_ARGUMENT;
+    st->controller = -1;
+    if (!float_env_ok())
+        return EXOTUNE_ERR_FLOAT_ENV;
+    st->controller = controller;
+    st->has_last = 0;
+    st->limit_nm = limit_nm;
+    st->offset_nm = 0.0;
+    for (i = 0; i < 5; ++i)
+        st->last[i] = 0.0;
+    for (i = 0; i < EXOTUNE_MAX_SECTIONS; ++i)
+        st->z[i][0] = st->z[i][1] = 0.0;
+    return EXOTUNE_OK;
+}
+
+int exotune_controller_for_angle(double joint_angle_rad, int *controller)
+{
+    int i, best = 0;
+    double d = 0.0;
+    if (controller == 0)
+        return EXOTUNE_ERR_ARGUMENT;
+    if (!isfinite(joint_angle_rad))
+        return EXOTUNE_FAULT_ANGLE;
+    for (i = 1; i < EXOTUNE_N_CONTROLLERS; ++i) {  /* the first nearest entry, as the reference runtime */
+        double e = fabs(ANGLES[i - 1] - joint_angle_rad);
+        if (best == 0 || e < d) {
+            best = i;
+            d = e;
+        }
+    }
+    *controller = best;
+    return EXOTUNE_OK;
+}
+
+/* one step of a filter (sections S[f->first...], states z[f->first...]), as SosFilter.step */
+static double filter_step(const exo_section *S, const exo_filter *f, double (*z)[2], double x)
+{
+    int k;
+    for (k = f->first; k < f->first + f->count; ++k) {
+        const exo_section *c = &S[k];
+        double *s = z[k];
+        double y = c->b0 * x + s[0];
+        s[0] = flush(c->b1 * x - c->a1 * y + s[1]);
+        s[1] = flush(c->b2 * x - c->a2 * y);
+        x = y;
+    }
+    return x;
+}
+
+/* the filter's output for input x without advancing its state, as SosFilter.peek */
+static double filter_peek(const exo_section *S, const exo_filter *f, double (*z)[2], double x)
+{
+    int k;
+    for (k = f->first; k < f->first + f->count; ++k)
+        x = S[k].b0 * x + z[k][0];
+    return x;
+}
+
+static double clamp(double u, double limit_nm)
+{
+    if (limit_nm > 0.0 && isfinite(u))  /* anti-windup: the DOB sees the applied command */
+        u = u > limit_nm ? limit_nm : (u < -limit_nm ? -limit_nm : u);
+    return u;
+}
+
+/* controller c's command (before the clamp and the offset) for inputs v held, from states z */
+static double controller_peek(const exo_controller *c, double (*z)[2], const double *v)
+{
+    const exo_section *S = &SECTIONS[c->sec0];
+    double rest = 0.0, fsum = 0.0, h = 0.0;
+    int i;
+    for (i = 0; i < c->n_gains; ++i)
+        rest += GAINS[c->gain0 + i].gain * v[GAINS[c->gain0 + i].signal];
+    for (i = 0; i < c->n_sensed; ++i) {
+        const exo_filter *f = &FILTERS[c->filter0 + i];
+        fsum += filter_peek(S, f, z, v[f->signal]);
+    }
+    rest = rest + fsum;
+    for (i = 0; i < c->n_loop; ++i)
+        h += filter_peek(S, &FILTERS[c->filter0 + c->n_sensed + i], z, 0.0);
+    return (rest + h) / (1.0 - c->g);
+}
+
+int exotune_switch(exotune_state *st, int controller, int mode)
+{
+    const exo_controller *o, *n;
+    double z[EXOTUNE_MAX_SECTIONS][2], off = 0.0;
+    int k, carry;
+    if (st == 0 || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || st->controller < 0
+        || st->controller >= EXOTUNE_N_CONTROLLERS || (mode != EXOTUNE_SWITCH_RESET && mode != EXOTUNE_SWITCH_BUMPLESS))
+        return EXOTUNE_ERR_ARGUMENT;
+    o = &CONTROLLERS[st->controller];
+    n = &CONTROLLERS[controller];
+    carry = mode == EXOTUNE_SWITCH_BUMPLESS && o->layout == n->layout;
+    for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k)
+        z[k][0] = z[k][1] = 0.0;
+    for (k = 0; carry && k < n->n_sections; ++k) {  /* old state -> (w[k], w[k-1]) -> new state */
+        const exo_map *mo = &MAPS[o->sec0 + k], *mn = &MAPS[n->sec0 + k];
+        double w0 = mo->w00 * st->z[k][0] + mo->w01 * st->z[k][1];
+        double w1 = mo->w10 * st->z[k][0] + mo->w11 * st->z[k][1];
+        z[k][0] = flush(mn->m00 * w0 + mn->m01 * w1);
+        z[k][1] = flush(mn->m10 * w0 + mn->m11 * w1);
+    }
+    if (mode == EXOTUNE_SWITCH_BUMPLESS && st->has_last) {
+        /* the old controller's command for the last inputs, as applied (offset, clamp) ... */
+        double before = clamp(controller_peek(o, st->z, st->last) + st->offset_nm, st->limit_nm);
+        /* ... is the new one's at the switch: the difference decays by EXOTUNE_BUMPLESS_DECAY per sample */
+        off = before - controller_peek(n, z, st->last);
+        if (!isfinite(off))
+            return EXOTUNE_FAULT_OVERFLOW;
+    }
+    for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k) {
+        if (!isfinite(z[k][0]) || !isfinite(z[k][1]))
+            return EXOTUNE_FAULT_OVERFLOW;
+    }
+    for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k) {
+        st->z[k][0] = z[k][0];
+        st->z[k][1] = z[k][1];
+    }
+    st->offset_nm = flush(off);
+    if (mode == EXOTUNE_SWITCH_RESET)
+        st->has_last = 0;
+    st->controller = controller;
+    return EXOTUNE_OK;
+}
+
+int exotune_schedule(exotune_state *st, double joint_angle_rad, int mode)
+{
+    int c = 0, rc;
+    if (st == 0)
+        return EXOTUNE_ERR_ARGUMENT;
+    rc = exotune_controller_for_angle(joint_angle_rad, &c);
+    if (rc != EXOTUNE_OK || c == st->controller)
+        return rc;
+    return exotune_switch(st, c, mode);
+}
+
+int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
+{
+    const exo_controller *c;
+    const exo_section *S;
+    double v[5], saved[EXOTUNE_MAX_SECTIONS][2], rest = 0.0, fsum = 0.0, h = 0.0, u;
+    int i, k, ok;
+    if (st == 0 || y == 0 || tau_cmd == 0 || st->controller < 0 || st->controller >= EXOTUNE_N_CONTROLLERS)
+        return EXOTUNE_ERR_ARGUMENT;
+    c = &CONTROLLERS[st->controller];
+    S = &SECTIONS[c->sec0];
+    v[0] = y->theta_m; v[1] = y->omega_m; v[2] = y->tau_s; v[3] = y->dtau_s; v[4] = y->tau_c;
+    for (i = 0; i < 5; ++i) {
+        if (!isfinite(v[i]))
+            return EXOTUNE_FAULT_INPUT;
+        v[i] = flush(v[i]);
+    }
+    for (k = 0; k < c->n_sections; ++k) {
+        saved[k][0] = st->z[k][0];
+        saved[k][1] = st->z[k][1];
+    }
+    for (i = 0; i < c->n_gains; ++i)
+        rest += GAINS[c->gain0 + i].gain * v[GAINS[c->gain0 + i].signal];
+    for (i = 0; i < c->n_sensed; ++i) {
+        const exo_filter *f = &FILTERS[c->filter0 + i];
+        fsum += filter_step(S, f, st->z, v[f->signal]);
+    }
+    rest = rest + fsum;
+    for (i = 0; i < c->n_loop; ++i)
+        h += filter_peek(S, &FILTERS[c->filter0 + c->n_sensed + i], st->z, 0.0);
+    u = clamp((rest + h) / (1.0 - c->g) + st->offset_nm, st->limit_nm);
+    for (i = 0; i < c->n_loop; ++i)
+        filter_step(S, &FILTERS[c->filter0 + c->n_sensed + i], st->z, u);
+    ok = isfinite(u);
+    for (k = 0; k < c->n_sections; ++k)
+        ok = ok && isfinite(st->z[k][0]) && isfinite(st->z[k][1]);
+    if (!ok) {
+        for (k = 0; k < c->n_sections; ++k) {
+            st->z[k][0] = saved[k][0];
+            st->z[k][1] = saved[k][1];
+        }
+        return EXOTUNE_FAULT_OVERFLOW;
+    }
+    st->offset_nm = flush(st->offset_nm * EXOTUNE_BUMPLESS_DECAY);
+    for (i = 0; i < 5; ++i)
+        st->last[i] = v[i];
+    st->has_last = 1;
+    *tau_cmd = u;
+    return EXOTUNE_OK;
+}'''
