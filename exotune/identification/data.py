@@ -10,6 +10,7 @@ docs/identification.md#the-log.
 from __future__ import annotations
 
 import csv
+import decimal
 import io
 import math
 from dataclasses import dataclass
@@ -18,7 +19,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "MeasuredLog", "read_log", "log_from_columns"]
+__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "JITTER", "MeasuredLog", "read_log", "log_from_columns"]
 
 # column → (unit, meaning); t, theta_m and tau_s are required, and tau_m or tau_cmd
 COLUMNS = {
@@ -31,41 +32,78 @@ COLUMNS = {
     "tau_c": ("N·m", "cuff torque (for J_j and K_c)"),
     "theta_h": ("rad", "human-side cuff angle (for K_c)"),
 }
-REQUIRED = ("t", "theta_m", "tau_s")
+REQUIRED = ("theta_m", "tau_s")  # and t, unless the sample rate is given
 MIN_SAMPLES = 200
 MAX_LOG_BYTES = 256 << 20  # 256 MiB: ~10^6 rows of eight columns
+JITTER = 0.1  # a step may differ from the median step by this fraction (time-stamp jitter)
+DELAY_TOLERANCE = 1e-4  # in samples: --delay-s must be a whole number of samples within this
 
 
 @dataclass(frozen=True)
 class MeasuredLog:
-    """Sampled signals at ``sample_rate_hz`` [Hz] (``signals``: column → array, SI units);
-    ``tau_m_held``: the motor torque is a command held between samples (logged as ``tau_cmd``)."""
+    """Sampled signals at ``sample_rate_hz`` [Hz] (``signals``: column → array, SI units; ``t``
+    relative to its first sample). A log with ``tau_cmd`` (a command held between samples) keeps
+    it as logged: it is applied ``delay_samples`` samples later (``None``: to be estimated,
+    ``--delay-s auto``). ``rate_source``: "t" (the time column's mean step) or "given"."""
 
     sample_rate_hz: float
     signals: dict
     source: str = "<log>"
-    tau_m_held: bool = False
+    delay_samples: int | None = 0
+    rate_source: str = "t"
 
     @property
     def samples(self) -> int:
-        return int(self.signals["t"].size)
+        return int(self.signals["theta_m"].size)
+
+    @property
+    def tau_m_held(self) -> bool:
+        return "tau_cmd" in self.signals
 
 
-def log_from_columns(columns: dict, source: str = "<log>", delay_s: float = 0.0) -> MeasuredLog:
+def _check_time(t: np.ndarray) -> float:
+    """The step [s] of a time column relative to its first sample (a straight line fitted to the
+    stamps); every step within
+    :data:`JITTER` of the median step (dropped, repeated or reordered samples are refused
+    wherever they are, whatever the magnitude of t)."""
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    if not step > 0:
+        raise ConfigError("t", f"not increasing (median step {step:.6g})")
+    bad = np.flatnonzero(np.abs(dt - step) > JITTER * step)
+    if bad.size:
+        k = int(bad[0])
+        d = float(dt[k])
+        if d <= 0:
+            why = f"not increasing after sample {k} (step {d:.6g})"
+        elif d > 1.5 * step:
+            why = (f"about {round(d / step) - 1} sample(s) missing after sample {k} (step {d:.6g}, median "
+                   f"{step:.6g})")
+        else:
+            why = f"step {d:.6g} after sample {k} is not the median step {step:.6g} within {JITTER:.0%}"
+        raise ConfigError("t", why + ": a constant rate is needed")
+    i = np.arange(t.size) - (t.size - 1) / 2.0
+    return float(np.dot(i, t - t.mean()) / np.dot(i, i))  # the least-squares step: jitter averages out
+
+
+def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_rate_hz: float | None = None) -> MeasuredLog:
     """Check measured columns (name → sequence of numbers) and make a :class:`MeasuredLog`: known
     names only, the required ones present, equal lengths, finite numbers, at least
-    :data:`MIN_SAMPLES` samples at a constant rate; ``tau_cmd`` is shifted by ``delay_s`` [s]
-    (a whole number of samples) into ``tau_m``.
+    :data:`MIN_SAMPLES` samples at a constant rate (each step within :data:`JITTER` of the median
+    step, judged after subtracting the first time stamp, so epoch time stamps and µs jitter pass
+    and a dropped sample does not). ``sample_rate_hz`` [Hz] overrides the time column's rate (the
+    ``t`` column may then be absent). ``delay_s`` [s]: from ``tau_cmd`` to the applied torque, a
+    whole number of samples, or ``"auto"`` (estimated by :func:`identify_plant`).
 
     Raises
     ------
     ConfigError
-        Naming the column and the reason.
+        Naming the column (or option) and the reason.
     """
     unknown = [c for c in columns if c not in COLUMNS]
     if unknown:
         raise ConfigError(unknown[0], f"unknown column (known: {', '.join(COLUMNS)})")
-    for c in REQUIRED:
+    for c in REQUIRED + (("t",) if sample_rate_hz is None else ()):
         if c not in columns:
             raise ConfigError(c, f"missing column ({COLUMNS[c][1]} [{COLUMNS[c][0]}])")
     if ("tau_m" in columns) == ("tau_cmd" in columns):
@@ -74,44 +112,57 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s: float = 0.0)
     sig = {}
     for c, v in columns.items():
         try:
-            a = np.asarray(v, dtype=float)
+            a = np.asarray(v)
+            if a.dtype != np.longdouble:
+                a = np.asarray(v, dtype=float)
         except (TypeError, ValueError):
             raise ConfigError(c, "not a column of numbers") from None
-        if a.ndim != 1:
+        if a.ndim != 1 or a.dtype.kind != "f":
             raise ConfigError(c, "not a column of numbers")
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             raise ConfigError(c, f"sample {int(bad[0])} is {a[bad[0]]!r}: every value must be a finite number")
         sig[c] = a
-    n = sig["t"].size
+    n = sig["theta_m"].size
     if any(a.size != n for a in sig.values()):
-        raise ConfigError("t", "the columns have different lengths")
+        raise ConfigError("t" if "t" in sig else "theta_m", "the columns have different lengths")
     if n < MIN_SAMPLES:
-        raise ConfigError("t", f"{n} samples: at least {MIN_SAMPLES} are needed")
-    dt = np.diff(sig["t"])
-    Ts = float(np.median(dt))
-    if not Ts > 0 or np.max(np.abs(dt - Ts)) > 1e-6 * Ts + 1e-12 * abs(float(sig["t"][-1])):
-        k = int(np.argmax(np.abs(dt - Ts)))
-        raise ConfigError("t", f"not uniformly sampled, increasing (step {float(dt[k]):.6g} s after sample {k}, "
-                          f"median {Ts:.6g} s)")
-    if not (isinstance(delay_s, (int, float)) and math.isfinite(delay_s) and delay_s >= 0):
-        raise ConfigError("--delay-s", f"{delay_s!r} is not a delay ≥ 0 s")
-    if "tau_cmd" in sig:
-        d = delay_s / Ts
-        k = int(round(d))
-        if abs(d - k) > 1e-6 * max(1.0, d):
-            raise ConfigError("--delay-s", f"{delay_s!r} s is {d:.6g} samples at {1 / Ts:g} Hz: identification needs "
+        raise ConfigError("t" if "t" in sig else "theta_m", f"{n} samples: at least {MIN_SAMPLES} are needed")
+    if "t" in sig:
+        sig["t"] = np.asarray(sig["t"] - sig["t"][0], dtype=float)  # exact for nearby floats, epoch stamps too
+        step = _check_time(sig["t"])
+    if sample_rate_hz is not None:
+        if not (isinstance(sample_rate_hz, (int, float)) and not isinstance(sample_rate_hz, bool)
+                and math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+            raise ConfigError("--sample-rate-hz", f"{sample_rate_hz!r} is not a rate > 0 Hz")
+        fs, rate_source = float(sample_rate_hz), "given"
+        sig["t"] = np.arange(n) / fs
+    else:
+        fs, rate_source = 1.0 / step, "t"
+    delay = None
+    if isinstance(delay_s, str) and delay_s.strip().lower() == "auto":
+        if "tau_cmd" not in sig:
+            raise ConfigError("--delay-s", "auto estimates the delay of a tau_cmd column; this log has tau_m")
+    else:
+        try:
+            d_s = float(delay_s)
+        except (TypeError, ValueError):
+            raise ConfigError("--delay-s", f"{delay_s!r} is neither a delay [s] nor auto") from None
+        if not (math.isfinite(d_s) and d_s >= 0):
+            raise ConfigError("--delay-s", f"{delay_s!r} is not a delay ≥ 0 s")
+        d = d_s * fs
+        delay = int(round(d))
+        if "tau_cmd" in sig and abs(d - delay) > DELAY_TOLERANCE * max(1.0, d):
+            raise ConfigError("--delay-s", f"{delay_s!r} s is {d:.6g} samples at {fs:g} Hz: identification needs "
                               "a whole number of samples (log the applied torque as tau_m otherwise)")
-        if k >= n - MIN_SAMPLES:
-            raise ConfigError("--delay-s", f"{k} samples leave fewer than {MIN_SAMPLES} samples")
-        cmd = sig.pop("tau_cmd")
-        sig = {c: a[k:] for c, a in sig.items()}  # τ_m[i] = τ_cmd[i − k]
-        sig["tau_m"] = cmd[: n - k]
-        return MeasuredLog(1.0 / Ts, sig, source, tau_m_held=True)
-    return MeasuredLog(1.0 / Ts, sig, source)
+        if "tau_cmd" in sig and delay >= n - MIN_SAMPLES:
+            raise ConfigError("--delay-s", f"{delay} samples leave fewer than {MIN_SAMPLES} samples")
+        if "tau_cmd" not in sig:
+            delay = 0
+    return MeasuredLog(fs, sig, source, delay, rate_source)
 
 
-def read_log(path, delay_s: float = 0.0) -> MeasuredLog:
+def read_log(path, delay_s="0", sample_rate_hz: float | None = None) -> MeasuredLog:
     """Read a measured log (CSV: a header row of column names, then one row of numbers per
     sample) through the guarded reader and check it (:func:`log_from_columns`).
 
@@ -119,8 +170,10 @@ def read_log(path, delay_s: float = 0.0) -> MeasuredLog:
     ----------
     path : str or os.PathLike
         The CSV file (at most :data:`MAX_LOG_BYTES`).
-    delay_s : float
+    delay_s : float or "auto"
         The delay [s] between ``tau_cmd`` and the applied torque (when the log has ``tau_cmd``).
+    sample_rate_hz : float, optional
+        The sample rate [Hz], overriding the time column (which may then be absent).
 
     Returns
     -------
@@ -150,12 +203,17 @@ def read_log(path, delay_s: float = 0.0) -> MeasuredLog:
         dup = next(h for h in header if header.count(h) > 1)
         raise ConfigError(dup, "column named twice")
     cols = {h: [] for h in header}
+    t0 = None
     for i, r in enumerate(rows[1:], start=2):
         if len(r) != len(header):
             raise ConfigError(f"{path}:{i}", f"{len(r)} values, the header names {len(header)} columns")
         for h, x in zip(header, r):
             try:
-                cols[h].append(float(x))
-            except ValueError:
+                v = float(x)
+                if h == "t" and math.isfinite(v):  # relative to the first stamp, in decimal: epoch stamps keep their µs
+                    t0 = decimal.Decimal(x.strip()) if t0 is None else t0
+                    v = float(decimal.Decimal(x.strip()) - t0)
+                cols[h].append(v)
+            except (ValueError, decimal.InvalidOperation):
                 raise ConfigError(f"{path}:{i}", f"{h} = {x.strip()[:40]!r} is not a number") from None
-    return log_from_columns(cols, str(path), delay_s)
+    return log_from_columns(cols, str(path), delay_s, sample_rate_hz)

@@ -1,10 +1,10 @@
 """Least-squares identification of the plant's parameters from a measured log.
 
 Every signal x is passed through the state-variable filter H(s) = ω³/(s + ω)³ and through s·H and
-s²·H (strictly proper filters, discretized with a first-order hold: exact for signals linear
-between samples, and then all three scale a sampled sinusoid by the same sinc²(ωT/2), so the
-equations between them keep their coefficients; a biproper s²·H would not), so the equations of the plant (paper eq. (1), docs/method.md#physical-model) hold
-between filtered signals without differentiating a measured signal:
+s²·H (:mod:`exotune.identification.filters`: measured signals with a first-order hold, a held
+command exactly and through the same sinc² factor), so the equations of the plant (paper eq. (5),
+docs/method.md#physical-model) hold between filtered signals without differentiating a measured
+signal:
 
     motor   H[τ_s + τ_m] = J_m · s²H[θ_m] + B_m · sH[θ_m] + c      (δ_f, friction, is left in the residual)
     SEA     H[τ_s]       = K_s · H[θ_j − θ_m] + c
@@ -13,16 +13,15 @@ between filtered signals without differentiating a measured signal:
 
 (c: a sensor offset per equation, through H). A log starts in motion, not at rest: the filters'
 start-up transients lie in the span of the filter's modes e^{−ωt}, t·e^{−ωt} and t²·e^{−ωt}, which
-enter each regression as three more columns; the first 5/ω seconds are dropped besides. Standard errors come from the spread of the estimates over consecutive parts of the log
-(robust to the filtered residuals' correlation and to unmodelled dynamics, unlike the textbook
-least-squares covariance). What the common sinc² factor leaves of the hold's error is added to the
-standard errors of the dynamic equations' parameters (J_m, B_m, J_j) in quadrature, as a relative
-10⁻³·(ωT)² (measured on simulated logs: below 10⁻⁴·(ωT)²); the static equations (K_s, K_c) have
-none.
+enter each regression as three more columns; the first 5/ω seconds are dropped besides. The
+covariance of each equation's estimate is the sandwich of :mod:`exotune.identification.regress`
+(the filtered residual's autocovariance over 30/ω); what the hold leaves (a relative
+10⁻³·(ωT)³ + 10⁻⁷, :func:`~exotune.identification.filters.discretization_bound`) is added to the
+dynamic equations' variances (J_m, B_m, J_j); the static equations (K_s, K_c) have none.
 
 References
 ----------
-docs/identification.md; paper eq. (1).
+docs/identification.md; paper eq. (5).
 """
 
 from __future__ import annotations
@@ -33,16 +32,15 @@ import numpy as np
 
 from ..errors import ConfigError
 from .data import MeasuredLog
+from .filters import discretization_bound, held_svf, svf
+from .regress import CORRELATION_TIME_CONSTANTS, NotExcited, residual_covariance, solve
 from .result import EquationFit, ParameterEstimate, PlantEstimate
 
-__all__ = ["identify_plant", "identify_file", "svf", "DEFAULT_FILTER_HZ", "DISCRETIZATION", "BATCHES", "TRANSIENT_TIME_CONSTANTS",
-           "MAX_CONDITION"]
+__all__ = ["identify_plant", "identify_file", "svf", "DEFAULT_FILTER_HZ", "TRANSIENT_TIME_CONSTANTS", "MIN_FIT_SAMPLES"]
 
 DEFAULT_FILTER_HZ = 20.0  # at most a hundredth of the sample rate
-DISCRETIZATION = 1e-3  # relative bias bound of the dynamic parameters per (ωT)² (measured < 1e-4)
-BATCHES = 10
 TRANSIENT_TIME_CONSTANTS = 5.0
-MAX_CONDITION = 1e10  # of the scaled normal equations: beyond it, the log does not excite the parameters
+MIN_FIT_SAMPLES = 500
 
 # equation name → (parameters: key, symbol, unit), the columns it needs, offset unit, text
 _EQUATIONS = {
@@ -52,44 +50,11 @@ _EQUATIONS = {
     "joint": ((("joint_inertia", "J_j", "kg·m²"),), ("theta_j", "tau_c", "tau_s"), "N·m", "J_j θ̈_j = τ_c − τ_s"),
     "cuff": ((("cuff_stiffness", "K_c", "N·m/rad"),), ("theta_h", "theta_j", "tau_c"), "N·m", "τ_c = K_c (θ_h − θ_j)"),
 }
-
+_DYNAMIC = ("motor", "joint")  # filtered derivatives: the hold's discretization term
 
 # equation → (filtered left-hand side, [(filtered signal, power of s)] of its regressors)
 _ROWS = {"motor": ("motor_y", [("theta_m", 2), ("theta_m", 1)]), "sea": ("tau_s", [("sea_x", 0)]),
          "joint": ("joint_y", [("theta_j", 2)]), "cuff": ("tau_c", [("cuff_x", 0)])}
-
-
-def svf(x: np.ndarray, sample_rate_hz: float, filter_hz: float,
-        hold: str = "foh") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """H[x], sH[x], s²H[x] for H(s) = ω³/(s + ω)³, ω = 2π·filter_hz, from the zero state;
-    ``hold``: "foh" for a measured signal (linear between samples), "zoh" for a command held
-    between samples."""
-    import scipy.signal  # here: importing it costs about a second, and only identify needs it
-
-    w = 2 * math.pi * filter_hz
-    den = np.polymul(np.polymul([1.0, w], [1.0, w]), [1.0, w])
-    out = []
-    for num in ([w ** 3], [w ** 3, 0.0], [w ** 3, 0.0, 0.0]):
-        b, a, _ = scipy.signal.cont2discrete((num, den), 1.0 / sample_rate_hz, method=hold)
-        out.append(scipy.signal.lfilter(np.ravel(b), a, x))
-    return out[0], out[1], out[2]
-
-
-def _solve(X: np.ndarray, y: np.ndarray, what: str, column: str) -> np.ndarray:
-    """Least squares with scaled columns; a log that does not excite the regressors is refused."""
-    scale = np.max(np.abs(X), axis=0)  # (not the 2-norm: it overflows for values near 1e300)
-    if np.any(scale == 0):
-        raise ConfigError(column, f"the log does not excite {what} (a regressor is identically zero)")
-    Xs = X / scale
-    s = np.linalg.svd(Xs, compute_uv=False)
-    if s[-1] == 0 or s[0] / s[-1] > math.sqrt(MAX_CONDITION):
-        raise ConfigError(column, f"the log does not excite {what} (condition number {s[0] / max(s[-1], 1e-300):.3g} "
-                          "of the regression): excite the joint over the plant's bandwidth")
-    beta, *_ = np.linalg.lstsq(Xs, y, rcond=None)
-    beta = beta / scale
-    if not np.all(np.isfinite(beta)):
-        raise ConfigError(column, f"the estimates of {what} overflow: check the log's units")
-    return beta
 
 
 def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEstimate:
@@ -107,7 +72,8 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEst
     Returns
     -------
     PlantEstimate
-        The estimates with standard errors and fits, and the parameters the log cannot give.
+        The estimates with standard errors, covariances and fits, and the parameters the log
+        cannot give.
 
     Raises
     ------
@@ -116,18 +82,19 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEst
 
     References
     ----------
-    docs/identification.md; paper eq. (1).
+    docs/identification.md; paper eq. (5).
     """
     fs = log.sample_rate_hz
     fh = min(DEFAULT_FILTER_HZ, fs / 100) if filter_hz is None else filter_hz
     if not (isinstance(fh, (int, float)) and math.isfinite(fh) and 0 < fh <= fs / 4):
         raise ConfigError("--filter-hz", f"{filter_hz!r}: the filter corner must be in (0, {fs / 4:g}] Hz "
                           "(a quarter of the sample rate)")
-    skip = int(math.ceil(TRANSIENT_TIME_CONSTANTS / (2 * math.pi * fh) * fs))
+    delay = log.delay_samples or 0
+    skip = max(int(math.ceil(TRANSIENT_TIME_CONSTANTS / (2 * math.pi * fh) * fs)), delay)
     n = log.samples - skip
-    if n < BATCHES * 50:
+    if n < MIN_FIT_SAMPLES:
         raise ConfigError("t", f"{log.samples} samples leave {max(n, 0)} after the filter's transient "
-                          f"({skip} samples at {fh:g} Hz): at least {BATCHES * 50} are needed")
+                          f"({skip} samples at {fh:g} Hz): at least {MIN_FIT_SAMPLES} are needed")
     S = log.signals
     cache: dict[str, tuple] = {}
 
@@ -135,12 +102,15 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEst
         if expr == "motor_y":  # a held command (tau_cmd) is filtered as held, the measured τ_s as measured
             return f("tau_s", 0) + f("tau_m", 0)
         if expr not in cache:
-            a = {"one": lambda: np.ones(log.samples), "sea_x": lambda: S["theta_j"] - S["theta_m"],
+            a = {"one": lambda: np.ones(log.samples), "tau_m": lambda: S.get("tau_m"), "sea_x": lambda: S["theta_j"] - S["theta_m"],
                  "joint_y": lambda: S["tau_c"] - S["tau_s"], "cuff_x": lambda: S["theta_h"] - S["theta_j"]
                  }.get(expr, lambda: S[expr])()
-            hold = "zoh" if expr == "tau_m" and log.tau_m_held else "foh"
             with np.errstate(over="ignore", invalid="ignore"):
-                out = tuple(v[skip:] for v in svf(np.asarray(a, float), fs, fh, hold))
+                if expr == "tau_m" and log.tau_m_held:  # the command, applied delay_samples later (zero state: shift after)
+                    h = held_svf(S["tau_cmd"], fs, fh)
+                    out = (np.concatenate([np.zeros(delay), h[: log.samples - delay]])[skip:],)
+                else:
+                    out = tuple(v[skip:] for v in svf(np.asarray(a, float), fs, fh, "foh"))
             if not all(np.all(np.isfinite(v)) for v in out):
                 col = {"sea_x": "theta_j", "joint_y": "tau_c", "cuff_x": "theta_h"}.get(expr, expr)
                 raise ConfigError(col, "values too large for the filters (they overflow): check the units")
@@ -154,11 +124,12 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None) -> PlantEst
 def _identify(log, S, f, n, fs, fh, skip) -> PlantEstimate:
     """The regressions of :func:`identify_plant` (``f``: the filtered signals)."""
     params, fits, missing = [], [], []
-    edges = np.linspace(0, n, BATCHES + 1).astype(int)
     wt = 2 * math.pi * fh * (np.arange(skip, log.samples) / fs)
     modes = np.column_stack([np.exp(-wt), wt * np.exp(-wt), wt * wt * np.exp(-wt)])  # the filters' start-up transients
+    lag = int(math.ceil(CORRELATION_TIME_CONSTANTS * fs / (2 * math.pi * fh)))
+    disc = discretization_bound(fs, fh)
     for name, (pars, needs, off_unit, text) in _EQUATIONS.items():
-        lacking = [c for c in needs if c not in S]
+        lacking = [c for c in needs if c not in S and not (c == "tau_m" and "tau_cmd" in S)]
         if lacking:
             missing += [(key, f"needs the column{'s' if len(lacking) > 1 else ''} {', '.join(lacking)}") for key, _s, _u in pars]
             continue
@@ -166,24 +137,30 @@ def _identify(log, S, f, n, fs, fh, skip) -> PlantEstimate:
         y = f(yname, 0)
         X = np.column_stack([f(e, k) for e, k in regs] + [f("one", 0)])
         what = " and ".join(sym for _k, sym, _u in pars)
-        full = _solve(np.column_stack([X, modes]), y, what, needs[0])
-        beta = full[: X.shape[1]]
-        y0 = y - modes @ full[X.shape[1]:]  # the start-up transient removed, for the parts and the fit
-        parts = np.array([_solve(X[a:b], y0[a:b], what, needs[0]) for a, b in zip(edges[:-1], edges[1:])])
-        se = parts.std(axis=0, ddof=1) / math.sqrt(BATCHES)
-        if name in ("motor", "joint"):  # filtered derivatives: the hold's O((ωT)²) bias
-            se = np.hypot(se, DISCRETIZATION * (2 * math.pi * fh / fs) ** 2 * np.abs(beta))
-        r = y0 - X @ beta
+        Xf = np.column_stack([X, modes])
+        try:
+            full = solve(Xf, y)
+        except NotExcited as e:
+            raise ConfigError(needs[0], f"the log does not excite {what} ({e}): excite the joint over the "
+                              "plant's bandwidth") from None
+        r = y - Xf @ full
+        p = len(pars)
+        cov = residual_covariance(Xf, r, lag)[:p, :p]
+        if name in _DYNAMIC:
+            cov = cov + np.diag((disc * full[:p]) ** 2)
+        beta = full[:p]
+        y0 = y - modes @ full[X.shape[1]:]  # the start-up transient removed, for the fit
         tss = float(np.sum((y0 - y0.mean()) ** 2))
         r2 = 1.0 - float(np.sum(r * r)) / tss if tss > 0 else math.nan
+        se = np.sqrt(np.diag(cov))
         for (key, sym, unit), v, e in zip(pars, beta, se):
             params.append(ParameterEstimate(key, sym, float(v), float(e), unit))
-        fits.append(EquationFit(text, tuple(k for k, _s, _u in pars), float(beta[-1]), off_unit, r2,
-                                float(np.sqrt(np.mean(r * r))), "N·m"))
-    return PlantEstimate(tuple(params), tuple(fits), fs, n, float(fh), BATCHES, tuple(missing), log.source)
-
-
-def identify_file(log_path, out=None, delay_s: float = 0.0, filter_hz: float | None = None) -> PlantEstimate:
+        fits.append(EquationFit(text, tuple(k for k, _s, _u in pars), float(full[p]), off_unit, r2,
+                                float(np.sqrt(np.mean(r * r))), "N·m", tuple(tuple(float(c) for c in row) for row in cov)))
+    return PlantEstimate(tuple(params), tuple(fits), fs, n, float(fh), lag / fs, tuple(missing), log.source,
+                         log.rate_source)
+def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = None,
+                  sample_rate_hz: float | None = None) -> PlantEstimate:
     """``exotune identify``: read a log (:func:`exotune.identification.read_log`), identify the
     plant (:func:`identify_plant`) and, with ``out``, write the ``plant`` and ``uncertainty``
     sections it gives as YAML (atomically; only when every estimate is physical).
@@ -194,10 +171,12 @@ def identify_file(log_path, out=None, delay_s: float = 0.0, filter_hz: float | N
         The measured log (CSV, docs/identification.md#the-log).
     out : str or os.PathLike, optional
         The YAML file to write (sections to paste into a design file).
-    delay_s : float
+    delay_s : float or "auto"
         Delay [s] from ``tau_cmd`` to the applied torque (logs with ``tau_cmd``).
     filter_hz : float, optional
         Corner of the state-variable filter [Hz].
+    sample_rate_hz : float, optional
+        Sample rate [Hz], overriding the time column.
 
     Returns
     -------
@@ -217,7 +196,7 @@ def identify_file(log_path, out=None, delay_s: float = 0.0, filter_hz: float | N
     from ..jsonio import write_atomic
     from .data import read_log
 
-    est = identify_plant(read_log(log_path, delay_s=delay_s), filter_hz=filter_hz)
+    est = identify_plant(read_log(log_path, delay_s=delay_s, sample_rate_hz=sample_rate_hz), filter_hz=filter_hz)
     if out is not None and est.physical:
         sec = est.design_sections()
         head = (f"# exotune identify {est.source}: {est.samples} samples at {est.sample_rate_hz:g} Hz, filter "

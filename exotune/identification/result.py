@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..record import Result
 
 __all__ = ["ParameterEstimate", "EquationFit", "PlantEstimate", "UNCERTAINTY_SIGMAS"]
@@ -21,7 +23,7 @@ UNCERTAINTY_SIGMAS = 3.0  # the uncertainty section's relative range: this many 
 @dataclass(frozen=True)
 class ParameterEstimate:
     """One plant parameter: ``key`` (design-file name), ``symbol``, ``value`` and ``std_error``
-    in ``unit`` (the spread of the estimates over the log's ``batches`` parts / √batches)."""
+    in ``unit`` (from the covariance of its equation's estimate, docs/identification.md#standard-errors)."""
 
     key: str
     symbol: str
@@ -42,7 +44,8 @@ class ParameterEstimate:
 class EquationFit:
     """One regression: its ``equation`` (text), the parameters it gave, the sensor offset it
     absorbed [``offset_unit``], its coefficient of determination ``r2`` [–] and the RMS residual
-    [``residual_unit``]."""
+    [``residual_unit``], and the ``covariance`` of its parameters' estimates (rows and columns in
+    the order of ``parameters``, each in the product of their units)."""
 
     equation: str
     parameters: tuple[str, ...]
@@ -51,11 +54,13 @@ class EquationFit:
     r2: float
     rms_residual: float
     residual_unit: str
+    covariance: tuple[tuple[float, ...], ...] = ()
 
     def to_dict(self) -> dict:
         return {"equation": self.equation, "parameters": list(self.parameters),
                 "offset": {"value": self.offset, "unit": self.offset_unit}, "r2": self.r2,
-                "rms_residual": {"value": self.rms_residual, "unit": self.residual_unit}}
+                "rms_residual": {"value": self.rms_residual, "unit": self.residual_unit},
+                "covariance": [list(row) for row in self.covariance]}
 
 
 @dataclass(frozen=True)
@@ -63,17 +68,23 @@ class PlantEstimate(Result):
     """``exotune identify``: the plant parameters the log determines (``parameters``, design-file
     keys), the fit of each equation, and what was used: ``samples`` at ``sample_rate_hz`` [Hz]
     after the filter's transient, the state-variable filter's corner ``filter_hz`` [Hz] and the
-    number of ``batches`` of the standard errors. ``missing`` names the parameters the log's
-    columns cannot determine, with the columns they need."""
+    residual's correlation length ``correlation_s`` [s] the standard errors account for.
+    ``missing`` names the parameters the log's columns cannot determine, with the columns they
+    need. The covariance is per equation (:attr:`EquationFit.covariance`; :meth:`covariance`
+    assembles it): the equations are solved separately and their cross-covariances are not
+    estimated."""
 
     parameters: tuple[ParameterEstimate, ...]
     fits: tuple[EquationFit, ...]
     sample_rate_hz: float
     samples: int
     filter_hz: float
-    batches: int
+    correlation_s: float
     missing: tuple[tuple[str, str], ...] = ()
     source: str = "<log>"
+    rate_source: str = "t"
+    not_identified: tuple[tuple[str, str], ...] = ()
+    delay: dict | None = None
 
     def __getitem__(self, key: str) -> ParameterEstimate:
         for p in self.parameters:
@@ -81,10 +92,24 @@ class PlantEstimate(Result):
                 return p
         raise KeyError(key)
 
+    def covariance(self) -> tuple[list[str], np.ndarray]:
+        """The parameters' keys and their covariance matrix (block-diagonal by equation)."""
+        keys = [p.key for p in self.parameters]
+        C = np.zeros((len(keys), len(keys)))
+        for f in self.fits:
+            idx = [keys.index(k) for k in f.parameters]
+            C[np.ix_(idx, idx)] = np.asarray(f.covariance, float).reshape(len(idx), len(idx))
+        return keys, C
+
     @property
     def physical(self) -> bool:
         """Every estimate positive (a negative inertia, damping or stiffness is not a plant)."""
         return all(p.value > 0 for p in self.parameters)
+
+    @property
+    def complete(self) -> bool:
+        """Every parameter the log's columns allow identified, and physical (exit code 0)."""
+        return self.physical and not self.not_identified
 
     def design_sections(self) -> dict:
         """``{"plant": …, "uncertainty": …}`` for a design file: the estimates, and as relative
@@ -96,9 +121,10 @@ class PlantEstimate(Result):
         return {
             "source": self.source,
             "sample_rate_hz": self.sample_rate_hz,
+            "sample_rate_from": "the time column" if self.rate_source == "t" else "given",
             "samples": self.samples,
             "filter_hz": self.filter_hz,
-            "batches": self.batches,
+            "correlation_s": self.correlation_s,
             "parameters": {p.key: p.to_dict() for p in self.parameters},
             "fits": [f.to_dict() for f in self.fits],
             "not_identified": {k: why for k, why in self.missing},
@@ -106,12 +132,15 @@ class PlantEstimate(Result):
             "uncertainty_sigmas": UNCERTAINTY_SIGMAS,
             "method": ("least squares on the plant equations (docs/method.md#physical-model), every signal through "
                        "the state-variable filter ω³/(s + ω)³ and its s-, s²-multiples (first-order hold), a sensor "
-                       "offset and the filters' start-up transients per equation; standard errors from the spread over consecutive parts of the log"),
+                       "offset and the filters' start-up transients per equation (a held command filtered exactly and by "
+                       "the hold's sinc² factor); covariance: least-squares sandwich with the residual's "
+                       "autocovariance over the correlation length, plus the discretization bound"),
         }
 
     def to_text(self) -> str:
-        lines = [f"exotune identify — {self.source}: {self.samples} samples at {self.sample_rate_hz:g} Hz, "
-                 f"filter {self.filter_hz:g} Hz, standard errors over {self.batches} parts"]
+        lines = [f"exotune identify — {self.source}: {self.samples} samples at {self.sample_rate_hz:g} Hz"
+                 f"{' (given)' if self.rate_source != 't' else ''}, "
+                 f"filter {self.filter_hz:g} Hz, standard errors for residuals correlated over {self.correlation_s:.3g} s"]
         for p in self.parameters:
             lines.append(f"  {p.key} ({p.symbol}): {p.value:.6g} ± {p.std_error:.3g} {p.unit} "
                          f"({100 * p.relative_std_error:.2g} %)")

@@ -1,5 +1,5 @@
 """Plant identification (exotune.identification, ``exotune identify``) against logs of a plant
-simulated here, independently of exotune: the SPEC's equations (paper eq. (1)) with a human on
+simulated here, independently of exotune: the plant's equations (paper eq. (5)) with a human on
 the cuff, integrated by solve_ivp (smooth applied torque) or discretized exactly with a
 zero-order hold (a held command, logged as tau_cmd with a delay)."""
 
@@ -21,26 +21,13 @@ from exotune.config import design_from_mapping, read_yaml
 from exotune.errors import ConfigError
 from exotune.identification import identify_file, identify_plant, log_from_columns
 
-TRUE = {"motor_inertia": 0.44, "motor_damping": 17.9, "sea_stiffness": 1180.0, "joint_inertia": 0.29,
-        "cuff_stiffness": 300.0}
-HUMAN = (0.1, 0.5, 20.0)  # m_h [kg·m²], b_h [N·m·s/rad], k_h [N·m/rad]
+from identification.simulated_logs import TRUE, plant_matrices
 FS = 1000.0
 
 
 def _matrices(p=TRUE):
     """States θ_m, θ̇_m, θ_j, θ̇_j, θ_h, θ̇_h; inputs τ_m, τ_h (human muscle torque)."""
-    Jm, Bm, Ks, Jj, Kc = (p[k] for k in ("motor_inertia", "motor_damping", "sea_stiffness", "joint_inertia",
-                                         "cuff_stiffness"))
-    m, b, k = HUMAN
-    A = np.zeros((6, 6))
-    A[0, 1] = A[2, 3] = A[4, 5] = 1.0
-    A[1, [0, 1, 2]] = [-Ks / Jm, -Bm / Jm, Ks / Jm]  # J_m θ̈_m + B_m θ̇_m = τ_s + τ_m, τ_s = K_s(θ_j − θ_m)
-    A[3, [0, 2, 4]] = [Ks / Jj, -(Ks + Kc) / Jj, Kc / Jj]  # J_j θ̈_j = τ_c − τ_s, τ_c = K_c(θ_h − θ_j)
-    A[5, [2, 4, 5]] = [Kc / m, -(Kc + k) / m, -b / m]  # the human: m θ̈_h + b θ̇_h + k θ_h = τ_h − τ_c
-    B = np.zeros((6, 2))
-    B[1, 0] = 1 / Jm
-    B[5, 1] = 1 / m
-    return A, B
+    return plant_matrices(p)
 
 
 def _excitation(seed: int):
