@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from exotune.analysis import analyze_design
 from exotune.cli import cli
 from exotune.config import load_design
-from exotune.optimization import format_optimize
+from exotune.text.optimize import format_optimize
 from exotune.text.analysis import format_report
 from exotune.text.margins import format_margins
 from exotune.text.numbers import count_text, interval_text, unit_text

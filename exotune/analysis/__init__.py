@@ -31,7 +31,6 @@ from .kyp import (
     admittance_certificate,
     certificates_dict,
     compliance_certificate,
-    format_certificates,
     nominal_shortage,
     operator_certificates,
 )
@@ -76,7 +75,6 @@ __all__ = [
     "compliance_certificate",
     "operator_certificates",
     "nominal_shortage",
-    "format_certificates",
     "pade_crosscheck",
     "pade_stable",
     "design_report",

@@ -51,7 +51,7 @@ import numpy as np
 from .kyp_verify import lmi_holds, positive_on_axis
 
 __all__ = ["KypCertificate", "admittance_certificate", "compliance_certificate", "operator_certificates",
-           "certificates_dict", "nominal_shortage", "format_certificates", "realization_error", "SHORTAGE_UNIT"]
+           "certificates_dict", "nominal_shortage", "realization_error", "SHORTAGE_UNIT"]
 
 SHORTAGE_UNIT = "rad/(N·m·s)"  # admittance: angular velocity per torque
 LOSSLESS_UNIT = "rad/(N·m)"  # compliance of the lossless spring-like term q1·s of Y
@@ -401,25 +401,3 @@ def operator_certificates(cfg, tol: float = TOL) -> dict:
 def certificates_dict(certs) -> dict:
     """The JSON records of :func:`operator_certificates` (an ``error`` entry is kept as its text)."""
     return {name: (c if isinstance(c, str) else c.as_dict()) for name, c in certs.items()}
-
-
-def format_certificates(certs: dict, indent: str = "  ") -> list[str]:
-    """Text lines of an :func:`operator_certificates` result (or of its ``error`` entry)."""
-    lines = []
-    for name, c in (certs or {}).items():
-        if name == "error":
-            lines.append(indent + str(c))
-            continue
-        verdict = {True: "passive (verified)", False: "NOT passive", None: "undecided"}[c["passive"]]
-        sh = c["shortage"]
-        line = f"{indent}KYP certificate, {c['model']}: {verdict}"
-        if sh is not None and math.isfinite(sh):
-            line += f"; shortage {sh:.4g} {c['shortage_unit']}"
-        wf = c.get("witness_frequency_hz")
-        if c["passive"] is False and wf is not None and wf == wf:
-            line += (f" (Re{{jω C7}} minimum at {wf:.4g} Hz)" if math.isfinite(wf) else
-                     " (Re{jω C7} approaches its infimum as ω → ∞)")
-        if c["passive"] is None or sh is None or not math.isfinite(sh):
-            line += f" — {c['reason']}"
-        lines.append(line)
-    return lines

@@ -72,9 +72,9 @@ docs/optimize-spec.md; paper §IV (coupled stability with the human), §IV-A (pa
 
 from .evaluate import evaluate
 from .peak import amplification_peak
-from .report import format_optimize, run_optimize
+from .runner import run_optimize
 from .search import optimize
 from .spec import CONSTRAINTS, OBJECTIVES, OptimizeSpec, load_optimize_spec, optimized_design_mapping
 
 __all__ = ["OBJECTIVES", "CONSTRAINTS", "OptimizeSpec", "load_optimize_spec", "evaluate", "optimize",
-           "format_optimize", "run_optimize", "optimized_design_mapping", "amplification_peak"]
+           "run_optimize", "optimized_design_mapping", "amplification_peak"]

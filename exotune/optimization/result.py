@@ -33,7 +33,7 @@ class OptimizeResult(Record):
                    None if path is None or not rec["feasible"] else str(path))
 
     def to_text(self) -> str:
-        from .report import format_optimize
+        from ..text.optimize import format_optimize
 
         return format_optimize(self.to_dict())
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..analysis import format_certificates
 from ..model.humans import PARAM_UNITS
+from .kyp import format_certificates
 from .margins import format_margins
 from .numbers import unit_text
 from .verdicts import format_verdicts

@@ -22,7 +22,8 @@ from exotune.analysis.margins import latency_margin
 from exotune.cli import cli
 from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.errors import ConfigError
-from exotune.optimization import (amplification_peak, evaluate, format_optimize, load_optimize_spec, optimize,
+from exotune.text.optimize import format_optimize
+from exotune.optimization import (amplification_peak, evaluate, load_optimize_spec, optimize,
                               optimized_design_mapping)
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,0 +1,72 @@
+"""``exotune optimize``: load the spec, search, write the optimized design file and the Pareto front.
+
+References
+----------
+docs/optimize-spec.md#result.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .result import OptimizeResult
+from .search import optimize
+from .spec import load_optimize_spec, optimized_design_mapping
+
+__all__ = ["run_optimize"]
+
+
+def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
+    """``exotune optimize``: load, search, write the optimized design file (validated, atomically)
+    and, on request, the Pareto front as CSV.
+
+    Parameters
+    ----------
+    spec_file : str, os.PathLike or dict
+        The optimization spec.
+    out : str or os.PathLike
+        Design file to write (only when a feasible design is found).
+    seed : int, optional
+        Overrides the spec's seed.
+    pareto_csv : str or os.PathLike, optional
+        Where to write the Pareto front.
+
+    Returns
+    -------
+    OptimizeResult
+        The report of :func:`optimize` (``to_dict()``) with ``feasible``, the objective value and
+        the written file (``feasible`` false: nothing written, ``path`` None).
+
+    Raises
+    ------
+    ConfigError
+        For bad input.
+
+    References
+    ----------
+    docs/optimize-spec.md.
+    """
+    import yaml
+
+    from ..config import design_from_mapping
+    from ..jsonio import write_atomic
+
+    spec = load_optimize_spec(spec_file, seed=seed)
+    r = optimize(spec, pareto=pareto_csv is not None)
+    if not r["feasible"]:
+        return OptimizeResult.from_report(r, out)
+    mapping = optimized_design_mapping(spec, r)
+    design_from_mapping(mapping)  # the written file must load
+    o = r["objective"]
+    lm = r["latency_margin"]
+    ms = lambda v: "unbounded" if v is None or not math.isfinite(v) else f"{v * 1e3:.6g} ms"  # noqa: E731
+    unit = "–" if o["unit"] == "1" else o["unit"]
+    head = (f"# exotune optimize: {o['name']} = {o['value']:.6g} {unit} ({o['sense']}imized), "
+            f"active: {', '.join(r['active_constraints']) or 'none'}; latency margin {ms(lm['achieved_s'])} "
+            f"(required {ms(lm['required_s'])}); seed {spec.seed}\n")
+    write_atomic(out, head + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True))
+    if pareto_csv is not None:
+        cols = ["objective", "robust_fraction", *spec.free]
+        text = ",".join(cols) + "\n" + "".join(",".join(repr(float(row[c])) for c in cols) + "\n" for row in r["pareto"])
+        write_atomic(pareto_csv, text)
+    return OptimizeResult.from_report(r, out)
