@@ -380,7 +380,7 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
 
 
 def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
-             sample_rate_hz: float | None = None) -> PlantEstimate:
+             sample_rate_hz: float | None = None, friction: bool = False, fix=None) -> PlantEstimate:
     """The plant parameters a measured log determines, with standard errors (the library twin of
     ``exotune identify``).
 
@@ -398,6 +398,10 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
         Corner of the state-variable filter [Hz].
     sample_rate_hz : float, optional
         Sample rate [Hz], overriding the time column (which may then be absent).
+    friction : bool
+        Estimate Coulomb friction F_c·sign(θ̇_m) in the motor equation (the paper's δ_f).
+    fix : mapping or iterable of "NAME=VALUE", optional
+        Known parameters (design-file keys or symbols, SI units).
 
     Returns
     -------
@@ -426,8 +430,10 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
     if isinstance(source, Mapping):
         if out is not None:
             raise TypeError("identify writes its sections only for a log file (give a path)")
-        return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s, sample_rate_hz), filter_hz=filter_hz)
-    return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz)
+        return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s, sample_rate_hz), filter_hz=filter_hz,
+                              friction=friction, fix=fix)
+    return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
+                         friction=friction, fix=fix)
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
@@ -466,8 +472,9 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     ('decaying', 8.0)
     """
     from .controllerfile.results import ExportedController
-    from .simulation import at_joint_angle, load_for_simulation, run_scenario
+    from .simulation import at_joint_angle, check_human_inertia, load_for_simulation, run_scenario
 
+    check_human_inertia(human_inertia)
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
     with numpy_engine():

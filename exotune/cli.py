@@ -395,15 +395,19 @@ def codegen_cmd(controller_file, out_dir, allow_uncertified):
               help="Corner of the state-variable filter [Hz] (default 20, at most a hundredth of the rate).")
 @click.option("--sample-rate-hz", "sample_rate_hz", default=None, metavar="F",
               help="Sample rate [Hz], overriding the time column (which may then be absent).")
+@click.option("--friction", "friction", is_flag=True, help="Estimate Coulomb friction F_c·sign(θ̇_m) in the motor equation.")
+@click.option("--fix", "fix", multiple=True, metavar="NAME=VALUE",
+              help="A known parameter (design-file key or symbol, SI units); repeatable.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.pass_context
-def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, as_json):
+def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, friction, fix, as_json):
     """Identify the plant (J_m, B_m, K_s, J_j, K_c) from a measured log (docs/identification.md).
 
     LOG.csv holds a header row of column names and one row per sample (t, theta_m, tau_s, tau_m or
-    tau_cmd; theta_j, tau_c, theta_h for more parameters). Exit code 0: every parameter the
-    columns allow identified; 1: some parameter not identified or not physical (≤ 0; nothing is
-    written then); 2: bad input, or a log without excitation."""
+    tau_cmd; theta_j, tau_c, theta_h for more parameters). Each equation is identified on its own.
+    Exit code 0: every parameter the columns allow identified; 1: some parameter not identified
+    (the others are written) or not physical (≤ 0: nothing is written); 2: bad input, or a log
+    that excites no parameter."""
     from .identification import identify_file
     from .jsonio import check_outputs
     from .options import number_value
@@ -414,7 +418,7 @@ def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, as_json
         delay = number_value("--delay-s", delay, False)
     fh = None if filter_hz is None else number_value("--filter-hz", filter_hz, True)
     fs = None if sample_rate_hz is None else number_value("--sample-rate-hz", sample_rate_hz, True)
-    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs)
+    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs, friction=friction, fix=fix)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.complete:
         ctx.exit(1)
@@ -443,12 +447,12 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
 
     from .jsonio import write_files
     from .plots.simulate import plot_simulation
-    from .simulation import at_joint_angle, load_for_simulation, number_option, run_scenario
+    from .simulation import at_joint_angle, check_human_inertia, load_for_simulation, number_option, run_scenario
 
     from .jsonio import check_outputs
 
     check_outputs([input_file], out_dirs={"--plots": plots_dir})
-    human_inertia = number_option("--human-inertia", human_inertia, positive=True)
+    human_inertia = check_human_inertia(number_option("--human-inertia", human_inertia, positive=True), "--human-inertia")
     duration = number_option("--duration", duration, positive=True)
     joint_angle = number_option("--joint-angle", joint_angle)
     doc = load_for_simulation(input_file, sample_rate_hz)

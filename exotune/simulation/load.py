@@ -9,7 +9,7 @@ from ..controllerfile.certify import certify
 from ..errors import ConfigError
 from .plant import MIN_HUMAN_INERTIA
 
-__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "number_option"]
+__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "number_option", "check_human_inertia"]
 
 
 def number_option(name: str, text, positive: bool = False) -> float | None:
@@ -24,12 +24,22 @@ def number_option(name: str, text, positive: bool = False) -> float | None:
 
     if text is None:
         return None
-    v = number_value(name, text, positive)
-    if name == "--human-inertia" and v < MIN_HUMAN_INERTIA:
-        raise ConfigError(name, f"{text!r} kg·m² is below {MIN_HUMAN_INERTIA:g} kg·m²: the cuff mode √(K_c/m) "
-                          "is then "
-                          "beyond double precision (the sampled-data model overflows)")
-    return v
+    return number_value(name, text, positive)
+
+
+def check_human_inertia(value: float | None, field: str = "human_inertia") -> float | None:
+    """A human inertia [kg·m²] for a simulation: None (the scenario's), or at least
+    ``MIN_HUMAN_INERTIA`` (below it the cuff mode √(K_c/m) is beyond double precision and the
+    sampled-data model overflows), else :class:`ConfigError` naming ``field``.
+
+    References
+    ----------
+    docs/cli.md#simulate.
+    """
+    if value is not None and not value >= MIN_HUMAN_INERTIA:
+        raise ConfigError(field, f"{value!r} kg·m² is below {MIN_HUMAN_INERTIA:g} kg·m²: the cuff mode √(K_c/m) is "
+                                 "then beyond double precision (the sampled-data model overflows)")
+    return value
 
 
 def check_consistent(doc: dict) -> None:

@@ -546,3 +546,16 @@ def test_growing_run_text_says_what_was_not_measured_in_words():
     assert "null" not in text and "not measured (see below)" in text
     assert "why these metrics were not measured: growing run" in text
     assert "cuff oscillation start:" in text and "start rad" not in text and "measured on tau_s" in text
+
+
+def test_a_too_light_human_is_refused_by_the_command_and_the_library_alike():
+    """The lower bound of the human inertia is a library check naming the caller's field (the
+    library no longer tests a flag string)."""
+    import exotune
+    from exotune.errors import ConfigError
+
+    res = CliRunner().invoke(cli, ["simulate", str(ROOT / "examples" / "scheduled.yaml"), "--scenario", "light-mass",
+                                   "--human-inertia", "1e-18"])
+    assert res.exit_code == 2 and "--human-inertia" in res.output and "double precision" in res.output
+    with pytest.raises(ConfigError, match="human_inertia: 1e-18 kg·m² is below"):
+        exotune.simulate(ROOT / "examples" / "scheduled.yaml", "light-mass", human_inertia=1e-18)
