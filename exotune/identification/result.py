@@ -30,6 +30,7 @@ class ParameterEstimate:
     value: float
     std_error: float
     unit: str
+    fixed: bool = False
 
     @property
     def relative_std_error(self) -> float:
@@ -37,7 +38,7 @@ class ParameterEstimate:
 
     def to_dict(self) -> dict:
         return {"value": self.value, "std_error": self.std_error, "unit": self.unit,
-                "relative_std_error": self.relative_std_error}
+                "relative_std_error": self.relative_std_error, "fixed": self.fixed}
 
 
 @dataclass(frozen=True)
@@ -70,7 +71,9 @@ class PlantEstimate(Result):
     after the filter's transient, the state-variable filter's corner ``filter_hz`` [Hz] and the
     residual's correlation length ``correlation_s`` [s] the standard errors account for.
     ``missing`` names the parameters the log's columns cannot determine, with the columns they
-    need. The covariance is per equation (:attr:`EquationFit.covariance`; :meth:`covariance`
+    need; ``not_identified`` those whose equation could not identify them (no excitation, or
+    within 5 SE of zero); ``delay``: a held command's delay (given or estimated) with the motor
+    equation's RMS residuals. The covariance is per equation (:attr:`EquationFit.covariance`; :meth:`covariance`
     assembles it): the equations are solved separately and their cross-covariances are not
     estimated."""
 
@@ -103,8 +106,10 @@ class PlantEstimate(Result):
 
     @property
     def physical(self) -> bool:
-        """Every estimate positive (a negative inertia, damping or stiffness is not a plant)."""
-        return all(p.value > 0 for p in self.parameters)
+        """Every estimate positive (a negative inertia, damping or stiffness is not a plant;
+        Coulomb friction may be 0: not below −3 standard errors)."""
+        return all(p.value > (-UNCERTAINTY_SIGMAS * p.std_error if p.key == "coulomb_friction" else 0)
+                   for p in self.parameters)
 
     @property
     def complete(self) -> bool:
@@ -114,8 +119,9 @@ class PlantEstimate(Result):
     def design_sections(self) -> dict:
         """``{"plant": …, "uncertainty": …}`` for a design file: the estimates, and as relative
         range of each the :data:`UNCERTAINTY_SIGMAS`-standard-error band (capped below 1)."""
-        return {"plant": {p.key: p.value for p in self.parameters},
-                "uncertainty": {p.key: min(0.99, UNCERTAINTY_SIGMAS * p.relative_std_error) for p in self.parameters}}
+        ps = [p for p in self.parameters if p.key != "coulomb_friction"]  # not a design-file parameter
+        return {"plant": {p.key: p.value for p in ps},
+                "uncertainty": {p.key: min(0.99, UNCERTAINTY_SIGMAS * p.relative_std_error) for p in ps}}
 
     def to_dict(self) -> dict:
         return {
@@ -127,8 +133,10 @@ class PlantEstimate(Result):
             "correlation_s": self.correlation_s,
             "parameters": {p.key: p.to_dict() for p in self.parameters},
             "fits": [f.to_dict() for f in self.fits],
-            "not_identified": {k: why for k, why in self.missing},
+            "not_identified": {k: why for k, why in self.missing + self.not_identified},
             "physical": self.physical,
+            "complete": self.complete,
+            "delay": self.delay,
             "uncertainty_sigmas": UNCERTAINTY_SIGMAS,
             "method": ("least squares on the plant equations (docs/method.md#physical-model), every signal through "
                        "the state-variable filter ω³/(s + ω)³ and its s-, s²-multiples (first-order hold), a sensor "
@@ -142,15 +150,22 @@ class PlantEstimate(Result):
                  f"{' (given)' if self.rate_source != 't' else ''}, "
                  f"filter {self.filter_hz:g} Hz, standard errors for residuals correlated over {self.correlation_s:.3g} s"]
         for p in self.parameters:
-            lines.append(f"  {p.key} ({p.symbol}): {p.value:.6g} ± {p.std_error:.3g} {p.unit} "
+            lines.append(f"  {p.key} ({p.symbol}): {p.value:.6g} {p.unit} (fixed)" if p.fixed else
+                         f"  {p.key} ({p.symbol}): {p.value:.6g} ± {p.std_error:.3g} {p.unit} "
                          f"({100 * p.relative_std_error:.2g} %)")
+        if self.delay is not None:
+            d = self.delay
+            how = "estimated: the smallest motor-equation residual" if d["estimated"] else "given"
+            lines.append(f"  delay: {d['samples']} samples ({d['seconds']:.6g} s, {how}), RMS residual "
+                         f"{d['rms_residual']:.3g} N·m (without delay {d['rms_residual_without_delay']:.3g} N·m"
+                         + "".join(f", {k} samples {v:.3g}" for k, v in d.get("rms_residual_neighbours", {}).items()) + ")")
         for f in self.fits:
             lines.append(f"  fit {f.equation}: R² {f.r2:.6f}, RMS residual {f.rms_residual:.3g} {f.residual_unit}, "
                          f"offset {f.offset:.3g} {f.offset_unit}")
-        for k, why in self.missing:
+        for k, why in self.missing + self.not_identified:
             lines.append(f"  {k}: not identified ({why})")
         if not self.physical:
-            bad = ", ".join(p.key for p in self.parameters if p.value <= 0)
+            bad = ", ".join(p.key for p in self.parameters if p.value <= 0 and p.key != "coulomb_friction")
             lines.append(f"  NOT A PLANT: {bad} ≤ 0 (too little excitation, or the log's signs or units differ from "
                          "docs/identification.md)")
         return "\n".join(lines)

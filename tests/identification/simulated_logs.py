@@ -24,7 +24,7 @@ NOISE = {"theta_m": 2e-6, "theta_j": 2e-6, "theta_h": 2e-6, "tau_s": 0.02, "tau_
 PD = (150.0, 2.0)  # closed loop: τ = u − kp θ_m − kd θ̇_m [N·m/rad, N·m·s/rad]
 
 
-def plant_matrices(p=TRUE, friction=False):
+def plant_matrices(p=TRUE):
     """States θ_m, θ̇_m, θ_j, θ̇_j, θ_h, θ̇_h; inputs τ_m, τ_h (the human's muscle torque)."""
     Jm, Bm, Ks, Jj, Kc = (p[k] for k in ("motor_inertia", "motor_damping", "sea_stiffness", "joint_inertia",
                                          "cuff_stiffness"))
@@ -84,12 +84,12 @@ def smooth_logs(seeds, fs, seconds, closed=False, noise=True, seed0=0):
     return cols
 
 
-def held_logs(seeds, fs, seconds, closed=False, noise=True, delay=1, seed0=0):
+def held_logs(seeds, fs, seconds, closed=False, noise=True, delay=1, seed0=0, p=TRUE):
     """Exact zero-order hold: the command (a multisine plus broadband noise; closed loop: minus a
     digital PD on the measured, noisy motor angle) is logged as tau_cmd and applied ``delay``
     samples later; the human torque is held too."""
     rng = np.random.default_rng(3000 + seed0)
-    A, B = plant_matrices()
+    A, B = plant_matrices(p)
     Ts = 1 / fs
     E = scipy.linalg.expm(np.block([[A, B], [np.zeros((2, 8))]]) * Ts)
     Ad, Bd = E[:6, :6], E[:6, 6:]
@@ -112,7 +112,7 @@ def held_logs(seeds, fs, seconds, closed=False, noise=True, delay=1, seed0=0):
         if k + 1 < n:
             applied = cmd[:, k - delay] if k >= delay else np.zeros(seeds)
             x[:, :, k + 1] = x[:, :, k] @ Ad.T + np.outer(applied, Bd[:, 0]) + tau_h[k] * Bd[:, 1]
-    cols = _columns(x, t, nrng if noise else None)
+    cols = _columns(x, t, nrng if noise else None, p)
     for i, c in enumerate(cols):
         if noise:
             c["theta_m"] = x[i, 0] + enc[i]  # the encoder noise the controller saw
