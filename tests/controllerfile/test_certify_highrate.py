@@ -69,3 +69,27 @@ def test_loop_verdict_is_the_spectral_verdict_of_its_loop_matrix(path, human, en
     lam = np.linalg.eigvals(M)
     rigid = 1e-7 if ungrounded and np.min(np.abs(lam - 1.0)) <= 1e-7 else None
     assert loop_verdict(plant, ctrl, grounded, human, env) == spectral_verdict(M, rigid_tol=rigid)
+
+
+@pytest.mark.parametrize("extra_samples", [0.0, 41.9, 42.1, 43.0])
+def test_a_radius_of_one_or_more_is_never_a_stable_verdict(path, extra_samples):
+    """What the latency margin's probes rely on: loop_stable's radius is the largest modulus of
+    loop_eigenvalues, and a radius ≥ 1 is never stable (around this file's margin of 42.03 samples)."""
+    from dataclasses import replace
+
+    from exotune.sampled import loop_eigenvalues, loop_stable
+
+    doc = load_controller(path)
+    plant, ctrl = plant_from_file(doc), discrete_from_file(doc)
+    ctrl = replace(ctrl, delay_s=ctrl.delay_s + extra_samples / FS)
+    grounded = position_feedback(doc["controller"])
+    seen = set()
+    for human, env in [(None, "free"), (None, "locked")] + [({"inertia": v, "damping": 0.0}, "free")
+                                                            for v in (0.01, 0.0103, 0.1, 1.0)]:
+        stable, rho = loop_stable(plant, ctrl, grounded, human, env)
+        lam = loop_eigenvalues(plant, ctrl, grounded, human, env)
+        assert rho == float(np.max(np.abs(lam)))
+        assert not (rho >= 1.0 and stable)
+        seen.add(rho >= 1.0)
+    if extra_samples >= 42.1:
+        assert True in seen  # the lightest arm is unstable past the margin
