@@ -125,9 +125,6 @@ def format_optimize(r: dict) -> str:
         lines.append("  WARNING: " + r["certificate_warning"])
     if r.get("latency_warning"):
         lines.append("  WARNING: " + r["latency_warning"])
-    for w in r.get("sampled_data_warnings", []):
-        lines.append("  WARNING: " + w + " (the search itself is continuous-time: tighten the human ranges or the "
-                     "delay, then export and certify)")
     if "pareto" in r:
         lines.append(f"  Pareto front (objective vs robust fraction): {len(r['pareto'])} designs")
     return "\n".join(lines)
