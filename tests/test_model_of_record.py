@@ -162,3 +162,19 @@ def test_optimum_certifies_over_seeds_and_rates(tmp_path, rate, delay, seed):
     cert = exotune.certify(ctl).to_dict()
     assert cert["certified"], cert["problems"]
     assert cert["latency_margin"]["extra_delay_s"] >= 1.0 / rate
+
+
+def test_analyze_holds_the_design_to_its_requirements_section(template, tmp_path):
+    """A design's own requirements (here 10 ms, far above its 1.7 ms) decide analyze's verdict of
+    record, as they will decide export and certify."""
+    raw = yaml.safe_load((template / "design.yaml").read_text())
+    raw["requirements"] = {"latency_margin_s": 0.01, "source": "test"}
+    p = tmp_path / "req.yaml"
+    p.write_text(yaml.safe_dump(raw))
+    r = exotune.analyze(p)
+    assert not r.sampled.certifiable and r.sampled.robust
+    assert r.sampled.required_latency_margin_s == 0.01
+    assert any("< required 10 ms" in x for x in r.sampled.problems)
+    assert r.to_dict()["margins"]["latency"]["met"] is False
+    res = run("export", p, "-o", tmp_path / "c.yaml")
+    assert res.exit_code == 1 and "< required 10 ms" in res.output
