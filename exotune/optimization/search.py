@@ -133,7 +133,10 @@ def optimize(spec: OptimizeSpec, pareto: bool = False) -> dict:
     """
     rng = np.random.default_rng(spec.seed)
     verdicts = None
-    if spec.cfg.implementation.sample_rate_hz:
+    c = spec.constraints
+    if spec.cfg.implementation.sample_rate_hz and c["robust"] and c["free_stable"] and c["locked_stable"]:
+        # decided on the sampled-data loop — certify's decision requires every stability verdict,
+        # so a spec that disables one keeps the continuous search (docs/optimize-spec.md#sample-rate)
         from .sampled import sampled_search
 
         ar, u, lm, res, used, rounds, verdicts, srec = sampled_search(spec, rng, _search)
