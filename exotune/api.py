@@ -298,13 +298,16 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
                              time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
 
 
-def certify(source) -> Certificate:
+def certify(source, *, precision: str | None = None) -> Certificate:
     """Exact sampled-data certification of a controller file (the library twin of ``exotune certify``).
 
     Parameters
     ----------
     source : path, Mapping or ExportedController
         The controller file, its content, or the result of :func:`export`.
+    precision : {"float64", "float32"}, optional
+        Analyse the file as if exported for this target arithmetic (``certify --precision``;
+        docs/controller-file.md#precision); the file is not changed.
 
     References
     ----------
@@ -331,7 +334,7 @@ def certify(source) -> Certificate:
     else:
         raise TypeError(f"expected a controller file path, a mapping or an ExportedController, got {type(source).__name__}")
     with numpy_engine():
-        return _certify(doc)
+        return _certify(doc, precision=precision)
 
 
 def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:

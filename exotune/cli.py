@@ -347,8 +347,10 @@ def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.option("--time-budget-s", "time_budget_s", default=None, metavar="S",
               help="Refuse or stop the analysis beyond this many seconds (default 600).")
+@click.option("--precision", "precision", default=None, metavar="float64|float32",
+              help="Analyse the file as if exported for this target arithmetic (the file is not changed).")
 @click.pass_context
-def certify_cmd(ctx, controller_file, as_json, time_budget_s):
+def certify_cmd(ctx, controller_file, as_json, time_budget_s, precision):
     """Exact sampled-data analysis of an exported controller file (docs/controller-file.md). Exit code 0: certified,
     1: analysed but not certified (the reasons are listed), 2: invalid file."""
     from .controllerfile.certify import certify
@@ -361,7 +363,7 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s):
     budget = check_budget_option(time_budget_s)
     doc = load_controller(controller_file)
     with time_budget(budget, f"certifying {os.path.basename(controller_file)}", "export at a lower rate", writes=False):
-        r = certify(doc)
+        r = certify(doc, precision=precision)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.certified:
         ctx.exit(1)

@@ -321,7 +321,8 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
     raw = {
         "plant": p.model_dump(),
         "design": d.model_dump(),
-        "implementation": impl_in.model_dump(),
+        # precision only when given, so that existing implementation sections and spec hashes are unchanged
+        "implementation": impl_in.model_dump(exclude={"precision"} if impl_in.precision is None else None),
         "humans": humans_raw,
         "environment": envs_raw,
     }

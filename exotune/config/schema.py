@@ -102,12 +102,21 @@ class ImplementationIn(_Strict):
     dob: Optional[Filter2In] = None
     velocity_filter: Optional[Filter1In] = None
     structure: str = "default"
+    precision: Optional[str] = None  # the target's arithmetic (docs/controller-file.md#precision); None: float64
 
     @field_validator("structure", mode="before")
     @classmethod
     def _structure(cls, v):
         if not isinstance(v, str) or v not in STRUCTURES:
             raise ValueError(f"must be one of {', '.join(sorted(STRUCTURES))}, got {fmt_value(v)}")
+        return v
+
+    @field_validator("precision", mode="before")
+    @classmethod
+    def _precision(cls, v):
+        if v is not None and (not isinstance(v, str) or v not in ("float64", "float32")):
+            raise ValueError(f"must be float64 or float32 (the arithmetic of the target that runs the controller), "
+                             f"got {fmt_value(v)}")
         return v
 
 

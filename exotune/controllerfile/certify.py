@@ -279,10 +279,17 @@ _NO_IMPLEMENTATION_NOTE = ("no implementation section (a file written before exo
                            "not checked against the design, only their DC gains; ")
 
 
-def certify(doc: dict) -> Certificate:
+def certify(doc: dict, precision: str | None = None) -> Certificate:
     """Re-run the sampled-data analysis of a validated controller file and check its golden
     vectors and predictions (see the module docstring). An overflowing controller (e.g. a gain of
     1e308) fails on its verdicts and golden vectors, without numpy's warnings on the terminal.
+
+    ``precision`` (``certify --precision``): analyse the file as if exported for that arithmetic
+    (:func:`~exotune.controllerfile.precision.with_precision`; the file is not changed, its
+    sampled-data predictions, made for its own precision, are not compared). A float32 file (or
+    ``precision="float32"``) is analysed with its float32 realization, its golden vectors run in
+    float32, and the report gains ``precision``: the rounding bound
+    (:func:`~exotune.controllerfile.roundoff.roundoff_bound`).
 
     A file whose controller was not built from its design section and plant is refused first
     (:func:`check_built_from_design`, a ConfigError: exit 2), unless it declares itself hand-tuned:
@@ -291,9 +298,18 @@ def certify(doc: dict) -> Certificate:
     Returns a :class:`~exotune.controllerfile.results.Certificate`: ``certified``, ``reasons`` and
     the whole report (``to_dict()``, the ``exotune certify --json`` object).
     """
+    from .precision import precision_of
+    from .target import with_precision
+
+    own = precision_of(doc)
+    asked = own if precision is None else precision
+    if asked != own:
+        doc = with_precision(doc, asked)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         check_built_from_design(doc)
-        rep = _certify(doc)
+        rep = _certify(doc, predictions=asked == own)
+    if asked == "float32":
+        _float32_section(doc, rep, asked != own)
     if hand_tuned(doc):
         rep["scope"] = "controller only (hand-tuned: the design section is not checked against the controller)"
         rep["method"] = _HAND_TUNED_NOTE + rep["method"]
@@ -425,7 +441,23 @@ def schedule_section(doc: dict) -> tuple[list, list[str], list[str]]:
     return entries, problems, mism
 
 
-def _certify(doc: dict) -> dict:
+def _float32_section(doc: dict, rep: dict, asked: bool) -> None:
+    """The float32 part of the report: the realization checked against the file's sos and gains
+    (a mismatch is an invalid file unless hand-tuned), and the rounding bound."""
+    from ..errors import ConfigError
+    from .precision import realization_problems
+    from .roundoff import roundoff_bound
+
+    bad = [] if hand_tuned(doc) else realization_problems(doc)
+    if bad:
+        raise ConfigError("controller.realization", f"{bad[0]}; export the file again from its design")
+    rep["precision"] = roundoff_bound(doc)
+    if asked:
+        rep["precision"]["asked"] = ("certify --precision float32: the file's float64 controller analysed as its "
+                                     "float32 realization (the file is unchanged; its predictions are not compared)")
+
+
+def _certify(doc: dict, predictions: bool = True) -> dict:
     refuse_excess_work(doc)
     rep = {"schema": doc["schema"], "sample_rate_hz": doc["sample_rate_hz"], "delay_s": doc["delay_s"]["value"],
            "provenance": doc.get("provenance")}
@@ -441,6 +473,8 @@ def _certify(doc: dict) -> dict:
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the file names no rational human family to certify against (certify.humans)")
     mism += _prediction_mismatches((doc.get("predicted") or {}).get("sampled"), sa, "predicted.sampled")
+    if not predictions:  # certify --precision: the predictions were made for the file's own precision
+        mism = []
     if mism:
         problems.append("the file's predictions differ from this analysis: " + ", ".join(mism))
     rep["prediction_mismatches"] = mism
@@ -492,10 +526,10 @@ def _run_golden(doc: dict, ins: dict, where: str) -> np.ndarray:
     """The reference runtime on the golden inputs; a controller that overflows on them (a command
     too large for floating point) is a broken file: input error naming it."""
     from ..errors import ConfigError
-    from .runtime import Runtime
+    from .target import runtime_of
 
     try:
-        return Runtime(doc).run(ins)
+        return runtime_of(doc).run(ins)
     except ValueError as e:
         raise ConfigError(where, f"the reference runtime refuses the golden inputs: {e}") from None
 

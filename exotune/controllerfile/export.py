@@ -37,8 +37,9 @@ from ..sampled import Measured
 from .build import controller_section, quantity, reflected_mapping
 from .certify import refuse_excess_work, sampled_analysis, sampled_decision
 from .fileio import schedule_entry_doc, write_controller
+from .precision import add_realizations, realization
+from .target import runtime_of
 from .results import ExportedController
-from .runtime import Runtime
 from .schema import DESIGN_UNITS, PLANT_UNITS, SCHEMA_VERSION, SIGNAL_UNITS, validate_controller
 
 __all__ = [
@@ -93,6 +94,9 @@ def _gain_schedule(cfg, fs: float, doc: dict, analyses: bool = True) -> dict:
             "gains": six,
             "controller": {"gains": gains_sig, "filters": filters},
         }
+        if doc["controller"].get("realization") is not None:  # float32: each entry's own realization
+            entry["controller"]["realization"] = realization(entry["controller"],
+                                                             f"gain_schedule.entries[{len(entries)}].controller")
         if analyses:
             entry["predicted_sampled"] = sampled_analysis(schedule_entry_doc(doc, entry))
         entries.append(entry)
@@ -273,6 +277,8 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         "transmission": raw.get("transmission"),
         "certify": {"humans": raw["humans"], "environment": raw["environment"]},
     }
+    if (raw.get("implementation") or {}).get("precision") == "float32":
+        add_realizations(doc)  # what a float32 target executes, analysed exactly (docs/controller-file.md#precision)
     doc["requirements"] = requirements_section(fs, require_latency_margin_s, getattr(cfg, "requirements", None))
     doc["predicted"] = None
     problems: list[str] = []
@@ -293,9 +299,9 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
             "same; each entry is a complete controller, certified frozen at its angle (LTI) — the time-varying "
             "schedule itself has no stability guarantee (paper); the reference runtime uses the nearest entry")
     ins = _golden_inputs(fs=fs)
-    out = Runtime(doc).run(ins)
+    out = runtime_of(doc).run(ins)  # float32 files: in float32 arithmetic, the C port's operations
     for e in (doc["gain_schedule"] or {}).get("entries", []):
-        e["golden_tau_cmd"] = {"unit": "N·m", "values": [float(x) for x in Runtime(schedule_entry_doc(doc, e)).run(ins)]}
+        e["golden_tau_cmd"] = {"unit": "N·m", "values": [float(x) for x in runtime_of(schedule_entry_doc(doc, e)).run(ins)]}
     doc["golden"] = {"note": "reference-runtime outputs (exotune.runtime) for these inputs from the zero state",
                      "inputs": {s: {"unit": SIGNAL_UNITS[s], "values": [float(x) for x in v]} for s, v in ins.items()},
                      "tau_cmd": {"unit": "N·m", "values": [float(x) for x in out]}}

@@ -40,6 +40,9 @@ def checked_controller(doc, source: str = "<mapping>") -> dict:
     validate_controller(doc, source)
     check_file_limits(doc)
     check_controller_file(doc)
+    from .precision import precision_of
+
+    precision_of(doc)  # implementation.precision valid, and a realization in every controller of a float32 file
     return doc
 
 
@@ -105,8 +108,13 @@ def write_controller(doc: dict, out) -> None:
 
 def discrete_from_file(doc: dict):
     """The file's controller as one state space (:class:`exotune.sampled.DiscreteController`),
-    built from its gains and sos filters only."""
+    built from its gains and sos filters only; for a float32 file, from its float32 realization as
+    the target executes it (:func:`exotune.controllerfile.precision.discrete_from_realization`)."""
     c = doc["controller"]
+    if c.get("realization") is not None:
+        from .precision import discrete_from_realization
+
+        return discrete_from_realization(c["realization"], doc["sample_rate_hz"]["value"], doc["delay_s"]["value"])
     static = np.array([c["gains"].get(s, {"gain": 0.0})["gain"] for s in Measured], dtype=float)
     blocks = [(sos_ss(f["sos"]), f["input"]) for f in c["filters"]]
     return assemble(static, blocks, doc["sample_rate_hz"]["value"], doc["delay_s"]["value"])
@@ -130,7 +138,12 @@ def position_feedback(controller: dict, rtol: float = 1e-12) -> bool:
     """Whether the file's controller feeds back the motor *position* at DC — from the controller
     the runtime executes (its θ_m gain and the DC gains of its filters on θ_m), never from the
     descriptive six-gain summary. Without it (and without a human or environment stiffness) the
-    structure is ungrounded and the loop has its rigid-body eigenvalue at z = 1."""
+    structure is ungrounded and the loop has its rigid-body eigenvalue at z = 1. For a float32
+    file, that of its realization."""
+    if controller.get("realization") is not None:
+        from .precision import realization_position_feedback
+
+        return realization_position_feedback(controller["realization"], rtol)
     total = float(controller["gains"].get("theta_m", {"gain": 0.0})["gain"])
     scale = abs(total)
     for f in controller["filters"]:

@@ -79,10 +79,33 @@ class Filter(_S):
     sos: list[SosRow] = Field(min_length=1, description="rows [b0, b1, b2, a0, a1, a2], a0 = 1, DF-II transposed")
 
 
+DeltaRow = tuple[SF, SF, SF, SF, SF]
+
+
+class RealizationFilter(_S):
+    name: str
+    input: Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c", "tau_cmd"]
+    sections: list[DeltaRow] = Field(min_length=1, description="rows [beta0, beta1, beta2, alpha1, alpha2], "
+                                                               "delta = z - 1 (docs/controller-file.md#precision)")
+
+
+class Realization(_S):
+    """The float32 realization of a controller (``implementation.precision: float32``): what the
+    target executes and certify analyses (exotune.controllerfile.precision)."""
+
+    precision: Literal["float32"]
+    form: Literal["delta_df2t"]
+    note: str | None = None
+    gains: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], SF]
+    filters: list[RealizationFilter]
+    loop_divisor: SF
+
+
 class ControllerSection(_S):
     equation: str
     gains: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], Gain]
     filters: list[Filter]
+    realization: Realization | None = None  # float32 files only
 
 
 class SignalValues(_S):
@@ -162,6 +185,7 @@ class CertifySection(_S):
 class ScheduleController(_S):
     gains: dict[Literal["theta_m", "omega_m", "tau_s", "dtau_s", "tau_c"], Gain]
     filters: list[Filter]
+    realization: Realization | None = None  # float32 files only
 
 
 class ScheduleEntry(_S):

@@ -42,6 +42,18 @@ def margin_line(lm: dict) -> str:
     return head + ("; required " + (_ms(req) if req else "none (0)") if req is not None else "; no requirement in the file")
 
 
+def precision_line(p: dict) -> str:
+    """The float32 line of a certify report: the realization and its rounding bound."""
+    amp = ", ".join(f"{s} {q['value']:g} {q['unit']}" for s, q in p["input_amplitudes"].items())
+    top = p["by_location"][0] if p["by_location"] else None
+    return ("  certify --precision float32 (the file is float64 and unchanged): " if p.get("asked") else "  ") + (
+            f"float32 ({p['form']} realization, analysed exactly): |float32 - float64 controller| <= "
+            f"{p['total']['value']:.3g} N·m (arithmetic {p['arithmetic']['value']:.3g}, coefficients "
+            f"{p['coefficients']['value']:.3g}; typical {p['arithmetic_rms_estimate']['value']:.2g} N·m rms) over "
+            f"{p['horizon']['seconds']:g} s from rest for |inputs| <= {amp}"
+            + (f"; largest share {top['where']} {top['bound']['value']:.3g} N·m" if top else ""))
+
+
 def format_certify(rep: dict) -> str:
     """Readable text for ``exotune certify``.
 
@@ -74,6 +86,8 @@ def format_certify(rep: dict) -> str:
     lines += [family_line(h) for h in sa["humans"] + sa["environment"]]
     if rep.get("latency_margin"):
         lines.append(margin_line(rep["latency_margin"]))
+    if rep.get("precision"):
+        lines.append(precision_line(rep["precision"]))
     lines.append("  method: " + rep["method"])
     if rep["certified"]:
         lines.append("CERTIFIED")
