@@ -21,14 +21,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
-from .loop import assemble, controller_blocks, default_prewarp
-from .sos import sos_ss, tustin_sos
+from .loop import NEAR_UNIT as ROUND_NEAR
+from .loop import ROUNDING_TRIALS, Measured
+from .sos import bilinear_batch, df2t_batch, sos_ss_batch, tustin_sections_batch
 
-__all__ = ["RIGID_TOL", "BatchLoops", "Loop", "design_controller", "dc_position_feedback"]
+__all__ = ["RIGID_TOL", "NEAR_UNIT", "BatchLoops", "Loop", "batch_controller", "expm_stack"]
 
 RIGID_TOL = 1e-7  # |λ − 1| within which the rigid-body eigenvalue is set aside (loop_eigenvalues)
+NEAR_UNIT = 1e-6  # |ρ − 1| within which a verdict is decided with the rounding estimate (certify's band)
 
 
 @dataclass(frozen=True)
@@ -66,59 +67,189 @@ class Loop:
         return np.full(v.shape, self.human.get("stiffness", 0.0) > 0)
 
 
-def dc_position_feedback(static: np.ndarray, filters: list, rtol: float = 1e-12) -> bool:
-    """Whether the controller feeds back θ_m at DC: its θ_m gain plus the DC gains of its sos
-    filters on θ_m (``[(sos, input), …]``; a section whose numerator sums to zero within ``rtol``
-    of its coefficients has DC gain 0) — the test certify makes on the exported file's controller
-    (``exotune.controllerfile.fileio.position_feedback``)."""
-    total = float(static[0])
-    scale = abs(total)
-    for sos, inp in filters:
-        if inp != "theta_m":
-            continue
-        gain = [1.0, 1.0]
-        for b0, b1, b2, _a0, a1, a2 in np.atleast_2d(sos):
-            sb = b0 + b1 + b2
-            gain[0] *= 0.0 if abs(sb) <= rtol * (abs(b0) + abs(b1) + abs(b2)) else sb
-            gain[1] *= 1.0 + a1 + a2
-        if gain[0] == 0.0:
-            continue
-        if gain[1] == 0.0:
-            return True  # an integrator on θ_m
-        total += gain[0] / gain[1]
-        scale += abs(gain[0] / gain[1])
-    return abs(total) > rtol * max(scale, 1e-300) and total != 0.0
+def _vec(x, n: int) -> np.ndarray:
+    """A per-design float array (n,) of a batch field (scalar or (n,))."""
+    return np.broadcast_to(np.ravel(np.asarray(x, dtype=float)), (n,)).copy()
 
 
-def design_controller(cfg, fs: float):
-    """(:class:`~exotune.sampled.DiscreteController`, position feedback) of one design at ``fs``
-    [Hz]: the controller ``exotune export`` writes for it (module docstring)."""
+def _rows(c, n: int) -> np.ndarray:
+    """Coefficient rows (n, m) of a batched polynomial (shape (m,), (1, m) or (n, m))."""
+    c = np.asarray(c, dtype=float)
+    return np.broadcast_to(c.reshape(-1, c.shape[-1]), (n, c.shape[-1])).copy()
+
+
+def _degree(c: np.ndarray) -> np.ndarray:
+    """Degree of each row of ascending coefficients (−1 for a zero row)."""
+    nz = c != 0
+    return np.where(nz.any(axis=1), c.shape[1] - 1 - np.argmax(nz[:, ::-1], axis=1), -1)
+
+
+def _controller_parts(cfg, n: int):
+    """Static gains (n, 5) on :data:`Measured` and the proper blocks of
+    :func:`exotune.sampled.controller_blocks`, batched: [(inputs, num (n, p, ·), den (n, ·),
+    prewarp (n,) or None)]; the three DOB blocks share Q's denominator and become one block with
+    three inputs (the other two copies are unobservable modes at Q's poles, see BatchLoops)."""
     from ..model.controller import build_controller
 
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    static, blocks = controller_blocks(cs, cfg.plant)
-    pw = default_prewarp(cfg.implementation)
-    static = np.array([float(x) for x in static])
-    filters = [(np.array(tustin_sos(b.num, b.den, fs, pw.get(b.prewarp)), dtype=float), b.input) for b in blocks]
-    ctrl = assemble(static, [(sos_ss(sos), inp) for sos, inp in filters], fs, float(np.ravel(cfg.implementation.delay_s)[0]))
-    return ctrl, dc_position_feedback(static, filters)
+    impl = cfg.implementation
+    pw = {}
+    if impl.gv_filter is not None:
+        pw["tau_c"] = _vec(impl.gv_filter.cutoff_hz, n)
+    if impl.velocity_filter is not None:
+        pw["theta_m"] = pw["tau_s"] = _vec(impl.velocity_filter.cutoff_hz, n)
+    if impl.dob is not None:
+        pw["dob"] = _vec(impl.dob.cutoff_hz, n)
+    static = np.zeros((n, len(Measured)))
+    blocks = []
+    for blk, pos, vel in ((cs.motor_position, 0, 1), (cs.spring_torque, 2, 3)):
+        num, den = _rows(blk.num, n), _rows(blk.den, n)
+        dn, dd = _degree(num), _degree(den)
+        improper = dn > dd
+        if np.any(improper & ((dd != 0) | (dn > 1))):
+            raise ValueError("only K + B s improper parts are implemented with ideal sampled velocities")
+        d0 = np.where(improper, den[:, 0], 1.0)
+        static[:, pos] += np.where(improper, num[:, 0] / d0, 0.0)
+        if num.shape[1] > 1:
+            static[:, vel] += np.where(improper, num[:, 1] / d0, 0.0)
+        rem = np.where(improper[:, None], 0.0, num)
+        if np.any(rem):
+            blocks.append(([Measured[pos]], rem[:, None, :], den, pw.get("theta_m" if pos == 0 else "tau_s")))
+    blocks.append((["tau_c"], _rows(cs.cuff_torque.num, n)[:, None, :], _rows(cs.cuff_torque.den, n), pw.get("tau_c")))
+    if cs.dob_q is not None:
+        qn, qd = _rows(cs.dob_q.num, n), _rows(cs.dob_q.den, n)
+        Jm, Bm = _vec(cfg.plant.J_m, n), _vec(cfg.plant.B_m, n)
+        w = max(qn.shape[1] + 2, qd.shape[1])
+        num = np.zeros((n, 3, w))
+        num[:, 0, 1:qn.shape[1] + 1] -= qn * Bm[:, None]  # −Q (J_m s² + B_m s) θ_m
+        num[:, 0, 2:qn.shape[1] + 2] -= qn * Jm[:, None]
+        num[:, 1, :qn.shape[1]] = qn  # + Q τ_s
+        num[:, 2, :qn.shape[1]] = qn  # + Q τ_cmd
+        blocks.append((["theta_m", "tau_s", "tau_cmd"], num, qd, pw.get("dob")))
+    return static, blocks
+
+
+def batch_controller(cfg, fs: float, n: int):
+    """The discrete controllers of the ``n`` designs of a batch config at ``fs`` [Hz]:
+    (Ac (n, z, z), Bc (n, z, 5), Cc (n, z), Dc (n, 5), states (n,), position feedback (n,),
+    fixed (n, f) moduli of the unobservable modes left out) — zero-padded to the largest state
+    count z.
+
+    The transfer function of every block is the one ``exotune export`` writes (the prewarped
+    Tustin transform of :func:`exotune.sampled.controller_blocks`' blocks,
+    :func:`exotune.sampled.sos.bilinear_batch`), realized in direct form II transposed
+    — single-input blocks as cascades of sections (:func:`exotune.sampled.sos.tustin_sections_batch`,
+    sections paired differently from the file's), the three DOB blocks as one section with three
+    inputs (:func:`exotune.sampled.sos.df2t_batch`) — so the loop matrix differs from certify's by
+    a similarity and by the two unobservable copies of the DOB filter's poles, whose moduli are
+    kept in ``fixed``: the same eigenvalues up to rounding.
+    Position feedback: the θ_m gain plus the DC gains of the θ_m blocks (continuous DC gain = the
+    Tustin one) is not zero, as :func:`dc_position_feedback` decides it on the file."""
+    static, blocks = _controller_parts(cfg, n)
+    degs = np.stack([_degree(den) for _i, _num, den, _pw in blocks], axis=1)
+    single = np.array([len(inp) == 1 for inp, _n, _d, _p in blocks])
+    nzs = np.where(single, 2 * ((np.clip(degs, 0, None) + 1) // 2), np.clip(degs, 0, None)).sum(axis=1)
+    nzmax = int(nzs.max()) if n else 0
+    Ac, Bc = np.zeros((n, nzmax, nzmax)), np.zeros((n, nzmax, len(Measured)))
+    Cc, Dc = np.zeros((n, nzmax)), np.zeros((n, len(Measured)))
+    fixed = np.zeros((n, 2))
+    pf = np.zeros(n, bool)
+    for sig in np.unique(degs, axis=0):
+        rows = np.nonzero(np.all(degs == sig, axis=1))[0]
+        k = rows.size
+        parts = []
+        q0 = np.zeros(k)
+        Dy = static[rows].copy()
+        total, scale = static[rows, 0].copy(), np.abs(static[rows, 0])
+        for (inputs, num, den, pwz), m in zip(blocks, sig):
+            num, den = num[rows], den[rows, :m + 1]
+            for j, inp in enumerate(inputs):
+                if inp == "theta_m":  # DC gain n0/d0 of a θ_m block: an integrator (d0 = 0) feeds back θ_m
+                    dc = np.divide(num[:, j, 0], den[:, 0], out=np.where(num[:, j, 0] != 0, np.inf, 0.0),
+                                   where=den[:, 0] != 0)
+                    total, scale = total + dc, scale + np.abs(dc)
+            pwr = None if pwz is None else pwz[rows]
+            if len(inputs) == 1 and m > 0:  # a cascade of sections, as the file has it
+                A, B, C, D = sos_ss_batch(tustin_sections_batch(num[:, 0, :m + 1], den, fs, pwr))
+                B, D = B[:, :, None], D[:, None]
+            else:
+                b, a = bilinear_batch(num[:, :, :m + 1], den, fs, pwr)
+                A, B, C, D = df2t_batch(b, a)
+                C = np.broadcast_to(C, (k, C.size))
+            for j, inp in enumerate(inputs):
+                if inp == "tau_cmd":
+                    q0 += D[:, j]
+                else:
+                    Dy[:, Measured.index(inp)] += D[:, j]
+            parts.append((inputs, A, B, C))
+            if len(inputs) > 1 and m > 0:  # the merged DOB block: two copies of Q's poles left out
+                fixed[rows] = np.max(np.abs(np.linalg.eigvals(A)), axis=1, keepdims=True)
+        if np.any(np.abs(1.0 - q0) < 1e-12):
+            raise ValueError("the DOB's algebraic loop is singular (Q feed-through = 1)")
+        nz = int(nzs[rows[0]])
+        Cz = np.concatenate([C for _i, _A, _B, C in parts], axis=1)
+        cc, dc_ = Cz / (1.0 - q0)[:, None], Dy / (1.0 - q0)[:, None]
+        ac, bc = np.zeros((k, nz, nz)), np.zeros((k, nz, len(Measured)))
+        off = 0
+        for inputs, A, B, _C in parts:
+            m = A.shape[1]
+            ac[:, off:off + m, off:off + m] = A
+            for j, inp in enumerate(inputs):
+                if inp == "tau_cmd":
+                    ac[:, off:off + m, :] += B[:, :, j, None] * cc[:, None, :]
+                    bc[:, off:off + m, :] += B[:, :, j, None] * dc_[:, None, :]
+                else:
+                    bc[:, off:off + m, Measured.index(inp)] += B[:, :, j]
+            off += m
+        Ac[rows, :nz, :nz], Bc[rows, :nz], Cc[rows, :nz], Dc[rows] = ac, bc, cc, dc_
+        pf[rows] = (np.abs(total) > 1e-12 * np.maximum(scale, 1e-300)) & (total != 0.0)
+    return Ac, Bc, Cc, Dc, nzs, pf, fixed
+
+
+_PADE13 = (64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353796428800.0, 129060195264000.0,
+           10559470521600.0, 670442572800.0, 33522128640.0, 1323241920.0, 40840800.0, 960960.0, 16380.0, 182.0, 1.0)
+
+
+def expm_stack(M: np.ndarray) -> np.ndarray:
+    """e^M of a stack (k, n, n) in one vectorized pass: Padé (13, 13) with scaling and squaring
+    (Higham 2005, the approximant of ``scipy.linalg.expm``), each matrix scaled by its own power
+    of two; no Python loop over the stack."""
+    k, n, _ = M.shape
+    if not k:
+        return M.copy()
+    norm = np.max(np.sum(np.abs(M), axis=1), axis=1)
+    s = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / 5.371920351148152))).astype(np.int64)
+    A = M * (2.0 ** -s)[:, None, None]
+    b = _PADE13
+    eye = np.broadcast_to(np.eye(n), A.shape)
+    A2 = A @ A
+    A4 = A2 @ A2
+    A6 = A4 @ A2
+    U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2) + b[7] * A6 + b[5] * A4 + b[3] * A2 + b[1] * eye)
+    V = A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2) + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * eye
+    E = np.linalg.solve(V - U, V + U)
+    for j in range(int(s.max())):
+        sq = s > j
+        E[sq] = E[sq] @ E[sq]
+    return E
 
 
 class BatchLoops:
-    """The sampled-data loops of a batch of designs (:func:`exotune.config.design_row` rows of a
-    batch config) at sample rate ``fs``; :meth:`spectra` gives the eigenvalues of many jobs."""
+    """The sampled-data loops of the designs of a batch config ``cfg``
+    (:func:`exotune.config.batch_config`) at sample rate ``fs``; :meth:`spectra` gives the
+    eigenvalues of many jobs (design, member, delay) in a few stacked eigenvalue problems."""
 
-    def __init__(self, rows, fs: float):
+    def __init__(self, cfg, fs: float, n: int | None = None):
         self.fs = float(fs)
         self.Ts = 1.0 / self.fs
-        g = lambda name: np.array([float(np.ravel(getattr(r.plant, name))[0]) for r in rows])  # noqa: E731
-        self.Jm, self.Bm, self.Ks, self.Jj, self.Kc = g("J_m"), g("B_m"), g("K_s"), g("J_j"), g("K_c")
-        self.delay = np.array([float(np.ravel(r.implementation.delay_s)[0]) for r in rows])
-        built = [design_controller(r, self.fs) for r in rows]
-        self.ctrl = [c for c, _ in built]
-        self.position_feedback = np.array([p for _, p in built], dtype=bool)
-        self.nz = np.array([c.Ac.shape[0] for c in self.ctrl], dtype=np.int64)
-        self.n = len(rows)
+        p = cfg.plant
+        if n is None:
+            n = max(np.size(x) for x in (p.J_m, p.B_m, p.K_s, p.J_j, p.K_c, cfg.implementation.delay_s,
+                                         cfg.design.amplification))
+        self.n = n
+        self.Jm, self.Bm, self.Ks, self.Jj, self.Kc = (_vec(getattr(p, q), n) for q in ("J_m", "B_m", "K_s", "J_j", "K_c"))
+        self.delay = _vec(cfg.implementation.delay_s, n)
+        self.Ac, self.Bc, self.Cc, self.Dc, self.nz, self.position_feedback, self.fixed = batch_controller(cfg, self.fs, n)
 
     # ---- plant ---------------------------------------------------------------------------
     def plant(self, des: np.ndarray, loop: Loop, v: np.ndarray):
@@ -178,12 +309,12 @@ class BatchLoops:
         M = np.zeros((k, n + 1, n + 1))
         M[:, :n, :n] = A
         M[:, :n, n] = B
-        E0 = scipy.linalg.expm(M * ((1.0 - f) * self.Ts)[:, None, None])
+        E0 = expm_stack(M * ((1.0 - f) * self.Ts)[:, None, None])
         Phi0, G0 = E0[:, :n, :n], E0[:, :n, n]
         frac = f > 0
         Phi, G1 = Phi0.copy(), np.zeros((k, n))
         if frac.any():
-            E1 = scipy.linalg.expm(M[frac] * (f[frac] * self.Ts)[:, None, None])
+            E1 = expm_stack(M[frac] * (f[frac] * self.Ts)[:, None, None])
             Phi[frac] = Phi0[frac] @ E1[:, :n, :n]
             G1[frac] = np.einsum("kij,kj->ki", Phi0[frac], E1[:, :n, n])
         return Phi, G0, G1
@@ -202,60 +333,93 @@ class BatchLoops:
         d, f = self.split_delay(delay)
         Phi, G0, G1 = self.zoh(A, B, f)
         out = []
-        key = self.nz[des] * 100_000 + d
+        key = (self.nz[des] * 100_000 + d) * 2 + (f > 0)
         for kv in np.unique(key):
             pos = np.nonzero(key == kv)[0]
-            out.append((pos, self._assemble(des[pos], Phi[pos], G0[pos], G1[pos], C[pos], int(d[pos[0]]))))
+            out.append((pos, self._assemble(des[pos], Phi[pos], G0[pos], G1[pos], C[pos], int(d[pos[0]]),
+                                            bool(f[pos[0]] > 0))))
         return out
 
-    def _assemble(self, des, Phi, G0, G1, C, d: int) -> np.ndarray:
-        """:func:`closed_loop_matrix` on a stack (one controller size, one whole-sample delay)."""
+    def _assemble(self, des, Phi, G0, G1, C, d: int, frac: bool) -> np.ndarray:
+        """:func:`closed_loop_matrix` on a stack (one controller size, one whole-sample delay),
+        without its one state that nothing reads: with a whole-sample delay (Γ1 = 0) the oldest
+        command τ_cmd[k−d−1] only adds the eigenvalue 0, so the shift register keeps d states."""
         k, n = G0.shape
-        Ac = np.stack([self.ctrl[i].Ac for i in des])
-        Bc = np.stack([self.ctrl[i].Bc for i in des])
-        Cc = np.stack([self.ctrl[i].Cc[0] for i in des])
-        Dc = np.stack([self.ctrl[i].Dc[0] for i in des])
-        nz, ns = Ac.shape[1], d + 1
+        nz = int(self.nz[des[0]])
+        ns = d + frac
         N = n + nz + ns
         s0 = n + nz
         M = np.zeros((k, N, N))
         u = np.zeros((k, N))
-        u[:, :n] = np.einsum("km,kmn->kn", Dc, C)
-        u[:, n:s0] = Cc
-        cur = u if d == 0 else np.broadcast_to(np.eye(N)[s0 + d - 1], (k, N))
-        old = np.eye(N)[s0 + d]
+        u[:, :n] = np.einsum("km,kmn->kn", self.Dc[des], C)
+        u[:, n:s0] = self.Cc[des, :nz]
         M[:, :n, :n] = Phi
-        M[:, :n] += G0[:, :, None] * cur[:, None, :] + G1[:, :, None] * old[None, None, :]
-        M[:, n:s0, :n] = Bc @ C
-        M[:, n:s0, n:s0] = Ac
-        M[:, s0] = u
-        j = np.arange(1, ns)
-        M[:, s0 + j, s0 + j - 1] = 1.0
+        if d == 0:
+            M[:, :n] += G0[:, :, None] * u[:, None, :]  # τ_cmd[k]
+        else:
+            M[:, :n, s0 + d - 1] += G0  # τ_cmd[k−d]
+        if frac:
+            M[:, :n, s0 + d] += G1  # τ_cmd[k−d−1]
+        M[:, n:s0, :n] = self.Bc[des, :nz] @ C
+        M[:, n:s0, n:s0] = self.Ac[des, :nz, :nz]
+        if ns:
+            M[:, s0] = u
+            j = np.arange(1, ns)
+            M[:, s0 + j, s0 + j - 1] = 1.0
         return M
 
-    def spectra(self, des, loop: Loop, v=None, delay=None):
-        """(spectral radii (k,), eigenvalue arrays) of the jobs (designs ``des``, members ``v`` of
-        ``loop``, total delays ``delay`` [s], default each design's own). The rigid-body
-        eigenvalue of an ungrounded loop (within ``RIGID_TOL`` of z = 1) is replaced by 0 so that
-        the arrays keep their size; it counts neither in the radius nor as a moving eigenvalue."""
+    def spectra(self, des, loop: Loop, v=None, delay=None, width: int | None = None, rounding: bool = True):
+        """(spectral radii (k,), eigenvalues (k, width), stable (k,)) of the jobs (designs ``des``,
+        members ``v`` of ``loop``, total delays ``delay`` [s], default each design's own).
+
+        The rigid-body eigenvalue of an ungrounded loop (within ``RIGID_TOL`` of z = 1) is
+        replaced by 0; shorter spectra are padded with 0 (neither counts in the radius nor moves).
+        The radius includes the fixed moduli of the DOB copies left out (:func:`batch_controller`).
+        ``stable`` is radius < 1, except within ``NEAR_UNIT`` of 1 where certify's rounding
+        estimate decides (:func:`_rounding_verdict`; inconclusive is not stable) — unless
+        ``rounding`` is False (the latency margin's probes: certify decides them on the radius alone)."""
         des = np.asarray(des, dtype=np.int64)
         v = np.zeros(des.size) if v is None else np.asarray(v, dtype=float)
         delay = self.delay[des] if delay is None else np.asarray(delay, dtype=float)
         rho = np.zeros(des.size)
-        eig: list = [None] * des.size
         grounded = loop.grounded(v) | self.position_feedback[des]
+        groups = self.matrices(des, loop, v, delay)
+        W = max(M.shape[1] for _p, M in groups) if width is None else width
+        eig = np.zeros((des.size, W), dtype=complex)
+        stable = np.zeros(des.size, bool)
         with np.errstate(over="ignore", invalid="ignore"):
-            for pos, M in self.matrices(des, loop, v, delay):
+            for pos, M in groups:
                 lam = _eigvals_or_inf(M)
                 free = ~grounded[pos]
-                if free.any():
-                    r = np.argmin(np.abs(lam - 1.0), axis=1)
-                    rows = np.nonzero(free & (np.abs(lam[np.arange(pos.size), r] - 1.0) <= RIGID_TOL))[0]
-                    lam[rows, r[rows]] = 0.0
-                rho[pos] = np.max(np.abs(lam), axis=1) if lam.shape[1] else 0.0
-                for j, p in enumerate(pos):
-                    eig[p] = lam[j]
-        return rho, eig
+                r = np.argmin(np.abs(lam - 1.0), axis=1)
+                rigid = free & (np.abs(lam[np.arange(pos.size), r] - 1.0) <= RIGID_TOL)
+                lam[np.nonzero(rigid)[0], r[rigid]] = 0.0
+                rho[pos] = np.maximum(np.max(np.abs(lam), axis=1) if lam.shape[1] else 0.0,
+                                      np.max(self.fixed[des[pos]], axis=1))
+                eig[pos, :lam.shape[1]] = lam
+                stable[pos] = rho[pos] < 1.0
+                near = np.nonzero(np.abs(rho[pos] - 1.0) < NEAR_UNIT)[0]
+                if near.size and rounding:
+                    stable[pos[near]] = _rounding_verdict(M[near], lam[near])
+        return rho, eig, stable
+
+
+def _rounding_verdict(M: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """:func:`exotune.sampled.spectral_verdict` is True, on a stack (eigenvalues ``lam``, the
+    rigid-body one already set to 0): every |λ| plus its rounding estimate (ten times its largest
+    move under ``ROUNDING_TRIALS`` relative 8ε perturbations of the entries, the same
+    pseudo-random ones as certify's; at least 4Nε) below 1."""
+    k, N, _ = M.shape
+    mod = np.abs(lam)
+    eps = np.finfo(float).eps
+    err = np.full(lam.shape, 4.0 * N * eps)
+    near = np.abs(mod - 1.0) < ROUND_NEAR
+    rng = np.random.default_rng(0)
+    for _ in range(ROUNDING_TRIALS):
+        wp = _eigvals_or_inf(M * (1.0 + 8.0 * eps * rng.uniform(-1.0, 1.0, (N, N))))
+        moved = np.min(np.abs(wp[:, None, :] - lam[:, :, None]), axis=2)
+        err = np.where(near, np.maximum(err, 10.0 * moved), err)
+    return np.all(mod + err < 1.0, axis=1)
 
 
 def _eigvals_or_inf(M: np.ndarray) -> np.ndarray:
@@ -265,4 +429,3 @@ def _eigvals_or_inf(M: np.ndarray) -> np.ndarray:
     if ok.any():
         lam[ok] = np.linalg.eigvals(M[ok])
     return lam
-

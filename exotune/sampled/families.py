@@ -1,26 +1,31 @@
 """Sampled-data verdicts, stable intervals and latency margins of many designs at once (the sweep's
 ``sampled: true`` columns, docs/sweep-spec.md#sampled-data-columns), on :class:`~exotune.sampled.batch.BatchLoops`.
 
-Family intervals — the method of ``exotune certify`` (:mod:`exotune.controllerfile.continuation`),
-batched over designs: verdicts (|λ| < 1 for every eigenvalue, the rigid-body z = 1 of an
-ungrounded loop set aside) at ``POINTS`` log-spaced members of the range; every cell between two
-stable members is halved (at most ``MAX_DEPTH`` times) until its eigenvalue paths are resolved —
-each eigenvalue (matched between the ends) moves, by its chord and by its first-order motion at
-either end (a forward difference over ``FD_CELL`` of the grid spacing), less than its distance to
-the unit circle; every change of verdict is bisected to 1e-10 relative. Each stage is one batch of
-eigenvalue problems over every design and cell.
+Family intervals — the acceptance rule of ``exotune certify`` (:mod:`exotune.controllerfile.continuation`),
+batched over designs and with fewer eigenvalue problems: verdicts (|λ| < 1 for every eigenvalue, the
+rigid-body z = 1 of an ungrounded loop set aside; within 1e-6 of 1 certify's rounding estimate
+decides, inconclusive is not stable) at ``POINTS`` log-spaced members of the range (certify: 96);
+every cell between two stable members is halved until its eigenvalue paths are resolved — each
+eigenvalue (matched between the ends) moves, by its chord and by its first-order motion at either
+end (a forward difference over ``FD_CELL`` of certify's grid spacing), less than its distance to
+the unit circle — down to certify's finest cell (12 halvings of its cell, more of the coarser one);
+every change of verdict is narrowed to 1e-10 relative by the Illinois method on ρ − 1 (certify
+bisects). Each stage is one batch of eigenvalue problems over every design and cell.
 
 Critical member of a family: the member with the largest spectral radius among those the verdict
-evaluated (grid, refinements and bisections) — the member nearest to instability of a robust
-family, the most unstable one otherwise; located to the grid's resolution.
+evaluated (grid, refinements, edges) — nearest to instability in a robust family, the most
+unstable one otherwise; located to the grid's resolution.
 
 Latency margin: the largest extra delay ΔT ≥ 0 for which free, locked, every environment range and
 every rational human family over its whole range stay stable (as ``exotune certify`` defines it).
-Probe loops (free, locked, the ends, ``SCAN`` interior members and the critical member of every
-family) are bracketed from the continuous margin (ΔT_c − T_s/2, then ΔT_c; else growing from half
-a sample) and the bracket is narrowed by the Illinois method on max ρ − 1 to ``MARGIN_REL``
-relative; the stable end is then confirmed by the full family check above; a member found unstable
-there becomes a probe and the search restarts (at most ``ROUNDS`` times).
+Probe loops (free, locked, each family's ends and critical member) are evaluated at ΔT_c − T_s/2
+and ΔT_c (ΔT_c the continuous margin: the zero-order hold costs about half a sample; else growing
+from half a sample); the probe that crosses first is followed alone by the Illinois method on
+ρ − 1 to ``MARGIN_REL`` relative, then all probes are checked at the result (another probe unstable
+there is followed in turn). The interior of every family is then searched at the result
+(``SCAN`` members, and the largest spectral radius located between its neighbours by golden
+sections): an unstable member becomes a probe and the search goes on (at most ``ROUNDS`` times);
+finally the family check above runs at ΔT (1 − ``CONFIRM``).
 """
 
 from __future__ import annotations
@@ -31,16 +36,19 @@ import numpy as np
 
 from .batch import BatchLoops, Loop
 
-__all__ = ["POINTS", "MAX_DEPTH", "SCAN", "MARGIN_REL", "family_check", "latency_margin"]
+__all__ = ["POINTS", "SCAN", "MARGIN_REL", "family_check", "latency_margin"]
 
-POINTS = 96  # base grid per family (certify's)
-MAX_DEPTH = 12
-FD_CELL = 1e-3
+POINTS = 8  # base grid per family (certify: 96)
+CERTIFY_POINTS = 96
+FD_CELL = 1e-3  # of certify's grid spacing
 _FD = 1e-7
 CHORD = 1.0
 BISECT_REL = 1e-10
-SCAN = 6
-MARGIN_REL = 1e-7
+SCAN = 4
+GOLDEN = 6
+MARGIN_REL = 1e-9
+CONFIRM = 1e-3
+NEGLIGIBLE = 1e-6  # relative change of the margin below which an interior maximum is not followed
 ROUNDS = 4
 MAX_SAMPLES = 200.0
 
@@ -49,7 +57,8 @@ def _greedy_match(la: np.ndarray, lb: np.ndarray) -> np.ndarray:
     """perm (c, N): a one-to-one matching of the eigenvalues ``la`` (c, N) to ``lb`` (c, N),
     nearest pairs first."""
     c, N = la.shape
-    D = np.abs(la[:, :, None] - lb[:, None, :])
+    with np.errstate(invalid="ignore"):
+        D = np.nan_to_num(np.abs(la[:, :, None] - lb[:, None, :]), nan=1e300, posinf=1e300)
     perm = np.zeros((c, N), np.int64)
     rows = np.arange(c)
     for _ in range(N):
@@ -68,136 +77,140 @@ class _Family:
         self.bl, self.des, self.loop, self.lo, self.hi = bl, des, loop, lo, hi
         self.delay = delay  # per local design
         self.log = lo > 0
-        self.v: list = []
-        self.owner: list = []
-        self.rho: list = []
-        self.eig: list = []
-        self.der: dict = {}
+        self.width = 8 + int(bl.nz[des].max(initial=0)) + int(np.max(delay, initial=0.0) / bl.Ts + 1e-9)
+        self.v = np.zeros(0)
+        self.owner = np.zeros(0, np.int64)
+        self.rho = np.zeros(0)
+        self.st = np.zeros(0, bool)
+        self.eig = np.zeros((0, self.width), complex)
+        self.der = np.zeros((0, self.width), complex)
+        self.has_der = np.zeros(0, bool)
+        # certify's grid spacing in u: the derivative step and the finest cell are certify's
+        self.fd_spacing = (self.u(hi) - self.u(lo)) / (CERTIFY_POINTS - 1)
 
     def u(self, v):
         return np.log(v) if self.log else v
 
+    def from_u(self, u):
+        return np.exp(u) if self.log else u
+
     def mid(self, a, b):
         return np.sqrt(a * b) if self.log else 0.5 * (a + b)
 
+    def spectra(self, owner: np.ndarray, v: np.ndarray, delay=None):
+        return self.bl.spectra(self.des[owner], self.loop, v, self.delay[owner] if delay is None else delay, self.width)
+
     def eval(self, owner: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Evaluate members ``v`` of local designs ``owner``; returns their point indices."""
-        rho, eig = self.bl.spectra(self.des[owner], self.loop, v, self.delay[owner])
-        start = len(self.v)
-        self.v += list(v)
-        self.owner += list(owner)
-        self.rho += list(rho)
-        self.eig += eig
+        rho, eig, st = self.spectra(owner, v)
+        start = self.v.size
+        self.v = np.concatenate([self.v, v])
+        self.owner = np.concatenate([self.owner, owner])
+        self.rho = np.concatenate([self.rho, rho])
+        self.st = np.concatenate([self.st, st])
+        self.eig = np.concatenate([self.eig, eig])
+        self.der = np.concatenate([self.der, np.zeros_like(eig)])
+        self.has_der = np.concatenate([self.has_der, np.zeros(v.size, bool)])
         return np.arange(start, start + v.size)
 
-    def derivatives(self, pts: np.ndarray, spacing: float) -> None:
-        """dλ/du at the points ``pts`` (forward difference, eigenvalues matched)."""
-        pts = np.array([p for p in pts if p not in self.der], dtype=np.int64)
+    def derivatives(self, pts: np.ndarray) -> None:
+        """dλ/du at the points ``pts`` (certify's forward difference, eigenvalues matched)."""
+        pts = np.unique(pts)
+        pts = pts[~self.has_der[pts]]
         if not pts.size:
             return
-        v = np.array([self.v[p] for p in pts])
-        own = np.array([self.owner[p] for p in pts])
+        v = self.v[pts]
         if self.log:
-            h = v * max(_FD, FD_CELL * spacing)
+            h = v * max(_FD, FD_CELL * self.fd_spacing)
         else:
-            h = np.maximum(_FD * np.where(v != 0, np.abs(v), max(abs(self.hi), 1.0)), FD_CELL * spacing)
-        _rho, eh = self.bl.spectra(self.des[own], self.loop, v + h, self.delay[own])
+            h = np.maximum(_FD * np.where(v != 0, np.abs(v), max(abs(self.hi), 1.0)), FD_CELL * self.fd_spacing)
+        _rho, eh, _st = self.spectra(self.owner[pts], v + h)
+        la = self.eig[pts]
+        perm = _greedy_match(la, eh)
         du = self.u(v + h) - self.u(v)
-        for sz in {e.size for e in eh}:
-            idx = [j for j, e in enumerate(eh) if e.size == sz]
-            la = np.stack([self.eig[pts[j]] for j in idx])
-            lb = np.stack([eh[j] for j in idx])
-            perm = _greedy_match(la, lb)
-            d = (np.take_along_axis(lb, perm, 1) - la) / du[idx, None]
-            for k, j in enumerate(idx):
-                self.der[pts[j]] = d[k]
+        with np.errstate(invalid="ignore"):
+            self.der[pts] = (np.take_along_axis(eh, perm, 1) - la) / du[:, None]
+        self.has_der[pts] = True
 
-    def resolved(self, cells: np.ndarray, spacing: float) -> np.ndarray:
-        """Step control of each cell (pairs of point indices, both stable)."""
-        ok = np.zeros(len(cells), bool)
-        sizes = np.array([self.eig[a].size for a, _ in cells])
-        for sz in np.unique(sizes):
-            idx = np.nonzero(sizes == sz)[0]
-            la = np.stack([self.eig[cells[j][0]] for j in idx])
-            lb = np.stack([self.eig[cells[j][1]] for j in idx])
-            perm = _greedy_match(la, lb)
-            lbm = np.take_along_axis(lb, perm, 1)
-            dist = np.minimum(np.abs(1.0 - np.abs(la)), np.abs(1.0 - np.abs(lbm)))
-            chord = np.all(np.abs(lbm - la) <= CHORD * dist, axis=1)
-            idx2 = idx[chord]
-            if not idx2.size:
-                continue
-            self.derivatives(np.unique(cells[idx2].ravel()), spacing)
-            for j, pm, ds in zip(idx2, perm[chord], dist[chord]):
-                a, b = cells[j]
-                length = abs(self.u(self.v[b]) - self.u(self.v[a]))
-                speed = np.maximum(np.abs(self.der[a]), np.abs(self.der[b][pm]))
-                ok[j] = bool(np.all(length * speed <= CHORD * ds))
+    def resolved(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Step control of the cells (point indices ``a``, ``b``, both stable)."""
+        la, lb = self.eig[a], self.eig[b]
+        perm = _greedy_match(la, lb)
+        lbm = np.take_along_axis(lb, perm, 1)
+        dist = np.minimum(np.abs(1.0 - np.abs(la)), np.abs(1.0 - np.abs(lbm)))
+        ok = np.all(np.abs(lbm - la) <= CHORD * dist, axis=1)
+        if ok.any():
+            self.derivatives(np.concatenate([a[ok], b[ok]]))
+            length = np.abs(self.u(self.v[b[ok]]) - self.u(self.v[a[ok]]))
+            speed = np.maximum(np.abs(self.der[a[ok]]), np.abs(np.take_along_axis(self.der[b[ok]], perm[ok], 1)))
+            ok[ok] = np.all(length[:, None] * speed <= CHORD * dist[ok], axis=1)
         return ok
 
 
-def _refine(fam: _Family, grid_pts: np.ndarray, spacing: float) -> list:
-    """Halve unresolved stable cells (batched by level); returns the unresolved cells [(owner, a, b)]."""
-    cells = [(grid_pts[i, j], grid_pts[i, j + 1], MAX_DEPTH) for i in range(grid_pts.shape[0])
-             for j in range(grid_pts.shape[1] - 1)]
+def _refine(fam: _Family, a: np.ndarray, b: np.ndarray, depth: int) -> list:
+    """Halve unresolved stable cells (``a``, ``b``: point indices), batched by level; returns the
+    unresolved cells [(owner, va, vb)]."""
     unresolved = []
-    while cells:
-        cells = [c for c in cells if fam.rho[c[0]] < 1.0 and fam.rho[c[1]] < 1.0]
-        if not cells:
+    while a.size:
+        keep = fam.st[a] & fam.st[b]
+        a, b = a[keep], b[keep]
+        if not a.size:
             break
-        arr = np.array([(a, b) for a, b, _ in cells], dtype=np.int64)
-        ok = fam.resolved(arr, spacing)
-        todo = [c for c, k in zip(cells, ok) if not k]
-        unresolved += [(fam.owner[a], fam.v[a], fam.v[b]) for a, b, dep in todo if dep == 0]
-        todo = [c for c in todo if c[2] > 0]
-        if not todo:
+        bad = ~fam.resolved(a, b)
+        a, b = a[bad], b[bad]
+        if not depth:
+            unresolved += list(zip(fam.owner[a].tolist(), fam.v[a].tolist(), fam.v[b].tolist()))
             break
-        own = np.array([fam.owner[a] for a, _, _ in todo])
-        mids = fam.mid(np.array([fam.v[a] for a, _, _ in todo]), np.array([fam.v[b] for _, b, _ in todo]))
-        new = fam.eval(own, mids)
-        cells = [c for (a, b, dep), m in zip(todo, new) for c in ((a, m, dep - 1), (m, b, dep - 1))]
+        m = fam.eval(fam.owner[a], fam.mid(fam.v[a], fam.v[b]))
+        a, b = np.concatenate([a, m]), np.concatenate([m, b])
+        depth -= 1
     return unresolved
 
 
-def _bisect_edges(fam: _Family, nd: int) -> list:
-    """Per local design: the sorted (value, stable) points and the bisected verdict changes."""
-    owner = np.array(fam.owner)
-    v = np.array(fam.v)
-    st = np.array(fam.rho) < 1.0
-    per = []
-    jobs = []  # (design, a, b, stable at a)
-    for i in range(nd):
-        idx = np.nonzero(owner == i)[0]
-        idx = idx[np.argsort(v[idx], kind="stable")]
-        per.append((v[idx], st[idx]))
-        for j in np.nonzero(st[idx][:-1] != st[idx][1:])[0]:
-            jobs.append([i, v[idx][j], v[idx][j + 1], st[idx][j]])
-    for _ in range(48):
-        act = [jb for jb in jobs if jb[2] - jb[1] > BISECT_REL * abs(jb[2])]
-        if not act:
+def _edges(fam: _Family) -> tuple[np.ndarray, list]:
+    """(points sorted by design then member, [(design, position, stable after)]): every change
+    of verdict narrowed to ``BISECT_REL`` by the Illinois method on ρ − 1 (bracket kept by the verdicts)."""
+    order = np.lexsort((fam.v, fam.owner))
+    o, st = fam.owner[order], fam.st[order]
+    j = np.nonzero((o[:-1] == o[1:]) & (st[:-1] != st[1:]))[0]
+    own, left = o[j], st[j]
+    ua, ub = fam.u(fam.v[order[j]]), fam.u(fam.v[order[j + 1]])
+    ga, gb = fam.rho[order[j]] - 1.0, fam.rho[order[j + 1]] - 1.0
+    side = np.zeros(j.size, np.int64)
+    for it in range(48):
+        act = np.nonzero(fam.from_u(ub) - fam.from_u(ua) > BISECT_REL * np.abs(fam.from_u(ub)))[0]
+        if not act.size:
             break
-        m = fam.mid(np.array([jb[1] for jb in act]), np.array([jb[2] for jb in act]))
-        pts = fam.eval(np.array([jb[0] for jb in act], dtype=np.int64), m)
-        for jb, mm, p in zip(act, m, pts):
-            if (fam.rho[p] < 1.0) == jb[3]:
-                jb[1] = mm
-            else:
-                jb[2] = mm
-    edges = [[] for _ in range(nd)]
-    for i, a, b, s in jobs:
-        edges[i].append((float(fam.mid(a, b)), not s))
-    return [(p, e) for p, e in zip(per, edges)]
+        x = _illinois_point(ua[act], ga[act], ub[act], gb[act], it % 4 == 3)
+        p = fam.eval(own[act], fam.from_u(x))
+        _illinois_move(ua, ga, ub, gb, side, act, x, fam.rho[p] - 1.0, fam.st[p] == left[act])
+    a, b = fam.from_u(ua), fam.from_u(ub)
+    return order, [(int(i), float(0.5 * (x + y)), not bool(s)) for i, x, y, s in zip(own, a, b, left)]
 
 
-def _intervals(st, edges, lo, hi) -> list:
-    """The stable segments between the range ends and the bisected verdict changes ``edges``
-    [(position, stable after)]: a segment is stable when the verdict after its left end is."""
-    cuts = [lo] + [x for x, _ in edges] + [hi]
-    after = [bool(st[0])] + [a for _, a in edges]
-    return [[cuts[k], cuts[k + 1]] for k in range(len(after)) if after[k]]
+def _illinois_point(lo, glo, hi, ghi, bisect: bool) -> np.ndarray:
+    """The regula falsi point of brackets [lo, hi] (g values glo, ghi), the midpoint where it is
+    not strictly inside or when ``bisect``."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = (lo * ghi - hi * glo) / (ghi - glo)
+    bad = ~np.isfinite(x) | (x <= lo) | (x >= hi) | bisect
+    x[bad] = 0.5 * (lo[bad] + hi[bad])
+    return x
 
 
-def family_check(bl: BatchLoops, des, loop: Loop, lo: float, hi: float, delay=None, points: int = POINTS) -> dict:
+def _illinois_move(lo, glo, hi, ghi, side, act, x, g, left) -> None:
+    """Brackets ``act`` take the new points ``x`` (values ``g``) as their lower end where
+    ``left``, else as their upper end; an end kept twice has its g halved (the Illinois method)."""
+    a, b = act[left], act[~left]
+    lo[a], glo[a] = x[left], g[left]
+    ghi[a] *= np.where(side[a] == -1, 0.5, 1.0)
+    side[a] = -1
+    hi[b], ghi[b] = x[~left], g[~left]
+    glo[b] *= np.where(side[b] == 1, 0.5, 1.0)
+    side[b] = 1
+
+
+def family_check(bl: BatchLoops, des, loop: Loop, lo: float, hi: float, delay=None, points: int | None = None) -> dict:
     """Stable intervals of one family for the designs ``des`` (at total delays ``delay`` [s],
     default their own), by the module docstring's method.
 
@@ -205,62 +218,165 @@ def family_check(bl: BatchLoops, des, loop: Loop, lo: float, hi: float, delay=No
     -------
     dict of per-design lists/arrays: ``stable_intervals``, ``robust`` (the whole range stable and
     every cell resolved), ``critical`` (member of largest spectral radius), ``critical_radius``,
-    ``unresolved`` (cells), ``evaluations``.
+    ``unresolved`` (cells), ``evaluations``, ``points`` (the members evaluated: design, value,
+    spectral radius).
     """
     des = np.asarray(des, dtype=np.int64)
     nd = des.size
+    points = POINTS if points is None else points
     delay = bl.delay[des] if delay is None else np.asarray(delay, dtype=float)
     fam = _Family(bl, des, loop, lo, hi, delay)
     vals = np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points)
-    spacing = (fam.u(hi) - fam.u(lo)) / max(points - 1, 1)
     grid = fam.eval(np.repeat(np.arange(nd), points), np.tile(vals, nd)).reshape(nd, points)
-    unresolved = _refine(fam, grid, spacing)
-    per = _bisect_edges(fam, nd)
-    owner, rho, v = np.array(fam.owner), np.array(fam.rho), np.array(fam.v)
+    depth = 12 + max(0, math.ceil(math.log2((CERTIFY_POINTS - 1) / max(points - 1, 1))))  # certify's finest cell
+    unresolved = _refine(fam, grid[:, :-1].ravel(), grid[:, 1:].ravel(), depth)
+    order, edges = _edges(fam)
     out = {"stable_intervals": [], "robust": np.zeros(nd, bool), "critical": np.zeros(nd),
-           "critical_radius": np.zeros(nd), "unresolved": [[] for _ in range(nd)], "evaluations": len(fam.v)}
+           "critical_radius": np.zeros(nd), "unresolved": [[] for _ in range(nd)], "evaluations": fam.v.size,
+           "points": (fam.owner, fam.v, fam.rho)}
     for i, a, b in unresolved:
         out["unresolved"][i].append([a, b])
-    for i, ((pv, pst), edges) in enumerate(per):
-        ivs = _intervals(pst, edges, lo, hi)
+    per = [[] for _ in range(nd)]
+    for i, x, after in edges:
+        per[i].append((x, after))
+    first = fam.st[grid[:, 0]]
+    for i in range(nd):
+        cuts = [lo] + [x for x, _ in per[i]] + [hi]
+        after = [bool(first[i])] + [s for _, s in per[i]]
+        ivs = [[cuts[k], cuts[k + 1]] for k in range(len(after)) if after[k]]
         out["stable_intervals"].append(ivs)
         out["robust"][i] = ivs == [[lo, hi]] and not out["unresolved"][i]
-        idx = np.nonzero(owner == i)[0]
-        k = idx[np.argmax(rho[idx])]
-        out["critical"][i], out["critical_radius"][i] = v[k], rho[k]
+    top = np.lexsort((fam.rho, fam.owner))
+    last = top[np.r_[fam.owner[top][1:] != fam.owner[top][:-1], True]]
+    out["critical"][fam.owner[last]], out["critical_radius"][fam.owner[last]] = fam.v[last], fam.rho[last]
     return out
 
 
-def _probe_radius(bl: BatchLoops, des: np.ndarray, delay: np.ndarray, probes: list) -> np.ndarray:
-    """max over each design's probes of the spectral radius at total delay ``delay`` [s].
-    ``probes``: [(loop, member values per design (len(des),) or None)]."""
-    worst = np.zeros(des.size)
-    for loop, v in probes:
-        rho, _ = bl.spectra(des, loop, v, delay)
-        worst = np.maximum(worst, rho)
-    return worst
+class _Probes:
+    """Probe loops of the latency margin: [(loop, member per design (n,) or None)]; a NaN member
+    is no probe for that design."""
+
+    def __init__(self, bl: BatchLoops, des: np.ndarray, probes: list):
+        self.bl, self.des, self.probes = bl, des, probes
+
+    def all(self, idx: np.ndarray, x: np.ndarray):
+        """(ρ, stable) (len(idx), probes) at extra delays ``x`` [s]."""
+        R = np.zeros((idx.size, len(self.probes)))
+        S = np.ones((idx.size, len(self.probes)), bool)
+        for q in range(len(self.probes)):
+            R[:, q], S[:, q] = self.one(idx, np.full(idx.size, q), x)
+        return R, S
+
+    def one(self, idx: np.ndarray, which: np.ndarray, x: np.ndarray):
+        """(ρ, stable) (len(idx),) of probe ``which[j]`` of design ``idx[j]`` at extra delay ``x[j]``."""
+        r, s = np.zeros(idx.size), np.ones(idx.size, bool)
+        for q in np.unique(which):
+            loop, v = self.probes[q]
+            j = np.nonzero(which == q)[0]
+            if v is not None:
+                j = j[np.isfinite(v[idx[j]])]
+            if j.size:
+                d = self.des[idx[j]]
+                r[j], _e, s[j] = self.bl.spectra(d, loop, None if v is None else v[idx[j]], self.bl.delay[d] + x[j],
+                                                 rounding=False)
+        return r, s
 
 
-def _illinois(g, lo: np.ndarray, glo: np.ndarray, hi: np.ndarray, ghi: np.ndarray, rel: float):
-    """Narrow brackets [lo, hi] (g(lo) < 0 ≤ g(hi), vectorized) to ``rel`` relative."""
-    side = np.zeros(lo.size, np.int64)
-    for _ in range(200):
-        act = np.nonzero(hi - lo > rel * hi)[0]
+def _illinois(pr: _Probes, idx, which, lo, glo, hi, ghi):
+    """Narrow [lo, hi] (probe ``which`` stable at lo, not at hi; g = ρ − 1) to ``MARGIN_REL``."""
+    side = np.zeros(idx.size, np.int64)
+    for it in range(100):
+        act = np.nonzero(hi - lo > MARGIN_REL * hi)[0]
         if not act.size:
             break
-        x = (lo[act] * ghi[act] - hi[act] * glo[act]) / (ghi[act] - glo[act])
-        bad = ~np.isfinite(x) | (x <= lo[act]) | (x >= hi[act])
-        x[bad] = 0.5 * (lo[act][bad] + hi[act][bad])
-        gx = g(act, x)
-        neg = gx < 0
-        a, b = act[neg], act[~neg]
-        lo[a], glo[a] = x[neg], gx[neg]
-        ghi[a] *= np.where(side[a] == -1, 0.5, 1.0)
-        side[a] = -1
-        hi[b], ghi[b] = x[~neg], gx[~neg]
-        glo[b] *= np.where(side[b] == 1, 0.5, 1.0)
-        side[b] = 1
+        x = _illinois_point(lo[act], glo[act], hi[act], ghi[act], it % 5 == 4)
+        r, s = pr.one(idx[act], which[act], x)
+        _illinois_move(lo, glo, hi, ghi, side, act, x, r - 1.0, s)
     return lo, hi
+
+
+def _bracket(pr: _Probes, n: int, hint, Ts: float, cap: np.ndarray):
+    """(lo, hi, ρ at hi (n, probes)): every probe stable at lo, some unstable at hi (hi = inf when
+    none is up to ``cap``), from ΔT_c − T_s/2 and ΔT_c, else growing from half a sample."""
+    P = len(pr.probes)
+    lo, hi = np.zeros(n), np.full(n, np.inf)
+    Rhi = np.zeros((n, P))
+    h = np.asarray(hint, float) if hint is not None else np.full(n, np.nan)
+    for trial in (h - 0.5 * Ts, h):  # the zero-order hold costs about half a sample
+        act = np.nonzero(np.isinf(hi) & np.isfinite(trial) & (trial > lo) & (trial < cap))[0]
+        if act.size:
+            R, S = pr.all(act, trial[act])
+            un = ~S.all(axis=1)
+            hi[act[un]], Rhi[act[un]] = trial[act[un]], R[un]
+            lo[act[~un]] = trial[act[~un]]
+    while True:
+        act = np.nonzero(np.isinf(hi) & (lo < cap))[0]
+        if not act.size:
+            break
+        x = np.minimum(lo[act] + np.maximum(0.5 * Ts, lo[act]), cap[act])
+        R, S = pr.all(act, x)
+        un = ~S.all(axis=1)
+        hi[act[un]], Rhi[act[un]] = x[un], R[un]
+        lo[act[~un]] = x[~un]
+    return lo, hi, Rhi
+
+
+def _follow(pr: _Probes, idx, lo, hi, Rhi):
+    """The first crossing: follow the probe of largest ρ at hi alone (Illinois), check all probes
+    at the result, follow another one unstable there; returns (the crossing's stable end, dρ/dΔT
+    of the probe followed, over the bracket) per design."""
+    which = np.argmax(Rhi, axis=1)
+    slope = np.zeros(idx.size)
+    for _ in range(len(pr.probes)):
+        glo = pr.one(idx, which, lo)[0] - 1.0
+        ghi = Rhi[np.arange(idx.size), which] - 1.0
+        slope = (ghi - glo) / (hi - lo)
+        a, b = _illinois(pr, idx, which, lo.copy(), glo, hi.copy(), ghi)
+        R, S = pr.all(idx, a)
+        un = ~S.all(axis=1)
+        hi = np.where(un, a, b)
+        if not un.any():
+            return a, slope
+        Rhi = np.where(un[:, None], R, Rhi)
+        which = np.where(un, np.argmax(R, axis=1), which)
+    return lo, slope
+
+
+def _interior(bl: BatchLoops, des, families, x):
+    """Per family: (member, ρ, all stable) of the member of largest spectral radius at extra
+    delays ``x`` (``SCAN`` members, then ``GOLDEN`` golden sections between the neighbours of the largest)."""
+    out = []
+    n = des.size
+    T = bl.delay[des] + x
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    for loop, lo, hi, _crit in families:
+        log = lo > 0
+        f = np.exp if log else (lambda t: t)
+        u = np.linspace(math.log(lo), math.log(hi), SCAN + 2) if log else np.linspace(lo, hi, SCAN + 2)
+        rho, _e, st = bl.spectra(np.repeat(des, u.size), loop, np.tile(f(u), n), np.repeat(T, u.size), rounding=False)
+        rho, st = rho.reshape(n, -1), st.reshape(n, -1)
+        j = np.argmax(rho, axis=1)
+        bv, br, ok = f(u[j]), rho[np.arange(n), j], st.all(axis=1)
+        a, b = u[np.maximum(j - 1, 0)], u[np.minimum(j + 1, u.size - 1)]
+        c, d = b - g * (b - a), a + g * (b - a)
+        rc, _e, sc = bl.spectra(des, loop, f(c), T, rounding=False)
+        rd, _e, sd = bl.spectra(des, loop, f(d), T, rounding=False)
+        ok &= sc & sd
+        for it in range(GOLDEN):
+            for val, r in ((c, rc), (d, rd)):
+                bv, br = np.where(r > br, f(val), bv), np.maximum(r, br)
+            if it == GOLDEN - 1:
+                break
+            left = rc >= rd  # the largest in [a, d]
+            b = np.where(left, d, b)
+            a = np.where(left, a, c)
+            c, rc, d, rd = np.where(left, b - g * (b - a), d), np.where(left, 0.0, rd), np.where(left, c, a + g * (b - a)), np.where(left, rc, 0.0)
+            new = np.where(left, c, d)
+            r, _e, sn = bl.spectra(des, loop, f(new), T, rounding=False)
+            ok &= sn
+            rc, rd = np.where(left, r, rc), np.where(left, rd, r)
+        out.append((bv, br, ok))
+    return out
 
 
 def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray:
@@ -269,72 +385,46 @@ def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray
     [(loop, lo, hi, critical member per design)]; ``hint``: the continuous margins [s]."""
     des = np.asarray(des, dtype=np.int64)
     n = des.size
-    T = bl.delay[des]
-    Ts = bl.Ts
-    cap = MAX_SAMPLES * Ts - T
+    cap = MAX_SAMPLES * bl.Ts - bl.delay[des]
     probes = [(Loop("free"), None), (Loop("locked", env="locked"), None)]
     for loop, lo, hi, crit in families:
-        scan = np.geomspace(lo, hi, SCAN + 2) if lo > 0 else np.linspace(lo, hi, SCAN + 2)
-        probes += [(loop, np.full(n, x)) for x in scan] + [(loop, np.asarray(crit, float))]
-    extra: list = [[] for _ in range(n)]  # probes found by the confirming checks
-
-    def g(idx, x):
-        r = _probe_radius(bl, des[idx], T[idx] + x, [(lp, None if v is None else v[idx]) for lp, v in probes])
-        for j, i in enumerate(idx):
-            for lp, val in extra[i]:
-                r[j] = max(r[j], bl.spectra(des[i:i + 1], lp, np.array([val]), np.array([T[i] + x[j]]))[0][0])
-        return r - 1.0
-
-    lo, glo = np.zeros(n), g(np.arange(n), np.zeros(n))
-    hi, ghi = np.full(n, np.inf), np.full(n, np.nan)
-    h = np.asarray(hint, float) if hint is not None else np.full(n, np.nan)
-    for trial in (h - 0.5 * Ts, h):  # the zero-order hold costs about half a sample
-        act = np.nonzero(np.isinf(hi) & np.isfinite(trial) & (trial > lo) & (trial < cap))[0]
-        if act.size:
-            gx = g(act, trial[act])
-            un = gx >= 0
-            hi[act[un]], ghi[act[un]] = trial[act[un]], gx[un]
-            lo[act[~un]], glo[act[~un]] = trial[act[~un]], gx[~un]
-    while True:
-        act = np.nonzero(np.isinf(hi) & (lo < cap))[0]
-        if not act.size:
-            break
-        x = np.minimum(lo[act] + np.maximum(0.5 * Ts, lo[act]), cap[act])
-        gx = g(act, x)
-        un = gx >= 0
-        hi[act[un]], ghi[act[un]] = x[un], gx[un]
-        st = act[~un]
-        lo[st], glo[st] = x[~un], gx[~un]
-        lo[st[x[~un] >= cap[st]]] = cap[st[x[~un] >= cap[st]]]
+        probes += [(loop, np.full(n, float(lo))), (loop, np.full(n, float(hi))), (loop, np.asarray(crit, float))]
+    pr = _Probes(bl, des, probes)
+    lo, hi, Rhi = _bracket(pr, n, hint, bl.Ts, cap)
     out = np.full(n, math.inf)
+    act = np.nonzero(np.isfinite(hi))[0]
+    base = lo.copy()  # every original probe is stable there
     for _ in range(ROUNDS):
-        act = np.nonzero(np.isfinite(hi))[0]
         if not act.size:
             break
-        lo[act], hi[act] = _illinois(lambda i, x: g(act[i], x), lo[act], glo[act], hi[act], ghi[act], MARGIN_REL)
-        out[act] = lo[act]
-        redo = _confirm(bl, des, act, T + lo, families, extra)
-        if not redo.size:
+        a, slope = _follow(pr, act, lo[act], hi[act], Rhi[act])
+        out[act] = a
+        new = [np.full(act.size, np.nan) for _f in families]  # a member unstable at a, per family
+        for k, (v, r, _ok) in enumerate(_interior(bl, des[act], families, a)):
+            # a member that would move the margin by less than NEGLIGIBLE (relative) is not followed
+            far = r - 1.0 > NEGLIGIBLE * a * np.maximum(slope, 0.0)
+            new[k][far] = v[far]
+        rest = np.nonzero(np.all([np.isnan(c) for c in new], axis=0))[0]
+        for k, (loop, flo, fhi, _c) in enumerate(families):
+            if not rest.size:
+                break
+            chk = family_check(bl, des[act[rest]], loop, flo, fhi, bl.delay[des[act[rest]]] + a[rest] * (1.0 - CONFIRM))
+            gap = np.array([ivs != [[flo, fhi]] for ivs in chk["stable_intervals"]], bool)
+            new[k][rest[gap]] = chk["critical"][gap]
+            rest = rest[~gap]
+        redo = ~np.all([np.isnan(c) for c in new], axis=0)
+        if not redo.any():
             break
-        hi[redo], lo[redo] = lo[redo], 0.0
-        glo[redo] = g(redo, np.zeros(redo.size))
-        ghi[redo] = g(redo, hi[redo])
-        keep = ghi[redo] >= 0
-        hi[redo[~keep]] = np.inf  # (cannot happen: the new probe is unstable there)
+        for k, (loop, *_r) in enumerate(families):
+            if np.any(~np.isnan(new[k])):
+                col = np.full(n, np.nan)
+                col[act] = new[k]
+                probes.append((loop, col))
+        act = act[redo]
+        Rhi = np.concatenate([Rhi, np.zeros((n, len(probes) - Rhi.shape[1]))], axis=1)
+        hi[act] = out[act]
+        Rhi[act] = pr.all(act, hi[act])[0]
+        lo[act] = base[act]
+        stable = pr.all(act, lo[act])[1].all(axis=1)
+        lo[act[~stable]] = 0.0
     return out
-
-
-def _confirm(bl: BatchLoops, des, act, delay, families, extra) -> np.ndarray:
-    """Full family checks at the candidate delays; a design with an unstable member gets it as a
-    probe and is returned for another round."""
-    redo = set()
-    for loop, lo, hi, _crit in families:
-        chk = family_check(bl, des[act], loop, lo, hi, delay[act])
-        for j, i in enumerate(act):
-            if not chk["robust"][j]:
-                extra[i].append((loop, float(chk["critical"][j])))
-                redo.add(int(i))
-    for loop in (Loop("free"), Loop("locked", env="locked")):
-        rho, _ = bl.spectra(des[act], loop, None, delay[act])
-        redo |= {int(i) for i in act[rho >= 1.0]}
-    return np.array(sorted(redo), dtype=np.int64)

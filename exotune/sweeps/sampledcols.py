@@ -62,7 +62,6 @@ def sampled_columns(cfg, cols: dict) -> dict:
     ----------
     docs/sweep-spec.md#sampled-data-columns; docs/controller-file.md#latency-margin.
     """
-    from ..config import design_row
     from ..numerics.threads import one_blas_thread
     from ..sampled.batch import BatchLoops, Loop
     from ..sampled.families import family_check, latency_margin
@@ -70,14 +69,14 @@ def sampled_columns(cfg, cols: dict) -> dict:
     @one_blas_thread
     def run():
         n = len(cols["free_stable"])
-        bl = BatchLoops([design_row(cfg, i) for i in range(n)], float(np.ravel(cfg.implementation.sample_rate_hz)[0]))
+        bl = BatchLoops(cfg, float(np.ravel(cfg.implementation.sample_rate_hz)[0]), n)
         des = np.arange(n)
         out = {}
         ok = np.ones(n, bool)
         for name, loop in (("free", Loop("free")), ("locked", Loop("locked", env="locked"))):
-            rho, _ = bl.spectra(des, loop)
-            out[f"sampled_{name}_stable"] = rho < 1.0
-            ok &= rho < 1.0
+            _rho, _eig, stable = bl.spectra(des, loop)
+            out[f"sampled_{name}_stable"] = stable
+            ok &= stable
         fams = []
         for prefix, loop, lo, hi in _families(cfg):
             chk = family_check(bl, des, loop, lo, hi)
