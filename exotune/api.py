@@ -383,7 +383,8 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
 
 
 def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
-             sample_rate_hz: float | None = None, friction: bool = False, fix=None) -> PlantEstimate:
+             sample_rate_hz: float | None = None, friction: bool = False, fix=None, validate=None,
+             folds: int | None = None) -> PlantEstimate:
     """The plant parameters a measured log determines, with standard errors (the library twin of
     ``exotune identify``).
 
@@ -405,11 +406,16 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
         Estimate Coulomb friction F_c·sign(θ̇_m) in the motor equation (the paper's δ_f).
     fix : mapping or iterable of "NAME=VALUE", optional
         Known parameters (design-file keys or symbols, SI units).
+    validate : path, optional
+        A second log to validate on (a path source only).
+    folds : int, optional
+        K-fold cross-validation on the log itself (a path source only).
 
     Returns
     -------
     PlantEstimate
-        ``parameters`` (value, standard error, unit), ``fits``, ``design_sections()``.
+        ``parameters`` (value, standard error, unit), ``fits``, ``validation`` (for a path
+        source), ``uncertainty()``, ``design_sections()``.
 
     References
     ----------
@@ -431,12 +437,12 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
     from .identification import identify_file, identify_plant, log_from_columns
 
     if isinstance(source, Mapping):
-        if out is not None:
-            raise TypeError("identify writes its sections only for a log file (give a path)")
+        if out is not None or validate is not None or folds is not None:
+            raise TypeError("identify writes its sections and validates only for a log file (give a path)")
         return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s, sample_rate_hz), filter_hz=filter_hz,
                               friction=friction, fix=fix)
     return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
-                         friction=friction, fix=fix)
+                         friction=friction, fix=fix, validate=validate, folds=folds)
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,

@@ -400,27 +400,44 @@ def codegen_cmd(controller_file, out_dir, allow_uncertified):
 @click.option("--friction", "friction", is_flag=True, help="Estimate Coulomb friction F_c·sign(θ̇_m) in the motor equation.")
 @click.option("--fix", "fix", multiple=True, metavar="NAME=VALUE",
               help="A known parameter (design-file key or symbol, SI units); repeatable.")
+@click.option("--validate", "validate", default=None, metavar="LOG2.csv",
+              help="Validate on a second log: simulated-output NRMSE, residual tests, frequency responses.")
+@click.option("--folds", "folds", default=None, type=int, metavar="K", help="K-fold cross-validation on LOG.csv itself.")
+@click.option("--plots", "plots_dir", metavar="DIR", default=None,
+              help="Write the Bode overlays and residual tests (PNG) and frequency_response.csv to DIR.")
+@click.option("--frf-csv", "frf_csv", default=None, metavar="FRF.csv", help="Write the measured frequency responses (CSV).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.pass_context
-def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, friction, fix, as_json):
+def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, friction, fix, validate, folds, plots_dir,
+                 frf_csv, as_json):
     """Identify the plant (J_m, B_m, K_s, J_j, K_c) from a measured log (docs/identification.md).
 
     LOG.csv holds a header row of column names and one row per sample (t, theta_m, tau_s, tau_m or
     tau_cmd; theta_j, tau_c, theta_h for more parameters). Each equation is identified on its own.
     Exit code 0: every parameter the columns allow identified; 1: some parameter not identified
     (the others are written) or not physical (≤ 0: nothing is written); 2: bad input, or a log
-    that excites no parameter."""
+    that excites no parameter. The written uncertainty is the larger of 3 SE and the model error
+    the validation measures (--validate LOG2.csv, --folds K; docs/identification.md#validation)."""
     from .identification import identify_file
     from .jsonio import check_outputs
     from .options import number_value
 
-    check_outputs([log_file], outputs={"-o": out})
+    check_outputs([log_file, validate], outputs={"-o": out, "--frf-csv": frf_csv}, out_dirs={"--plots": plots_dir})
     delay = "0" if delay_s is None else delay_s
     if delay.strip().lower() != "auto":
         delay = number_value("--delay-s", delay, False)
     fh = None if filter_hz is None else number_value("--filter-hz", filter_hz, True)
     fs = None if sample_rate_hz is None else number_value("--sample-rate-hz", sample_rate_hz, True)
-    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs, friction=friction, fix=fix)
+    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs, friction=friction, fix=fix,
+                      validate=validate, folds=folds)
+    if frf_csv is not None:
+        from .jsonio import write_atomic
+
+        write_atomic(frf_csv, r.validation.to_csv())
+    if plots_dir is not None:
+        from .jsonio import write_files
+
+        write_files(plots_dir, {**r.validation.plot(), "frequency_response.csv": r.validation.to_csv()})
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.complete:
         ctx.exit(1)

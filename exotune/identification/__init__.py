@@ -6,10 +6,15 @@ numerically.
 ``data``      reading and checking a log of the runtime's signals (CSV)
 ``estimate``  the state-variable filter, the regressions, their standard errors
 ``result``    the typed result (:class:`PlantEstimate`) and the design-file sections it gives
+``validate``  the identified plant simulated on held-out data (NRMSE), residual tests, k-fold
+``frf``       non-parametric frequency responses (H1, coherence) and the parameters read off them
+``validresult`` the validation's typed results
 """
 
 from .data import COLUMNS, MeasuredLog, log_from_columns, read_log
 from .estimate import identify_file, identify_plant
 from .result import ParameterEstimate, PlantEstimate
+from .validate import validate_plant
+from .validresult import Validation
 
-__all__ = ["COLUMNS", "MeasuredLog", "read_log", "log_from_columns", "identify_plant", "identify_file", "ParameterEstimate", "PlantEstimate"]
+__all__ = ["COLUMNS", "MeasuredLog", "read_log", "log_from_columns", "identify_plant", "identify_file", "ParameterEstimate", "PlantEstimate", "validate_plant", "Validation"]

@@ -26,15 +26,17 @@ docs/identification.md; paper eq. (5).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from ..errors import ConfigError
 from .data import MeasuredLog
-from .filters import discretization_bound, held_svf, svf
+from .filters import discretization_bound, held_svf, svf, velocity_sign
 from .regress import CORRELATION_TIME_CONSTANTS, NotExcited, residual_covariance, solve
 from .result import EquationFit, ParameterEstimate, PlantEstimate
+from .validresult import ModelError
 
 __all__ = ["identify_plant", "identify_file", "parse_fix", "svf", "FRICTION", "MIN_T", "DEFAULT_FILTER_HZ", "TRANSIENT_TIME_CONSTANTS", "MIN_FIT_SAMPLES"]
 
@@ -157,7 +159,7 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None, *, friction
                 else:
                     a = {"one": lambda: np.ones(log.samples), "sea_x": lambda: S["theta_j"] - S["theta_m"],
                          "joint_y": lambda: S["tau_c"] - S["tau_s"], "cuff_x": lambda: S["theta_h"] - S["theta_j"],
-                         "fric": lambda: _velocity_sign(S["theta_m"], fs, fh)}.get(expr, lambda: S[expr])()
+                         "fric": lambda: velocity_sign(S["theta_m"], fs, fh)}.get(expr, lambda: S[expr])()
                     out = tuple(v[skip:] for v in svf(np.asarray(a, float), fs, fh, "foh"))
             if not all(np.all(np.isfinite(v)) for v in out):
                 col = {"sea_x": "theta_j", "joint_y": "tau_c", "cuff_x": "theta_h"}.get(expr, expr)
@@ -170,16 +172,59 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None, *, friction
         delay_info = None
         if log.tau_m_held:
             delay_info = _delay(log, f, state, eqs["motor"], fixed, skip, fs, fh, auto, max_delay)
-        return _identify(log, S, f, n, fs, fh, skip, eqs, fixed, delay_info)
+        est = _identify(log, S, f, n, fs, fh, skip, eqs, fixed, delay_info)
+        warnings, errors = _diagnose(est, f, fixed, _modes(skip, log.samples, fs, fh), friction)
+    return dataclasses.replace(est, warnings=tuple(warnings),
+                               model_errors=tuple(ModelError(k, v, why) for k, v, why in errors))
 
 
-def _velocity_sign(theta: np.ndarray, fs: float, fh: float) -> np.ndarray:
-    """sign(θ̇) from the motor angle: central differences smoothed forward and backward (zero
-    phase) at 5× the filter corner."""
-    import scipy.signal
-
-    b, a = scipy.signal.butter(2, min(5 * fh, 0.4 * fs) / (fs / 2))
-    return np.sign(scipy.signal.filtfilt(b, a, np.gradient(theta)))
+def _diagnose(est, f, fixed, modes, friction) -> tuple[list, list]:
+    """Model errors the fitting log shows (docs/identification.md#warnings): a neighbouring delay
+    with a smaller motor-equation residual, Coulomb friction significant in the motor equation
+    when it is not modelled, and errors in variables in the static equations (the reverse
+    regression, measurement noise on the other side, disagreeing beyond 3 standard errors).
+    Returns the warnings and (key, relative parameter change, cause) of each."""
+    warnings, errors = [], []
+    value = {p.key: p.value for p in est.parameters if not p.fixed}
+    lag = int(round(est.correlation_s * est.sample_rate_hz))
+    better = (est.delay or {}).get("better_delay")
+    if better:
+        warnings.append(f"wrong delay? the motor-equation residual is smaller with a delay of {better['samples']} samples "
+                        f"({better['rms_residual']:.3g} N·m against {est.delay['rms_residual']:.3g} N·m): check "
+                        "--delay-s, or use --delay-s auto")
+        errors += [(k, v, f"a delay of {better['samples']} samples fits the motor equation better")
+                   for k, v in better["shift"].items() if k in value]
+    if not friction and any({"motor_inertia", "motor_damping"} & set(ft.parameters) for ft in est.fits):
+        y, X, free = _regression(f, _equations(True)["motor"], fixed, modes)
+        try:
+            beta = solve(X, y)
+        except NotExcited:
+            beta = None
+        if beta is not None:
+            i = [k for k, _s, _u in free].index(FRICTION[0])
+            se = math.sqrt(residual_covariance(X, y - X @ beta, lag)[i, i])
+            if beta[i] > MIN_T * se:
+                warnings.append(f"friction? the motor-equation residual is correlated with sign(θ̇_m): Coulomb friction "
+                                f"F_c ≈ {beta[i]:.3g} ± {se:.2g} N·m ({beta[i] / se:.0f} standard errors); rerun with --friction")
+                errors += [(k, abs(b / value[k] - 1), f"Coulomb friction of {beta[i]:.3g} N·m, unmodelled")
+                           for (k, _s, _u), b in zip(free, beta) if k in value]
+    for fit in est.fits:
+        if len(fit.parameters) != 1 or fit.parameters[0] not in ("sea_stiffness", "cuff_stiffness"):
+            continue
+        key = fit.parameters[0]
+        y, x = (f("tau_s", 0), f("sea_x", 0)) if key == "sea_stiffness" else (f("tau_c", 0), f("cuff_x", 0))
+        try:
+            rev = 1.0 / solve(np.column_stack([y, np.ones_like(y), modes]), x)[0]
+        except NotExcited:
+            continue
+        rel, se = abs(rev / value[key] - 1), est[key].relative_std_error
+        if rel > 3 * se:
+            sym = est[key].symbol
+            warnings.append(f"sensor noise or bias? {sym} from the reverse regression is {rev:.6g} against {value[key]:.6g} "
+                            f"({100 * rel:.2g} %, {rel / se:.0f} standard errors): noise on the measured angles "
+                            f"biases {sym} low, noise on the torque high")
+            errors.append((key, rel, "errors in variables (the reverse regression differs)"))
+    return warnings, errors
 
 
 def _equations(friction: bool) -> dict:
@@ -216,21 +261,26 @@ def _delay(log, f, state, eq, fixed, skip, fs, fh, auto, max_delay) -> dict:
     """The delay of a held command: given, or (auto) the whole number of samples up to
     :data:`MAX_DELAY_S` with the smallest motor-equation residual; with the residuals it explains."""
     modes = _modes(skip, log.samples, fs, fh)
-    rms = {}
-    for d in (range(max_delay + 1) if auto else sorted({0, max_delay})):
+    rms, betas = {}, {}
+    given = {0, max_delay} | ({max_delay - 1, max_delay + 1} & set(range(min(skip, log.samples // 10) + 1)))
+    for d in (range(max_delay + 1) if auto else sorted(given)):
         state["delay"] = d
-        y, X, _free = _regression(f, eq, fixed, modes)
+        y, X, free = _regression(f, eq, fixed, modes)
         try:
             beta = solve(X, y)
         except NotExcited:
             continue
         rms[d] = float(np.sqrt(np.mean((y - X @ beta) ** 2)))
+        betas[d] = {key: float(v) for (key, _s, _u), v in zip(free, beta)}
     best = min(rms, key=rms.get) if (auto and rms) else max_delay
     state["delay"] = best
     info = {"samples": best, "seconds": best / fs, "estimated": auto, "rms_residual": rms.get(best, math.nan),
-            "rms_residual_without_delay": rms.get(0, math.nan), "unit": "N·m"}
-    if auto:
-        info["rms_residual_neighbours"] = {str(d): rms[d] for d in (best - 1, best + 1) if d in rms}
+            "rms_residual_without_delay": rms.get(0, math.nan), "unit": "N·m",
+            "rms_residual_neighbours": {str(d): rms[d] for d in (best - 1, best + 1) if d in rms}}
+    better = min((d for d in rms if abs(d - best) == 1), key=rms.get, default=None)
+    if better is not None and rms[better] < rms[best]:
+        info["better_delay"] = {"samples": better, "rms_residual": rms[better],
+                                "shift": {k: abs(betas[better][k] / betas[best][k] - 1) for k in betas[best]}}
     return info
 
 
@@ -284,7 +334,8 @@ def _identify(log, S, f, n, fs, fh, skip, eqs, fixed, delay_info) -> PlantEstima
 
 
 def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = None,
-                  sample_rate_hz: float | None = None, friction: bool = False, fix=None) -> PlantEstimate:
+                  sample_rate_hz: float | None = None, friction: bool = False, fix=None,
+                  validate=None, folds: int | None = None) -> PlantEstimate:
     """``exotune identify``: read a log (:func:`exotune.identification.read_log`), identify the
     plant (:func:`identify_plant`) and, with ``out``, write the ``plant`` and ``uncertainty``
     sections it gives as YAML (atomically): the identified and fixed parameters, when every
@@ -306,6 +357,10 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
         Estimate Coulomb friction in the motor equation.
     fix : mapping or iterable of "NAME=VALUE", optional
         Known parameters.
+    validate : str or os.PathLike, optional
+        A second log (same columns and rate) to validate on (:func:`~exotune.identification.validate.validate_plant`).
+    folds : int, optional
+        k-fold cross-validation on the log itself (contiguous blocks).
 
     Returns
     -------
@@ -326,13 +381,24 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     from .data import read_log
 
     fix = parse_fix(fix or {})  # bad input before the log is read
-    est = identify_plant(read_log(log_path, delay_s=delay_s, sample_rate_hz=sample_rate_hz), filter_hz=filter_hz,
-                         friction=friction, fix=fix)
+    from .validate import validate_plant
+
+    log = read_log(log_path, delay_s=delay_s, sample_rate_hz=sample_rate_hz)
+    other = None if validate is None else read_log(validate, delay_s=delay_s, sample_rate_hz=sample_rate_hz)
+    est = identify_plant(log, filter_hz=filter_hz, friction=friction, fix=fix)
+    if other is not None and est.delay is not None:  # the delay found on the fitting log
+        other = dataclasses.replace(other, delay_samples=est.delay["samples"])
+    fh = est.filter_hz
+    est = validate_plant(est, dataclasses.replace(log, delay_samples=est.delay["samples"]) if est.delay else log,
+                         other, folds, lambda part: identify_plant(part, filter_hz=fh, friction=friction, fix=fix))
     if out is not None and est.physical and any(not p.fixed for p in est.parameters):
         sec = est.design_sections()
+        unc = est.uncertainty()
         head = (f"# exotune identify {est.source}: {est.samples} samples at {est.sample_rate_hz:g} Hz, filter "
-                f"{est.filter_hz:g} Hz.\n# plant: the estimates (SI, joint-reflected); uncertainty: "
-                f"{est.to_dict()['uncertainty_sigmas']:g} standard errors, relative. Paste into a design file"
+                f"{est.filter_hz:g} Hz.\n# plant: the estimates (SI, joint-reflected); uncertainty: relative, the larger "
+                f"of {est.to_dict()['uncertainty_sigmas']:g} standard errors and the model error measured:\n"
+                + "".join(f"#   {k}: ±{100 * v:.3g} % ({why})\n" for k, (v, why) in unc.items())
+                + "# Paste into a design file"
                 + (f"; not identified: {', '.join(k for k, _ in est.missing + est.not_identified)}"
                    if est.missing or est.not_identified else "") + ".\n")
         write_atomic(out, head + yaml.safe_dump(sec, sort_keys=False, allow_unicode=True))

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-__all__ = ["svf", "held_svf", "discretization_bound"]
+__all__ = ["svf", "held_svf", "discretization_bound", "velocity_sign"]
 
 
 @functools.lru_cache(maxsize=16)
@@ -69,3 +69,12 @@ def discretization_bound(sample_rate_hz: float, filter_hz: float) -> float:
     rounding at ωT ~ 10⁻³, measured below 2·10⁻⁸)."""
     wt = 2 * math.pi * filter_hz / sample_rate_hz
     return 1e-3 * wt ** 3 + 1e-7
+
+
+def velocity_sign(theta: np.ndarray, fs: float, fh: float) -> np.ndarray:
+    """sign(θ̇) from the motor angle: central differences smoothed forward and backward (zero
+    phase) at 5× the filter corner."""
+    import scipy.signal
+
+    b, a = scipy.signal.butter(2, min(5 * fh, 0.4 * fs) / (fs / 2))
+    return np.sign(scipy.signal.filtfilt(b, a, np.gradient(theta)))

@@ -88,6 +88,9 @@ class PlantEstimate(Result):
     rate_source: str = "t"
     not_identified: tuple[tuple[str, str], ...] = ()
     delay: dict | None = None
+    warnings: tuple[str, ...] = ()
+    model_errors: tuple = ()
+    validation: object = None  # a Validation (exotune.identification.validresult), from validate_plant
 
     def __getitem__(self, key: str) -> ParameterEstimate:
         for p in self.parameters:
@@ -116,12 +119,34 @@ class PlantEstimate(Result):
         """Every parameter the log's columns allow identified, and physical (exit code 0)."""
         return self.physical and not self.not_identified
 
+    def model_error(self, key: str):
+        """The largest model error found for ``key`` (a ``ModelError``: the fitting log's
+        diagnostics, and the validation's when there is one), or None."""
+        found = list(self.model_errors) + (list(self.validation.model_errors) if self.validation is not None else [])
+        found = [m for m in found if m.key == key and m.relative > 0]
+        return max(found, key=lambda m: m.relative) if found else None
+
+    def uncertainty(self) -> dict:
+        """Per design-file parameter: ``(relative range, what dominates)`` — the larger of
+        :data:`UNCERTAINTY_SIGMAS` standard errors and the model error measured
+        (:meth:`model_error`), capped below 1; what dominates is "3 SE" or the model error's source."""
+        out = {}
+        for p in self.parameters:
+            if p.key == "coulomb_friction":  # not a design-file parameter
+                continue
+            stat = UNCERTAINTY_SIGMAS * p.relative_std_error
+            m = None if p.fixed else self.model_error(p.key)
+            rng, why = (m.relative, m.source) if m is not None and m.relative > stat else (stat, f"{UNCERTAINTY_SIGMAS:g} SE")
+            out[p.key] = (min(0.99, rng), why)
+        return out
+
     def design_sections(self) -> dict:
         """``{"plant": …, "uncertainty": …}`` for a design file: the estimates, and as relative
-        range of each the :data:`UNCERTAINTY_SIGMAS`-standard-error band (capped below 1)."""
+        range of each the larger of the :data:`UNCERTAINTY_SIGMAS`-standard-error band and the
+        model error measured (:meth:`uncertainty`; capped below 1)."""
         ps = [p for p in self.parameters if p.key != "coulomb_friction"]  # not a design-file parameter
-        return {"plant": {p.key: p.value for p in ps},
-                "uncertainty": {p.key: min(0.99, UNCERTAINTY_SIGMAS * p.relative_std_error) for p in ps}}
+        unc = self.uncertainty()
+        return {"plant": {p.key: p.value for p in ps}, "uncertainty": {p.key: unc[p.key][0] for p in ps}}
 
     def to_dict(self) -> dict:
         return {
@@ -138,6 +163,10 @@ class PlantEstimate(Result):
             "complete": self.complete,
             "delay": self.delay,
             "uncertainty_sigmas": UNCERTAINTY_SIGMAS,
+            "uncertainty": {k: {"relative": v, "dominated_by": why} for k, (v, why) in self.uncertainty().items()},
+            "warnings": list(self.warnings) + (list(self.validation.warnings) if self.validation is not None else []),
+            "model_errors": {m.key: m.to_dict() for m in self.model_errors},
+            "validation": self.validation.to_dict() if self.validation is not None else None,
             "method": ("least squares on the plant equations (docs/method.md#physical-model), every signal through "
                        "the state-variable filter ω³/(s + ω)³ and its s-, s²-multiples (first-order hold), a sensor "
                        "offset and the filters' start-up transients per equation (a held command filtered exactly and by "
@@ -164,6 +193,11 @@ class PlantEstimate(Result):
                          f"offset {f.offset:.3g} {f.offset_unit}")
         for k, why in self.missing + self.not_identified:
             lines.append(f"  {k}: not identified ({why})")
+        for w in self.warnings:
+            lines.append(f"  warning: {w}")
+        if self.validation is not None:
+            lines.append(self.validation.to_text())
+        lines += [f"  uncertainty {k}: ±{100 * v:.3g} % ({why})" for k, (v, why) in self.uncertainty().items()]
         if not self.physical:
             bad = ", ".join(p.key for p in self.parameters if p.value <= 0 and p.key != "coulomb_friction")
             lines.append(f"  NOT A PLANT: {bad} ≤ 0 (too little excitation, or the log's signs or units differ from "

@@ -1,0 +1,160 @@
+"""Non-parametric frequency responses of the plant from a measured log, beside the identified
+model's, and the parameters read off them at each frequency.
+
+Each transfer function is estimated with the applied motor torque z = τ_m as instrument (H1 =
+P_zy/P_zz for each measured signal y, Welch-averaged with Hann windows, half overlap): the ratio
+of two such responses is the transfer between two measured signals without the bias a noisy
+input signal gives H1 (errors in variables) and without the feedback through the spring:
+
+    motor   θ_m / (τ_m + τ_s) = 1/(J_m s² + B_m s)      = H_zθm / (1 + H_zτs)
+    spring  τ_s / (θ_j − θ_m) = K_s                      = H_zτs / H_z(θj−θm)
+    joint   θ_j / (τ_c − τ_s) = 1/(J_j s²)               = H_zθj / H_z(τc−τs)
+    cuff    τ_c / (θ_h − θ_j) = K_c                      = H_zτc / H_z(θh−θj)
+
+A held command (``tau_cmd``) reaches the sampled outputs through the hold, (1 − e^{−jωT})/(jωT);
+the motor's response (not a ratio in which it cancels) is divided by it. The random error of an
+H1 estimate with coherence γ² over n_d averages is √(1 − γ²)/(|γ|√(2 n_d)) relative (Bendat &
+Piersol; 1σ of the magnitude, radians of the phase); a ratio adds its two in quadrature and its
+coherence is the smaller of the two.
+
+At each frequency the model's equation is solved for its parameters (1/H = −J_m ω² + jB_m ω
+gives J_m(ω) and B_m(ω); K_s(ω) = Re H; …). With the right model they are constant, within the
+random error; friction, a wrong delay or an unmodelled mode make them vary. Over the coherent
+band, the largest departure from the estimate beyond 2.58 standard deviations is the model
+error the frequency response measures (docs/identification.md#honest-uncertainty).
+
+References
+----------
+docs/identification.md#validation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .validresult import CONFIDENCE_Z, MIN_COHERENCE, FrequencyResponse, LocalParameter
+
+__all__ = ["frequency_responses", "applied_torque", "segment_length"]
+
+MIN_SEGMENT = 256
+AVERAGES = 8  # at least this many independent segments
+
+
+def applied_torque(log, delay_samples: int) -> np.ndarray:
+    """τ_m as applied: the ``tau_m`` column, or ``tau_cmd`` delayed by ``delay_samples``."""
+    S = log.signals
+    if "tau_m" in S:
+        return np.asarray(S["tau_m"], float)
+    u = np.asarray(S["tau_cmd"], float)
+    return np.concatenate([np.zeros(delay_samples), u[: u.size - delay_samples]]) if delay_samples else u
+
+
+def segment_length(n: int) -> int:
+    """Welch segment: the largest power of two with :data:`AVERAGES` segments in ``n`` samples."""
+    return int(max(MIN_SEGMENT, 2 ** int(math.floor(math.log2(max(n // AVERAGES, 2))))))
+
+
+def _h1(z, ys, fs, nper):
+    """H1 from z to each y, its coherence, and the frequencies."""
+    import scipy.signal
+
+    kw = {"fs": fs, "nperseg": nper, "window": "hann", "detrend": "constant"}
+    f, pzz = scipy.signal.welch(z, **kw)
+    out = []
+    for y in ys:
+        _f, pzy = scipy.signal.csd(z, y, **kw)
+        _f, pyy = scipy.signal.welch(y, **kw)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out.append((pzy / pzz, np.abs(pzy) ** 2 / (pzz * pyy)))
+    return f, out
+
+
+def _error(g2, nd):
+    g2 = np.clip(np.nan_to_num(g2), 1e-12, 1.0)
+    return np.sqrt(1 - g2) / np.sqrt(g2 * 2 * nd)
+
+
+def _local(key, sym, unit, values, sigma, estimate, f, coherent) -> LocalParameter:
+    excess = np.where(coherent, np.maximum(np.abs(values - estimate) - CONFIDENCE_Z * sigma, 0.0), 0.0)
+    excess = np.nan_to_num(excess) / abs(estimate) if estimate else np.zeros_like(excess)
+    if excess.size < 2:
+        return LocalParameter(key, sym, unit, values, sigma, float(estimate), 0.0, math.nan)
+    i = int(np.argsort(excess)[-2])  # the second largest: a departure seen in at least two bins, not one outlier
+    return LocalParameter(key, sym, unit, values, sigma, float(estimate), float(excess[i]), float(f[i]))
+
+
+def frequency_responses(log, est) -> tuple[FrequencyResponse, ...]:
+    """The motor, spring, joint and cuff frequency responses ``log``'s columns allow (module
+    docstring), with the model of the estimate ``est`` (a :class:`PlantEstimate`) and the
+    parameters read off each; frequencies up to a quarter of the sample rate."""
+    S, fs = log.signals, log.sample_rate_hz
+    delay = int(est.delay["samples"]) if est.delay else 0
+    z = applied_torque(log, delay)
+    n = z.size
+    nper = segment_length(n)
+    nd = n // nper
+    val = {p.key: p.value for p in est.parameters}
+    series = {"theta_m": S["theta_m"], "tau_s": S["tau_s"]}
+    if "theta_j" in S:
+        series["theta_j"], series["sea_x"] = S["theta_j"], S["theta_j"] - S["theta_m"]
+    if "tau_c" in S:
+        series["tau_c"], series["joint_u"] = S["tau_c"], S["tau_c"] - S["tau_s"]
+    if "theta_h" in S and "theta_j" in S and "tau_c" in S:
+        series["cuff_x"] = S["theta_h"] - S["theta_j"]
+    names = list(series)
+    f, h = _h1(z - z.mean(), [np.asarray(series[k], float) for k in names] + [np.gradient(z) * fs], fs, nper)
+    H = dict(zip(names, h))
+    # the instrument's power centroid in each bin: a strong line between bins is read at its own frequency
+    with np.errstate(invalid="ignore"):
+        f_eff = np.arcsin(np.clip(np.abs(h[-1][0]) / fs, 0, 1)) * fs / (2 * np.pi)
+    keep = (f > 0) & (f <= fs / 4) & np.isfinite(f_eff) & (f_eff > 0)
+    f = f_eff[keep]
+    order = np.argsort(f)
+    f = f[order]
+    H = {k: (v[0][keep][order], v[1][keep][order]) for k, v in H.items()}
+    w = 2 * np.pi * f
+    out = []
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        hold = (1 - np.exp(-1j * w / fs)) / (1j * w / fs) if log.tau_m_held else np.ones_like(w, complex)
+        (ha, ga), (hb, gb) = H["theta_m"], H["tau_s"]
+        ha, hb = ha / hold, hb / hold
+        G = ha / (1 + hb)
+        eps = np.sqrt(_error(ga, nd) ** 2 + (np.abs(hb) * _error(gb, nd) / np.abs(1 + hb)) ** 2)
+        out.append(_motor(f, G, np.minimum(ga, gb), eps, val, nd))
+        for name, (num, den), (key, sym, unit), dyn, io in (
+                ("spring", ("tau_s", "sea_x"), ("sea_stiffness", "K_s", "N·m/rad"), False, ("θ_j − θ_m", "τ_s", "N·m/rad")),
+                ("joint", ("theta_j", "joint_u"), ("joint_inertia", "J_j", "kg·m²"), True, ("τ_c − τ_s", "θ_j", "rad/(N·m)")),
+                ("cuff", ("tau_c", "cuff_x"), ("cuff_stiffness", "K_c", "N·m/rad"), False, ("θ_h − θ_j", "τ_c", "N·m/rad"))):
+            if num not in H or den not in H or key not in val:
+                continue
+            (hn, gn), (hd, gd) = H[num], H[den]
+            G = hn / hd
+            coh, eps = np.minimum(gn, gd), np.sqrt(_error(gn, nd) ** 2 + _error(gd, nd) ** 2)
+            coherent = coh >= MIN_COHERENCE
+            if dyn:
+                inv = 1 / G
+                loc = _local(key, sym, unit, -inv.real / w ** 2, eps * np.abs(inv) / w ** 2, val[key], f, coherent)
+                model = 1 / (val[key] * (1j * w) ** 2)
+            else:
+                loc = _local(key, sym, unit, G.real, eps * np.abs(G), val[key], f, coherent)
+                model = np.full(w.shape, val[key], complex)
+            out.append(FrequencyResponse(name, io[0], io[1], io[2], f, G, coh, eps, model, (loc,), nd))
+    return tuple(out)
+
+
+def _motor(f, G, coh, eps, val, nd) -> FrequencyResponse:
+    w = 2 * np.pi * f
+    coherent = coh >= MIN_COHERENCE
+    inv = 1 / G
+    local = []
+    if "motor_inertia" in val:
+        local.append(_local("motor_inertia", "J_m", "kg·m²", -inv.real / w ** 2, eps * np.abs(inv) / w ** 2,
+                            val["motor_inertia"], f, coherent))
+    if "motor_damping" in val:
+        local.append(_local("motor_damping", "B_m", "N·m·s/rad", inv.imag / w, eps * np.abs(inv) / w,
+                            val["motor_damping"], f, coherent))
+    jm, bm = val.get("motor_inertia", math.nan), val.get("motor_damping", math.nan)
+    model = 1 / (jm * (1j * w) ** 2 + bm * 1j * w)
+    return FrequencyResponse("motor", "τ_m + τ_s", "θ_m", "rad/(N·m)", f, G, coh, eps, model, tuple(local), nd)

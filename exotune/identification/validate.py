@@ -1,0 +1,245 @@
+"""Validation of an identified plant on data it was not fitted on (``exotune identify --validate
+LOG2.csv``, ``--folds K``): the identified plant's equations simulated from the log's measured
+inputs and compared with its measured outputs (NRMSE), the residual tests of those simulation
+errors, and the frequency responses of :mod:`exotune.identification.frf`.
+
+Simulated outputs (docs/identification.md#validation):
+
+    motor   θ_m  from τ_m (or τ_cmd, delayed and held) and the measured τ_s:  (J_m s² + B_m s) θ_m = τ_m + τ_s [− F_c sign(θ̇_m)]
+    drive   θ_j  from τ_m and the measured τ_c, through the spring (needs J_m, B_m, K_s, J_j)
+    spring  τ_s  from θ_j − θ_m:  K_s (θ_j − θ_m)
+    cuff    τ_c  from θ_h − θ_j:  K_c (θ_h − θ_j)
+
+The dynamic ones are simulated exactly in modal form (each mode a first-order recursion through
+``scipy.signal.lfilter``: the exact zero-order hold of a held command, the exact first-order hold
+of a measured signal), the equivalent of ``scipy.signal.dlsim`` of the discretized model without
+its per-sample Python loop. The unknown initial state and the sensor offsets are fitted, as
+MATLAB's ``compare`` does: the simulation error's projection onto the model's free responses (a
+constant, a ramp from a torque offset, e^{λt} for each mode) is removed. With friction
+estimated, sign(θ̇_m) comes from the measured motor angle.
+
+References
+----------
+docs/identification.md#validation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import ConfigError
+from .data import MIN_SAMPLES, MeasuredLog
+from .filters import velocity_sign
+from .frf import applied_torque, frequency_responses
+from .validresult import CONFIDENCE_Z, ModelError, OutputFit, ResidualTest, Validation
+
+__all__ = ["validate_plant", "simulate_outputs", "residual_test", "nrmse_percent", "LAGS"]
+
+LAGS = 25  # residual tests at lags 0…25 (cross-correlation −25…25), as MATLAB's resid
+
+
+def _mode_response(lam: complex, u: np.ndarray, T: float, hold: str) -> np.ndarray:
+    """z' = λ z + u, from the zero state, sampled exactly for ``u`` held ("zoh") or linear
+    between samples ("foh")."""
+    import scipy.signal
+
+    a = lam * T
+    e = np.exp(a)
+    if abs(a) < 1e-6:
+        g, g1 = T * (1 + a / 2 + a * a / 6), T * (0.5 + a / 6 + a * a / 24)
+    else:
+        g, g1 = T * np.expm1(a) / a, T * (np.expm1(a) - a) / (a * a)
+    b = [0.0, g] if hold == "zoh" else [g1, g - g1]
+    return scipy.signal.lfilter(np.asarray(b, complex), [1.0, -e], u.astype(complex))
+
+
+def _simulate(A, B, c, inputs, fs, t):
+    """Output c·x of ẋ = A x + Σ B[:, j] u_j (``inputs``: (u_j, hold)) from the zero state, and
+    the free responses (constant, ramp, e^{λt}) to project out; None if A is not diagonalizable."""
+    lam, V = np.linalg.eig(A)
+    if np.linalg.cond(V) > 1e8:
+        return None, None
+    G, cv = np.linalg.solve(V, B), c @ V
+    y = np.zeros(t.size)
+    for i, li in enumerate(lam):
+        for j, (u, hold) in enumerate(inputs):
+            if G[i, j] != 0 and cv[i] != 0:
+                y += np.real(cv[i] * G[i, j] * _mode_response(li, u, 1 / fs, hold))
+    free = [np.ones_like(t), t - t.mean()]
+    for li in lam:
+        if abs(li) > 1e-9 * max(1.0, np.max(np.abs(lam))) and li.imag >= 0:
+            with np.errstate(under="ignore"):
+                ex = np.exp(li * t)
+            free += [ex.real] + ([ex.imag] if li.imag > 0 else [])
+    return y, np.column_stack(free)
+
+
+def nrmse_percent(y, y_sim, free) -> tuple[float, np.ndarray]:
+    """100·‖y − ŷ‖/‖y − ȳ‖ after the error's projection onto the free responses, and that error."""
+    e = y - y_sim
+    if free is not None:
+        e = e - free @ np.linalg.lstsq(free, e, rcond=None)[0]
+    d = float(np.linalg.norm(y - y.mean()))
+    return (100.0 * float(np.linalg.norm(e)) / d if d > 0 else math.nan), e
+
+
+def simulate_outputs(log: MeasuredLog, val: dict, delay: int, filter_hz: float) -> list[tuple]:
+    """(output, inputs text, measured, simulated, free responses, input for the residual test)
+    of each output the log's columns and the parameters ``val`` (key → value) allow
+    (``filter_hz``: the identification's corner, for sign(θ̇_m) as the friction term had it)."""
+    S, fs = log.signals, log.sample_rate_hz
+    t = np.arange(log.samples) / fs
+    tau_m = applied_torque(log, delay)
+    hold = "zoh" if log.tau_m_held else "foh"
+    out = []
+    fric = []
+    if "coulomb_friction" in val:
+        fric = [(-val["coulomb_friction"] * velocity_sign(S["theta_m"], fs, filter_hz), "foh")]
+    tm_in = "τ_m (τ_cmd delayed, held)" if log.tau_m_held else "τ_m"
+    if {"motor_inertia", "motor_damping"} <= set(val):
+        jm, bm = val["motor_inertia"], val["motor_damping"]
+        y, free = _simulate(np.array([[0, 1], [0, -bm / jm]]), np.array([[0, 0, 0], [1 / jm, 1 / jm, 1 / jm]]),
+                            np.array([1.0, 0.0]), [(tau_m, hold), (S["tau_s"], "foh")] + fric, fs, t)
+        out.append(("θ_m", f"{tm_in}, τ_s", S["theta_m"], y, free, tau_m))
+        if {"sea_stiffness", "joint_inertia"} <= set(val) and "tau_c" in S and "theta_j" in S:
+            ks, jj = val["sea_stiffness"], val["joint_inertia"]
+            A = np.array([[0, 1, 0, 0], [-ks / jm, -bm / jm, ks / jm, 0], [0, 0, 0, 1], [ks / jj, 0, -ks / jj, 0]])
+            B = np.zeros((4, 3))
+            B[1, 0] = B[1, 2] = 1 / jm
+            B[3, 1] = 1 / jj
+            y, free = _simulate(A, B, np.array([0.0, 0, 1, 0]), [(tau_m, hold), (S["tau_c"], "foh")] + fric, fs, t)
+            if y is not None:
+                out.append(("θ_j", f"{tm_in}, τ_c (through the spring)", S["theta_j"], y, free, tau_m))
+    for key, col, x, text in (("sea_stiffness", "tau_s", ("theta_j", "theta_m"), "θ_j − θ_m"),
+                              ("cuff_stiffness", "tau_c", ("theta_h", "theta_j"), "θ_h − θ_j")):
+        if key in val and col in S and all(c in S for c in x):
+            dx = S[x[0]] - S[x[1]]
+            out.append((col.replace("tau_", "τ_"), text, S[col], val[key] * dx, np.ones((dx.size, 1)), dx))
+    return out
+
+
+def residual_test(output: str, input_name: str, e: np.ndarray, u: np.ndarray, lags: int = LAGS) -> ResidualTest:
+    """Autocorrelation of ``e`` (lags 0…M, bound 2.58/√N) and its cross-correlation with ``u``
+    (lags −M…M, bound 2.58·√(Σ_k ρ_e(k) ρ_u(k))/√N for coloured signals, summed over |k| < N/20)."""
+    n = e.size
+    e, u = e - e.mean(), u - u.mean()
+    m = 1 << int(math.ceil(math.log2(2 * n)))
+    E, U = np.fft.rfft(e, m), np.fft.rfft(u, m)
+    see, suu = float(np.dot(e, e)), float(np.dot(u, u))
+    if see == 0 or suu == 0:
+        z = np.zeros(lags + 1)
+        return ResidualTest(output, input_name, np.arange(lags + 1), z, CONFIDENCE_Z / math.sqrt(n),
+                            np.arange(-lags, lags + 1), np.zeros(2 * lags + 1), math.inf, 0)
+    ree = np.fft.irfft(E * np.conj(E), m) / see
+    ruu = np.fft.irfft(U * np.conj(U), m) / suu
+    reu = np.fft.irfft(U * np.conj(E), m) / math.sqrt(see * suu)  # Σ e(k) u(k + τ): the input leads at τ < 0
+    K = max(lags, n // 20)
+    k = np.r_[np.arange(K), np.arange(-K + 1, 0)]
+    bound = CONFIDENCE_Z * math.sqrt(max(float(np.sum(ree[k] * ruu[k])), 1.0) / n)
+    cl = np.arange(-lags, lags + 1)
+    cross = -reu[cl]  # positive lag: e(t) against u(t − lag), the input leading
+    peak = int(cl[int(np.argmax(np.abs(cross)))])
+    return ResidualTest(output, input_name, np.arange(lags + 1), ree[: lags + 1], CONFIDENCE_Z / math.sqrt(n),
+                        cl, cross, bound, peak)
+
+
+def _slice(log: MeasuredLog, a: int, b: int) -> MeasuredLog:
+    return MeasuredLog(log.sample_rate_hz, {k: v[a:b] for k, v in log.signals.items()}, log.source,
+                       log.delay_samples, log.rate_source)
+
+
+def _values(est) -> dict:
+    return {p.key: p.value for p in est.parameters}
+
+
+def _fold_values(log, est, a, b, refit) -> dict | None:
+    """The parameters fitted on the log without samples a…b: each remaining part identified on
+    its own (``refit``), combined by inverse-variance weighting (fixed parameters kept)."""
+    parts = []
+    for lo, hi in ((0, a), (b, log.samples)):
+        try:
+            parts.append(refit(_slice(log, lo, hi)))
+        except ConfigError:
+            continue
+    if not parts:
+        return None
+    out = {}
+    for key, v in _values(est).items():
+        got = [(p[key].value, p[key].std_error) for p in parts if key in {q.key for q in p.parameters}]
+        if est[key].fixed or not got:
+            out[key] = v
+        else:
+            w = np.array([1 / max(s, 1e-300) ** 2 for _v, s in got])
+            out[key] = float(np.dot(w, [x for x, _s in got]) / w.sum())
+    return out
+
+
+def _kfold(log, est, folds, refit, delay) -> list[OutputFit]:
+    n = log.samples
+    edges = np.linspace(0, n, folds + 1).astype(int)
+    by_output: dict[str, list] = {}
+    for i in range(folds):
+        a, b = int(edges[i]), int(edges[i + 1])
+        val = _fold_values(log, est, a, b, refit)
+        if val is None:
+            continue
+        for name, inputs, y, ys, free, _u in simulate_outputs(_slice(log, a, b), val, delay, est.filter_hz):
+            by_output.setdefault(name, [inputs, []])[1].append((nrmse_percent(y, ys, free)[0], b - a))
+    return [OutputFit(name, inputs, float(np.mean([x for x, _n in v])), int(sum(m for _x, m in v)),
+                      f"{folds}-fold (NRMSE {min(x for x, _n in v):.3g}–{max(x for x, _n in v):.3g} %)")
+            for name, (inputs, v) in by_output.items()]
+
+
+def validate_plant(est, log: MeasuredLog, validation_log: MeasuredLog | None = None, folds: int | None = None,
+                   refit=None):
+    """Validate the estimate ``est`` (a :class:`PlantEstimate` identified from ``log``): on
+    ``validation_log`` (another log: simulated outputs, residual tests and frequency responses
+    there) or by ``folds``-fold cross-validation on ``log`` (contiguous blocks; residual tests and
+    frequency responses on ``log`` itself), or neither (residual tests and frequency responses of
+    the fitting log). ``refit``: MeasuredLog → PlantEstimate, the identification to repeat on each
+fold's remaining parts (as ``est`` was made: ``identify_plant`` with its keywords). Returns
+    ``est`` with its ``validation`` (model errors: each parameter's departure on the frequency
+    responses, docs/identification.md#honest-uncertainty).
+
+    Raises
+    ------
+    ConfigError
+        ``--folds`` below 2 or leaving blocks shorter than the minimum log.
+    """
+    import dataclasses
+
+    delay = int(est.delay["samples"]) if est.delay else 0
+    data = validation_log if validation_log is not None else log
+    if validation_log is not None and validation_log.tau_m_held != log.tau_m_held:
+        raise ConfigError("--validate", "the validation log must log the motor torque as the fitting log does "
+                          "(tau_m or tau_cmd)")
+    sims = simulate_outputs(data, _values(est), delay, est.filter_hz)
+    tests, fits = [], []
+    for name, inputs, y, ys, free, u in sims:
+        pct, e = nrmse_percent(y, ys, free)
+        if validation_log is not None:
+            fits.append(OutputFit(name, inputs, pct, y.size, "held-out log " + validation_log.source))
+        tests.append(residual_test(name, "τ_m" if inputs.startswith("τ_m") else inputs, e, u))
+    if folds is not None:
+        if not (isinstance(folds, int) and 2 <= folds and log.samples // folds >= MIN_SAMPLES * 2):
+            raise ConfigError("--folds", f"{folds!r}: at least 2 folds of {2 * MIN_SAMPLES} samples each are needed")
+        if refit is None:
+            raise ConfigError("--folds", "k-fold validation needs the identification to repeat (refit)")
+        fits += _kfold(log, est, folds, refit, delay)
+    frs = frequency_responses(data, est)
+    errors = [ModelError(p.key, p.relative_excess, f"the measured {fr.name} frequency response departs by "
+                         f"{100 * p.relative_excess:.2g} % beyond its 99 % band at {p.at_hz:.3g} Hz")
+              for fr in frs for p in fr.local if p.relative_excess > 0]
+    warnings = []
+    for tst in tests:
+        if tst.output == "θ_m" and not tst.independent and tst.peak_lag != 0:
+            warnings.append(f"delay or unmodelled dynamics? the motor-angle simulation error is correlated with "
+                            f"{tst.input_name} beyond its 99 % bound (largest at lag {tst.peak_lag} samples)")
+    for m in errors:
+        if m.relative > 3 * est[m.key].relative_std_error:
+            warnings.append(f"{est[m.key].symbol}: {m.source}: model error")
+    held_out = validation_log is not None or folds is not None
+    v = Validation(data.source, held_out, tuple(fits), frs, tuple(tests), tuple(errors), tuple(warnings))
+    return dataclasses.replace(est, validation=v)
