@@ -10,6 +10,7 @@
 #          (d) sample_rate  — controller sample rate × lightest stable inertia (sampled-data model)
 #          (e) pipeline     — optimize → export → certify → simulate on one design
 #          (f) paper        — the paper's Table II and Figs. 4, 5, 6, 8, 9 reproduced, with comparison pages
+#          (g) sampled_optimum — optimize with a sample rate against a dense sampled-data reference
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PYTHON="${PYTHON:-python}"
@@ -21,6 +22,8 @@ echo "== studies/sample_rate.py" >&2
 "$PYTHON" studies/sample_rate.py   # no sweep: sampled-data verdicts by bisection (seconds)
 echo "== studies/pipeline.py" >&2
 "$PYTHON" studies/pipeline.py
+echo "== studies/sampled_optimum.py" >&2
+"$PYTHON" studies/sampled_optimum.py   # optimize with a rate against a dense reference (minutes)
 echo "== studies/paper_figures.py" >&2
 "$PYTHON" studies/paper_figures.py   # no sweep: analysis + two 1 kHz simulations (about 20 s)
-echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate,pipeline,paper}/" >&2
+echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate,pipeline,sampled_optimum,paper}/" >&2
