@@ -213,6 +213,19 @@ def _source(doc: dict, ctrls, t: dict, trace: dict) -> str:
     return "\n".join(L) + "\n"
 
 
+def refuse_float32(doc: dict) -> None:
+    """The C port is float64 only: a float32 file (``implementation.precision: float32``) is
+    refused (ConfigError naming the field) before anything is certified or written."""
+    from .precision import precision_of
+
+    if precision_of(doc) == "float32":
+        raise ConfigError("implementation.precision", "float32: exotune codegen writes the float64 port only (the "
+                                                      "float32 port of the realization is not generated yet; "
+                                                      "docs/deploying.md#precision); export the design with "
+                                                      "precision float64 for C, or port the realization by hand "
+                                                      "against the file's float32 golden vectors")
+
+
 def c_sources(doc: dict, trace: dict | None = None) -> dict[str, str]:
     """The C99 port of the runtime controller of a validated controller file.
 
@@ -251,6 +264,7 @@ def c_sources(doc: dict, trace: dict | None = None) -> dict[str, str]:
 
 def _generate(doc: dict, trace: dict) -> tuple[dict[str, str], int, int]:
     """(files, number of controllers, number of sections)."""
+    refuse_float32(doc)
     ctrls = controllers_of(doc)
     t = _tables(ctrls)
     max_sections = max([1] + [row[6] for row in t["controllers"]])
@@ -301,6 +315,7 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
     from .fileio import load_controller
 
     doc = load_controller(controller_file)
+    refuse_float32(doc)
     problems, _n, _err = golden_problems(doc)
     if problems:
         raise ConfigError("golden", problems[0] + " (was the file edited? re-export it)")
