@@ -27,6 +27,7 @@ from ..numerics.threads import one_blas_thread
 from ..sampled import loop_eigenvalues, loop_verdict
 from ..units import PARAM_UNITS
 from .build import close
+from .cellbound import loop_cell
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
 from .latency import requirement_problems, sampled_latency_margin
@@ -52,9 +53,12 @@ def _in_certify(parse, i, item):
 
 
 @one_blas_thread
-def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
+def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dict:
     """Free/locked verdicts and the stable intervals of every rational human family and every
-    environment spring/mass range of the file's ``certify`` section, for the file's controller."""
+    environment spring/mass range of the file's ``certify`` section, for the file's controller.
+    Every accepted cell is proven stable (:func:`~exotune.controllerfile.cellbound.loop_cell`);
+    ``proof=False`` accepts cells on step control alone (the latency margin's confirmation at a
+    nearly critical delay, where a proof would need very small cells)."""
     from ..config import parse_env, parse_human
     from .fileio import discrete_from_file, plant_from_file
 
@@ -63,6 +67,8 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
     grounded = position_feedback(doc["controller"])
     spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, grounded, human, env)  # noqa: E731
     verdict = lambda human=None, env="free": loop_verdict(plant, ctrl, grounded, human, env)[0]  # noqa: E731
+    cell = lambda member: ((lambda a, b: loop_cell(plant, ctrl, grounded, member, a, b, math.sqrt(a * b)))  # noqa: E731
+                           if proof else None)
     free, rho, err = loop_verdict(plant, ctrl, grounded)
     locked, rho_l, err_l = loop_verdict(plant, ctrl, grounded, env="locked")
     out = {
@@ -93,7 +99,8 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
             out["humans"].append(entry)
             continue
         ivs, info = stable_intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points,
-                                     lambda v, fam=fam: verdict(human=_human_dict(fam, v)))
+                                     lambda v, fam=fam: verdict(human=_human_dict(fam, v)),
+                                     cell(lambda v, fam=fam: (_human_dict(fam, v), "free")))
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]] and not info["unresolved"]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
@@ -101,7 +108,8 @@ def sampled_analysis(doc: dict, points: int = POINTS) -> dict:
         if env.kind not in ("spring", "mass"):
             continue
         ivs, info = stable_intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points,
-                                     lambda v, e=env: verdict(env={e.param: v, "damping": e.damping}))
+                                     lambda v, e=env: verdict(env={e.param: v, "damping": e.damping}),
+                                     cell(lambda v, e=env: (None, {e.param: v, "damping": e.damping})))
         out["environment"].append({"kind": env.kind, "parameter": env.param,
                                    "unit": PARAM_UNITS[env.param],
                                    "range": [env.lo, env.hi], **info, "stable_intervals": ivs,
@@ -415,7 +423,7 @@ def sampled_decision(doc: dict, sa: dict | None = None) -> tuple[dict, dict, lis
     """
     if sa is None:
         sa = sampled_analysis(doc)
-    lm = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
+    lm = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), lambda d: sampled_analysis(d, proof=False))
     return sa, lm, sampled_problems(sa) + requirement_problems(lm)
 
 

@@ -7,8 +7,10 @@ its eigenvalue paths are resolved — each eigenvalue's motion over the cell (th
 end values and the first-order motion from its derivative at either end, a secant over
 ``FD_CELL`` of the grid spacing) is below its distance to
 the unit circle (step control of eigenvalue continuation); every change of verdict is bisected
-(geometric) to 1e-10 relative. A window of instability could still hide inside a cell only on an
-eigenvalue path much longer than its resolved chord and end speeds imply. A cell that stays
+(geometric) to 1e-10 relative. Step control only proposes: with a ``cell_bound`` (certify's
+:func:`exotune.controllerfile.cellbound.loop_cell`) every resolved cell is then **proven** stable as
+a whole (:func:`_prove`), halved where the proof fails; without one, a window of instability could
+hide inside a cell on an eigenvalue path much longer than its resolved chord and end speeds imply. A cell that stays
 unresolved at the finest step (≈ 2e-5 relative: an eigenvalue within a hair of the circle and
 moving fast), or when the refinement budget (``MAX_REFINED`` values per family, fewer for loops of
 more than ``REF_STATES`` states) is spent, fails
@@ -44,6 +46,9 @@ _FD = 1e-7  # smallest relative step of the finite-difference eigenvalue derivat
 # halving cells whose eigenvalues hardly moved (chord ≈ 0.003 × their distance to the circle)
 FD_CELL = 1e-3
 _BISECT = 48
+SPAN = 8  # grid cells the rigorous pass tries to prove at once first (its span adapts: ×2 on success, ½ on failure)
+MAX_SPAN = 64
+PROOFS = 1000  # cell proofs tried per family (scaled like MAX_REFINED for big loops, at least 200); past it, unresolved
 
 
 def _match(la: np.ndarray, lb: np.ndarray):
@@ -72,7 +77,63 @@ def _cell_resolved(la: np.ndarray, lb: np.ndarray, length: float, derivatives) -
     return bool(np.all(length * np.maximum(np.abs(da[r]), np.abs(db[c])) <= CHORD * dist))
 
 
-def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdict=None) -> tuple[list, dict]:
+def _prove(grid: list, stable: list, unresolved: list, cell_bound, refine, budget: int) -> tuple[list, int, bool]:
+    """The rigorous pass (:mod:`exotune.controllerfile.cellbound`): every run of stable grid values
+    that step control resolved is proven cell by cell — ``cell_bound(x, y)`` → (proven, margin)
+    on spans of ``SPAN`` grid cells first, the span halved where the proof fails (the span
+    doubles again after a success), a single grid cell halved by ``refine(x, y, depth)`` at most
+    ``MAX_DEPTH`` times. ``refine`` returns the midpoint's verdict (a new value of the grid: an
+    unstable midpoint is a window step control missed, its edges bisected afterwards) or None when
+    the refinement budget is spent; at most ``budget`` proofs are tried. Returns (new grid values,
+    cells proven, proof budget spent); cells still unproven are appended to ``unresolved``
+    (certify then fails).
+    """
+    bad = {(x, y) for x, y in unresolved}
+    new, proven, calls = [], 0, [0]
+
+    def bound(x, y):
+        calls[0] += 1
+        return calls[0] <= budget and cell_bound(x, y)[0]
+
+    def cell(x, y, depth):
+        nonlocal proven
+        if bound(x, y):
+            proven += 1
+            return
+        if calls[0] > budget:
+            unresolved.append([x, y])
+            return
+        st = refine(x, y, depth) if depth else None
+        if st is None:
+            unresolved.append([x, y])
+            return
+        m, ok = st
+        new.append(m)
+        if ok:
+            cell(x, m, depth - 1)
+            cell(m, y, depth - 1)
+
+    i, size = 0, SPAN
+    while i < len(grid) - 1:
+        if not (stable[i] and stable[i + 1]) or (grid[i], grid[i + 1]) in bad:
+            i, size = i + 1, SPAN
+            continue
+        j = i + 1  # the run of proposable cells from i, at most ``size`` of them
+        while j < len(grid) - 1 and j - i < size and stable[j + 1] and (grid[j], grid[j + 1]) not in bad:
+            j += 1
+        if j - i == 1:
+            cell(grid[i], grid[j], MAX_DEPTH)
+            i, size = j, 2
+        elif bound(grid[i], grid[j]):
+            proven += 1
+            i, size = j, min(2 * size, MAX_SPAN)
+        else:
+            size = max((j - i) // 2, 1)
+    return new, proven, calls[0] > budget
+
+
+def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdict=None,
+                     cell_bound=None) -> tuple[list, dict]:
     """Stable intervals of one family. Verdicts on a grid of ``points`` values (log-spaced when
     lo > 0); every cell with a stable verdict at both ends is halved until its eigenvalue paths are
     resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times and ``MAX_REFINED`` values in
@@ -83,6 +144,11 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     ----------
     spectrum : callable
         ``spectrum(v)``: the eigenvalues of the sampled-data loop at the parameter value ``v``.
+    cell_bound : callable, optional
+        ``cell_bound(a, b)`` → (proven, margin): a proof that every member on [a, b] is stable
+        (:func:`exotune.controllerfile.cellbound.loop_cell`); with it a cell is accepted only when
+        proven (:func:`_prove`), step control only proposes the cells. Without it the cells are
+        accepted on step control alone (``info["proof"]`` says which).
     verdict : callable, optional
         ``verdict(v)`` → True/False/None (:func:`exotune.sampled.loop_verdict`), asked where the
         spectral radius is within ``NEAR_UNIT`` of 1: None (rounding cannot decide) counts as not
@@ -98,7 +164,8 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
         The stable intervals (|λ| < 1 for every eigenvalue).
     info : dict
         ``points``, ``refined_points``, ``unresolved`` cells, ``refinement_budget``,
-        ``budget_spent``, ``loop_states``, ``stable_points``, ``inconclusive`` values.
+        ``budget_spent``, ``loop_states``, ``stable_points``, ``inconclusive`` values, ``proof``
+        ("cell bound" or "step control only"), ``proven_cells`` (the proofs that succeeded).
 
     References
     ----------
@@ -167,6 +234,21 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
             pts.append(m)
             stack += [(x, m, depth - 1), (m, y, depth - 1)]
         grid += sorted(pts) + [b]
+    proven = 0
+    if cell_bound is not None:
+        def refine(x, y, depth):
+            nonlocal refined, budget_spent
+            if refined >= max_refined:
+                budget_spent = True
+                return None
+            m = mid(x, y)
+            refined += 1
+            return m, at(m)[0]
+
+        proofs = PROOFS if n <= REF_STATES else max(200, int(PROOFS * (REF_STATES / n) ** 3))
+        extra, proven, spent = _prove(grid, [at(v)[0] for v in grid], unresolved, cell_bound, refine, proofs)
+        budget_spent = budget_spent or spent
+        grid = sorted(set(grid) | set(extra))
     st = [at(v)[0] for v in grid]
     edges = []  # (position, stable after)
     for i in range(len(grid) - 1):
@@ -195,4 +277,5 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved),
                  "inconclusive": sorted(inconclusive)[:MAX_LISTED],
                  "refinement_budget": max_refined, "budget_spent": budget_spent, "loop_states": n,
+                 "proof": "step control only" if cell_bound is None else "cell bound", "proven_cells": proven,
                  "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in base))}
