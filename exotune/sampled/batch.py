@@ -373,7 +373,8 @@ class BatchLoops:
         members ``v`` of ``loop``, total delays ``delay`` [s], default each design's own).
 
         The rigid-body eigenvalue of an ungrounded loop (within ``RIGID_TOL`` of z = 1) is
-        replaced by 0; shorter spectra are padded with 0 (neither counts in the radius nor moves).
+        replaced by 0; shorter spectra are padded with distinct constants (:func:`_pad`: neither
+        counts in the radius nor moves).
         The radius includes the fixed moduli of the DOB copies left out (:func:`batch_controller`).
         ``stable`` is radius < 1, except within ``NEAR_UNIT`` of 1 where certify's rounding
         estimate decides (:func:`_rounding_verdict`; inconclusive is not stable) — unless
@@ -397,11 +398,18 @@ class BatchLoops:
                 rho[pos] = np.maximum(np.max(np.abs(lam), axis=1) if lam.shape[1] else 0.0,
                                       np.max(self.fixed[des[pos]], axis=1))
                 eig[pos, :lam.shape[1]] = lam
+                eig[pos, lam.shape[1]:] = _pad(W - lam.shape[1])
                 stable[pos] = rho[pos] < 1.0
                 near = np.nonzero(np.abs(rho[pos] - 1.0) < NEAR_UNIT)[0]
                 if near.size and rounding:
                     stable[pos[near]] = _rounding_verdict(M[near], lam[near])
         return rho, eig, stable
+
+
+def _pad(k: int) -> np.ndarray:
+    """``k`` fillers of a shorter spectrum: distinct (so that nearest-partner matching pairs them
+    one to one), fixed, well inside the unit circle."""
+    return 0.5 * np.arange(1, k + 1) / (k + 1)
 
 
 def _rounding_verdict(M: np.ndarray, lam: np.ndarray) -> np.ndarray:

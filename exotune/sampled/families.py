@@ -23,9 +23,11 @@ and ΔT_c (ΔT_c the continuous margin: the zero-order hold costs about half a s
 from half a sample); the probe that crosses first is followed alone by the Illinois method on
 ρ − 1 to ``MARGIN_REL`` relative, then all probes are checked at the result (another probe unstable
 there is followed in turn). The interior of every family is then searched at the result
-(``SCAN`` members, and the largest spectral radius located between its neighbours by golden
-sections): an unstable member becomes a probe and the search goes on (at most ``ROUNDS`` times);
-finally the family check above runs at ΔT (1 − ``CONFIRM``).
+(``SCAN`` members, and the largest spectral radius located between its neighbours by ``GOLDEN``
+golden sections): a member unstable there by more than a ``NEGLIGIBLE`` relative change of the
+margin (judged with the followed probe's dρ/dΔT) becomes a probe, and the family check above runs at
+ΔT (1 − ``CONFIRM``), a gap found there giving its critical member as a probe; with a new probe the
+search goes on (at most ``ROUNDS`` times).
 """
 
 from __future__ import annotations
@@ -55,18 +57,26 @@ MAX_SAMPLES = 200.0
 
 def _greedy_match(la: np.ndarray, lb: np.ndarray) -> np.ndarray:
     """perm (c, N): a one-to-one matching of the eigenvalues ``la`` (c, N) to ``lb`` (c, N),
-    nearest pairs first."""
+    nearest pairs first (where every eigenvalue's nearest partner is a different one, that is
+    the matching; the other rows are matched pair by pair)."""
     c, N = la.shape
     with np.errstate(invalid="ignore"):
         D = np.nan_to_num(np.abs(la[:, :, None] - lb[:, None, :]), nan=1e300, posinf=1e300)
-    perm = np.zeros((c, N), np.int64)
-    rows = np.arange(c)
-    for _ in range(N):
-        flat = D.reshape(c, -1).argmin(axis=1)
-        r, col = flat // N, flat % N
-        perm[rows, r] = col
-        D[rows, r, :] = np.inf
-        D[rows, :, col] = np.inf
+    perm = np.argmin(D, axis=2)
+    srt = np.sort(perm, axis=1)
+    clash = np.nonzero(np.any(srt[:, 1:] == srt[:, :-1], axis=1))[0]
+    if clash.size:
+        D = D[clash]
+        k = clash.size
+        rows = np.arange(k)
+        p = np.zeros((k, N), np.int64)
+        for _ in range(N):
+            flat = D.reshape(k, -1).argmin(axis=1)
+            r, col = flat // N, flat % N
+            p[rows, r] = col
+            D[rows, r, :] = np.inf
+            D[rows, :, col] = np.inf
+        perm[clash] = p
     return perm
 
 
