@@ -46,6 +46,8 @@ import math
 
 import numpy as np
 
+from ..sampled.loop import split_delay
+
 __all__ = ["disc_test", "loop_cell", "taylor_expm", "ORDER", "AFFINE_RTOL"]
 
 ORDER = 3  # Taylor terms of the loop matrix in s kept exactly; the next is bounded (Dyson)
@@ -130,11 +132,7 @@ def _layout(ctrl, n: int, C: np.ndarray):
     [x; z; τ_cmd[k−1] … τ_cmd[k−d−1]], plant rows W·R with W = [Φ Γ0 Γ1] and
     R = [[I 0 0]; τ_cmd[k−d]; τ_cmd[k−d−1]] (checked against the matrix by the caller)."""
     Ts = 1.0 / ctrl.sample_rate_hz
-    q = ctrl.delay_s / Ts
-    d = int(math.floor(q + 1e-9))
-    f = q - d
-    if f < 1e-9:
-        f = 0.0
+    d, f = split_delay(ctrl.delay_s, Ts)
     nz = ctrl.Ac.shape[0]
     N = n + nz + d + 1
     s0 = n + nz

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .loop import NEAR_UNIT as ROUND_NEAR
-from .loop import ROUNDING_TRIALS, Measured
+from .loop import ROUNDING_TRIALS, Measured, split_delay
 from .sos import bilinear_batch, df2t_batch, sos_ss_batch, tustin_sections_batch
 
 __all__ = ["RIGID_TOL", "NEAR_UNIT", "BatchLoops", "Loop", "batch_controller", "expm_stack"]
@@ -322,10 +322,9 @@ class BatchLoops:
     # ---- loops ---------------------------------------------------------------------------
     def split_delay(self, delay: np.ndarray):
         """(whole samples d, fraction f) of total delays [s], as :func:`closed_loop_matrix` splits them."""
-        q = delay / self.Ts
-        d = np.floor(q + 1e-9).astype(np.int64)
-        f = q - d
-        return d, np.where(f < 1e-9, 0.0, f)
+        delay = np.asarray(delay, dtype=float)
+        d, f = split_delay(delay.reshape(-1), self.Ts)
+        return d.reshape(delay.shape), f.reshape(delay.shape)
 
     def matrices(self, des: np.ndarray, loop: Loop, v: np.ndarray, delay: np.ndarray):
         """Loop matrices of jobs that share their size: [(job positions, stack (k, N, N))]."""

@@ -37,7 +37,7 @@ import scipy.signal
 
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
            "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "tustin", "prewarped",
-           "zoh_fractional", "default_prewarp"]
+           "zoh_fractional", "split_delay", "default_prewarp"]
 
 # sampled signals the controller may use (order of the plant's output vector)
 Measured = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
@@ -291,14 +291,24 @@ def zoh_fractional(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
     return Phi, G0, G1
 
 
+def split_delay(delay_s, Ts: float):
+    """(whole samples d, fraction f) of a total delay [s] (a number or an array) at the sample
+    period ``Ts`` [s]: T = (d + f)·Ts, 0 ≤ f < 1, a fraction below 1e-9 read as 0 (a whole
+    number of samples up to rounding). The one split of the sampled-data loop, its batches and
+    the cell proofs."""
+    q = np.asarray(delay_s, dtype=float) / Ts
+    d = np.floor(q + 1e-9).astype(np.int64)
+    f = q - d
+    f = np.where(f < 1e-9, 0.0, f)
+    if f.ndim == 0:
+        return int(d), float(f)
+    return d, f
+
+
 def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
     """State matrix of the sampled-data loop on [x; z; τ_cmd[k−1], …, τ_cmd[k−d−1]]."""
     Ts = 1.0 / ctrl.sample_rate_hz
-    q = ctrl.delay_s / Ts
-    d = int(math.floor(q + 1e-9))
-    f = q - d
-    if f < 1e-9:
-        f = 0.0
+    d, f = split_delay(ctrl.delay_s, Ts)
     Phi, G0, G1 = zoh_fractional(A, B, Ts, f)
     n, nz, ns = A.shape[0], ctrl.Ac.shape[0], d + 1
     N = n + nz + ns
