@@ -590,46 +590,99 @@ rate of the experiments is not stated in the paper; 1 kHz is assumed.
 
 
 # --------------------------------------------------------------------------- Fig. 9
-def fig9(out: Path) -> dict:
-    r = simulate(PAPER_YAML, "dob-friction", sample_rate_hz=SAMPLE_RATE_HZ)
-    d = r.to_dict()
-    runs = r.runs
-    ser = runs["controller"]["series"]
+# The gains of the paper's position-control test: the gain table commented out of its source
+# (spring-deflection units: K2, B2 act on θ_m − θ_j), converted to exotune's torque units by 1/K_s.
+PAPER_POSITION_GAINS = {"K1": 69480.0, "B1": 1387.0, "K2_deflection": -41690.0, "B2_deflection": -1183.0}
+POSITION_REFERENCE = {"reference_rad": 0.5, "reference_hz": 0.25}  # θ_ref = 0.5 (1 − cos 2π·0.25 t) rad
+
+
+def _position_control_doc() -> dict:
+    """The exported paper controller (its DOB, rate and delay) with the paper's position-control
+    SEA gains instead of the amplifier's and no cuff feedback (the cuff path removed)."""
+    from exotune.controllerfile.export import build_export
+
+    doc = build_export(load_design(PAPER_YAML), SAMPLE_RATE_HZ, analyses=False)
+    K_s = float(doc["plant"]["sea_stiffness"]["value"])
+    g, pg = doc["controller"]["gains"], PAPER_POSITION_GAINS
+    g["theta_m"] = {"gain": -pg["K1"], "unit": "N·m/rad"}
+    g["omega_m"] = {"gain": -pg["B1"], "unit": "N·m·s/rad"}
+    g["tau_s"] = {"gain": pg["K2_deflection"] / K_s, "unit": "1 (N·m/N·m)"}
+    g["dtau_s"] = {"gain": pg["B2_deflection"] / K_s, "unit": "s"}
+    doc["controller"]["filters"] = [f for f in doc["controller"]["filters"] if f["input"] != "tau_c"]
+    return doc
+
+
+def _hysteresis(ax, ser, title: str) -> None:
     t, th, fr, est = ser["t"], ser["theta_j"], ser["friction"], ser["friction_estimate"]
+    m = t >= 1.0  # after the first second (start-up)
+    ax.plot(th[m], fr[m], color="C3", lw=1.2, label="true transmission friction (the disturbance δ_f)")
+    ax.plot(th[m], est[m], color="C0", lw=1.0, ls="--", label="DOB's estimate of the disturbance")
+    ax.plot(th[m], est[m] - fr[m], color="k", lw=0.9, label="estimate − true (what the DOB leaves)")
+    ax.set_xlabel("joint angle θ_j [rad]")
+    ax.set_ylabel("torque [N·m]")
+    ax.set_title(title, fontsize=9)
+
+
+def _estimate_stats(ser) -> dict:
+    """RMS error after 1 s, |error| during the strokes (median, max), and its fit c·θ̇_m."""
+    t, fr, est = ser["t"], ser["friction"], ser["friction_estimate"]
+    m = t >= 1.0
+    stroke = m & (np.abs(fr) > 0.99 * np.max(np.abs(fr)))  # friction saturated: away from the reversals
+    err, w_m = est[stroke] - fr[stroke], ser["omega_m"][stroke]
+    return {"rms_late": float(np.sqrt(np.mean((est[m] - fr[m]) ** 2))), "median": float(np.median(np.abs(err))),
+            "max": float(np.max(np.abs(err))), "c_w": float(np.dot(w_m, err) / np.dot(w_m, w_m)),
+            "r_w": float(np.corrcoef(w_m, err)[0, 1])}
+
+
+def fig9(out: Path) -> dict:
+    from exotune.simulation import run_scenario
+    from exotune.simulation.scenarios import SCENARIOS
+
+    amp = simulate(PAPER_YAML, "dob-friction", sample_rate_hz=SAMPLE_RATE_HZ)
+    sc = dataclasses.replace(
+        SCENARIOS["dob-friction"], name="dob-position-control", push_nm=0.0, push_hz=0.0, duration_s=8.0,
+        description="the paper's position-control gains, no cuff feedback, a slow sinusoidal position reference; "
+                    "the human (0.5 kg·m², 2 N·m·s/rad) rides along; 2 N·m Coulomb friction on the motor",
+        **POSITION_REFERENCE)
+    pos = run_scenario(_position_control_doc(), sc)
     with matplotlib.rc_context(RC):
-        fig = style.new_figure((10, 4.2))
-        axs = fig.subplots(1, 2)
-        a, b = axs
-        m = t >= 1.0  # after the first second (one half period of start-up)
-        a.plot(th[m], fr[m], color="C3", lw=1.2, label="true transmission friction (the disturbance δ_f)")
-        a.plot(th[m], est[m], color="C0", lw=1.0, ls="--", label="DOB's estimate of the disturbance")
-        a.plot(th[m], est[m] - fr[m], color="k", lw=0.9, label="estimate − true (what the DOB leaves)")
-        a.set_xlabel("joint angle θ_j [rad]")
-        a.set_ylabel("torque [N·m]")
-        a.set_title("(a) hysteresis against the joint angle, t ≥ 1 s")
+        fig = style.new_figure((14, 4.2))
+        a, b, c = fig.subplots(1, 3)
+        _hysteresis(a, pos.runs["controller"]["series"], "(a) the paper's test: position-control gains,\n"
+                                                         "0.25 Hz position reference, t ≥ 1 s")
         a.legend(loc="center", bbox_to_anchor=(0.5, 0.28), fontsize=7)
+        _hysteresis(b, amp.runs["controller"]["series"], "(b) the amplifier (α = 8): a 3 N·m, 0.5 Hz\n"
+                                                         "human torque, t ≥ 1 s")
         for key, lab, kw in (("controller", "with the DOB, 2 N·m Coulomb friction", {"color": "C0"}),
                              ("without_dob", "without the DOB, same friction", {"color": "C3"}),
                              ("frictionless", "frictionless reference (with the DOB)", {"color": "k", "ls": "--"})):
-            sr = runs[key]["series"]
-            b.plot(sr["t"], sr["theta_j"], lw=1.1, label=lab, **kw)
-        b.set_xlabel("time t [s]")
-        b.set_ylabel("joint angle θ_j [rad]")
-        b.set_title("(b) joint motion under a 3 N·m, 0.5 Hz human torque")
-        b.legend(loc="lower left", fontsize=7)
+            sr = amp.runs[key]["series"]
+            c.plot(sr["t"], sr["theta_j"], lw=1.1, label=lab, **kw)
+        c.set_xlabel("time t [s]")
+        c.set_ylabel("joint angle θ_j [rad]")
+        c.set_title("(c) the amplifier: joint motion under the human torque", fontsize=9)
+        c.legend(loc="lower left", fontsize=7)
         fig.suptitle(f"Fig. 9 reproduced: transmission DOB against Coulomb friction (runtime controller at "
                      f"{SAMPLE_RATE_HZ:g} Hz)", fontsize=10)
         _save(fig, out, "fig9_dob_friction.png")
-    fe, fs = d["friction_estimate"], d["friction_sensitivity"]
+    da, dp = amp.to_dict(), pos.to_dict()
+    sa, sp = _estimate_stats(amp.runs["controller"]["series"]), _estimate_stats(pos.runs["controller"]["series"])
     B_m = float(load_design(PAPER_YAML).plant.B_m)
-    resid = float(np.sqrt(np.mean((est[m] - fr[m]) ** 2)))
-    stroke = m & (np.abs(fr) > 0.99 * np.max(np.abs(fr)))  # friction saturated: away from the reversals
-    mid = float(np.median(np.abs(est[stroke] - fr[stroke])))
-    mid_max = float(np.max(np.abs(est[stroke] - fr[stroke])))
-    w_m = ser["omega_m"][stroke]
-    c_w = float(np.dot(w_m, est[stroke] - fr[stroke]) / np.dot(w_m, w_m))  # offset ≈ c_w·ω_m
-    r_w = float(np.corrcoef(w_m, est[stroke] - fr[stroke])[0, 1])
-    _write(out, "fig9_dob_friction.md", f"""# Fig. 9 — the transmission disturbance observer against friction
+    _write(out, "fig9_dob_friction.md", _fig9_text(da, dp, sa, sp, B_m))
+    return {"relative_error": dp["friction_estimate"]["relative_error"]["value"],
+            "relative_error_amplifier": da["friction_estimate"]["relative_error"]["value"]}
+
+
+def _fig9_text(da: dict, dp: dict, sa: dict, sp: dict, B_m: float) -> str:
+    pg, K_s = PAPER_POSITION_GAINS, float(load_design(PAPER_YAML).plant.K_s)
+    rows = []
+    for lab, d, st in (("position control (the paper's test)", dp, sp), ("amplifier, α = 8", da, sa)):
+        fe, fs = d["friction_estimate"], d["friction_sensitivity"]
+        rows.append(f"| {lab} | {fe['rms_friction']['value']:.3g} | {fe['rms_error']['value']:.3g} "
+                    f"({100 * fe['relative_error']['value']:.1f} %) | {st['rms_late']:.3g} | {st['median']:.3g} / "
+                    f"{st['max']:.3g} | {100 * fs['with_dob']['value']:.2g} % / {100 * fs['without_dob']['value']:.2g} % |")
+    table = "\n".join(rows)
+    return f"""# Fig. 9 — the transmission disturbance observer against friction
 
 ![DOB friction test](fig9_dob_friction.png)
 
@@ -639,39 +692,42 @@ found off-line), the DOB's internal estimate of it and their difference, all aga
 angle. The disturbance is a hysteretic friction loop; the estimate follows it and only the small
 difference disturbs the linearity of the motor system.
 
-**What exotune gets** (`exotune.api.simulate(examples/paper.yaml, "dob-friction",
-sample_rate_hz={SAMPLE_RATE_HZ:g})`): the amplification controller with the DOB, a human
-(0.5 kg·m², 2 N·m·s/rad) applying a 3 N·m, 0.5 Hz torque, and 2 N·m Coulomb friction
-F_c·tanh(θ̇_m/ε) on the motor. Panel (a) is the paper's plot: friction, estimate and difference
-against θ_j; panel (b) the joint angle with and without the DOB and without friction.
+**What exotune gets.** Both runs use the exported paper controller's DOB (Q at 60 Hz, ζ 0.7), the
+runtime stepped at {SAMPLE_RATE_HZ:g} Hz with the 1 ms delay, and 2 N·m Coulomb friction
+F_c·tanh(θ̇_m/ε) on the motor; the DOB's estimate is the sum of its filters' outputs.
 
-| quantity | value |
-|---|---|
-| RMS friction | {fe['rms_friction']['value']:.3g} N·m |
-| RMS estimate error (whole run) | {fe['rms_error']['value']:.3g} N·m ({100 * fe['relative_error']['value']:.1f} % of the friction) |
-| RMS estimate error after 1 s | {resid:.3g} N·m |
-| \|estimate − friction\| during the strokes (friction saturated), median / max | {mid:.3g} / {mid_max:.3g} N·m |
-| joint-angle change due to friction, with the DOB | {100 * fs['with_dob']['value']:.2f} % of the RMS joint angle |
-| joint-angle change due to friction, without the DOB | {100 * fs['without_dob']['value']:.1f} % |
+* **(a) The paper's test**: the gains of the gain table commented out of the paper's source,
+  K1 = {pg['K1']:,.0f} N·m/rad, B1 = {pg['B1']:,.0f} N·m·s/rad, K2 = {pg['K2_deflection']:,.0f} N·m/rad and
+  B2 = {pg['B2_deflection']:,.0f} N·m·s/rad in the paper's spring-deflection units, i.e.
+  K2 = {pg['K2_deflection'] / K_s:.4g} and B2 = {pg['B2_deflection'] / K_s:.4g} s on the spring torque in exotune's
+  units (÷ K_s); the cuff path removed (no cuff feedback); a motor-position reference
+  θ_ref = {POSITION_REFERENCE['reference_rad']:g}·(1 − cos 2π·{POSITION_REFERENCE['reference_hz']:g} t) rad tracked through
+  K1 and B1 (`Scenario.reference_rad`: the runtime adds K1 θ_ref + B1 θ̇_ref before the DOB's loop
+  solve, so the DOB books it as commanded torque); the human (0.5 kg·m², 2 N·m·s/rad) rides along
+  without pushing; 8 s. The sampled-data loop is stable (spectral radius
+  {dp['summary']['loop_spectral_radius']['value']:.6f}).
+* **(b, c) The amplifier** (`exotune.api.simulate(examples/paper.yaml, "dob-friction",
+  sample_rate_hz={SAMPLE_RATE_HZ:g})`): the design's amplification controller, the human applying a
+  3 N·m, 0.5 Hz torque; (c) the joint angle with and without the DOB and without friction.
+
+| run | RMS friction [N·m] | RMS estimate error, whole run [N·m] | after 1 s [N·m] | \|error\| during the strokes, median / max [N·m] | joint-angle change due to friction, with / without the DOB (of the RMS joint angle) |
+|---|---|---|---|---|---|
+{table}
 
 **Where they differ and why.** The paper measured friction off-line on hardware (a hysteretic loop
 of unknown magnitude); exotune simulates an idealized smooth Coulomb law, so the loop is a clean
-rectangle of ±2 N·m. The estimate jumps with it at the reversals (a short overshoot: the Q filter's
-60 Hz bandwidth and the 1 ms delay) and during the strokes sits a little above the friction (the
-median offset in the table). That offset follows the motor speed: a least-squares fit gives
-≈ {c_w:.3g} N·m·s/rad × θ̇_m ({100 * c_w / B_m:.1f} % of B_m; correlation {r_w:.2f}), i.e. the DOB's
-discrete, delayed motor model sees a slightly different damping than the continuous plant and
-books the difference as disturbance. This was not investigated further. The paper's test used position-control gains and a position input
-without cuff feedback; exotune's scenario drives the full amplification controller with a human
-torque. The two are not equivalent: with the delay the DOB's input is the equation error
-δ_f + (e^{{−sT}} − 1)·τ_cmd (the command it books is applied T later), so its estimate
-Q[δ_f + (e^{{−sT}} − 1)·τ_cmd] depends on the controller that produces τ_cmd; the paper's test ran
-position-control SEA gains (plausibly those of the gain table commented out of the paper's source,
-K1 = 69 480 N·m/rad, B1 = 1 387 N·m·s/rad, K2 = −41 690 N·m/rad, B2 = −1 183 N·m·s/rad), not the
-amplifier. No hardware numbers are
-given in the paper to compare with.
-""")
-    return {"relative_error": fe["relative_error"]["value"]}
+rectangle of ±2 N·m. In both runs the estimate jumps with it at the reversals (a short overshoot:
+the Q filter's 60 Hz bandwidth and the 1 ms delay) and during the strokes sits a little off the
+friction. The DOB does not see "the same motor-side equation error either way": with the delay its
+input is δ_f + (e^{{−sT}} − 1)·τ_cmd (the command it books is applied T later), so its estimate
+Q[δ_f + (e^{{−sT}} − 1)·τ_cmd] depends on the controller that produces τ_cmd, and the two runs'
+residuals differ (the table). During the amplifier's strokes the offset follows the motor speed:
+a least-squares fit gives ≈ {sa['c_w']:.3g} N·m·s/rad × θ̇_m ({100 * sa['c_w'] / B_m:.1f} % of B_m; correlation
+{sa['r_w']:.2f}); for the position controller {sp['c_w']:.3g} N·m·s/rad (correlation {sp['r_w']:.2f}). The
+position controller is so stiff (K1 = {pg['K1']:,.0f} N·m/rad) that friction barely moves the joint even
+without the DOB; the amplifier's joint motion is where the DOB matters (panel (c)). No hardware
+numbers are given in the paper to compare with.
+"""
 
 
 # --------------------------------------------------------------------------- main
@@ -707,7 +763,7 @@ its caption and text state.
 | Fig. 5 | [fig5_amplification.md](fig5_amplification.md) | amplification at a stable and an unstable delay; passive phase band | simple system: {f5['simple'][0][1]} / {f5['simple'][1][1]} RHP zeros at {f5['simple'][0][0] * 1e3:g} / {f5['simple'][1][0] * 1e3:g} ms |
 | Fig. 6 | [fig6_design_bode.md](fig6_design_bode.md) | Bode plot of the design: C4, C5, Ĉ5, C7 | gains K̂2 = 7, B̂2 = 0.297 s |
 | Fig. 8 | [fig8_locked_output.md](fig8_locked_output.md) | output locked: −τ_s tracks (α − 1)·τ_c, with zoom | delivered α = {_fmt(f8['delivered_amplification'], 7)} |
-| Fig. 9 | [fig9_dob_friction.md](fig9_dob_friction.md) | DOB friction estimate vs joint angle | estimate error {100 * f9['relative_error']:.1f} % RMS of the friction |
+| Fig. 9 | [fig9_dob_friction.md](fig9_dob_friction.md) | DOB friction estimate vs joint angle | estimate error {100 * f9['relative_error']:.1f} % RMS of the friction with the paper's position-control gains ({100 * f9['relative_error_amplifier']:.1f} % with the amplifier) |
 
 Not reproduced: Fig. 1 (hardware photo), Fig. 2 (schematic), Fig. 3 (block diagram), Fig. 7 (flow
 chart) and Table I (symbol glossary) carry no data.

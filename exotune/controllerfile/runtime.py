@@ -131,9 +131,13 @@ class Runtime:
         for f in self.loop:
             f.reset()
 
-    def step(self, y: Mapping[str, float]) -> float:
+    def step(self, y: Mapping[str, float], feedforward_nm: float = 0.0) -> float:
         """τ_cmd [N·m] for the sampled signals ``y`` (θ_m [rad], θ̇_m [rad/s], τ_s [N·m],
         τ̇_s [N·m/s], τ_c [N·m]).
+
+        ``feedforward_nm`` [N·m] is added to the command before the DOB's loop solve (the DOB books
+        it as commanded torque): a reference's feedforward in a simulation (a position reference,
+        :class:`exotune.simulation.Scenario`); the exported controller and its C port have none.
 
         A non-finite signal raises ``ValueError`` before any state changes: one NaN would poison
         every filter state for ever (and with a torque limit, ``min``/``max`` would turn it into a
@@ -147,7 +151,7 @@ class Runtime:
         saved = [f.save() for f in self._all]
         # Python floats: an overflow gives ±inf or nan (no exception), refused just below. Sums are
         # explicit left-to-right loops (the order a C port uses; Python ≥ 3.12's sum() compensates)
-        rest = 0.0
+        rest = float(feedforward_nm)
         for s, g in self.gains.items():
             rest += g * vals[s]
         filtered = 0.0

@@ -22,12 +22,12 @@ Probe loops (free, locked, each family's ends and critical member) are evaluated
 and ΔT_c (ΔT_c the continuous margin: the zero-order hold costs about half a sample; else growing
 from half a sample); the probe that crosses first is followed alone by the Illinois method on
 ρ − 1 to ``MARGIN_REL`` relative, then all probes are checked at the result (another probe unstable
-there is followed in turn). The interior of every family is then searched at the result
-(``SCAN`` members, and the largest spectral radius located between its neighbours by ``GOLDEN``
-golden sections): a member unstable there by more than a ``NEGLIGIBLE`` relative change of the
-margin (judged with the followed probe's dρ/dΔT) becomes a probe, and the family check above runs at
-ΔT (1 − ``CONFIRM``), a gap found there giving its critical member as a probe; with a new probe the
-search goes on (at most ``ROUNDS`` times).
+there is followed in turn). The family check above then runs at ΔT (1 − ``CONFIRM``): a gap found
+there gives its critical member as a new probe; otherwise its member of largest spectral radius
+(located by the check's step control, which refines where ρ is near 1) is evaluated at ΔT, and
+becomes a probe when it is unstable there by more than a ``NEGLIGIBLE`` relative change of the
+margin (judged with the followed probe's dρ/dΔT). With a new probe the search goes on (at most
+``ROUNDS`` times).
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ import numpy as np
 
 from .batch import BatchLoops, Loop
 
-__all__ = ["POINTS", "SCAN", "MARGIN_REL", "family_check", "latency_margin"]
+__all__ = ["POINTS", "MARGIN_REL", "family_check", "latency_margin"]
 
 POINTS = 8  # base grid per family (certify: 96)
 CERTIFY_POINTS = 96
@@ -46,11 +46,9 @@ FD_CELL = 1e-3  # of certify's grid spacing
 _FD = 1e-7
 CHORD = 1.0
 BISECT_REL = 1e-10
-SCAN = 4
-GOLDEN = 6
 MARGIN_REL = 1e-9
 CONFIRM = 1e-3
-NEGLIGIBLE = 1e-6  # relative change of the margin below which an interior maximum is not followed
+NEGLIGIBLE = 1e-6  # relative change of the margin below which a member of largest ρ is not followed
 ROUNDS = 4
 MAX_SAMPLES = 200.0
 
@@ -352,41 +350,30 @@ def _follow(pr: _Probes, idx, lo, hi, Rhi):
     return lo, slope
 
 
-def _interior(bl: BatchLoops, des, families, x):
-    """Per family: (member, ρ, all stable) of the member of largest spectral radius at extra
-    delays ``x`` (``SCAN`` members, then ``GOLDEN`` golden sections between the neighbours of the largest)."""
-    out = []
+def _unstable_members(bl: BatchLoops, des, families: list, a: np.ndarray, slope: np.ndarray) -> list:
+    """Per family, a member (per design; NaN: none) unstable at the extra delays ``a`` that no
+    probe covers: the family check at ΔT (1 − ``CONFIRM``) finds a gap (its critical member), or
+    its member of largest spectral radius there — located by the check's step control, which
+    refines where ρ is near 1 — is unstable at ΔT by more than a ``NEGLIGIBLE`` relative change
+    of the margin (judged with the followed probe's dρ/dΔT ``slope``)."""
     n = des.size
-    T = bl.delay[des] + x
-    g = 0.5 * (math.sqrt(5.0) - 1.0)
-    for loop, lo, hi, _crit in families:
-        log = lo > 0
-        f = np.exp if log else (lambda t: t)
-        u = np.linspace(math.log(lo), math.log(hi), SCAN + 2) if log else np.linspace(lo, hi, SCAN + 2)
-        rho, _e, st = bl.spectra(np.repeat(des, u.size), loop, np.tile(f(u), n), np.repeat(T, u.size), rounding=False)
-        rho, st = rho.reshape(n, -1), st.reshape(n, -1)
-        j = np.argmax(rho, axis=1)
-        bv, br, ok = f(u[j]), rho[np.arange(n), j], st.all(axis=1)
-        a, b = u[np.maximum(j - 1, 0)], u[np.minimum(j + 1, u.size - 1)]
-        c, d = b - g * (b - a), a + g * (b - a)
-        rc, _e, sc = bl.spectra(des, loop, f(c), T, rounding=False)
-        rd, _e, sd = bl.spectra(des, loop, f(d), T, rounding=False)
-        ok &= sc & sd
-        for it in range(GOLDEN):
-            for val, r in ((c, rc), (d, rd)):
-                bv, br = np.where(r > br, f(val), bv), np.maximum(r, br)
-            if it == GOLDEN - 1:
-                break
-            left = rc >= rd  # the largest in [a, d]
-            b = np.where(left, d, b)
-            a = np.where(left, a, c)
-            c, rc, d, rd = np.where(left, b - g * (b - a), d), np.where(left, 0.0, rd), np.where(left, c, a + g * (b - a)), np.where(left, rc, 0.0)
-            new = np.where(left, c, d)
-            r, _e, sn = bl.spectra(des, loop, f(new), T, rounding=False)
-            ok &= sn
-            rc, rd = np.where(left, r, rc), np.where(left, rd, r)
-        out.append((bv, br, ok))
-    return out
+    T = bl.delay[des]
+    new = [np.full(n, np.nan) for _f in families]
+    rest = np.arange(n)
+    for k, (loop, flo, fhi, _c) in enumerate(families):
+        if not rest.size:
+            break
+        chk = family_check(bl, des[rest], loop, flo, fhi, T[rest] + a[rest] * (1.0 - CONFIRM))
+        gap = np.array([ivs != [[flo, fhi]] for ivs in chk["stable_intervals"]], bool)
+        new[k][rest[gap]] = chk["critical"][gap]
+        top, crit = rest[~gap], chk["critical"][~gap]
+        rest = top
+        if top.size:
+            rho, _e, _s = bl.spectra(des[top], loop, crit, T[top] + a[top], rounding=False)
+            far = rho - 1.0 > NEGLIGIBLE * a[top] * np.maximum(slope[top], 0.0)
+            new[k][top[far]] = crit[far]
+            rest = top[~far]
+    return new
 
 
 def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray:
@@ -409,19 +396,7 @@ def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray
             break
         a, slope = _follow(pr, act, lo[act], hi[act], Rhi[act])
         out[act] = a
-        new = [np.full(act.size, np.nan) for _f in families]  # a member unstable at a, per family
-        for k, (v, r, _ok) in enumerate(_interior(bl, des[act], families, a)):
-            # a member that would move the margin by less than NEGLIGIBLE (relative) is not followed
-            far = r - 1.0 > NEGLIGIBLE * a * np.maximum(slope, 0.0)
-            new[k][far] = v[far]
-        rest = np.nonzero(np.all([np.isnan(c) for c in new], axis=0))[0]
-        for k, (loop, flo, fhi, _c) in enumerate(families):
-            if not rest.size:
-                break
-            chk = family_check(bl, des[act[rest]], loop, flo, fhi, bl.delay[des[act[rest]]] + a[rest] * (1.0 - CONFIRM))
-            gap = np.array([ivs != [[flo, fhi]] for ivs in chk["stable_intervals"]], bool)
-            new[k][rest[gap]] = chk["critical"][gap]
-            rest = rest[~gap]
+        new = _unstable_members(bl, des[act], families, a, slope)
         redo = ~np.all([np.isnan(c) for c in new], axis=0)
         if not redo.any():
             break

@@ -155,6 +155,7 @@ def simulate(doc: dict, scenario, without_dob: bool = False, duration_s: float |
         doc = strip_dob(doc)
     sc = scenario if duration_s is None else replace(scenario, duration_s=float(duration_s))
     run = _Run(doc, sc, clamp)
+    fast = fast and sc.reference_rad == 0.0  # the linear recursion has no reference input
     note = ""
     if start == "bumpless":
         tau0, note = bumpless_start(run.rt, run.plant.measure(run.x))
@@ -207,6 +208,14 @@ class _Run:
         # the delay-line entries the motor applies: τ_cmd[k−d] (when d ≥ 1) and τ_cmd[k−d−1] (when f > 0)
         self._applied = [j for j in ((self.d - 1) if self.d >= 1 else None, self.d if self.f else None) if j is not None]
 
+    def feedforward(self, t: float) -> float:
+        """The reference's feedforward [N·m] at ``t``: −g_θm θ_ref − g_ωm θ̇_ref (the controller's
+        own position and velocity gains acting on the reference; 0 without one)."""
+        if self.sc.reference_rad == 0.0:
+            return 0.0
+        r, w = self.sc.reference(t)
+        return -self.rt.gains.get("theta_m", 0.0) * r - self.rt.gains.get("omega_m", 0.0) * w
+
     def clip(self, v: float) -> float:
         return max(-self.sat, min(self.sat, v)) if math.isfinite(self.sat) else v
 
@@ -221,7 +230,7 @@ class _Run:
             t = k * Ts
             y = plant.measure(self.x)
             try:
-                u = self.rt.step(y)
+                u = self.rt.step(y, self.feedforward(t))
             except ValueError as e:  # an overflowing command: the loop has diverged
                 self.diverged = f"the runtime refused its inputs at t = {t:.6g} s ({e})"
                 return k

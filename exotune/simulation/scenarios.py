@@ -36,7 +36,12 @@ class Scenario:
     """One time-domain experiment: the human (inertia, damping, stiffness), the muscle torque
     τ_h(t) (a step of ``push_nm`` from ``push_at_s`` until ``release_at_s``, or a sine of
     ``push_hz`` when > 0), the initial cuff deflection ``theta_h0`` [rad], the nonlinearities and
-    the default duration [s]."""
+    the default duration [s]. ``reference_rad`` > 0: a motor-position reference
+    θ_ref(t) = reference_rad · (1 − cos(2π ``reference_hz`` t)) (a sinusoid about reference_rad,
+    starting at rest) tracked by the controller's own position
+    and velocity gains (a position-control SEA, as in the paper's DOB test of Fig. 9): the runtime
+    adds −g_θm θ_ref − g_ωm θ̇_ref to its command before the DOB's loop solve, so the DOB books it
+    as commanded torque."""
 
     name: str
     description: str
@@ -50,6 +55,15 @@ class Scenario:
     compare_without_dob: bool = False
     push_hz: float = 0.0
     release_at_s: float = math.inf
+    reference_rad: float = 0.0
+    reference_hz: float = 0.0
+
+    def reference(self, t: float) -> tuple[float, float]:
+        """Motor-position reference θ_ref [rad] and its rate θ̇_ref [rad/s] at time ``t`` [s]."""
+        if self.reference_rad == 0.0:
+            return 0.0, 0.0
+        w = 2 * math.pi * self.reference_hz
+        return self.reference_rad * (1.0 - math.cos(w * t)), self.reference_rad * w * math.sin(w * t)
 
     def push(self, t: float) -> float:
         """Muscle torque τ_h [N·m] at time ``t`` [s] (held over each sample)."""
