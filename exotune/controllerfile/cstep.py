@@ -32,7 +32,9 @@ from .fileio import schedule_entry_doc
 from .runtime import Runtime
 
 __all__ = ["SIGNALS", "RETURN_CODES", "FLUSH_BELOW", "BUMPLESS_TAU_S", "c_double", "ascii_text", "controllers_of",
-           "layouts_of", "state_maps", "CHECKS_C", "STEP_C"]
+           "layouts_of", "state_maps", "CHECKS_C", "STEP_C",
+           "FAST_MATH_C", "BUILD_INFO_C", "ANGLE_C", "SCHEDULE_C", "SAVE_C", "RESTORE_C",
+           "peek_clamp_c"]
 
 SIGNALS = tuple(Measured)  # theta_m, omega_m, tau_s, dtau_s, tau_c: the order of exotune_inputs
 
@@ -112,10 +114,11 @@ def state_maps(coef) -> tuple[float, ...]:
 
 
 # compile-time checks of the build, at the top of exotune_controller.c
-CHECKS_C = r'''#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__) || defined(_M_FP_FAST)
+FAST_MATH_C = r'''#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__) || defined(_M_FP_FAST)
 #error "exotune_controller.c must not be built with -ffast-math, -ffinite-math-only or /fp:fast: the NaN and overflow guards would be optimized away (docs/deploying.md)"
 #endif
-#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD > 0
+'''
+CHECKS_C = FAST_MATH_C + r'''#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD > 0
 #error "exotune_controller.c needs double arithmetic evaluated in double (FLT_EVAL_METHOD 0): on x87 build with -msse2 -mfpmath=sse (docs/deploying.md)"
 #endif
 #if defined(__clang__)
@@ -126,11 +129,87 @@ CHECKS_C = r'''#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && _
 #endif
 '''
 
-# the functions of exotune_controller.c after its tables
-STEP_C = r'''
+def peek_clamp_c(real: str, zero: str, b0: str, note: str = "") -> str:
+    """The C of ``filter_peek`` (a filter's output for an input without advancing its state: the
+    DOB loop's h) and ``clamp`` in the arithmetic ``real`` (``double`` or ``float``; ``zero`` its
+    0 literal, ``b0`` the sections' feed-through field)."""
+    return f"""/* the filter's output for input x without advancing its state{note} */
+static {real} filter_peek(const exo_section *S, const exo_filter *f, {real} (*z)[2], {real} x)
+{{
+    int k;
+    for (k = f->first; k < f->first + f->count; ++k)
+        x = S[k].{b0} * x + z[k][0];
+    return x;
+}}
+
+static {real} clamp({real} u, {real} limit_nm)
+{{
+    if (limit_nm > {zero} && isfinite(u))  /* anti-windup: the DOB sees the applied command */
+        u = u > limit_nm ? limit_nm : (u < -limit_nm ? -limit_nm : u);
+    return u;
+}}
+"""
+
+
+# exotune_step's copy of the running controller's states, and its overflow check that restores them
+SAVE_C = r'''    for (k = 0; k < c->n_sections; ++k) {
+        saved[k][0] = st->z[k][0];
+        saved[k][1] = st->z[k][1];
+    }
+'''
+RESTORE_C = r'''    ok = isfinite(u);
+    for (k = 0; k < c->n_sections; ++k)
+        ok = ok && isfinite(st->z[k][0]) && isfinite(st->z[k][1]);
+    if (!ok) {
+        for (k = 0; k < c->n_sections; ++k) {
+            st->z[k][0] = saved[k][0];
+            st->z[k][1] = saved[k][1];
+        }
+        return EXOTUNE_FAULT_OVERFLOW;
+    }
+'''
+
+# shared by both ports (exotune.controllerfile.ccode32): the build-info string, the schedule look-up, the
+# schedule switch
+BUILD_INFO_C = r'''
 const char exotune_build_info[] = "exotune_controller sha256=" EXOTUNE_SOURCE_SHA256 " exotune=" EXOTUNE_VERSION
     " certification=" EXOTUNE_CERTIFICATION;
+'''
+ANGLE_C = r'''int exotune_controller_for_angle(double joint_angle_rad, int *controller)
+{
+    int i, best = 0;
+    double d = 0.0;
+    if (controller == 0)
+        return EXOTUNE_ERR_ARGUMENT;
+    if (!isfinite(joint_angle_rad))
+        return EXOTUNE_FAULT_ANGLE;
+    for (i = 1; i < EXOTUNE_N_CONTROLLERS; ++i) {  /* the first nearest entry, as the reference runtime */
+        double e = fabs(ANGLES[i - 1] - joint_angle_rad);
+        if (best == 0 || e < d) {
+            best = i;
+            d = e;
+        }
+    }
+    *controller = best;
+    return EXOTUNE_OK;
+}
 
+'''
+SCHEDULE_C = r'''int exotune_schedule(exotune_state *st, double joint_angle_rad, int mode)
+{
+    int c = 0, rc;
+    if (st == 0)
+        return EXOTUNE_ERR_ARGUMENT;
+    rc = exotune_controller_for_angle(joint_angle_rad, &c);
+    if (rc != EXOTUNE_OK || c == st->controller)
+        return rc;
+    return exotune_switch(st, c, mode);
+}
+
+'''
+
+# the functions of exotune_controller.c after its tables
+STEP_C = (BUILD_INFO_C + r'''
 /* zero below EXOTUNE_FLUSH_BELOW: no subnormal number ever enters the arithmetic (constant step time) */
 static double flush(double v)
 {
@@ -165,26 +244,7 @@ int exotune_init(exotune_state *st, int controller, double limit_nm)
     return EXOTUNE_OK;
 }
 
-int exotune_controller_for_angle(double joint_angle_rad, int *controller)
-{
-    int i, best = 0;
-    double d = 0.0;
-    if (controller == 0)
-        return EXOTUNE_ERR_ARGUMENT;
-    if (!isfinite(joint_angle_rad))
-        return EXOTUNE_FAULT_ANGLE;
-    for (i = 1; i < EXOTUNE_N_CONTROLLERS; ++i) {  /* the first nearest entry, as the reference runtime */
-        double e = fabs(ANGLES[i - 1] - joint_angle_rad);
-        if (best == 0 || e < d) {
-            best = i;
-            d = e;
-        }
-    }
-    *controller = best;
-    return EXOTUNE_OK;
-}
-
-/* one step of a filter (sections S[f->first...], states z[f->first...]), as SosFilter.step */
+''' + ANGLE_C + r'''/* one step of a filter (sections S[f->first...], states z[f->first...]), as SosFilter.step */
 static double filter_step(const exo_section *S, const exo_filter *f, double (*z)[2], double x)
 {
     int k;
@@ -199,22 +259,7 @@ static double filter_step(const exo_section *S, const exo_filter *f, double (*z)
     return x;
 }
 
-/* the filter's output for input x without advancing its state, as SosFilter.peek */
-static double filter_peek(const exo_section *S, const exo_filter *f, double (*z)[2], double x)
-{
-    int k;
-    for (k = f->first; k < f->first + f->count; ++k)
-        x = S[k].b0 * x + z[k][0];
-    return x;
-}
-
-static double clamp(double u, double limit_nm)
-{
-    if (limit_nm > 0.0 && isfinite(u))  /* anti-windup: the DOB sees the applied command */
-        u = u > limit_nm ? limit_nm : (u < -limit_nm ? -limit_nm : u);
-    return u;
-}
-
+''' + peek_clamp_c("double", "0.0", "b0", ", as SosFilter.peek") + r'''
 /* controller c's command (before the clamp and the offset) for inputs v held, from states z */
 static double controller_peek(const exo_controller *c, double (*z)[2], const double *v)
 {
@@ -276,18 +321,7 @@ int exotune_switch(exotune_state *st, int controller, int mode)
     return EXOTUNE_OK;
 }
 
-int exotune_schedule(exotune_state *st, double joint_angle_rad, int mode)
-{
-    int c = 0, rc;
-    if (st == 0)
-        return EXOTUNE_ERR_ARGUMENT;
-    rc = exotune_controller_for_angle(joint_angle_rad, &c);
-    if (rc != EXOTUNE_OK || c == st->controller)
-        return rc;
-    return exotune_switch(st, c, mode);
-}
-
-int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
+''' + SCHEDULE_C + r'''int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
 {
     const exo_controller *c;
     const exo_section *S;
@@ -303,11 +337,7 @@ int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
             return EXOTUNE_FAULT_INPUT;
         v[i] = flush(v[i]);
     }
-    for (k = 0; k < c->n_sections; ++k) {
-        saved[k][0] = st->z[k][0];
-        saved[k][1] = st->z[k][1];
-    }
-    for (i = 0; i < c->n_gains; ++i)
+''' + SAVE_C + r'''    for (i = 0; i < c->n_gains; ++i)
         rest += GAINS[c->gain0 + i].gain * v[GAINS[c->gain0 + i].signal];
     for (i = 0; i < c->n_sensed; ++i) {
         const exo_filter *f = &FILTERS[c->filter0 + i];
@@ -319,20 +349,10 @@ int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
     u = clamp((rest + h) / (1.0 - c->g) + st->offset_nm, st->limit_nm);
     for (i = 0; i < c->n_loop; ++i)
         filter_step(S, &FILTERS[c->filter0 + c->n_sensed + i], st->z, u);
-    ok = isfinite(u);
-    for (k = 0; k < c->n_sections; ++k)
-        ok = ok && isfinite(st->z[k][0]) && isfinite(st->z[k][1]);
-    if (!ok) {
-        for (k = 0; k < c->n_sections; ++k) {
-            st->z[k][0] = saved[k][0];
-            st->z[k][1] = saved[k][1];
-        }
-        return EXOTUNE_FAULT_OVERFLOW;
-    }
-    st->offset_nm = flush(st->offset_nm * EXOTUNE_BUMPLESS_DECAY);
+''' + RESTORE_C + r'''    st->offset_nm = flush(st->offset_nm * EXOTUNE_BUMPLESS_DECAY);
     for (i = 0; i < 5; ++i)
         st->last[i] = v[i];
     st->has_last = 1;
     *tau_cmd = u;
     return EXOTUNE_OK;
-}'''
+}''')

@@ -49,13 +49,17 @@ import numpy as np
 from ..errors import ConfigError
 from ..sampled import Measured
 
-__all__ = ["PRECISIONS", "FORM", "FLUSH32", "precision_of", "check_precision", "delta_row", "realization",
-           "add_realizations", "realization_problems", "Float32Runtime",
+__all__ = ["PRECISIONS", "FORM", "FLUSH32", "INPUT_LIMIT32", "precision_of", "check_precision", "delta_row", "realization",
+           "add_realizations", "realization_problems", "step_order", "Float32Runtime",
            "linearize", "discrete_from_realization", "realization_position_feedback"]
 
 PRECISIONS = ("float64", "float32")
 FORM = "delta_df2t"  # δ = z − 1, transposed direct form II (the module docstring)
 FLUSH32 = 1e-30  # float32 port: inputs and states below this magnitude are zero (never a subnormal)
+_FLUSH32_F = np.float32(FLUSH32)  # the comparisons are in float32, against this float32 value (the C port's literal)
+# a double of this magnitude or more rounds to infinity in float32 (FLT_MAX + half its ulp, a tie rounded to the
+# even infinity): an input fault in Float32Runtime and the C port, which checks it before converting
+INPUT_LIMIT32 = 2.0 ** 128 - 2.0 ** 103
 _ZERO_RTOL = 1e-12  # a DC zero / unit DC gain to this relative accuracy is kept exactly (fileio.position_feedback)
 
 
@@ -223,6 +227,15 @@ def _step(ar, K: _Compiled, z: list, v: list):
     return u
 
 
+def step_order(real: Mapping) -> dict:
+    """The realization as the step walks it, in its order (the float32 C port's tables):
+    ``gains`` [(signal index, g)], ``sensed`` [(signal index, sections)] and ``loop``
+    [sections] filters, ``names`` (sensed, then loop filters) and ``divisor``; float32 values as
+    Python floats."""
+    K = _Compiled(real)
+    return {"gains": K.gains, "sensed": K.sensed, "loop": K.loop, "names": K.names, "divisor": K.divisor}
+
+
 class _Float32:
     """IEEE single arithmetic (numpy float32 scalars, round to nearest: the C port's operations)."""
 
@@ -253,7 +266,7 @@ class _Float32:
 
     @staticmethod
     def state(v):
-        return v if abs(v) >= FLUSH32 or not math.isfinite(v) else np.float32(0.0)
+        return v if abs(v) >= _FLUSH32_F or not math.isfinite(v) else np.float32(0.0)
 
     def clamp(self, u):
         if self.limit is not None and math.isfinite(u):
@@ -265,7 +278,10 @@ class Float32Runtime:
     """Steps a float32 realization in float32 arithmetic, as the float32 C port does (golden
     vectors). Same contract as :class:`~exotune.controllerfile.runtime.Runtime`: a non-finite
     input, or one that overflows float32, or an overflowing command raises ``ValueError`` with
-    the state unchanged. Inputs and states below :data:`FLUSH32` are zero."""
+    the state unchanged (the C port's ``EXOTUNE_FAULT_INPUT`` for an input that is not finite in
+    float32, i.e. NaN, infinite or of magnitude :data:`INPUT_LIMIT32` or more; ``EXOTUNE_FAULT_OVERFLOW``
+    for the command). Inputs (after their conversion) and states below :data:`FLUSH32` (as float32)
+    are zero."""
 
     def __init__(self, doc: dict, limit_nm: float | None = None, joint_angle_rad: float | None = None):
         c = doc["controller"]
@@ -287,7 +303,7 @@ class Float32Runtime:
         bad = [s for s, x in zip(Measured, v) if not math.isfinite(x)]
         if bad:
             raise ValueError(f"non-finite input {bad[0]} = {y[bad[0]]!r} in float32: refused, controller state unchanged")
-        v = [x if abs(x) >= FLUSH32 else np.float32(0.0) for x in v]
+        v = [x if abs(x) >= _FLUSH32_F else np.float32(0.0) for x in v]
         saved = [s[:] for s in self.z]
         with np.errstate(over="ignore", invalid="ignore"):
             u = _step(self.ar, self.K, self.z, v)

@@ -181,12 +181,3 @@ def test_naive_float32_rounding_of_the_direct_form_breaks_dob_motor_at_10_khz(tm
     dc = [(r[0] + r[1] + r[2]) / (1 + r[4] + r[5]) for r in naive]
     assert abs(dc[0]) > 1.0  # N·m/rad of position feedback that the design does not have
     assert delta_row(sos[0])[0][2] == 0.0
-
-
-def test_codegen_refuses_a_float32_file_naming_the_field(file32, tmp_path):
-    """The C port is float64 only for now: a float32 file is refused before anything is written."""
-    from exotune.controllerfile import write_c_sources
-
-    with pytest.raises(ConfigError, match="implementation.precision"):
-        write_c_sources(file32, tmp_path / "c")
-    assert not (tmp_path / "c").exists()
