@@ -16,10 +16,12 @@ from .design import (
     sea_from_mapping,
 )
 from .schema import ENV_KINDS, HUMAN_KINDS
-from .validate import LIMITS, MAX_DELAY_SAMPLES, check_analysis_filters, check_delay_samples, check_limit
+from .validate import (LIMITS, MAX_DELAY_SAMPLES, check_analysis_filters, check_delay_samples, check_limit,
+                       number_field)
 from .yamlio import MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES, MAX_YAML_NODES, load_yaml_text, read_json_guarded, read_yaml
 
 __all__ = [
+    "number_field",
     "design_row",
     "continuous",
     "DesignConfig",

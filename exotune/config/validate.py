@@ -23,6 +23,7 @@ __all__ = [
     "excerpt",
     "fmt_value",
     "to_number",
+    "number_field",
     "range_pair",
     "range_or_number",
     "kind_of",
@@ -143,6 +144,16 @@ def to_number(v: Any) -> float:
     if not math.isfinite(x):
         raise ValueError(f"must be a finite number, got {fmt_value(x)}")
     return x
+
+
+def number_field(field: str, v: Any) -> float:
+    """:func:`to_number` for a spec's field: a finite real number, else a
+    :class:`~exotune.errors.ConfigError` naming ``field`` with :func:`to_number`'s reason (the one
+    wording of every file exotune reads: design, sweep spec, optimize spec)."""
+    try:
+        return to_number(v)
+    except ValueError as e:
+        raise ConfigError(field, str(e)) from None
 
 
 def _bound_check(x: float, gt=None, ge=None, lt=None) -> None:

@@ -7,12 +7,12 @@ docs/optimize-spec.md (the spec file); paper §IV (coupled stability), §IV-A (p
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..config import number_field
 from ..errors import ConfigError
 
 __all__ = ["OBJECTIVES", "CONSTRAINTS", "DEFAULT_LATENCY_MARGIN_S", "LATENCY_CHECKS", "OptimizeSpec",
@@ -86,12 +86,6 @@ def default_budget(n_free: int) -> int:
     return max(3000, 1500 * int(n_free))
 
 
-def _num(field_: str, v) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
-        raise ConfigError(field_, f"expected a finite number, got {v!r}")
-    return float(v)
-
-
 def _read(spec):
     from ..config import read_yaml
 
@@ -129,11 +123,11 @@ def _free(cfg, free_in) -> dict:
                 raise ConfigError(f"{f}.{sorted(extra)[0]}", "unknown key (allowed: lo, hi, scale)")
             if "lo" not in b or "hi" not in b:
                 raise ConfigError(f, "needs lo and hi")
-            lo, hi, scale = _num(f"{f}.lo", b["lo"]), _num(f"{f}.hi", b["hi"]), b.get("scale")
+            lo, hi, scale = number_field(f"{f}.lo", b["lo"]), number_field(f"{f}.hi", b["hi"]), b.get("scale")
             if scale not in (None, "lin", "log"):
                 raise ConfigError(f"{f}.scale", f"expected lin or log, got {scale!r}")
         elif isinstance(b, (list, tuple)) and len(b) == 2:
-            lo, hi = _num(f"{f}[0]", b[0]), _num(f"{f}[1]", b[1])
+            lo, hi = number_field(f"{f}[0]", b[0]), number_field(f"{f}[1]", b[1])
         else:
             raise ConfigError(f, f"expected bounds [lo, hi] or {{lo, hi, scale}}, got {b!r}")
         if not lo < hi:
@@ -161,7 +155,7 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
                 raise ConfigError(f"constraints.{k}", f"expected true or false, got {v!r}")
             cons[k] = v
         elif k in CONSTRAINTS:
-            cons[k] = _num(f"constraints.{k}", v)
+            cons[k] = number_field(f"constraints.{k}", v)
             if k == "max_phase_excess_deg" and cons[k] < 0:
                 raise ConfigError(f"constraints.{k}", f"must be >= 0 (the phase excess is never negative), got {v!r}")
             if k == "latency_margin_s" and cons[k] < 0:

@@ -7,13 +7,12 @@ are described in the :mod:`exotune.sweeps` package docstring; every problem is a
 
 from __future__ import annotations
 
-import math
 import os
 from typing import Any
 
 import numpy as np
 
-from ..config import batch_config, check_analysis_filters, design_from_mapping, read_yaml
+from ..config import batch_config, check_analysis_filters, design_from_mapping, number_field, read_yaml
 from ..errors import ConfigError
 from .plan import SweepPlan
 
@@ -37,19 +36,6 @@ def is_number(v: Any) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
-def _number(field: str, v: Any) -> float:
-    if not is_number(v):
-        kind = "null" if v is None else f"the string {v!r}" if isinstance(v, str) else type(v).__name__
-        raise ConfigError(field, f"expected a number, got {kind}")
-    try:
-        x = float(v)
-    except OverflowError:
-        raise ConfigError(field, f"the integer {str(v)[:12]}… ({len(str(v))} digits) is too large for a float") from None
-    if not math.isfinite(x):
-        raise ConfigError(field, f"must be a finite number, got {x!r}")
-    return x
-
-
 def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
     field = f"axes.{path}"
     if isinstance(spec, list):
@@ -57,7 +43,7 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
             raise ConfigError(field, "an axis list needs at least one value")
         if len(spec) > MAX_AXIS_VALUES:
             raise ConfigError(field, f"{len(spec)} values; an axis has at most {MAX_AXIS_VALUES}")
-        vals = [_number(f"{field}[{i}]", v) for i, v in enumerate(spec)]
+        vals = [number_field(f"{field}[{i}]", v) for i, v in enumerate(spec)]
         seen = {}
         for i, v in enumerate(vals):
             if v in seen:
@@ -71,8 +57,8 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
         for k in ("start", "stop", "num"):
             if k not in spec:
                 raise ConfigError(f"{field}.{k}", "required key is missing ({start, stop, num[, scale]})")
-        start = _number(f"{field}.start", spec["start"])
-        stop = _number(f"{field}.stop", spec["stop"])
+        start = number_field(f"{field}.start", spec["start"])
+        stop = number_field(f"{field}.stop", spec["stop"])
         num = spec["num"]
         if isinstance(num, (bool, np.bool_)) or not isinstance(num, (int, np.integer)):
             if isinstance(num, float) and num.is_integer():
