@@ -10,9 +10,11 @@ where the number needs one).
 
 from __future__ import annotations
 
+import math
+
 __all__ = ["PLANT_UNITS", "DESIGN_UNITS", "PARAM_UNITS", "SIGNAL_UNITS", "FILTER_UNITS", "IMPLEMENTATION_UNITS",
            "GAIN_UNITS_TORQUE", "GAIN_UNITS_DEFLECTION", "SHAPE_UNITS", "SIGNAL_GAIN_UNITS", "SIX_GAIN_UNITS",
-           "METRIC_UNITS", "SEA_UNITS", "path_unit"]
+           "METRIC_UNITS", "SEA_UNITS", "path_unit", "fmt_num"]
 
 #: plant section (joint-reflected)
 PLANT_UNITS = {"motor_inertia": "kg·m²", "motor_damping": "N·m·s/rad", "sea_stiffness": "N·m/rad",
@@ -112,3 +114,39 @@ def path_unit(path: str, dimensionless: str = "1") -> str:
     else:
         raise KeyError(path)
     return dimensionless if unit == "1" else unit
+
+
+def fmt_num(x, digits=6) -> str:
+    """A number as text with ``digits`` significant digits.
+
+    Parameters
+    ----------
+    x : float, int, numpy scalar, str or None
+        The value; a string is returned as is.
+    digits : int
+        Significant digits (``format(x, ".{digits}g")``).
+
+    Returns
+    -------
+    str
+        ``"—"`` for None and NaN (undefined), ``"∞"``/``"−∞"`` for infinities, else the number.
+
+    References
+    ----------
+    docs/cli.md#output (every printed number carries its unit next to it).
+
+    Examples
+    --------
+    >>> fmt_num(3.14159265, 3), fmt_num(float("inf")), fmt_num(None)
+    ('3.14', '∞', '—')
+    """
+    if x is None:
+        return "—"
+    if isinstance(x, str):
+        return x
+    x = float(x)
+    if math.isinf(x):
+        return "∞" if x > 0 else "−∞"
+    if math.isnan(x):
+        return "—"
+    return f"{x:.{digits}g}"

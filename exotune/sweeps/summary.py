@@ -3,26 +3,19 @@ design, figures) and the per-axis CSV tables."""
 
 from __future__ import annotations
 
-import math
 import re
 
 import numpy as np
 
+from ..units import fmt_num
 from .metrics import AXIS_UNITS, MAX_PAIR_AXES, aggregate
 
 __all__ = ["summary_md", "value_runs", "display_path", "format_value", "safe_name", "metric_label"]
 
 
 def format_value(x, digits=4) -> str:
-    """A number as shown in the report's tables: ``digits`` significant digits, ∞/−∞, — for NaN/None."""
-    if x is None:
-        return "—"
-    x = float(x)
-    if math.isnan(x):
-        return "—"
-    if math.isinf(x):
-        return "∞" if x > 0 else "−∞"
-    return f"{x:.{digits}g}"
+    """A number as shown in the report's tables: :func:`exotune.units.fmt_num` with 4 significant digits."""
+    return fmt_num(x, digits)
 
 
 _UNIT_SUFFIX = {"s": "_s", "ms": "_ms", "deg": "_deg", "dB": "_db", "Hz": "_hz"}
