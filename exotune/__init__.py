@@ -28,12 +28,13 @@ __all__ = [
     "certify",
     "codegen",
     "identify",
+    "excite",
     "simulate",
     "ConfigError",
     "ExotuneError",
 ]
 
-_API = {"load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"}
+_API = {"load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "excite", "simulate"}
 
 
 def __getattr__(name: str):

@@ -34,7 +34,7 @@ if TYPE_CHECKING:  # each function imports what it returns: `exotune analyze` lo
         SweepResult,
     )
 
-__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"]
+__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "excite", "simulate"]
 
 
 
@@ -443,6 +443,58 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
                               friction=friction, fix=fix)
     return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
                          friction=friction, fix=fix, validate=validate, folds=folds)
+
+
+def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, peak_nm: float | None = None,
+           rms_nm: float | None = None, period_s: float | None = None, periods: int | None = None,
+           duration_s: float | None = None, lines: str = "all", seed: int | None = None):
+    """A Schroeder-phased multisine command for an identification experiment (the library twin of
+    ``exotune excite``).
+
+    Parameters
+    ----------
+    out : path, optional
+        Write the command there as CSV (columns ``t`` [s], ``tau_cmd`` [N·m], the log format
+        ``identify`` reads) and its description beside it (``EXC.json``: units, lines, phases,
+        crest factor).
+    sample_rate_hz : float
+        The rig's sample rate [Hz].
+    f_lo_hz, f_hi_hz : float
+        The band [Hz], 0 < f_lo < f_hi < sample_rate_hz/2.
+    peak_nm, rms_nm : float
+        The amplitude [N·m], as the peak or the RMS of the command (exactly one).
+    period_s : float, optional
+        The period [s] (default 1/f_lo): the frequency resolution is its inverse.
+    periods : int, optional
+        How many periods (default: whole periods making 20 s, at least two).
+    duration_s : float, optional
+        Instead of ``periods``: the whole periods within this duration [s].
+    lines : {"all", "odd", "random-odd", "log"}
+        Which harmonics of 1/period in the band are excited.
+    seed : int, optional
+        The draw of ``random-odd``.
+
+    Returns
+    -------
+    Excitation
+        ``period`` (one period of the command, N·m), ``signal()`` (t, tau_cmd), ``harmonics``,
+        ``phases_rad``, ``crest_factor``, ``resolution_hz``, ``to_csv()``.
+
+    References
+    ----------
+    docs/identification.md#excite.
+
+    Examples
+    --------
+    >>> e = excite(sample_rate_hz=1000.0, f_lo_hz=1.0, f_hi_hz=20.0, rms_nm=1.0, periods=2)
+    >>> len(e.harmonics), e.resolution_hz, round(e.rms_nm, 12), round(e.crest_factor, 2)
+    (20, 1.0, 1.0, 1.76)
+    """
+    from .identification import schroeder_multisine, write_excitation
+
+    e = schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm=peak_nm, rms_nm=rms_nm, period_s=period_s,
+                            periods=periods, duration_s=duration_s, lines=lines, seed=seed)
+    return e if out is None else write_excitation(e, out)
 
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,

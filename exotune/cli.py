@@ -443,6 +443,44 @@ def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, frictio
         ctx.exit(1)
 
 
+@cli.command("excite")
+@click.option("-o", "--out", "out", required=True, metavar="EXC.csv",
+              help="The command to play (CSV: t [s], tau_cmd [N·m]); its description goes to EXC.json beside it.")
+@click.option("--sample-rate-hz", "sample_rate_hz", required=True, metavar="F", help="The rig's sample rate [Hz].")
+@click.option("--f-lo-hz", "f_lo_hz", required=True, metavar="F", help="Lowest frequency of the band [Hz] (> 0).")
+@click.option("--f-hi-hz", "f_hi_hz", required=True, metavar="F", help="Highest frequency of the band [Hz] (below fs/2).")
+@click.option("--peak-nm", "peak_nm", default=None, metavar="A", help="Peak of the command [N·m] (or --rms-nm).")
+@click.option("--rms-nm", "rms_nm", default=None, metavar="A", help="RMS of the command [N·m] (or --peak-nm).")
+@click.option("--period-s", "period_s", default=None, metavar="S",
+              help="Period [s], whole samples (default 1/f_lo): the frequency resolution is 1/period.")
+@click.option("--periods", "periods", default=None, type=int, metavar="P", help="Number of periods (default: 20 s, ≥ 2).")
+@click.option("--duration-s", "duration_s", default=None, metavar="S", help="Whole periods within this duration [s].")
+@click.option("--lines", "lines", default="all", show_default=True, type=click.Choice(["all", "odd", "random-odd", "log"]),
+              help="Which harmonics of 1/period in the band are excited.")
+@click.option("--seed", "seed", default=None, type=int, metavar="S", help="The draw of --lines random-odd.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
+def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s, periods, duration_s, lines, seed,
+               as_json):
+    """Write a Schroeder-phased multisine motor command for an identification experiment
+    (docs/identification.md#excite): CSV with t [s] and tau_cmd [N·m], the log format `exotune
+    identify` reads, and its description (units, lines, phases, crest factor) as EXC.json. Prints
+    the crest factor, the frequency resolution and the number of excited lines."""
+    from .identification import schroeder_multisine, write_excitation
+    from .identification.excite import sidecar_path
+    from .jsonio import check_outputs
+    from .options import number_value
+
+    check_outputs([], outputs={"-o": out, "-o (its sidecar)": sidecar_path(out)})
+    num = {name: None if v is None else number_value(name, v) for name, v in (
+        ("--sample-rate-hz", sample_rate_hz), ("--f-lo-hz", f_lo_hz), ("--f-hi-hz", f_hi_hz), ("--peak-nm", peak_nm),
+        ("--rms-nm", rms_nm), ("--period-s", period_s), ("--duration-s", duration_s))}
+    e = schroeder_multisine(num["--sample-rate-hz"], num["--f-lo-hz"], num["--f-hi-hz"], peak_nm=num["--peak-nm"],
+                            rms_nm=num["--rms-nm"], period_s=num["--period-s"], periods=periods,
+                            duration_s=num["--duration-s"], lines=lines, seed=seed)
+    e = write_excitation(e, out)
+    click.echo(e.to_json() if as_json else e.to_text())
+
+
 @cli.command("simulate")
 @click.argument("input_file", metavar="DESIGN.yaml|CONTROLLER.yaml")
 @click.option("--scenario", required=True,

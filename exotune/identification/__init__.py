@@ -1,5 +1,5 @@
 """Plant identification from measured data (``exotune identify``): the joint-reflected plant
-parameters J_m, B_m, K_s, J_j and K_c by least squares on the plant's equations (paper eq. (1)),
+parameters J_m, B_m, K_s, J_j and K_c by least squares on the plant's equations (paper eq. (5)),
 with the signals filtered by one state-variable filter so that no signal is differentiated
 numerically.
 
@@ -9,12 +9,15 @@ numerically.
 ``validate``  the identified plant simulated on held-out data (NRMSE), residual tests, k-fold
 ``frf``       non-parametric frequency responses (H1, coherence) and the parameters read off them
 ``validresult`` the validation's typed results
+``excite``    the excitation command for the rig (Schroeder-phased multisine, ``exotune excite``)
 """
 
 from .data import COLUMNS, MeasuredLog, log_from_columns, read_log
 from .estimate import identify_file, identify_plant
+from .excite import Excitation, schroeder_multisine, write_excitation
 from .result import ParameterEstimate, PlantEstimate
 from .validate import validate_plant
 from .validresult import Validation
 
-__all__ = ["COLUMNS", "MeasuredLog", "read_log", "log_from_columns", "identify_plant", "identify_file", "ParameterEstimate", "PlantEstimate", "validate_plant", "Validation"]
+__all__ = ["COLUMNS", "MeasuredLog", "read_log", "log_from_columns", "identify_plant", "identify_file", "ParameterEstimate", "PlantEstimate", "validate_plant", "Validation",
+           "Excitation", "schroeder_multisine", "write_excitation"]

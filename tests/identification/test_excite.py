@@ -1,0 +1,166 @@
+"""``exotune excite`` (issue 26 item 6): a Schroeder-phased multisine over a band — energy exactly on
+the chosen lines over whole periods, a crest factor well below random phases, periodic, of the
+amplitude asked; the CSV is a log ``identify`` reads, and a plant simulated with it as command
+(tests/identification/simulated_logs.py) is identified; bad options exit 2 naming the option
+with nothing written."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import exotune
+from exotune.cli import cli
+from exotune.errors import ConfigError
+from exotune.identification import identify_plant, log_from_columns, read_log, schroeder_multisine
+from identification.simulated_logs import TRUE, command_log
+
+
+def _spectrum(e, periods):
+    """|DFT|² of ``periods`` whole periods of the command, and the bins of its lines."""
+    _t, u = e.signal()
+    x = u[: periods * e.period_samples]
+    P = np.abs(np.fft.rfft(x)) ** 2
+    return P, np.asarray(e.harmonics) * periods
+
+
+@pytest.mark.parametrize("lines", ["all", "odd", "random-odd", "log"])
+def test_energy_lies_exactly_on_the_chosen_lines(lines):
+    e = schroeder_multisine(1000.0, 0.7, 45.0, rms_nm=1.0, period_s=4.0, periods=3, lines=lines)
+    P, bins = _spectrum(e, 3)
+    on = np.zeros(P.size, bool)
+    on[bins] = True
+    assert P[~on].sum() < 1e-24 * P.sum()  # nothing off the lines (rounding only)
+    assert np.allclose(P[bins], P[bins][0], rtol=1e-9)  # a flat spectrum over the lines
+    f = e.lines_hz
+    assert f.min() >= 0.7 and f.max() <= 45.0 and e.resolution_hz == pytest.approx(0.25)
+    assert e.rms_nm == pytest.approx(1.0, rel=1e-12)
+    if lines == "odd":
+        assert all(k % 2 == 1 for k in e.harmonics)
+    if lines == "random-odd":  # one odd line in each group of three left out, reproducibly
+        odd = [k for k in range(3, 181) if k % 2]
+        assert len(e.harmonics) == len(odd) - len(odd) // 3
+        again = schroeder_multisine(1000.0, 0.7, 45.0, rms_nm=1.0, period_s=4.0, periods=3, lines=lines, seed=0)
+        assert again.harmonics == e.harmonics
+        other = schroeder_multisine(1000.0, 0.7, 45.0, rms_nm=1.0, period_s=4.0, periods=3, lines=lines, seed=1)
+        assert other.harmonics != e.harmonics
+    if lines == "log":  # 20 lines per decade (every harmonic where they would be closer)
+        steps = np.diff(np.log10(f))
+        assert np.all((steps <= 1 / 20 + 0.02) | np.isclose(np.diff(f), 0.25))
+        assert np.all(np.abs(steps[-5:] - 1 / 20) < 0.01)
+
+
+def test_schroeder_crest_factor_is_well_below_random_phases():
+    e = schroeder_multisine(1000.0, 1.0, 20.0, peak_nm=2.0, periods=2)
+    assert len(e.harmonics) == 20 and e.crest_factor < 2.0
+    rng = np.random.default_rng(0)
+    random = []
+    for _ in range(200):
+        X = np.zeros(501, complex)
+        X[1:21] = np.exp(1j * rng.uniform(0, 2 * np.pi, 20))
+        x = np.fft.irfft(X, 1000)
+        random.append(np.max(np.abs(x)) / np.sqrt(np.mean(x * x)))
+    assert e.crest_factor < 0.7 * np.mean(random), (e.crest_factor, np.mean(random))
+    # the phases are Schroeder's: −π m(m+1)/K for the m-th of K consecutive lines
+    m = np.arange(20)
+    want = -np.pi * m * (m + 1) / 20
+    assert np.allclose(np.exp(1j * np.asarray(e.phases_rad)), np.exp(1j * want), atol=1e-12)
+    X = np.fft.rfft(e.period)[list(e.harmonics)]
+    assert np.allclose(np.angle(X / np.exp(1j * want)), 0, atol=1e-9)
+
+
+def test_the_command_is_periodic_with_the_amplitude_asked():
+    e = schroeder_multisine(2000.0, 2.0, 100.0, peak_nm=3.0, period_s=0.5, duration_s=2.2)
+    t, u = e.signal()
+    N = e.period_samples
+    assert e.periods == 4 and u.size == 4 * N == 4000 and t[1] == 1 / 2000.0
+    assert np.array_equal(u[N:], u[:-N])
+    assert np.max(np.abs(u)) == pytest.approx(3.0, rel=1e-14)
+    default = schroeder_multisine(1000.0, 0.5, 10.0, peak_nm=1.0)
+    assert default.period_s == 2.0 and default.periods == 10  # 1/f_lo, whole periods making 20 s
+
+
+def test_identify_recovers_the_plant_from_a_log_excited_with_it(tmp_path):
+    """The written CSV is the command column of a log: simulated as the rig would run it (held,
+    applied one sample late), logged with sensor noise, identified."""
+    fs = 1000.0
+    out = tmp_path / "exc.csv"
+    res = CliRunner().invoke(cli, ["excite", "-o", str(out), "--sample-rate-hz", "1000", "--f-lo-hz", "0.2",
+                                   "--f-hi-hz", "60", "--rms-nm", "2", "--period-s", "5", "--periods", "3"])
+    assert res.exit_code == 0, res.output
+    side = json.loads((tmp_path / "exc.json").read_text())
+    assert side["columns"] == {"t": {"unit": "s", "meaning": "sample time"},
+                               "tau_cmd": {"unit": "N·m", "meaning": "motor torque command, held between samples"}}
+    assert out.read_text().splitlines()[0] == "t,tau_cmd"
+    import csv
+
+    rows = list(csv.reader(out.open()))
+    t = np.array([float(r[0]) for r in rows[1:]])
+    cmd = np.array([float(r[1]) for r in rows[1:]])
+    assert t.size == 15000 and np.allclose(np.diff(t), 1e-3)
+    cols = command_log(cmd, fs, delay=1, seed=3)
+    cols["t"] = t
+    path = tmp_path / "log.csv"
+    names = list(cols)
+    path.write_text(",".join(names) + "\n" + "".join(",".join(repr(float(cols[c][i])) for c in names) + "\n"
+                                                     for i in range(t.size)))
+    r = identify_plant(read_log(path, delay_s=1e-3))
+    for k, v in TRUE.items():
+        assert abs(r[k].value - v) < 4 * r[k].std_error and r[k].relative_std_error < 0.01, (k, r[k])
+    # noise-free: the plant itself
+    clean = identify_plant(log_from_columns(dict(command_log(cmd, fs, delay=1, noise=False), t=t), delay_s=1e-3))
+    for k, v in TRUE.items():
+        assert clean[k].value == pytest.approx(v, rel=1e-6), k
+
+
+@pytest.mark.parametrize("args, option", [
+    (["--f-hi-hz", "500"], "--f-hi-hz"),  # at the Nyquist frequency
+    (["--f-hi-hz", "700"], "--f-hi-hz"),
+    (["--f-lo-hz", "0"], "--f-lo-hz"),
+    (["--f-lo-hz", "-1"], "--f-lo-hz"),
+    (["--f-lo-hz", "40"], "--f-lo-hz"),  # not below f_hi
+    (["--peak-nm", "0"], "--peak-nm"),
+    (["--peak-nm", "-2"], "--peak-nm"),
+    (["--peak-nm", "nan"], "--peak-nm"),
+    (["--rms-nm", "1"], "--peak-nm"),  # both amplitudes
+    (["--period-s", "0.01"], "--period-s"),  # 100 Hz resolution: no line in 0.5–40 Hz
+    (["--periods", "0"], "--periods"),
+    (["--duration-s", "1"], "--duration-s"),  # shorter than the 2 s period
+    (["--periods", "2", "--duration-s", "10"], "--duration-s"),
+    (["--seed", "1"], "--seed"),  # all lines: nothing drawn
+    (["--lines", "sparse"], "--lines"),
+    (["--sample-rate-hz", "abc"], "--sample-rate-hz"),
+])
+def test_bad_options_exit_2_naming_the_option_and_write_nothing(tmp_path, args, option):
+    base = {"--sample-rate-hz": "1000", "--f-lo-hz": "0.5", "--f-hi-hz": "40", "--peak-nm": "2"}
+    for k, v in zip(args[::2], args[1::2]):
+        base[k] = v
+    out = tmp_path / "exc.csv"
+    res = CliRunner().invoke(cli, ["excite", "-o", str(out)] + [x for kv in base.items() for x in kv])
+    assert res.exit_code == 2, res.output
+    line = res.output.strip()
+    assert line.startswith(f"exotune: error: {option}") and "\n" not in line, res.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_text_and_json_report_crest_factor_resolution_and_lines_with_units(tmp_path):
+    out = tmp_path / "e.csv"
+    res = CliRunner().invoke(cli, ["excite", "-o", str(out), "--sample-rate-hz", "1000", "--f-lo-hz", "1",
+                                   "--f-hi-hz", "20", "--peak-nm", "2"])
+    assert res.exit_code == 0, res.output
+    assert "crest factor (peak/RMS): 1.763 [–]" in res.output
+    assert "frequency resolution 1/period: 1 Hz" in res.output and "20 excited lines" in res.output
+    assert "peak 2 N·m" in res.output
+    res = CliRunner().invoke(cli, ["excite", "-o", str(out), "--sample-rate-hz", "1000", "--f-lo-hz", "1",
+                                   "--f-hi-hz", "20", "--peak-nm", "2", "--json"])
+    d = json.loads(res.output)
+    assert d["lines"] == 20 and d["units"]["crest_factor"] == "–" and d["units"]["resolution_hz"] == "Hz"
+    assert d == json.loads((tmp_path / "e.json").read_text())
+    api = exotune.excite(tmp_path / "f.csv", sample_rate_hz=1000.0, f_lo_hz=1.0, f_hi_hz=20.0, peak_nm=2.0)
+    assert api.to_csv() == out.read_text() and (tmp_path / "f.json").exists()
+    with pytest.raises(ConfigError) as e:
+        exotune.excite(sample_rate_hz=1000.0, f_lo_hz=1.0, f_hi_hz=20.0)
+    assert e.value.field == "--peak-nm"
