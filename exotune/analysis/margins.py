@@ -526,7 +526,7 @@ class LatencyBoundary:
     delay_s: float
 
 
-def latency_boundaries(cfg, n: int = 160) -> list[LatencyBoundary]:
+def latency_boundaries(cfg, n: int = 160, intervals: list | None = None) -> list[LatencyBoundary]:
     """Per human family (a box: per edge), the first destabilizing extra delay of ``n`` members
     spread over its range (log-spaced for a positive range) — the data of the latency-boundary
     figure of ``exotune analyze --plots``.
@@ -539,6 +539,10 @@ def latency_boundaries(cfg, n: int = 160) -> list[LatencyBoundary]:
         One design.
     n : int
         Members per family.
+    intervals : list, optional
+        The exact stable intervals of each human family, in the order of ``cfg.humans`` (as
+        ``exotune analyze`` reports them: ``result["humans"][i]["stable_intervals"]``); given, the
+        design is not analysed again (``analyze --plots`` analyses once).
 
     Returns
     -------
@@ -561,7 +565,9 @@ def latency_boundaries(cfg, n: int = 160) -> list[LatencyBoundary]:
 
     out = []
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        cols = analyze_batch(cfg)
+        if intervals is None:
+            cols = analyze_batch(cfg)
+            intervals = [cols.get(f"human{i}_{fam.kind}_stable_intervals", [[]])[0] for i, fam in enumerate(cfg.humans)]
         cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
         ct = char_terms(cfg.plant, cs, 1)
         T = float(ct.T[0])
@@ -570,8 +576,8 @@ def latency_boundaries(cfg, n: int = 160) -> list[LatencyBoundary]:
                 continue
             lo, hi = fam.lo, fam.hi
             ps = np.geomspace(lo, hi, n) if lo > 0 else np.linspace(lo, hi, n)
-            key = name.split("_edge")[0]
-            ivs = [] if fam.box else [tuple(iv) for iv in cols.get(f"{key}_stable_intervals", [[]])[0]]
+            i = int(name[len("human"):].split("_")[0])
+            ivs = [] if fam.box else [tuple(iv) for iv in (intervals[i] or [])]
             a0, a1, b0, b1 = _family_coeffs(ct, fam, "00", key1)
             dts = np.empty(n)
             for i, p in enumerate(ps):

@@ -358,7 +358,8 @@ def _fig_latency_boundary(cfg, result: dict) -> bytes:
     from .margins import latency_boundary_figure
 
     margin = ((result.get("margins") or {}).get("latency") or {}).get("extra_delay_s")
-    return _png(latency_boundary_figure(latency_boundaries(cfg), margin))
+    intervals = [h.get("stable_intervals") for h in result["humans"]]  # the analysis's own: not analysed again
+    return _png(latency_boundary_figure(latency_boundaries(cfg, intervals=intervals), margin))
 
 
 def write_analysis_plots(cfg, result: dict, out_dir) -> list[Path]:

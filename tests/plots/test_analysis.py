@@ -192,3 +192,16 @@ def test_msd_box_nyquist_labels_name_both_parameters(msd_box, monkeypatch):
     assert len(titles) == 4 and all(f"edge {i + 1} of 4" in t for i, t in enumerate(titles)), titles
     assert all("stable on none" not in t for t in titles)
     assert "stable on [10, 1000] N·m/rad" in titles[3]
+
+
+def test_plots_do_not_analyse_the_design_again(paper, monkeypatch):
+    """``analyze --plots`` analyses once: the figures take the family intervals from the result."""
+    import exotune.analysis.batch as batch
+
+    def refuse(*_a, **_k):
+        raise AssertionError("analyze_batch called while rendering the figures")
+
+    monkeypatch.setattr(batch, "analyze_batch", refuse)
+    cfg, result = paper
+    figs = plots.render_analysis_plots(cfg, result)
+    assert set(figs) == ALL
