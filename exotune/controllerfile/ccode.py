@@ -18,6 +18,9 @@ the target before the controller drives a joint.
 :func:`write_c_sources` certifies the file first (once) and refuses one that does not certify
 unless told otherwise; the code carries the file's sha256, the exotune version and the verdict.
 
+A float32 file (``implementation.precision: float32``) gets the float32 port of its realization
+instead (:mod:`exotune.controllerfile.ccode32`): the same files, API and return codes.
+
 No allocation, no recursion, no library call except ``isfinite``, ``isnan``, ``isinf`` and
 ``fabs`` from ``math.h``; the state is a plain struct the caller owns (one per joint).
 

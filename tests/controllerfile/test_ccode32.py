@@ -146,6 +146,10 @@ def test_literals_are_the_realizations_floats(doc32):
     defined = dict(re.findall(r"#define (EXOTUNE_(?:OK|FAULT_[A-Z]+|ERR_[A-Z_]+)) (\d+)  /\* \S", h))
     assert defined == {name: str(v) for name, v, _what in RETURN_CODES}
     assert [(n, v) for n, v, _w in RETURN_CODES32] == [(n, v) for n, v, _w in RETURN_CODES]
+    src = c_sources(doc32)["exotune_controller.c"].split("exotune_build_info[]")[1]
+    returned = set(re.findall(r"return (EXOTUNE_[A-Z_]+);", src))
+    assert returned == set(defined)  # every code is returned somewhere
+    assert not re.findall(r"return -?\d+;", src.split("int exotune_init")[1])  # never a bare number
     for text in c_sources(doc32).values():
         assert max(text.encode("utf-8")) < 128
 
