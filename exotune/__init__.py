@@ -18,8 +18,10 @@ from .version import __version__
 
 __all__ = [
     "__version__",
+    "init",
     "load_design",
     "design",
+    "sea",
     "analyze",
     "sweep",
     "report",
@@ -34,7 +36,7 @@ __all__ = [
     "ExotuneError",
 ]
 
-_API = {"load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "excite", "simulate"}
+_API = {"init", "load_design", "design", "sea", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "excite", "simulate"}
 
 
 def __getattr__(name: str):

@@ -34,8 +34,33 @@ if TYPE_CHECKING:  # each function imports what it returns: `exotune analyze` lo
         SweepResult,
     )
 
-__all__ = ["load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "excite", "simulate"]
+__all__ = ["init", "load_design", "design", "sea", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen",
+           "identify", "excite", "simulate"]
 
+
+def _guard(inputs=(), outputs=None, out_dirs=None, protected=()) -> None:
+    """Refuse, before any work, outputs that would overwrite an input or cannot be written
+    (:func:`exotune.jsonio.check_outputs`, labelled with the command's options); inputs that are
+    not paths (mappings, loaded objects) are not files to protect."""
+    from .jsonio import check_outputs
+
+    paths = [p for p in inputs if isinstance(p, (str, os.PathLike))]
+    check_outputs(paths, outputs=outputs, out_dirs=out_dirs, protected_dirs=protected)
+
+
+
+def init(directory=".") -> list:
+    """Write the commented starting files design.yaml, sweep.yaml and optimize.yaml into
+    ``directory`` (the library twin of ``exotune init``; never overwrites: a file already there
+    is a :class:`~exotune.errors.ConfigError`). Returns the paths written.
+
+    References
+    ----------
+    docs/getting-started.md.
+    """
+    from .starter import write_templates
+
+    return list(write_templates(directory))
 
 
 def load_design(source) -> Any:
@@ -79,7 +104,7 @@ def load_design(source) -> Any:
     raise TypeError(f"expected a design file path, a mapping or a DesignConfig, got {type(source).__name__}")
 
 
-def design(source) -> DesignSummary:
+def design(source, *, plots=None) -> DesignSummary:
     """Every controller gain of a design by double compliance shaping, with the nominal transfer
     functions (the library twin of ``exotune design``).
 
@@ -87,6 +112,8 @@ def design(source) -> DesignSummary:
     ----------
     source : path, Mapping or DesignConfig
         See :func:`load_design`.
+    plots : path, optional
+        Also write the Bode PNGs of C4, C5, Ĉ5, C7 and G_v into this directory (``--plots``).
 
     Returns
     -------
@@ -106,12 +133,43 @@ def design(source) -> DesignSummary:
     """
     from .analysis import design_report
 
+    _guard([source], out_dirs={"--plots": plots})
     cfg = load_design(source)
     with numpy_engine():
-        return design_report(cfg)
+        r = design_report(cfg)
+    if plots is not None:
+        from .jsonio import write_files
+        from .plots.design import design_plots
+
+        write_files(plots, design_plots(cfg))
+    return r
 
 
-def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
+def sea(source) -> Any:
+    """A plain SEA compliance-shaping controller analysed (the library twin of ``exotune sea``).
+
+    Parameters
+    ----------
+    source : path or Mapping
+        An SEA file: a plant and the four SEA gains (docs/design-file.md#sea-files).
+
+    Returns
+    -------
+    SeaReport
+        Its compliances and verdicts; ``to_dict()`` is ``exotune sea --json``.
+
+    References
+    ----------
+    Paper §II-B.
+    """
+    from .analysis import sea_report
+    from .config import load_sea
+
+    with numpy_engine():
+        return sea_report(load_sea(source))
+
+
+def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
     """Coupled stability, robust intervals, passivity, DOB margins, amplification and the
     latency margin of one design (the library twin of ``exotune analyze``). With a sample rate,
     the margins and verdicts of record are the sampled-data loop's, as ``certify`` judges the
@@ -123,6 +181,8 @@ def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
         See :func:`load_design`.
     cross_check : bool
         Also compare the exact verdicts with the closed-loop roots of two Padé models.
+    plots : path, optional
+        Also write the analysis PNGs into this directory (``--plots``; all or none).
 
     Returns
     -------
@@ -141,6 +201,7 @@ def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
     """
     from .controllerfile.verdicts import analyze_of_record
 
+    _guard([source], out_dirs={"--plots": plots})
     cfg = load_design(source)
     with numpy_engine():
         r = analyze_of_record(cfg)
@@ -148,6 +209,11 @@ def analyze(source, *, cross_check: bool = False) -> DesignAnalysis:
             from .analysis import pade_crosscheck
 
             r = replace(r, cross_check=pade_crosscheck(cfg))
+    if plots is not None:
+        from .jsonio import staged_dir
+        from .plots.analysis import write_analysis_plots
+
+        staged_dir(plots, lambda tmp: write_analysis_plots(cfg, r.to_dict(), tmp))
     return r
 
 
@@ -189,8 +255,10 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     ----------
     docs/sweep-spec.md.
     """
+    from .config import spec_base
     from .sweeps import run_sweep
 
+    _guard([spec, spec_base(spec)], out_dirs={"-o": out})
     return run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
                      chunk_size=chunk_size, progress=progress)
 
@@ -229,6 +297,8 @@ def report(sweep_dir, out=None) -> SweepReport:
 
     if isinstance(sweep_dir, SweepResult):
         sweep_dir = sweep_dir.directory
+    _guard([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"-o": out},
+           protected=[os.path.join(sweep_dir, "chunks")])
     return make_report(sweep_dir, out)
 
 
@@ -249,8 +319,10 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     ----------
     docs/optimize-spec.md.
     """
+    from .config import spec_base
     from .optimization import run_optimize
 
+    _guard([spec, spec_base(spec)], outputs={"-o": out, "--pareto": pareto_csv})
     return run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv)
 
 
@@ -293,12 +365,13 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
         raise TypeError("export needs the design file (a path, or a design loaded from a file)")
     if out is None:
         raise TypeError("export needs out, the controller file to write")
+    _guard([path], outputs={"-o": out})
     with numpy_engine():
         return export_design(path, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
                              time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
 
 
-def certify(source, *, precision: str | None = None) -> Certificate:
+def certify(source, *, precision: str | None = None, time_budget_s: float | str | None = None) -> Certificate:
     """Exact sampled-data certification of a controller file (the library twin of ``exotune certify``).
 
     Parameters
@@ -308,6 +381,9 @@ def certify(source, *, precision: str | None = None) -> Certificate:
     precision : {"float64", "float32"}, optional
         Analyse the file as if exported for this target arithmetic (``certify --precision``;
         docs/controller-file.md#precision); the file is not changed.
+    time_budget_s : float, optional
+        Refuse or stop the analysis beyond this many seconds (default 600;
+        :class:`~exotune.errors.RunFailed` then).
 
     References
     ----------
@@ -333,7 +409,11 @@ def certify(source, *, precision: str | None = None) -> Certificate:
         doc = checked_controller(dict(source))  # validated as a file is
     else:
         raise TypeError(f"expected a controller file path, a mapping or an ExportedController, got {type(source).__name__}")
-    with numpy_engine():
+    from .numerics.timebudget import check_budget_option, time_budget
+
+    name = os.path.basename(source) if isinstance(source, (str, os.PathLike)) else "the controller file"
+    with numpy_engine(), time_budget(check_budget_option(time_budget_s), f"certifying {name}", "export at a lower rate",
+                                     writes=False):
         return _certify(doc, precision=precision)
 
 
@@ -379,6 +459,7 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
         if source.path is None:
             raise TypeError("codegen needs a written controller file (export it to a path first)")
         source = source.path
+    _guard([source], out_dirs={"-o": out})
     return write_c_sources(source, out, allow_uncertified=allow_uncertified)
 
 
@@ -499,7 +580,8 @@ def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, p
 
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
              human_inertia: float | None = None, duration: float | None = None, start: str = "bumpless",
-             joint_angle: float | None = None) -> SimulationRun:
+             joint_angle: float | None = None, plots=None,
+             progress: Callable[[float], None] | None = None) -> SimulationRun:
     """Time-domain run of the runtime controller on the plant (the library twin of
     ``exotune simulate``).
 
@@ -520,6 +602,10 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
         Initial controller state (``--start``).
     joint_angle : float, optional
         Run the gain-schedule entry nearest this joint angle [rad] (``--joint-angle``).
+    plots : path, optional
+        Also write the time-series PNGs into this directory (``--plots``).
+    progress : callable, optional
+        Called with the completed fraction (0–1) of the main run.
 
     References
     ----------
@@ -535,11 +621,19 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     from .controllerfile.results import ExportedController
     from .simulation import at_joint_angle, check_human_inertia, load_for_simulation, run_scenario
 
-    check_human_inertia(human_inertia)
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
+    _guard([source], out_dirs={"--plots": plots})
+    check_human_inertia(human_inertia)
     with numpy_engine():
         doc = load_for_simulation(source, sample_rate_hz)
         if joint_angle is not None:
             doc = at_joint_angle(doc, joint_angle)
-        return run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start)
+        r = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,
+                         progress=progress)
+    if plots is not None:
+        from .jsonio import write_files
+        from .plots.simulate import plot_simulation
+
+        write_files(plots, plot_simulation(r.full_report()))
+    return r

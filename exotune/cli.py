@@ -91,6 +91,16 @@ class _Group(click.Group):
         except click.UsageError:
             raise InputError(f"{args[0]}: no such command (commands: {', '.join(self.list_commands(ctx))})") from None
 
+    def _option_named(self, ctx, e) -> str:
+        """The error's line, its field named as the command line's option when the field is the
+        keyword of the API call that option feeds (``human_inertia`` → ``--human-inertia``)."""
+        field = getattr(e, "field", None)
+        cmd = self.get_command(ctx, ctx.invoked_subcommand) if ctx.invoked_subcommand else None
+        for p in getattr(cmd, "params", ()):
+            if field and p.name == field and isinstance(p, click.Option):
+                return f"{max(p.opts, key=len)}: {e.reason}"
+        return str(e)
+
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
@@ -99,29 +109,12 @@ class _Group(click.Group):
         except click.UsageError as e:
             raise InputError(_usage_line(e), e.exit_code) from None
         except ExotuneError as e:
-            raise InputError(str(e), e.exit_code, getattr(e, "more", ())) from None
+            raise InputError(self._option_named(ctx, e), e.exit_code, getattr(e, "more", ())) from None
         except ValueError as e:
             raise InputError(" ".join(str(e).split()) or type(e).__name__) from None
         except OSError as e:  # an unwritable output (a directory, a missing parent, no permission)
             where = e.filename2 if e.filename2 is not None else (e.filename if e.filename is not None else "<file>")
             raise InputError(f"{where}: {e.strerror or e}") from None
-
-
-def _spec_base(spec_file):
-    """The design file a sweep or optimization spec names as its ``base`` (resolved against the
-    spec's directory), or None: an input that no output may overwrite. Reading errors are left
-    to the command itself (which reports them in its own words)."""
-    import os
-
-    from .config import read_yaml
-
-    try:
-        base = read_yaml(spec_file).get("base")
-    except ExotuneError:
-        return None
-    if not isinstance(base, str) or not base:
-        return None
-    return base if os.path.isabs(base) else os.path.join(os.path.dirname(os.path.abspath(spec_file)), base)
 
 
 def _note_first_compile() -> None:
@@ -163,9 +156,9 @@ def cli(ctx):
 def init_cmd(directory):
     """Write commented starting files into DIR (default: here): design.yaml (docs/design-file.md),
     sweep.yaml (docs/sweep-spec.md) and optimize.yaml (docs/optimize-spec.md). Never overwrites."""
-    from .starter import write_templates
+    from .api import init
 
-    for p in write_templates(directory):
+    for p in init(directory):
         click.echo(f"wrote {p}")
     click.echo(f"next: exotune analyze {directory.rstrip('/') + '/' if directory != '.' else ''}design.yaml")
 
@@ -180,18 +173,10 @@ def design_cmd(design_file, as_json, plots_dir):
 
     DESIGN.yaml is a design file (docs/design-file.md; `exotune init` writes one). The report goes
     to stdout (--json: one JSON object); --plots DIR writes the Bode PNGs into DIR."""
-    from .analysis import design_report
-    from .config import load_design
-    from .jsonio import check_outputs, write_files
-    from .plots.design import design_plots
+    from .api import design
 
-    check_outputs([design_file], out_dirs={"--plots": plots_dir})
-    cfg = load_design(design_file)
-    r = design_report(cfg)
-    text = r.to_json() if as_json else r.to_text()
-    if plots_dir is not None:
-        write_files(plots_dir, design_plots(cfg))
-    click.echo(text)
+    r = design(design_file, plots=plots_dir)
+    click.echo(r.to_json() if as_json else r.to_text())
 
 
 @cli.command("sea")
@@ -202,10 +187,9 @@ def sea_cmd(sea_file, as_json):
 
     SEA.yaml holds a plant and the four SEA gains (docs/design-file.md#sea-files); the report goes
     to stdout (--json: one JSON object)."""
-    from .analysis import sea_report
-    from .config import load_sea
+    from .api import sea
 
-    r = sea_report(load_sea(sea_file))
+    r = sea(sea_file)
     click.echo(r.to_json() if as_json else r.to_text())
 
 
@@ -221,21 +205,10 @@ def analyze_cmd(design_file, as_json, plots_dir, cross_check):
 
     DESIGN.yaml is a design file (docs/design-file.md). The report goes to stdout (--json: one
     JSON object); --plots DIR writes the analysis PNGs into DIR."""
-    from .config import load_design
-    from .jsonio import check_outputs
-
-    check_outputs([design_file], out_dirs={"--plots": plots_dir})
-    cfg = load_design(design_file)  # input errors first, whatever the state of the analysis engine
     from .api import analyze
-    from .jsonio import staged_dir
 
-    r = analyze(cfg, cross_check=cross_check)
-    text = r.to_json() if as_json else r.to_text()
-    if plots_dir is not None:
-        from .plots.analysis import write_analysis_plots
-
-        staged_dir(plots_dir, lambda tmp: write_analysis_plots(cfg, r.to_dict(), tmp))
-    click.echo(text)
+    r = analyze(design_file, cross_check=cross_check, plots=plots_dir)
+    click.echo(r.to_json() if as_json else r.to_text())
 
 
 @cli.command("sweep")
@@ -253,21 +226,12 @@ def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_siz
     per chunk in DIR/chunks; rerun the same command to resume; `exotune report DIR` next."""
     import sys
 
-    from .jsonio import check_outputs
-    from .sweeps import TqdmProgress, run_sweep
+    from .api import sweep
+    from .sweeps import TqdmProgress
 
-    check_outputs([spec_file, _spec_base(spec_file)], out_dirs={"-o": out_dir})
     _note_first_compile()
-    run_sweep(
-        spec_file,
-        out_dir,
-        workers=workers,
-        dask_address=dask_address,
-        sample=sample,
-        seed=seed,
-        chunk_size=chunk_size,
-        progress=TqdmProgress(sys.stderr),
-    )
+    sweep(spec_file, out_dir, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
+          chunk_size=chunk_size, progress=TqdmProgress(sys.stderr))
 
 
 @cli.command("report")
@@ -280,14 +244,9 @@ def report_cmd(sweep_dir, out):
     Reads the sweep directory DIR written by `exotune sweep` and writes summary.md, one CSV table
     per axis (axis_<path>.csv) and the PNG maps into OUT (default DIR/report); prints where.
     """
-    import os
+    from .api import report
 
-    from .jsonio import check_outputs
-    from .sweeps import make_report
-
-    check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"-o": out},
-                  protected_dirs=[os.path.join(sweep_dir, "chunks")])
-    click.echo(make_report(sweep_dir, out).to_text())
+    click.echo(report(sweep_dir, out).to_text())
 
 
 @cli.command("optimize")
@@ -303,12 +262,10 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
     DOB-margin and amplification constraints; by default the design keeps a latency margin of one
     sample period (0.5 ms without a sample rate). Exit code 1 when no feasible design exists in
     the bounds (the broken constraints of the best design are listed)."""
-    from .jsonio import check_outputs
-    from .optimization import run_optimize
+    from .api import optimize
 
-    check_outputs([spec_file, _spec_base(spec_file)], outputs={"-o": out, "--pareto": pareto_csv})
     _note_first_compile()
-    r = run_optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv)
+    r = optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.feasible:
         ctx.exit(1)
@@ -333,12 +290,10 @@ def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_
     file.md) is written atomically; `exotune certify CONTROLLER.yaml` next. Exit code 1, nothing
     written, when the controller would not certify (its sampled-data verdicts or latency margin
     against its requirements), unless --allow-uncertified."""
-    from .controllerfile import export_design
-    from .jsonio import check_outputs
+    from .api import export
 
-    check_outputs([design_file], outputs={"-o": out})
-    c = export_design(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
-                      time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
+    c = export(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
+               time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
     click.echo(c.summary())
 
 
@@ -353,17 +308,9 @@ def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_
 def certify_cmd(ctx, controller_file, as_json, time_budget_s, precision):
     """Exact sampled-data analysis of an exported controller file (docs/controller-file.md). Exit code 0: certified,
     1: analysed but not certified (the reasons are listed), 2: invalid file."""
-    from .controllerfile.certify import certify
-    from .controllerfile import load_controller
+    from .api import certify
 
-    import os
-
-    from .numerics.timebudget import check_budget_option, time_budget
-
-    budget = check_budget_option(time_budget_s)
-    doc = load_controller(controller_file)
-    with time_budget(budget, f"certifying {os.path.basename(controller_file)}", "export at a lower rate", writes=False):
-        r = certify(doc, precision=precision)
+    r = certify(controller_file, precision=precision, time_budget_s=time_budget_s)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.certified:
         ctx.exit(1)
@@ -380,11 +327,9 @@ def codegen_cmd(controller_file, out_dir, allow_uncertified):
     file is certified first: one that does not certify is refused (exit 1, the reasons named,
     nothing written) unless --allow-uncertified. The code carries the file's sha256, the exotune
     version and the verdict. All files are written or none."""
-    from .controllerfile import write_c_sources
-    from .jsonio import check_outputs
+    from .api import codegen
 
-    check_outputs([controller_file], out_dirs={"-o": out_dir})
-    click.echo(write_c_sources(controller_file, out_dir, allow_uncertified=allow_uncertified).to_text())
+    click.echo(codegen(controller_file, out_dir, allow_uncertified=allow_uncertified).to_text())
 
 
 @cli.command("identify")
@@ -501,29 +446,25 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
     """Nonlinear time-domain run of the runtime controller on the plant (friction, backlash,
     saturation), judged by the growth rate of its oscillation envelope."""
     import sys
+    import time
 
-    from .jsonio import write_files
-    from .plots.simulate import plot_simulation
-    from .simulation import at_joint_angle, check_human_inertia, load_for_simulation, number_option, run_scenario
+    from .api import simulate
+    from .options import number_value
 
-    from .jsonio import check_outputs
+    human_inertia, duration, joint_angle = (None if v is None else number_value(n, v, positive=n != "--joint-angle")
+                                            for n, v in (("--human-inertia", human_inertia), ("--duration", duration),
+                                                         ("--joint-angle", joint_angle)))
 
-    check_outputs([input_file], out_dirs={"--plots": plots_dir})
-    human_inertia = check_human_inertia(number_option("--human-inertia", human_inertia, positive=True), "--human-inertia")
-    duration = number_option("--duration", duration, positive=True)
-    joint_angle = number_option("--joint-angle", joint_angle)
-    doc = load_for_simulation(input_file, sample_rate_hz)
-    if joint_angle is not None:
-        doc = at_joint_angle(doc, joint_angle)
+    t0 = time.monotonic()
 
-    def progress(frac):  # long runs on a terminal only
-        click.echo(f"\rexotune simulate: {frac:4.0%}", err=True, nl=frac >= 1.0)
+    def progress(frac):  # on a terminal only, for runs that last more than a second
+        if shown or time.monotonic() - t0 > 1.0:
+            shown.append(frac)
+            click.echo(f"\rexotune simulate: {frac:4.0%}", err=True, nl=frac >= 1.0)
 
-    long_run = sys.stderr.isatty() and (duration or 10.0) * float(doc["sample_rate_hz"]["value"]) >= 1e5
-    r = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,
-                     progress=progress if long_run else None)
-    if plots_dir is not None:
-        write_files(plots_dir, plot_simulation(r.full_report()))
+    shown: list = []
+    r = simulate(input_file, scenario, sample_rate_hz=sample_rate_hz, human_inertia=human_inertia, duration=duration,
+                 start=start, joint_angle=joint_angle, plots=plots_dir, progress=progress if sys.stderr.isatty() else None)
     click.echo(r.to_json() if as_json else r.to_text())
 
 

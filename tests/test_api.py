@@ -304,3 +304,43 @@ def test_simulate_twin_takes_start_and_joint_angle():
     assert r["summary"]["start"] == "zero"
     other = exotune.simulate(sched, "locked-output", start="zero", joint_angle=2.0).to_dict()
     assert other["summary"] != r["summary"]  # another schedule entry (ratio 1.25, not 1): another plant
+
+
+def test_output_checks_are_the_librarys(tmp_path):
+    """The refusals of the command line (an output over an input, a plot directory that is a
+    file) come from the library: a script gets them too, before any work, nothing written."""
+    design = tmp_path / "d.yaml"
+    design.write_text(PAPER.read_text())
+    with pytest.raises(ConfigError, match="same file as the input"):
+        exotune.export(design, 1000.0, design)
+    afile = tmp_path / "f.txt"
+    afile.write_text("x")
+    with pytest.raises(ConfigError, match="--plots"):
+        exotune.analyze(design, plots=afile)
+    with pytest.raises(ConfigError, match="--plots"):
+        exotune.design(design, plots=afile)
+    assert design.read_text() == PAPER.read_text() and afile.read_text() == "x"
+
+
+def test_api_writes_the_plots_the_command_writes(tmp_path):
+    r = exotune.design(PAPER, plots=tmp_path / "p")
+    assert sorted(p.suffix for p in (tmp_path / "p").iterdir()) and r.gains["K2_hat"] == pytest.approx(7.0)
+    res = CliRunner().invoke(cli, ["design", str(PAPER), "--plots", str(tmp_path / "q")])
+    assert res.exit_code == 0
+    assert sorted(p.name for p in (tmp_path / "p").iterdir()) == sorted(p.name for p in (tmp_path / "q").iterdir())
+
+
+def test_certify_time_budget_is_a_library_keyword(tmp_path):
+    c = exotune.export(ROOT / "examples" / "scheduled.yaml", 1000.0, tmp_path / "c.yaml")
+    with pytest.raises(ConfigError, match="time"):
+        exotune.certify(c, time_budget_s=-1.0)
+    assert exotune.certify(c, time_budget_s=600).certified
+
+
+def test_sea_and_init_twins(tmp_path):
+    assert exotune.sea(ROOT / "examples" / "sea.yaml").to_dict() == json.loads(
+        CliRunner().invoke(cli, ["sea", str(ROOT / "examples" / "sea.yaml"), "--json"]).output)
+    written = exotune.init(tmp_path)
+    assert sorted(p.name for p in written) == ["design.yaml", "optimize.yaml", "sweep.yaml"]
+    with pytest.raises(ConfigError):
+        exotune.init(tmp_path)  # never overwrites

@@ -257,3 +257,27 @@ def test_documented_layer_table_matches_the_enforced_layers():
     assert levels == sorted(levels), list(zip(flat, levels))
     for row in named:  # one table row never spans two layers unless it says "<" (12–13: api < __init__)
         assert len({LEVEL[m] for m in row}) == 1 or len(row) == len({LEVEL[m] for m in row})
+
+
+# What the command line may import besides exotune.api: the version and errors it reports, the
+# option parser, the engine choice for the process, and the sweep's progress bar (a view).
+CLI_MAY_IMPORT = {"api", "version", "errors", "options", "numerics.engine", "sweeps"}
+CLI_NOT_YET = {"identify_cmd", "excite_cmd"}  # converted with the identification work (issue 26)
+
+
+def test_the_command_line_calls_only_the_api():
+    """cli.py is parse → one exotune.api call → view → exit code (docs/architecture.md)."""
+    tree = ast.parse((PKG / "cli.py").read_text(encoding="utf-8"))
+    bad = []
+    for fn in [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name not in CLI_NOT_YET] + [
+            n for n in tree.body if not isinstance(n, ast.FunctionDef)]:
+        for node in ast.walk(fn):
+            if isinstance(node, ast.ImportFrom) and node.level == 1:
+                mod = node.module or ""
+                if mod not in CLI_MAY_IMPORT:
+                    bad.append(f"{getattr(fn, 'name', 'module')}: from .{mod} import …")
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module == "sweeps":
+                names = {a.name for a in node.names}
+                if names != {"TqdmProgress"}:
+                    bad.append(f"{getattr(fn, 'name', 'module')}: from .sweeps import {', '.join(sorted(names))}")
+    assert not bad, bad

@@ -18,9 +18,11 @@ from .design import (
 from .schema import ENV_KINDS, HUMAN_KINDS
 from .validate import (LIMITS, MAX_DELAY_SAMPLES, check_analysis_filters, check_delay_samples, check_limit,
                        number_field)
-from .yamlio import MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES, MAX_YAML_NODES, load_yaml_text, read_json_guarded, read_yaml
+from .yamlio import (MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES, MAX_YAML_NODES, load_yaml_text, read_json_guarded,
+                     read_yaml, spec_base)
 
 __all__ = [
+    "spec_base",
     "number_field",
     "design_row",
     "continuous",

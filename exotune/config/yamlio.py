@@ -31,7 +31,7 @@ import yaml
 from ..errors import ConfigError
 from .validate import excerpt, join_path, kind_of
 
-__all__ = ["load_yaml_text", "read_yaml", "read_json_guarded", "read_guarded",
+__all__ = ["load_yaml_text", "read_yaml", "read_json_guarded", "read_guarded", "spec_base",
            "MAX_YAML_BYTES", "MAX_JSON_BYTES", "MAX_DEPTH", "MAX_YAML_NODES"]
 
 MAX_YAML_BYTES = 1 << 20  # 1 MiB: the largest controller file exotune writes is ~40 kB
@@ -327,6 +327,22 @@ def read_yaml(path, max_bytes: int = MAX_YAML_BYTES) -> dict:
     if not isinstance(mapping, dict):
         raise ConfigError(name, f"expected a YAML mapping at the top level, got {kind_of(mapping)}")
     return mapping
+
+
+def spec_base(spec) -> str | None:
+    """The design file a sweep or optimize spec file names as its ``base`` (resolved against the
+    spec's directory), or None (a mapping spec, no base, or a spec that cannot be read: the
+    command reports that in its own words): an input that no output may overwrite."""
+    if not isinstance(spec, (str, os.PathLike)):
+        return None
+    try:
+        base = read_yaml(spec).get("base")
+    except ConfigError:
+        return None
+    if not isinstance(base, str) or not base:
+        return None
+    spec = os.fspath(spec)
+    return base if os.path.isabs(base) else os.path.join(os.path.dirname(os.path.abspath(spec)), base)
 
 
 def _json_depth_path(obj) -> list | None:

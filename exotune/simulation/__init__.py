@@ -8,7 +8,7 @@ linearized sampled-data loop's spectral radius beside it (:mod:`.verdict`); the 
 """
 
 from .engine import STARTS, bumpless_start, simulate
-from .load import at_joint_angle, check_consistent, check_human_inertia, load_for_simulation, number_option
+from .load import at_joint_angle, check_consistent, check_human_inertia, load_for_simulation
 from .plant import MIN_HUMAN_INERTIA, JointPlant
 from .report import dob_estimate, run_scenario, summarize
 from .scenarios import SCENARIOS, Nonlinearities, Scenario, deadzone
@@ -16,4 +16,4 @@ from .verdict import MARGINAL_TOL, classify, envelope_growth, loop_spectral_radi
 
 __all__ = ["Nonlinearities", "Scenario", "SCENARIOS", "deadzone", "simulate", "run_scenario", "summarize",
            "bumpless_start", "STARTS", "JointPlant", "load_for_simulation", "at_joint_angle", "check_consistent", "MARGINAL_TOL",
-           "classify", "envelope_growth", "loop_spectral_radius", "dob_estimate", "number_option", "check_human_inertia", "MIN_HUMAN_INERTIA"]
+           "classify", "envelope_growth", "loop_spectral_radius", "dob_estimate", "check_human_inertia", "MIN_HUMAN_INERTIA"]

@@ -9,22 +9,7 @@ from ..controllerfile.certify import certify
 from ..errors import ConfigError
 from .plant import MIN_HUMAN_INERTIA
 
-__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "number_option", "check_human_inertia"]
-
-
-def number_option(name: str, text, positive: bool = False) -> float | None:
-    """A numeric command-line value: None stays None; otherwise a finite number (> 0 when
-    ``positive``), else :class:`ConfigError` naming the option.
-
-    References
-    ----------
-    docs/cli.md#simulate.
-    """
-    from ..options import number_value
-
-    if text is None:
-        return None
-    return number_value(name, text, positive)
+__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "check_human_inertia"]
 
 
 def check_human_inertia(value: float | None, field: str = "human_inertia") -> float | None:
