@@ -488,10 +488,12 @@ def _certify(doc: dict, predictions: bool = True) -> dict:
     rep["prediction_mismatches"] = mism
     rep["problems"] = problems
     rep["certified"] = not problems
-    rep["method"] = (f"exact sampled-data eigenvalues at {POINTS} log-spaced values per family; cells between stable "
-                     f"values halved (≤ {MAX_DEPTH} times) until every eigenvalue moves less than its distance to the "
-                     "unit circle (chord and end derivatives); every verdict change bisected to 1e-10 relative; "
-                     "hysteretic humans are not rational and are skipped")
+    rep["method"] = (f"exact sampled-data eigenvalues at {POINTS} log-spaced values per family; step control "
+                     f"(cells halved ≤ {MAX_DEPTH} times until every eigenvalue moves less than its distance to the "
+                     "unit circle) proposes the cells, and each accepted span is proven stable as a whole (a Taylor "
+                     "model of the loop matrix over the span and Gershgorin discs, docs/method.md#guarantees; an "
+                     "unproven cell is unresolved); every verdict change bisected to 1e-10 relative; hysteretic "
+                     "humans are not rational and are skipped")
     return rep
 
 
