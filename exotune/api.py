@@ -18,6 +18,7 @@ import os
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
+from .jsonio import check_outputs
 from .numerics.engine import numpy_engine
 
 if TYPE_CHECKING:  # each function imports what it returns: `exotune analyze` loads no controller-file code
@@ -36,17 +37,6 @@ if TYPE_CHECKING:  # each function imports what it returns: `exotune analyze` lo
 
 __all__ = ["init", "load_design", "design", "sea", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen",
            "identify", "excite", "simulate"]
-
-
-def _guard(inputs=(), outputs=None, out_dirs=None, protected=()) -> None:
-    """Refuse, before any work, outputs that would overwrite an input or cannot be written
-    (:func:`exotune.jsonio.check_outputs`, labelled with the command's options); inputs that are
-    not paths (mappings, loaded objects) are not files to protect."""
-    from .jsonio import check_outputs
-
-    paths = [p for p in inputs if isinstance(p, (str, os.PathLike))]
-    check_outputs(paths, outputs=outputs, out_dirs=out_dirs, protected_dirs=protected)
-
 
 
 def init(directory=".") -> list:
@@ -133,7 +123,7 @@ def design(source, *, plots=None) -> DesignSummary:
     """
     from .analysis import design_report
 
-    _guard([source], out_dirs={"--plots": plots})
+    check_outputs([source], out_dirs={"--plots": plots})
     cfg = load_design(source)
     with numpy_engine():
         r = design_report(cfg)
@@ -201,7 +191,7 @@ def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
     """
     from .controllerfile.verdicts import analyze_of_record
 
-    _guard([source], out_dirs={"--plots": plots})
+    check_outputs([source], out_dirs={"--plots": plots})
     cfg = load_design(source)
     with numpy_engine():
         r = analyze_of_record(cfg)
@@ -258,7 +248,7 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     from .config import spec_base
     from .sweeps import run_sweep
 
-    _guard([spec, spec_base(spec)], out_dirs={"-o": out})
+    check_outputs([spec, spec_base(spec)], out_dirs={"-o": out})
     return run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
                      chunk_size=chunk_size, progress=progress)
 
@@ -297,8 +287,8 @@ def report(sweep_dir, out=None) -> SweepReport:
 
     if isinstance(sweep_dir, SweepResult):
         sweep_dir = sweep_dir.directory
-    _guard([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"-o": out},
-           protected=[os.path.join(sweep_dir, "chunks")])
+    check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"-o": out},
+                  protected_dirs=[os.path.join(sweep_dir, "chunks")])
     return make_report(sweep_dir, out)
 
 
@@ -322,7 +312,7 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     from .config import spec_base
     from .optimization import run_optimize
 
-    _guard([spec, spec_base(spec)], outputs={"-o": out, "--pareto": pareto_csv})
+    check_outputs([spec, spec_base(spec)], outputs={"-o": out, "--pareto": pareto_csv})
     return run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv)
 
 
@@ -365,7 +355,7 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
         raise TypeError("export needs the design file (a path, or a design loaded from a file)")
     if out is None:
         raise TypeError("export needs out, the controller file to write")
-    _guard([path], outputs={"-o": out})
+    check_outputs([path], outputs={"-o": out})
     with numpy_engine():
         return export_design(path, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
                              time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
@@ -459,13 +449,13 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
         if source.path is None:
             raise TypeError("codegen needs a written controller file (export it to a path first)")
         source = source.path
-    _guard([source], out_dirs={"-o": out})
+    check_outputs([source], out_dirs={"-o": out})
     return write_c_sources(source, out, allow_uncertified=allow_uncertified)
 
 
 def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
              sample_rate_hz: float | None = None, friction: bool = False, fix=None, validate=None,
-             folds: int | None = None) -> PlantEstimate:
+             folds: int | None = None, frf_csv=None, plots=None) -> PlantEstimate:
     """The plant parameters a measured log determines, with standard errors (the library twin of
     ``exotune identify``).
 
@@ -491,6 +481,11 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
         A second log to validate on (a path source only).
     folds : int, optional
         K-fold cross-validation on the log itself (a path source only).
+    frf_csv : path, optional
+        Also write the measured frequency responses there (CSV; ``--frf-csv``).
+    plots : path, optional
+        Also write the Bode overlays, residual tests (PNG) and ``frequency_response.csv`` into
+        this directory (``--plots``).
 
     Returns
     -------
@@ -518,12 +513,22 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
     from .identification import identify_file, identify_plant, log_from_columns
 
     if isinstance(source, Mapping):
-        if out is not None or validate is not None or folds is not None:
+        if any(x is not None for x in (out, validate, folds, frf_csv, plots)):
             raise TypeError("identify writes its sections and validates only for a log file (give a path)")
         return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s, sample_rate_hz), filter_hz=filter_hz,
                               friction=friction, fix=fix)
-    return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
-                         friction=friction, fix=fix, validate=validate, folds=folds)
+    check_outputs([source, validate], outputs={"-o": out, "--frf-csv": frf_csv}, out_dirs={"--plots": plots})
+    r = identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
+                      friction=friction, fix=fix, validate=validate, folds=folds)
+    if frf_csv is not None:
+        from .jsonio import write_atomic
+
+        write_atomic(frf_csv, r.validation.to_csv())
+    if plots is not None:
+        from .jsonio import write_files
+
+        write_files(plots, {**r.validation.plot(), "frequency_response.csv": r.validation.to_csv()})
+    return r
 
 
 def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, peak_nm: float | None = None,
@@ -573,6 +578,10 @@ def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, p
     """
     from .identification import schroeder_multisine, write_excitation
 
+    from .identification.excite import sidecar_path
+
+    if out is not None:
+        check_outputs([], outputs={"-o": out, "-o (its sidecar)": sidecar_path(out)})
     e = schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm=peak_nm, rms_nm=rms_nm, period_s=period_s,
                             periods=periods, duration_s=duration_s, lines=lines, seed=seed)
     return e if out is None else write_excitation(e, out)
@@ -623,7 +632,7 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
-    _guard([source], out_dirs={"--plots": plots})
+    check_outputs([source], out_dirs={"--plots": plots})
     check_human_inertia(human_inertia)
     with numpy_engine():
         doc = load_for_simulation(source, sample_rate_hz)

@@ -363,26 +363,16 @@ def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, frictio
     (the others are written) or not physical (≤ 0: nothing is written); 2: bad input, or a log
     that excites no parameter. The written uncertainty is the larger of 3 SE and the model error
     the validation measures (--validate LOG2.csv, --folds K; docs/identification.md#validation)."""
-    from .identification import identify_file
-    from .jsonio import check_outputs
+    from .api import identify
     from .options import number_value
 
-    check_outputs([log_file, validate], outputs={"-o": out, "--frf-csv": frf_csv}, out_dirs={"--plots": plots_dir})
     delay = "0" if delay_s is None else delay_s
     if delay.strip().lower() != "auto":
         delay = number_value("--delay-s", delay, False)
     fh = None if filter_hz is None else number_value("--filter-hz", filter_hz, True)
     fs = None if sample_rate_hz is None else number_value("--sample-rate-hz", sample_rate_hz, True)
-    r = identify_file(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs, friction=friction, fix=fix,
-                      validate=validate, folds=folds)
-    if frf_csv is not None:
-        from .jsonio import write_atomic
-
-        write_atomic(frf_csv, r.validation.to_csv())
-    if plots_dir is not None:
-        from .jsonio import write_files
-
-        write_files(plots_dir, {**r.validation.plot(), "frequency_response.csv": r.validation.to_csv()})
+    r = identify(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs, friction=friction, fix=fix,
+                 validate=validate, folds=folds, frf_csv=frf_csv, plots=plots_dir)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.complete:
         ctx.exit(1)
@@ -410,19 +400,15 @@ def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s,
     (docs/identification.md#excite): CSV with t [s] and tau_cmd [N·m], the log format `exotune
     identify` reads, and its description (units, lines, phases, crest factor) as EXC.json. Prints
     the crest factor, the frequency resolution and the number of excited lines."""
-    from .identification import schroeder_multisine, write_excitation
-    from .identification.excite import sidecar_path
-    from .jsonio import check_outputs
+    from .api import excite
     from .options import number_value
 
-    check_outputs([], outputs={"-o": out, "-o (its sidecar)": sidecar_path(out)})
     num = {name: None if v is None else number_value(name, v) for name, v in (
         ("--sample-rate-hz", sample_rate_hz), ("--f-lo-hz", f_lo_hz), ("--f-hi-hz", f_hi_hz), ("--peak-nm", peak_nm),
         ("--rms-nm", rms_nm), ("--period-s", period_s), ("--duration-s", duration_s))}
-    e = schroeder_multisine(num["--sample-rate-hz"], num["--f-lo-hz"], num["--f-hi-hz"], peak_nm=num["--peak-nm"],
-                            rms_nm=num["--rms-nm"], period_s=num["--period-s"], periods=periods,
-                            duration_s=num["--duration-s"], lines=lines, seed=seed)
-    e = write_excitation(e, out)
+    e = excite(out, sample_rate_hz=num["--sample-rate-hz"], f_lo_hz=num["--f-lo-hz"], f_hi_hz=num["--f-hi-hz"],
+               peak_nm=num["--peak-nm"], rms_nm=num["--rms-nm"], period_s=num["--period-s"], periods=periods,
+               duration_s=num["--duration-s"], lines=lines, seed=seed)
     click.echo(e.to_json() if as_json else e.to_text())
 
 

@@ -278,7 +278,8 @@ def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> 
     Parameters
     ----------
     inputs : sequence of str or os.PathLike
-        The files (or directories) the command reads; ``None`` items are ignored.
+        The files (or directories) the command reads; other items (``None``, a mapping, a loaded
+        object) are not files and are ignored.
     outputs : dict, optional
         Option label (``"-o"``, ``"--pareto"``) → path of a *file* to write (``None``: not given).
     out_dirs : dict, optional
@@ -300,7 +301,7 @@ def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> 
     """
     from .errors import ConfigError
 
-    ins = [os.fspath(p) for p in inputs if p is not None]
+    ins = [os.fspath(p) for p in inputs if isinstance(p, (str, os.PathLike))]  # a mapping or object: no file
     seen: list[tuple[str, str]] = []
     items = [(lbl, os.fspath(p), False) for lbl, p in (outputs or {}).items() if p is not None]
     items += [(lbl, os.fspath(p), True) for lbl, p in (out_dirs or {}).items() if p is not None]

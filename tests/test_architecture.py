@@ -262,7 +262,7 @@ def test_documented_layer_table_matches_the_enforced_layers():
 # What the command line may import besides exotune.api: the version and errors it reports, the
 # option parser, the engine choice for the process, and the sweep's progress bar (a view).
 CLI_MAY_IMPORT = {"api", "version", "errors", "options", "numerics.engine", "sweeps"}
-CLI_NOT_YET = {"identify_cmd", "excite_cmd"}  # converted with the identification work (issue 26)
+CLI_NOT_YET: set = set()
 
 
 def test_the_command_line_calls_only_the_api():
