@@ -1,4 +1,5 @@
-"""Least-squares identification of the plant's parameters from a measured log.
+"""Least-squares identification of the plant's parameters from a measured log, or from several
+logs together.
 
 Every signal x is passed through the state-variable filter H(s) = ω³/(s + ω)³ and through s·H and
 s²·H (:mod:`exotune.identification.filters`: measured signals with a first-order hold, a held
@@ -11,9 +12,14 @@ signal:
     joint   H[τ_c − τ_s] = J_j · s²H[θ_j] + c
     cuff    H[τ_c]       = K_c · H[θ_h − θ_j] + c
 
-(c: a sensor offset per equation, through H). A log starts in motion, not at rest: the filters'
-start-up transients lie in the span of the filter's modes e^{−ωt}, t·e^{−ωt} and t²·e^{−ωt}, which
-enter each regression as three more columns; the first 5/ω seconds are dropped besides. The
+(c: a sensor offset per equation, through H; H[1] is 1 plus a transient). A log starts in motion,
+not at rest: the filters' start-up transients lie in the span of the filter's modes e^{−ωt},
+t·e^{−ωt} and t²·e^{−ωt}, which enter each regression as three more columns; the first 5/ω seconds
+are dropped besides. Several logs are identified together by stacking their equations' rows, each
+log with its own offset and transients, filtered and delayed on its own
+(:mod:`exotune.identification.signals`). Each equation is followed by its diagnostics
+(:mod:`exotune.identification.diagnose`) and the filtered signals no later equation needs are
+dropped, so memory stays a few signals above the log's. The
 covariance of each equation's estimate is the sandwich of :mod:`exotune.identification.regress`
 (the filtered residual's autocovariance over 30/ω); what the hold leaves (a relative
 10⁻³·(ωT)³ + 10⁻⁷, :func:`~exotune.identification.filters.discretization_bound`) is added to the
@@ -32,10 +38,13 @@ import math
 import numpy as np
 
 from ..errors import ConfigError
+from ..numerics.threads import one_blas_thread
 from .data import MeasuredLog
-from .filters import discretization_bound, held_svf, svf, velocity_sign
-from .regress import CORRELATION_TIME_CONSTANTS, NotExcited, residual_covariance, solve
+from .diagnose import diagnose, fit_delays, regression, screen_delays
+from .filters import discretization_bound, svf
+from .regress import CORRELATION_TIME_CONSTANTS, Design, NotExcited
 from .result import EquationFit, ParameterEstimate, PlantEstimate
+from .signals import FilteredLogs
 from .validresult import ModelError
 
 __all__ = ["identify_plant", "identify_file", "parse_fix", "svf", "FRICTION", "MIN_T", "DEFAULT_FILTER_HZ", "TRANSIENT_TIME_CONSTANTS", "MIN_FIT_SAMPLES"]
@@ -93,16 +102,42 @@ def parse_fix(fix) -> dict:
     return out
 
 
-def identify_plant(log: MeasuredLog, filter_hz: float | None = None, *, friction: bool = False,
+def _as_logs(log) -> list:
+    """One log or several identified together: a list of MeasuredLog with the same columns, the
+    same kind of motor torque, the same delay and one sample rate (within 1e-4)."""
+    logs = [log] if isinstance(log, MeasuredLog) else list(log)
+    if not logs:
+        raise ConfigError("LOG.csv", "no log to identify")
+    first = logs[0]
+    for other in logs[1:]:
+        if set(other.signals) != set(first.signals):
+            diff = sorted(set(other.signals) ^ set(first.signals))
+            raise ConfigError(other.source, f"logs identified together need the same columns ({first.source} and "
+                              f"{other.source} differ in {', '.join(diff)})")
+        if abs(other.sample_rate_hz / first.sample_rate_hz - 1) > 1e-4:
+            raise ConfigError(other.source, f"sample rate {other.sample_rate_hz:.8g} Hz, {first.source} has "
+                              f"{first.sample_rate_hz:.8g} Hz: logs identified together need one rate")
+        if other.delay_samples != first.delay_samples:
+            raise ConfigError("--delay-s", f"{other.source} gives {other.delay_samples} samples of delay, "
+                              f"{first.source} {first.delay_samples}")
+    return logs
+
+
+@one_blas_thread
+def identify_plant(log, filter_hz: float | None = None, *, friction: bool = False,
                    fix=None) -> PlantEstimate:
-    """Identify the plant parameters a measured log determines, each equation on its own.
+    """Identify the plant parameters a measured log (or several logs together) determines, each
+    equation on its own.
 
     Parameters
     ----------
-    log : MeasuredLog
-        The signals (:func:`exotune.identification.read_log`); a log whose ``delay_samples`` is
-        None (``--delay-s auto``) has its delay estimated (whole samples up to 20 ms, the one with
-        the smallest motor-equation residual).
+    log : MeasuredLog or sequence of MeasuredLog
+        The signals (:func:`exotune.identification.read_log`); several logs (same columns, one
+        rate, one delay) are identified together: their equations' rows are stacked, each log
+        filtered on its own with its own sensor offsets and start-up transients, nothing
+        filtered or correlated across a log boundary. A log whose ``delay_samples`` is None
+        (``--delay-s auto``) has its delay estimated (whole samples up to 20 ms, the one with
+        the smallest motor-equation residual; one delay for every log).
     filter_hz : float, optional
         Corner of the state-variable filter [Hz] (default 20 Hz, at most a hundredth of the
         sample rate): a higher corner weights the plant's faster modes, a lower one filters more
@@ -117,114 +152,47 @@ def identify_plant(log: MeasuredLog, filter_hz: float | None = None, *, friction
     PlantEstimate
         The estimates with standard errors, covariances and fits; the parameters the log's
         columns cannot give (``missing``) and those an equation could not identify
-        (``not_identified``: no excitation, or not significant: within 3 SE of zero).
+        (``not_identified``: no excitation, or not significant: within 5 SE of zero).
 
     Raises
     ------
     ConfigError
-        A filter corner out of range, too short a log, a bad ``fix``, or a log that excites no
-        parameter at all.
+        A filter corner out of range, too short a log, a bad ``fix``, logs that cannot be
+        identified together, or a log that excites no parameter at all.
 
     References
     ----------
     docs/identification.md; paper eq. (5).
     """
     fixed = parse_fix(fix or {})
-    fs = log.sample_rate_hz
+    logs = _as_logs(log)
+    first = logs[0]
+    fs = first.sample_rate_hz
     fh = min(DEFAULT_FILTER_HZ, fs / 100) if filter_hz is None else filter_hz
     if not (isinstance(fh, (int, float)) and math.isfinite(fh) and 0 < fh <= fs / 4):
         raise ConfigError("--filter-hz", f"{filter_hz!r}: the filter corner must be in (0, {fs / 4:g}] Hz "
                           "(a quarter of the sample rate)")
-    auto = log.tau_m_held and log.delay_samples is None
-    max_delay = min(int(math.ceil(MAX_DELAY_S * fs)), log.samples // 10) if auto else (log.delay_samples or 0)
-    skip = max(int(math.ceil(TRANSIENT_TIME_CONSTANTS / (2 * math.pi * fh) * fs)), max_delay)
-    n = log.samples - skip
-    if n < MIN_FIT_SAMPLES:
-        raise ConfigError("t", f"{log.samples} samples leave {max(n, 0)} after the filter's transient "
-                          f"({skip} samples at {fh:g} Hz): at least {MIN_FIT_SAMPLES} are needed")
-    S = log.signals
-    cache: dict[str, tuple] = {}
-    state = {"delay": max_delay}
-
-    def f(expr: str, k: int) -> np.ndarray:
-        if expr == "motor_y":  # a held command (tau_cmd) is filtered as held, the measured τ_s as measured
-            return f("tau_s", 0) + f("tau_m", 0)
-        if expr == "tau_m" and log.tau_m_held:  # the command, applied `delay` samples later (zero state: shift after)
-            h, d = f("tau_cmd", 0), state["delay"]
-            return np.concatenate([np.zeros(d), h[: log.samples - d]])[skip:]
-        if expr not in cache:
-            with np.errstate(over="ignore", invalid="ignore"):
-                if expr == "tau_cmd":
-                    out = (held_svf(S["tau_cmd"], fs, fh),)
-                else:
-                    a = {"one": lambda: np.ones(log.samples), "sea_x": lambda: S["theta_j"] - S["theta_m"],
-                         "joint_y": lambda: S["tau_c"] - S["tau_s"], "cuff_x": lambda: S["theta_h"] - S["theta_j"],
-                         "fric": lambda: velocity_sign(S["theta_m"], fs, fh)}.get(expr, lambda: S[expr])()
-                    out = tuple(v[skip:] for v in svf(np.asarray(a, float), fs, fh, "foh"))
-            if not all(np.all(np.isfinite(v)) for v in out):
-                col = {"sea_x": "theta_j", "joint_y": "tau_c", "cuff_x": "theta_h"}.get(expr, expr)
-                raise ConfigError(col, "values too large for the filters (they overflow): check the units")
-            cache[expr] = out
-        return cache[expr][k]
-
-    with np.errstate(over="ignore", invalid="ignore"):
+    shortest = min(lg.samples for lg in logs)
+    auto = first.tau_m_held and first.delay_samples is None
+    max_delay = min(int(math.ceil(MAX_DELAY_S * fs)), shortest // 10) if auto else (first.delay_samples or 0)
+    skips = [max(int(math.ceil(TRANSIENT_TIME_CONSTANTS / (2 * math.pi * fh) * lg.sample_rate_hz)), max_delay)
+             for lg in logs]
+    for lg, skip in zip(logs, skips):
+        if lg.samples - skip < MIN_FIT_SAMPLES:
+            raise ConfigError("t", f"{lg.samples} samples leave {max(lg.samples - skip, 0)} after the filter's transient "
+                              f"({skip} samples at {fh:g} Hz): at least {MIN_FIT_SAMPLES} are needed"
+                              + (f" ({lg.source})" if len(logs) > 1 else ""))
+    sig = FilteredLogs(logs, fh, skips)
+    lag = int(math.ceil(CORRELATION_TIME_CONSTANTS * fs / (2 * math.pi * fh)))
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
         eqs = _equations(friction)
-        delay_info = None
-        if log.tau_m_held:
-            delay_info = _delay(log, f, state, eqs["motor"], fixed, skip, fs, fh, auto, max_delay)
-        est = _identify(log, S, f, n, fs, fh, skip, eqs, fixed, delay_info)
-        warnings, errors = _diagnose(est, f, fixed, _modes(skip, log.samples, fs, fh), friction)
+        delay_info, delay = None, 0
+        if first.tau_m_held:
+            delay_info = _delay(sig, eqs["motor"], fixed, fs, auto, max_delay, min(min(skips), shortest // 10))
+            delay = delay_info["samples"]
+        est, warnings, errors = _identify(logs, sig, eqs, fixed, delay, delay_info, lag, friction)
     return dataclasses.replace(est, warnings=tuple(warnings),
                                model_errors=tuple(ModelError(k, v, why) for k, v, why in errors))
-
-
-def _diagnose(est, f, fixed, modes, friction) -> tuple[list, list]:
-    """Model errors the fitting log shows (docs/identification.md#warnings): a neighbouring delay
-    with a smaller motor-equation residual, Coulomb friction significant in the motor equation
-    when it is not modelled, and errors in variables in the static equations (the reverse
-    regression, measurement noise on the other side, disagreeing beyond 3 standard errors).
-    Returns the warnings and (key, relative parameter change, cause) of each."""
-    warnings, errors = [], []
-    value = {p.key: p.value for p in est.parameters if not p.fixed}
-    lag = int(round(est.correlation_s * est.sample_rate_hz))
-    better = (est.delay or {}).get("better_delay")
-    if better:
-        warnings.append(f"wrong delay? the motor-equation residual is smaller with a delay of {better['samples']} samples "
-                        f"({better['rms_residual']:.3g} N·m against {est.delay['rms_residual']:.3g} N·m): check "
-                        "--delay-s, or use --delay-s auto")
-        errors += [(k, v, f"a delay of {better['samples']} samples fits the motor equation better")
-                   for k, v in better["shift"].items() if k in value]
-    if not friction and any({"motor_inertia", "motor_damping"} & set(ft.parameters) for ft in est.fits):
-        y, X, free = _regression(f, _equations(True)["motor"], fixed, modes)
-        try:
-            beta = solve(X, y)
-        except NotExcited:
-            beta = None
-        if beta is not None:
-            i = [k for k, _s, _u in free].index(FRICTION[0])
-            se = math.sqrt(residual_covariance(X, y - X @ beta, lag)[i, i])
-            if beta[i] > MIN_T * se:
-                warnings.append(f"friction? the motor-equation residual is correlated with sign(θ̇_m): Coulomb friction "
-                                f"F_c ≈ {beta[i]:.3g} ± {se:.2g} N·m ({beta[i] / se:.0f} standard errors); rerun with --friction")
-                errors += [(k, abs(b / value[k] - 1), f"Coulomb friction of {beta[i]:.3g} N·m, unmodelled")
-                           for (k, _s, _u), b in zip(free, beta) if k in value]
-    for fit in est.fits:
-        if len(fit.parameters) != 1 or fit.parameters[0] not in ("sea_stiffness", "cuff_stiffness"):
-            continue
-        key = fit.parameters[0]
-        y, x = (f("tau_s", 0), f("sea_x", 0)) if key == "sea_stiffness" else (f("tau_c", 0), f("cuff_x", 0))
-        try:
-            rev = 1.0 / solve(np.column_stack([y, np.ones_like(y), modes]), x)[0]
-        except NotExcited:
-            continue
-        rel, se = abs(rev / value[key] - 1), est[key].relative_std_error
-        if rel > 3 * se:
-            sym = est[key].symbol
-            warnings.append(f"sensor noise or bias? {sym} from the reverse regression is {rev:.6g} against {value[key]:.6g} "
-                            f"({100 * rel:.2g} %, {rel / se:.0f} standard errors): noise on the measured angles "
-                            f"biases {sym} low, noise on the torque high")
-            errors.append((key, rel, "errors in variables (the reverse regression differs)"))
-    return warnings, errors
 
 
 def _equations(friction: bool) -> dict:
@@ -237,43 +205,25 @@ def _equations(friction: bool) -> dict:
     return eqs
 
 
-def _regression(f, eq, fixed, modes):
-    """(left-hand side, free regressors with offset and modes, the free parameters) of one
-    equation, the fixed parameters moved to the left."""
-    pars, _needs, _unit, _text, regs, yname = eq
-    y = f(yname, 0).copy()
-    free, cols = [], []
-    for par, (e, k) in zip(pars, regs):
-        if par[0] in fixed:
-            y -= fixed[par[0]] * f(e, k)
-        else:
-            free.append(par)
-            cols.append(f(e, k))
-    return y, np.column_stack(cols + [f("one", 0), modes]), free
-
-
-def _modes(skip, samples, fs, fh):
-    wt = 2 * math.pi * fh * (np.arange(skip, samples) / fs)
-    return np.column_stack([np.exp(-wt), wt * np.exp(-wt), wt * wt * np.exp(-wt)])  # the filters' start-up transients
-
-
-def _delay(log, f, state, eq, fixed, skip, fs, fh, auto, max_delay) -> dict:
+def _delay(sig, eq, fixed, fs, auto, max_delay, reach) -> dict:
     """The delay of a held command: given, or (auto) the whole number of samples up to
-    :data:`MAX_DELAY_S` with the smallest motor-equation residual; with the residuals it explains."""
-    modes = _modes(skip, log.samples, fs, fh)
-    rms, betas = {}, {}
-    given = {0, max_delay} | ({max_delay - 1, max_delay + 1} & set(range(min(skip, log.samples // 10) + 1)))
-    for d in (range(max_delay + 1) if auto else sorted(given)):
-        state["delay"] = d
-        y, X, free = _regression(f, eq, fixed, modes)
-        try:
-            beta = solve(X, y)
-        except NotExcited:
-            continue
-        rms[d] = float(np.sqrt(np.mean((y - X @ beta) ** 2)))
-        betas[d] = {key: float(v) for (key, _s, _u), v in zip(free, beta)}
-    best = min(rms, key=rms.get) if (auto and rms) else max_delay
-    state["delay"] = best
+    :data:`MAX_DELAY_S` with the smallest motor-equation residual; with the residuals it explains
+    (the motor equation fitted at 0, the delay and its neighbours within ``reach``)."""
+    y0, cols, free = regression(sig, eq, fixed, 0)
+    held = sig.applied(0)
+    y_fixed = tuple(a - b for a, b in zip(y0, held))  # H[τ_s] less the fixed terms
+    try:
+        design = Design(cols, sig.modes())
+    except NotExcited:
+        design = None
+    best = max_delay
+    if auto and design is not None:
+        best = screen_delays(sig, design, y_fixed, max_delay)
+    delays = sorted({0, best} | ({best - 1, best + 1} & set(range(reach + 1 if not auto else max_delay + 1))))
+    fits = {} if design is None else fit_delays(sig, design, lambda d: tuple(
+        a + b for a, b in zip(y_fixed, sig.applied(d))), delays)
+    rms = {d: f[0] for d, f in fits.items()}
+    betas = {d: {key: float(v) for (key, _s, _u), v in zip(free, f[1])} for d, f in fits.items()}
     info = {"samples": best, "seconds": best / fs, "estimated": auto, "rms_residual": rms.get(best, math.nan),
             "rms_residual_without_delay": rms.get(0, math.nan), "unit": "N·m",
             "rms_residual_neighbours": {str(d): rms[d] for d in (best - 1, best + 1) if d in rms}}
@@ -284,13 +234,23 @@ def _delay(log, f, state, eq, fixed, skip, fs, fh, auto, max_delay) -> dict:
     return info
 
 
-def _identify(log, S, f, n, fs, fh, skip, eqs, fixed, delay_info) -> PlantEstimate:
-    """The regressions of :func:`identify_plant` (``f``: the filtered signals), each on its own."""
-    params, fits, missing, failed = [], [], [], []
-    modes = _modes(skip, log.samples, fs, fh)
-    lag = int(math.ceil(CORRELATION_TIME_CONSTANTS * fs / (2 * math.pi * fh)))
+# the filtered signals each equation (with its diagnostics) is the last to use: dropped after it
+_LAST_USE = {"motor": ("theta_m", "tau_cmd", "tau_m", "fric"), "sea": ("tau_s", "sea_x"), "joint": ("theta_j", "joint_y"),
+             "cuff": ("tau_c", "cuff_x")}
+
+
+def _identify(logs, sig, eqs, fixed, delay, delay_info, lag, friction) -> tuple:
+    """The regressions of :func:`identify_plant` (``sig``: the filtered signals), each on its own
+    and followed by its diagnostics (:func:`~exotune.identification.diagnose.diagnose`); each
+    equation's filtered signals are dropped once no later one needs them. Returns the estimate,
+    the warnings and the model errors."""
+    params, fits, missing, failed, warnings, errors = [], [], [], [], [], []
+    first = logs[0]
+    S = first.signals
+    fs, fh = first.sample_rate_hz, sig.fh
     disc = discretization_bound(fs, fh)
     attempted = 0
+    friction_eq = _equations(True)["motor"]
     for name, eq in eqs.items():
         pars, needs, off_unit, text, _regs, _y = eq
         lacking = [c for c in needs if c not in S and not (c == "tau_m" and "tau_cmd" in S)]
@@ -299,38 +259,62 @@ def _identify(log, S, f, n, fs, fh, skip, eqs, fixed, delay_info) -> PlantEstima
                         for key, _s, _u in pars if key not in fixed]
             continue
         params += [ParameterEstimate(key, sym, fixed[key], 0.0, unit, fixed=True) for key, sym, unit in pars if key in fixed]
-        y, Xf, free = _regression(f, eq, fixed, modes)
-        if not free:
-            continue
-        attempted += 1
-        what = " and ".join(sym for _k, sym, _u in free)
-        try:
-            full = solve(Xf, y)
-        except NotExcited as e:
-            failed += [(key, f"the log does not excite {what} ({e})", needs[0]) for key, _s, _u in free]
-            continue
-        r = y - Xf @ full
-        p = len(free)
-        cov = residual_covariance(Xf, r, lag)[:p, :p]
-        if name in _DYNAMIC:
-            cov = cov + np.diag((disc * full[:p]) ** 2)
-        y0 = y - modes @ full[p + 1:]  # the start-up transient removed, for the fit
-        tss = float(np.sum((y0 - y0.mean()) ** 2))
-        r2 = 1.0 - float(np.sum(r * r)) / tss if tss > 0 else math.nan
-        se = np.sqrt(np.diag(cov))
-        for (key, sym, unit), v, e in zip(free, full[:p], se):
-            if key != FRICTION[0] and not abs(v) >= MIN_T * e:
-                failed.append((key, f"not significant: {v:.3g} ± {e:.3g} {unit} (the log does not excite {sym})", needs[0]))
-            else:
-                params.append(ParameterEstimate(key, sym, float(v), float(e), unit))
-        fits.append(EquationFit(text, tuple(k for k, _s, _u in free), float(full[p]), off_unit, r2,
-                                float(np.sqrt(np.mean(r * r))), "N·m", tuple(tuple(float(c) for c in row) for row in cov)))
+        y, cols, free = regression(sig, eq, fixed, delay)
+        if free:
+            attempted += 1
+            new, record, bad = _fit_equation(name, text, off_unit, needs, y, cols, free, sig, lag, disc)
+            params += new
+            fits += record
+            failed += bad
+            w, e = diagnose(name, {q.key: q for q in new}, sig, friction_eq, fixed, friction, delay, lag, MIN_T,
+                            delay_info)
+            warnings += w
+            errors += e
+        for expr in _LAST_USE[name]:
+            sig.drop(expr)
     if attempted and not any(not q.fixed for q in params):
         key, why, column = failed[0]
         raise ConfigError(column, f"the log does not excite the plant ({key}: {why}): excite the joint over the "
                           "plant's bandwidth")
-    return PlantEstimate(tuple(params), tuple(fits), fs, n, float(fh), lag / fs, tuple(missing), log.source,
-                         log.rate_source, tuple((k, why) for k, why, _c in failed), delay_info)
+    est = PlantEstimate(tuple(params), tuple(fits), fs, sig.samples, float(fh), lag / fs, tuple(missing),
+                        " + ".join(lg.source for lg in logs), first.rate_source,
+                        tuple((k, why) for k, why, _c in failed), delay_info)
+    return est, warnings, errors
+
+
+def _fit_equation(name, text, off_unit, needs, y, cols, free, sig, lag, disc) -> tuple[list, list, list]:
+    """One equation's least squares: its parameters (those significant), its fit record, and the
+    parameters it could not identify with the reason and the column to name."""
+    what = " and ".join(sym for _k, sym, _u in free)
+    try:
+        design = Design(cols, sig.modes())
+        fit = design.fit(y)
+    except NotExcited as e:
+        return [], [], [(key, f"the log does not excite {what} ({e})", needs[0]) for key, _s, _u in free]
+    p = len(free)
+    cov = design.covariance(fit, lag)
+    if name in _DYNAMIC:
+        cov = cov + np.diag((disc * fit.beta) ** 2)
+    params, failed = [], []
+    for (key, sym, unit), v, e in zip(free, fit.beta, np.sqrt(np.diag(cov))):
+        if key != FRICTION[0] and not abs(v) >= MIN_T * e:
+            failed.append((key, f"not significant: {v:.3g} ± {e:.3g} {unit} (the log does not excite {sym})", needs[0]))
+        else:
+            params.append(ParameterEstimate(key, sym, float(v), float(e), unit))
+    record = EquationFit(text, tuple(k for k, _s, _u in free), float(fit.nuisance[0][0]), off_unit,
+                         _r2(y, fit, sig.modes()), fit.rms(), "N·m", tuple(tuple(float(c) for c in row) for row in cov[:p, :p]))
+    return params, [record], failed
+
+
+def _r2(y, fit, modes) -> float:
+    """R² of a fit, the start-up transients removed from the left-hand side, about each log's mean."""
+    tss = 0.0
+    for yi, c, M in zip(y, fit.nuisance, modes):
+        y0 = yi.copy()
+        y0[: M.shape[1]] -= c[1:] @ M
+        y0 -= y0.mean()
+        tss += float(np.dot(y0, y0))
+    return 1.0 - fit.rss() / tss if tss > 0 else math.nan
 
 
 def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = None,

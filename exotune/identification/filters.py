@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-__all__ = ["svf", "held_svf", "discretization_bound", "velocity_sign"]
+__all__ = ["svf", "svf_order", "held_svf", "discretization_bound", "velocity_sign"]
 
 
 @functools.lru_cache(maxsize=16)
@@ -55,12 +55,21 @@ def svf(x: np.ndarray, sample_rate_hz: float, filter_hz: float,
     return tuple(scipy.signal.lfilter(b, a, x) for b, a in _discrete(sample_rate_hz, filter_hz, hold))
 
 
+def svf_order(x: np.ndarray, sample_rate_hz: float, filter_hz: float, k: int, hold: str = "foh") -> np.ndarray:
+    """One of :func:`svf`'s outputs: s^k·H[x] (k = 0, 1, 2)."""
+    import scipy.signal
+
+    b, a = _discrete(sample_rate_hz, filter_hz, hold)[k]
+    return scipy.signal.lfilter(b, a, x)
+
+
 def held_svf(u: np.ndarray, sample_rate_hz: float, filter_hz: float) -> np.ndarray:
     """H_held[u] = H[u] + (T²/12)·s²H[u] of a command ``u`` held between samples (both filters
     exact for a held signal): the same operator as the first-order hold gives a measured smooth
     signal, to O((ωT)³) (module docstring)."""
-    h0, _h1, h2 = svf(u, sample_rate_hz, filter_hz, "zoh")
-    return h0 + h2 / (12.0 * sample_rate_hz ** 2)
+    h = svf_order(u, sample_rate_hz, filter_hz, 0, "zoh")
+    h += svf_order(u, sample_rate_hz, filter_hz, 2, "zoh") / (12.0 * sample_rate_hz ** 2)
+    return h
 
 
 def discretization_bound(sample_rate_hz: float, filter_hz: float) -> float:

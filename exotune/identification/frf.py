@@ -40,6 +40,7 @@ __all__ = ["frequency_responses", "applied_torque", "segment_length"]
 
 MIN_SEGMENT = 256
 AVERAGES = 8  # at least this many independent segments
+_SEGMENTS = 4  # Welch segments transformed at a time (memory: a few segments of every signal)
 
 
 def applied_torque(log, delay_samples: int) -> np.ndarray:
@@ -56,19 +57,46 @@ def segment_length(n: int) -> int:
     return int(max(MIN_SEGMENT, 2 ** int(math.floor(math.log2(max(n // AVERAGES, 2))))))
 
 
+_SEGMENTS = 4  # Welch segments transformed at a time (memory: a few segments of every signal)
+
+
+def _segments_fft(x: np.ndarray, nper: int, window: np.ndarray) -> np.ndarray:
+    """The spectra of Welch's segments of ``x`` (length ``nper``, half overlap, mean removed,
+    windowed), as rows: scipy.signal.welch's segments."""
+    import scipy.fft
+
+    frames = np.lib.stride_tricks.sliding_window_view(np.asarray(x, float), nper)[:: nper - nper // 2]
+    F = frames - frames.mean(axis=1, keepdims=True)
+    F *= window
+    return scipy.fft.rfft(F, axis=1, workers=2)
+
+
 def _h1(z, ys, fs, nper):
-    """H1 from z to each y, its coherence, and the frequencies."""
+    """H1 from z to each y (``ys``: functions of a sample range making that part of each signal),
+    its coherence, and the frequencies: Welch averages (Hann, half overlap, constant detrend, as
+    scipy.signal.csd) of the segments' spectra, each signal transformed once, :data:`_SEGMENTS`
+    segments at a time (float64: the responses span decades)."""
     import scipy.signal
 
-    kw = {"fs": fs, "nperseg": nper, "window": "hann", "detrend": "constant"}
-    f, pzz = scipy.signal.welch(z, **kw)
+    window = scipy.signal.get_window("hann", nper)
+    step = nper - nper // 2
+    nseg = (z.size - nper) // step + 1
+    nf = nper // 2 + 1
+    pzz = np.zeros(nf)
+    pzy, pyy = [np.zeros(nf, complex) for _ in ys], [np.zeros(nf) for _ in ys]
+    for a in range(0, nseg, _SEGMENTS):
+        lo, hi = a * step, (min(a + _SEGMENTS, nseg) - 1) * step + nper
+        Z = _segments_fft(z[lo:hi], nper, window)
+        pzz += np.sum(Z.real ** 2 + Z.imag ** 2, axis=0)
+        for j, y in enumerate(ys):
+            Y = _segments_fft(y(lo, hi), nper, window)
+            pzy[j] += np.sum(np.conj(Z) * Y, axis=0)
+            pyy[j] += np.sum(Y.real ** 2 + Y.imag ** 2, axis=0)
     out = []
-    for y in ys:
-        _f, pzy = scipy.signal.csd(z, y, **kw)
-        _f, pyy = scipy.signal.welch(y, **kw)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out.append((pzy / pzz, np.abs(pzy) ** 2 / (pzz * pyy)))
-    return f, out
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for a, b in zip(pzy, pyy):
+            out.append((a / pzz, np.abs(a) ** 2 / (pzz * b)))
+    return np.fft.rfftfreq(nper, 1.0 / fs), out
 
 
 def _error(g2, nd):
@@ -96,15 +124,22 @@ def frequency_responses(log, est) -> tuple[FrequencyResponse, ...]:
     nper = segment_length(n)
     nd = n // nper
     val = {p.key: p.value for p in est.parameters}
-    series = {"theta_m": S["theta_m"], "tau_s": S["tau_s"]}
+    def column(c):
+        return lambda lo, hi: S[c][lo:hi]
+
+    def difference(a, b):
+        return lambda lo, hi: S[a][lo:hi] - S[b][lo:hi]
+
+    series = {"theta_m": column("theta_m"), "tau_s": column("tau_s")}  # each made a block at a time
     if "theta_j" in S:
-        series["theta_j"], series["sea_x"] = S["theta_j"], S["theta_j"] - S["theta_m"]
+        series["theta_j"], series["sea_x"] = column("theta_j"), difference("theta_j", "theta_m")
     if "tau_c" in S:
-        series["tau_c"], series["joint_u"] = S["tau_c"], S["tau_c"] - S["tau_s"]
+        series["tau_c"], series["joint_u"] = column("tau_c"), difference("tau_c", "tau_s")
     if "theta_h" in S and "theta_j" in S and "tau_c" in S:
-        series["cuff_x"] = S["theta_h"] - S["theta_j"]
+        series["cuff_x"] = difference("theta_h", "theta_j")
     names = list(series)
-    f, h = _h1(z - z.mean(), [np.asarray(series[k], float) for k in names] + [np.gradient(z) * fs], fs, nper)
+    rate = np.gradient(z) * fs
+    f, h = _h1(z - z.mean(), [series[k] for k in names] + [lambda lo, hi: rate[lo:hi]], fs, nper)
     H = dict(zip(names, h))
     # the instrument's power centroid in each bin: a strong line between bins is read at its own frequency
     with np.errstate(invalid="ignore"):

@@ -1,15 +1,33 @@
-"""Least squares for one equation of the plant and the covariance of its estimate.
+"""Least squares for one equation of the plant over one or several logs, and the covariance of its
+estimate.
 
-The residual of a regression between filtered signals is itself filtered (sensor noise through
-H, sH and s²H): strongly correlated over a few filter time constants 1/ω, so the textbook
-covariance σ²(XᵀX)⁻¹ is far too small. The covariance here is the sandwich
-(XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ with Σ the residual's autocovariance: estimated from the whole residual up
-to lag L = :data:`CORRELATION_TIME_CONSTANTS`/ω (the filter's correlation length, in samples
-L·fs) and tapered by a Parzen window (so that the Toeplitz Σ stays positive semi-definite), and
-applied to the regressors by convolution. It assumes the residual stationary and independent of
-the regressors' own fluctuations (sensor noise, also in closed loop where the command depends on
-past measurements: tests/identification/test_coverage.py measures the coverage), and covers no
-model error (friction when not modelled, a wrong delay).
+**The regression.** The unknowns are the equation's free parameters (common to every log) and,
+per log, a sensor offset and the three start-up transients of the filters (the nuisance columns,
+zero outside their log: nothing is filtered, correlated or fitted across a log boundary). The
+normal equations are accumulated log by log from the columns scaled to unit maximum (one matrix
+product per log; no n×n matrix, no copy of a log beyond its scaled columns), solved, and refined
+once with the explicit residual (the refinement restores the accuracy a QR factorization would
+give: noise-free estimates come back to 1e-9). The condition number of the scaled columns is the
+square root of the scaled normal matrix's: beyond √:data:`MAX_CONDITION` the log does not excite
+the parameters.
+
+**The covariance.** The residual of a regression between filtered signals is itself filtered
+(sensor noise through H, sH and s²H): strongly correlated over a few filter time constants 1/ω,
+so the textbook covariance σ²(XᵀX)⁻¹ is far too small. The covariance here is the sandwich
+(XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ with Σ the residual's autocovariance (block-diagonal over the logs),
+estimated from the whole residual up to lag L = :data:`CORRELATION_TIME_CONSTANTS`/ω (the filter's
+correlation length, in samples L·fs; pooled over the logs) and tapered by a Parzen window (so that
+the Toeplitz Σ stays positive semi-definite), and per parameter at least the Newey–West (HAC)
+variance of the same estimate with the same window. By Frisch–Waugh–Lovell the parameters' block
+of the sandwich is that of the free columns with the nuisance columns projected out, so only
+those columns are transformed: each quadratic form XᵀΣX is a sum over frequency of the columns'
+spectra weighted by the kernel's spectrum (FFTs of length ≥ n + L per log, so the circular
+correlation equals the linear one at every lag used). The FFTs run in float32 on columns scaled
+to unit maximum (the standard errors are statistical estimates; float32 changes them by about
+1e-6 relative), the products and sums in float64. It assumes the residual stationary and
+independent of the regressors' own fluctuations (sensor noise, also in closed loop where the
+command depends on past measurements: tests/identification/test_coverage.py measures the
+coverage), and covers no model error (friction when not modelled, a wrong delay).
 
 References
 ----------
@@ -18,70 +36,275 @@ docs/identification.md#standard-errors.
 
 from __future__ import annotations
 
+import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NotExcited", "solve", "residual_covariance", "MAX_CONDITION", "CORRELATION_TIME_CONSTANTS"]
+__all__ = ["NotExcited", "Design", "Fit", "MAX_CONDITION", "CORRELATION_TIME_CONSTANTS", "parzen"]
 
 MAX_CONDITION = 1e10  # of the scaled normal equations: beyond it, the log does not excite the parameters
 CORRELATION_TIME_CONSTANTS = 30.0  # the residual's autocovariance is summed up to 30/ω
+_WORKERS = 2  # threads of each FFT
+_BINS = 1 << 16  # frequency bins converted to float64 at a time
 
 
 class NotExcited(ValueError):
     """The log does not excite a regression's parameters (the message says how)."""
 
 
-def solve(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Least squares with scaled columns.
+def parzen(lags: np.ndarray, L: int) -> np.ndarray:
+    """The Parzen lag window over |lag| ≤ L."""
+    x = np.abs(lags) / (L + 1.0)
+    return np.where(x <= 0.5, 1 - 6 * x ** 2 + 6 * x ** 3, 2 * (1 - x) ** 3)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """One right-hand side fitted: the free parameters ``beta``, each log's nuisance coefficients
+    ``nuisance`` (offset first, then the transients), the ``residual`` per log."""
+
+    beta: np.ndarray
+    nuisance: tuple[np.ndarray, ...]
+    residual: tuple[np.ndarray, ...]
+
+    @property
+    def samples(self) -> int:
+        return int(sum(r.size for r in self.residual))
+
+    def rss(self) -> float:
+        return float(sum(np.dot(r, r) for r in self.residual))
+
+    def rms(self) -> float:
+        return math.sqrt(self.rss() / max(self.samples, 1))
+
+
+class Design:
+    """The scaled columns of one equation's regression over the logs and their normal equations,
+    ready for several right-hand sides (:meth:`fit`). ``free``: the free parameters' columns, each
+    a sequence of per-log arrays; ``modes``: per log the filters' start-up transients (3, K_log),
+    zero beyond their K_log samples. Each log's unknowns are the free parameters (shared) and its
+    own sensor offset (a constant column: the filtered constant H[1] differs from 1 by a
+    transient, in the modes' span) and three transient coefficients.
 
     Raises
     ------
     NotExcited
         A regressor identically zero, a condition number beyond √MAX_CONDITION, or an overflow.
     """
-    scale = np.max(np.abs(X), axis=0)  # (not the 2-norm: it overflows for values near 1e300)
-    if np.any(scale == 0):
-        raise NotExcited("a regressor is identically zero")
-    Xs = X / scale
-    s = np.linalg.svd(Xs, compute_uv=False)
-    if s[-1] == 0 or s[0] / s[-1] > math.sqrt(MAX_CONDITION):
-        raise NotExcited(f"condition number {s[0] / max(s[-1], 1e-300):.3g} of the regression")
-    beta, *_ = np.linalg.lstsq(Xs, y, rcond=None)
-    beta = beta / scale
-    if not np.all(np.isfinite(beta)):
-        raise NotExcited("the estimates overflow: check the log's units")
-    return beta
+
+    q = 4  # per log: the offset and three transients
+
+    def __init__(self, free, modes):
+        self.p, self.logs = len(free), len(modes)
+        with np.errstate(over="ignore", invalid="ignore"):
+            fmax = np.array([max(float(np.max(np.abs(part))) if part.size else 0.0 for part in col) for col in free])
+        if np.any(fmax == 0):
+            raise NotExcited("a regressor is identically zero")
+        if not np.all(np.isfinite(fmax)):
+            raise NotExcited("the estimates overflow: check the log's units")
+        # each log's transients as orthonormal rows (the same span: the normal equations stay
+        # well conditioned; the three transients alone are collinear to a condition number ~1e8)
+        self.modes, self.back, scale = [], [], [fmax]
+        for M in modes:
+            mmax = np.max(np.abs(M), axis=1) if M.size else np.ones(M.shape[0])
+            mmax[~(mmax > 0)] = 1.0
+            Q, R = np.linalg.qr((M / mmax[:, None]).T)
+            self.modes.append(np.ascontiguousarray(Q.T))
+            self.back.append(R)
+            scale.append(np.r_[1.0, mmax])
+        self.scale = np.concatenate(scale)
+        # the columns themselves (no copy), each divided by its maximum in every product; copied
+        # scaled only where products of raw values could overflow or underflow
+        moderate = (fmax >= 1e-100) & (fmax <= 1e100)
+        self.div = np.where(moderate, fmax, 1.0)
+        self.cols = [[col[i] if moderate[j] else col[i] / fmax[j] for j, col in enumerate(free)] for i in range(self.logs)]
+        P = self.unknowns
+        G = np.zeros((P, P))
+        T = np.eye(P)  # from the transients' scaled rows to the orthonormal ones: X_scaled = X_orthonormal·T
+        for i in range(self.logs):
+            idx = self.index(i)
+            G[np.ix_(idx, idx)] += self._gram(i)
+            T[np.ix_(idx[self.p + 1:], idx[self.p + 1:])] = self.back[i]
+        if not np.all(np.isfinite(G)):
+            raise NotExcited("the estimates overflow: check the log's units")
+        lam = np.linalg.eigvalsh(T.T @ G @ T)  # the condition of the columns scaled to unit maximum
+        cond = math.sqrt(lam[-1] / lam[0]) if lam[0] > 0 else math.inf
+        if not cond <= math.sqrt(MAX_CONDITION):
+            raise NotExcited(f"condition number {cond:.3g} of the regression")
+        self.G = G
+        self.Ginv = np.linalg.inv(G)
+        e = 1.0 / np.sqrt(np.diag(G))
+        lam = np.linalg.eigvalsh(G * np.outer(e, e))
+        self.refine = not lam[0] > 0 or lam[-1] / lam[0] > 1e4  # (equilibrated) normal equations exact to ~1e-12 below
+
+    def _gram(self, i: int) -> np.ndarray:
+        """Log ``i``'s scaled normal matrix (p + 4 square)."""
+        C, M, p, d = self.cols[i], self.modes[i], self.p, self.div
+        K = M.shape[1]
+        g = np.zeros((p + self.q, p + self.q))
+        for a in range(p):
+            for b in range(a, p):
+                g[a, b] = np.dot(C[a], C[b]) / (d[a] * d[b])
+            g[a, p] = C[a].sum() / d[a]
+            g[a, p + 1:] = M @ C[a][:K] / d[a]
+        g[p, p] = C[0].size
+        g[p, p + 1:] = M.sum(axis=1)
+        g[p + 1:, p + 1:] = M @ M.T
+        return np.triu(g) + np.triu(g, 1).T
+
+    def index(self, i: int) -> np.ndarray:
+        """The unknowns of log ``i``'s columns: the free parameters, then its offset and transients."""
+        return np.r_[np.arange(self.p), self.p + self.q * i + np.arange(self.q)]
+
+    @property
+    def n(self) -> int:
+        return int(sum(C[0].size for C in self.cols))
+
+    @property
+    def unknowns(self) -> int:
+        return self.p + self.q * self.logs
+
+    def dot(self, i: int, v: np.ndarray) -> np.ndarray:
+        """Log ``i``'s columns (scaled) times ``v``: (p + 4,)."""
+        C, M = self.cols[i], self.modes[i]
+        return np.concatenate([[np.dot(c, v) / d for c, d in zip(C, self.div)], [v.sum()], M @ v[: M.shape[1]]])
+
+    def combine(self, i: int, z: np.ndarray) -> np.ndarray:
+        """Σ_j z_j·column_j of log ``i`` (``z``: the p + 4 coefficients of its columns, scaled;
+        or a (p + 4, k) matrix for k combinations, returned as rows (k, n_log))."""
+        C, M = self.cols[i], self.modes[i]
+        p, K = self.p, M.shape[1]
+        Z = np.asarray(z, float).reshape(p + self.q, -1)
+        out = np.empty((Z.shape[1], C[0].size))
+        for k in range(Z.shape[1]):
+            out[k] = Z[p, k]
+            for c, d, zj in zip(C, self.div, Z[:p, k]):
+                out[k] += (zj / d) * c
+            out[k, :K] += Z[p + 1:, k] @ M
+        return out if np.ndim(z) > 1 else out[0]
+
+    def _xty(self, ys) -> np.ndarray:
+        b = np.zeros(self.unknowns)
+        for i, y in enumerate(ys):
+            b[self.index(i)] += self.dot(i, y)
+        return b
+
+    def _residual(self, ys, z) -> list:
+        return [y - self.combine(i, z[self.index(i)]) for i, y in enumerate(ys)]
+
+    def fit(self, y) -> Fit:
+        """Least squares of ``y`` (per-log arrays) on the columns (refined once when the normal
+        equations are ill-conditioned).
+
+        Raises
+        ------
+        NotExcited
+            The estimates overflow.
+        """
+        z = self.Ginv @ self._xty(y)
+        r = self._residual(y, z)
+        if self.refine:
+            dz = self.Ginv @ self._xty(r)
+            z = z + dz
+            r = [ri - self.combine(i, dz[self.index(i)]) for i, ri in enumerate(r)]
+        theta = z.copy()
+        for i, R in enumerate(self.back):  # the transients' coefficients on their scaled rows
+            m = self.index(i)[self.p + 1:]
+            theta[m] = np.linalg.solve(R, z[m])
+        theta /= self.scale
+        if not np.all(np.isfinite(theta)):
+            raise NotExcited("the estimates overflow: check the log's units")
+        nuis = tuple(theta[self.p + self.q * i: self.p + self.q * (i + 1)] for i in range(self.logs))
+        return Fit(theta[: self.p], nuis, tuple(r))
+
+    def covariance(self, fit: Fit, lag: int, which=None) -> np.ndarray:
+        """The covariance of ``fit.beta[which]`` (default: every free parameter): the sandwich with
+        the residual's autocovariance up to ``lag`` samples, at least the Newey–West variance
+        (module docstring); scaled by n/(n − unknowns)."""
+        which = list(range(self.p)) if which is None else list(which)
+        n, P = self.n, self.unknowns
+        L = int(max(1, min(lag, n // 4)))
+        # the chosen parameters' columns with every other column projected out (Frisch–Waugh–Lovell):
+        # X·G⁻¹[:, J]·(G⁻¹[J, J])⁻¹, per log; (F̃ᵀF̃)⁻¹ = G⁻¹[J, J]
+        Ainv = self.Ginv[np.ix_(which, which)]
+        W = np.linalg.solve(Ainv.T, self.Ginv[:, which].T).T
+        ms = [_fft_length(C[0].size + L) for C in self.cols]
+        acov = np.zeros(L + 1)
+        for r, m in zip(fit.residual, ms):
+            acov += _autocovariance(r, m, L)
+        acov /= n
+        meat, hac = np.zeros((len(which), len(which))), np.zeros((len(which), len(which)))
+        for i, (r, m) in enumerate(zip(fit.residual, ms)):
+            Ft = self.combine(i, W[self.index(i)])  # (|J|, n_log)
+            meat += _weighted_products(Ft, _lag_spectrum(acov, L, m), m)
+            Ft *= r
+            hac += _weighted_products(Ft, _parzen_spectrum(L, m), m)
+        f = n / max(n - P, 1)
+        C, H = Ainv @ meat @ Ainv * f, Ainv @ hac @ Ainv * f
+        d = np.sqrt(np.maximum(np.diag(H) / np.maximum(np.diag(C), 1e-300), 1.0))
+        sc = self.scale[which]
+        return (C * np.outer(d, d)) / np.outer(sc, sc)
 
 
-def _parzen(lags: np.ndarray, L: int) -> np.ndarray:
-    x = np.abs(lags) / (L + 1.0)
-    return np.where(x <= 0.5, 1 - 6 * x ** 2 + 6 * x ** 3, 2 * (1 - x) ** 3)
+@functools.lru_cache(maxsize=64)
+def _fft_length(n: int) -> int:
+    import scipy.fft
+
+    return int(scipy.fft.next_fast_len(n, real=True))
 
 
-def residual_covariance(X: np.ndarray, r: np.ndarray, lag: int) -> np.ndarray:
-    """Covariance of the least-squares estimate of ``X β = y`` with residual ``r``: the sandwich
-    (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹, Σ the residual's autocovariance up to ``lag`` samples, Parzen-tapered
-    (module docstring); scaled by n/(n − p) for the fitted parameters."""
-    import scipy.signal
+def _autocovariance(x: np.ndarray, m: int, L: int) -> np.ndarray:
+    """Σ_t x(t) x(t + ℓ) for ℓ = 0…L (``m`` ≥ x.size + L: no wrap), by float32 FFTs of ``x``
+    scaled to unit maximum."""
+    import scipy.fft
 
-    n, p = X.shape
-    L = int(max(1, min(lag, n // 4)))
-    m = 1 << int(math.ceil(math.log2(2 * n)))
-    R = np.fft.rfft(r, m)
-    acov = np.fft.irfft(R * np.conj(R), m)[: L + 1] / n
-    lags = np.arange(-L, L + 1)
-    kern = acov[np.abs(lags)] * _parzen(lags, L)
-    scale = np.max(np.abs(X), axis=0)
-    Xs = X / scale
-    G = Xs * r[:, None]  # the scores
-    w = _parzen(lags, L)
-    Ainv = np.linalg.inv(Xs.T @ Xs)
-    meats = []
-    for V, k in ((Xs, kern), (G, w)):
-        Z = np.column_stack([scipy.signal.fftconvolve(V[:, j], k, mode="same") for j in range(p)])
-        M = V.T @ Z
-        meats.append(Ainv @ (0.5 * (M + M.T)) @ Ainv * (n / max(n - p, 1)))
-    C, hac = meats
-    d = np.sqrt(np.maximum(np.diag(hac) / np.maximum(np.diag(C), 1e-300), 1.0))
-    return (C * np.outer(d, d)) / np.outer(scale, scale)
+    s = float(np.max(np.abs(x))) if x.size else 0.0
+    if not s > 0 or not math.isfinite(s):
+        return np.zeros(L + 1)
+    X = scipy.fft.rfft((x / s).astype(np.float32), m, workers=_WORKERS)
+    P = X.real * X.real + X.imag * X.imag
+    return scipy.fft.irfft(P, m, workers=_WORKERS)[: L + 1].astype(float) * (s * s)
+
+
+def _lag_spectrum(acov: np.ndarray, L: int, m: int) -> np.ndarray:
+    """The spectrum (real, length m//2 + 1) of the Parzen-tapered autocovariance at lags −L…L,
+    placed circularly in ``m`` samples (a float32 FFT of the kernel scaled to unit maximum)."""
+    import scipy.fft
+
+    k = acov * parzen(np.arange(L + 1), L)
+    s = float(np.max(np.abs(k)))
+    if not s > 0:
+        return np.zeros(m // 2 + 1)
+    c = np.zeros(m, np.float32)
+    c[: L + 1] = k / s
+    c[m - L:] = c[1: L + 1][::-1]
+    return scipy.fft.rfft(c, workers=_WORKERS).real.astype(float) * s
+
+
+@functools.lru_cache(maxsize=16)
+def _parzen_spectrum(L: int, m: int) -> np.ndarray:
+    return _lag_spectrum(np.ones(L + 1), L, m)
+
+
+def _weighted_products(V: np.ndarray, K: np.ndarray, m: int) -> np.ndarray:
+    """Σ_ℓ k(ℓ) Σ_t v_a(t) v_b(t + ℓ) for the rows of ``V`` (zero outside), from their spectra:
+    (1/m) Σ_f K(f) Re(conj(V̂_a(f)) V̂_b(f)) over the whole circle (the half spectrum counted
+    twice but for the zero and Nyquist bins); float32 FFTs of the rows scaled to unit maximum,
+    float64 products."""
+    import scipy.fft
+
+    s = np.max(np.abs(V), axis=1)
+    s[~(s > 0)] = 1.0
+    Vh = scipy.fft.rfft((V / s[:, None]).astype(np.float32), m, axis=1, workers=_WORKERS)
+    w = np.full(K.size, 2.0 / m)
+    w[0] = 1.0 / m
+    if m % 2 == 0:
+        w[-1] = 1.0 / m
+    wK = w * K
+    M = np.zeros((V.shape[0], V.shape[0]))
+    for a in range(0, K.size, _BINS):  # float64 products, a block of bins at a time
+        R = Vh[:, a: a + _BINS].view(np.float32).astype(float)  # re, im of each bin
+        M += (R * np.repeat(wK[a: a + _BINS], 2)) @ R.T
+    return M * np.outer(s, s)

@@ -30,19 +30,20 @@ import math
 import numpy as np
 
 from ..errors import ConfigError
+from ..numerics.threads import one_blas_thread
 from .data import MIN_SAMPLES, MeasuredLog
 from .filters import velocity_sign
 from .frf import applied_torque, frequency_responses
 from .validresult import CONFIDENCE_Z, ModelError, OutputFit, ResidualTest, Validation
 
-__all__ = ["validate_plant", "simulate_outputs", "residual_test", "nrmse_percent", "LAGS"]
+__all__ = ["validate_plant", "simulate_outputs", "residual_test", "nrmse_percent", "FreeResponses", "LAGS"]
 
 LAGS = 25  # residual tests at lags 0…25 (cross-correlation −25…25), as MATLAB's resid
 
 
 def _mode_response(lam: complex, u: np.ndarray, T: float, hold: str) -> np.ndarray:
     """z' = λ z + u, from the zero state, sampled exactly for ``u`` held ("zoh") or linear
-    between samples ("foh")."""
+    between samples ("foh"); real arithmetic for a real λ."""
     import scipy.signal
 
     a = lam * T
@@ -52,48 +53,105 @@ def _mode_response(lam: complex, u: np.ndarray, T: float, hold: str) -> np.ndarr
     else:
         g, g1 = T * np.expm1(a) / a, T * (np.expm1(a) - a) / (a * a)
     b = [0.0, g] if hold == "zoh" else [g1, g - g1]
+    if np.imag(lam) == 0:
+        return scipy.signal.lfilter(np.real(b), [1.0, -np.real(e)], u)
     return scipy.signal.lfilter(np.asarray(b, complex), [1.0, -e], u.astype(complex))
 
 
 def _simulate(A, B, c, inputs, fs, t):
     """Output c·x of ẋ = A x + Σ B[:, j] u_j (``inputs``: (u_j, hold)) from the zero state, and
-    the free responses (constant, ramp, e^{λt}) to project out; None if A is not diagonalizable."""
+    the free responses (constant, ramp, e^{λt}: :class:`FreeResponses`) to project out; None if
+    A is not diagonalizable.
+    One recursion per mode and kind of hold (the inputs of one hold summed first); a complex
+    pair's second mode is the first's conjugate."""
     lam, V = np.linalg.eig(A)
     if np.linalg.cond(V) > 1e8:
         return None, None
     G, cv = np.linalg.solve(V, B), c @ V
     y = np.zeros(t.size)
     for i, li in enumerate(lam):
-        for j, (u, hold) in enumerate(inputs):
-            if G[i, j] != 0 and cv[i] != 0:
-                y += np.real(cv[i] * G[i, j] * _mode_response(li, u, 1 / fs, hold))
-    free = [np.ones_like(t), t - t.mean()]
-    for li in lam:
-        if abs(li) > 1e-9 * max(1.0, np.max(np.abs(lam))) and li.imag >= 0:
-            with np.errstate(under="ignore"):
+        if li.imag < 0 and np.any(np.isclose(lam[:i], np.conj(li), rtol=1e-12, atol=0)):
+            continue  # the conjugate of a mode already run: its output is the conjugate
+        pair = 2.0 if li.imag > 0 else 1.0
+        for hold in ("zoh", "foh"):
+            js = [j for j, (_u, h) in enumerate(inputs) if h == hold and G[i, j] != 0 and cv[i] != 0]
+            if not js:
+                continue
+            drive = sum(G[i, j] * inputs[j][0] for j in js)
+            if li.imag == 0:
+                drive = np.real(drive) if np.all(np.isreal(G[i, js])) else drive
+            z = _mode_response(li, drive, 1 / fs, hold)
+            y += pair * np.real(cv[i] * z)
+    modes = [li for li in lam if abs(li) > 1e-9 * max(1.0, np.max(np.abs(lam))) and li.imag >= 0]
+    return y, FreeResponses(t.size, fs, tuple(modes))
+
+
+class FreeResponses:
+    """The free responses of a simulated model over ``n`` samples at ``fs``: a constant, a ramp
+    (t − t̄; unless ``ramp`` is False) and, per mode λ (Im λ ≥ 0), e^{λt} (its real and imaginary
+    parts), each scaled to unit maximum; made a block of samples at a time (never as n×k
+    columns)."""
+
+    BLOCK = 1 << 16
+
+    def __init__(self, n: int, fs: float, modes=(), ramp: bool = True):
+        self.n, self.fs, self.modes, self.ramp = n, fs, tuple(modes), ramp
+        T = (n - 1) / fs
+        peaks = [max(1.0, math.exp(min(li.real * T, 700.0))) for li in self.modes]
+        self.scale = [1.0] + ([max(T / 2, 1e-300)] if ramp else []) + [
+            p for li, p in zip(self.modes, peaks) for _ in range(2 if li.imag > 0 else 1)]
+
+    def block(self, lo: int, hi: int) -> np.ndarray:
+        """The columns at samples lo…hi−1, as rows (k, hi − lo)."""
+        t = np.arange(lo, hi) / self.fs
+        rows = [np.ones_like(t)] + ([t - (self.n - 1) / (2 * self.fs)] if self.ramp else [])
+        for li in self.modes:
+            with np.errstate(under="ignore", over="ignore"):
                 ex = np.exp(li * t)
-            free += [ex.real] + ([ex.imag] if li.imag > 0 else [])
-    return y, np.column_stack(free)
+            rows += [ex.real] + ([ex.imag] if li.imag > 0 else [])
+        return np.array(rows) / np.asarray(self.scale)[:, None]
+
+    def project_out(self, e: np.ndarray) -> None:
+        """Remove from ``e`` (in place) its least-squares projection onto the free responses: the
+        normal equations (SVD, rank-deficient directions dropped as lstsq does), refined once."""
+        k = len(self.scale)
+        G, b = np.zeros((k, k)), np.zeros(k)
+        spans = [(lo, min(lo + self.BLOCK, self.n)) for lo in range(0, self.n, self.BLOCK)]
+        for lo, hi in spans:
+            F = self.block(lo, hi)
+            G += F @ F.T
+            b += F @ e[lo:hi]
+        if not np.all(np.isfinite(G)):
+            return
+        c = np.linalg.lstsq(G, b, rcond=1e-13)[0]
+        b = np.zeros(k)
+        for lo, hi in spans:
+            F = self.block(lo, hi)
+            b += F @ (e[lo:hi] - c @ F)
+        c = c + np.linalg.lstsq(G, b, rcond=1e-13)[0]
+        for lo, hi in spans:
+            e[lo:hi] -= c @ self.block(lo, hi)
 
 
 def nrmse_percent(y, y_sim, free) -> tuple[float, np.ndarray]:
-    """100·‖y − ŷ‖/‖y − ȳ‖ after the error's projection onto the free responses, and that error."""
+    """100·‖y − ŷ‖/‖y − ȳ‖ after the error's projection onto the free responses
+    (:class:`FreeResponses`, or None), and that error."""
     e = y - y_sim
     if free is not None:
-        e = e - free @ np.linalg.lstsq(free, e, rcond=None)[0]
+        free.project_out(e)
     d = float(np.linalg.norm(y - y.mean()))
     return (100.0 * float(np.linalg.norm(e)) / d if d > 0 else math.nan), e
 
 
-def simulate_outputs(log: MeasuredLog, val: dict, delay: int, filter_hz: float) -> list[tuple]:
+def simulate_outputs(log: MeasuredLog, val: dict, delay: int, filter_hz: float):
     """(output, inputs text, measured, simulated, free responses, input for the residual test)
     of each output the log's columns and the parameters ``val`` (key → value) allow
-    (``filter_hz``: the identification's corner, for sign(θ̇_m) as the friction term had it)."""
+    (``filter_hz``: the identification's corner, for sign(θ̇_m) as the friction term had it); a
+    generator: one output's arrays at a time."""
     S, fs = log.signals, log.sample_rate_hz
     t = np.arange(log.samples) / fs
     tau_m = applied_torque(log, delay)
     hold = "zoh" if log.tau_m_held else "foh"
-    out = []
     fric = []
     if "coulomb_friction" in val:
         fric = [(-val["coulomb_friction"] * velocity_sign(S["theta_m"], fs, filter_hz), "foh")]
@@ -102,7 +160,8 @@ def simulate_outputs(log: MeasuredLog, val: dict, delay: int, filter_hz: float) 
         jm, bm = val["motor_inertia"], val["motor_damping"]
         y, free = _simulate(np.array([[0, 1], [0, -bm / jm]]), np.array([[0, 0, 0], [1 / jm, 1 / jm, 1 / jm]]),
                             np.array([1.0, 0.0]), [(tau_m, hold), (S["tau_s"], "foh")] + fric, fs, t)
-        out.append(("θ_m", f"{tm_in}, τ_s", S["theta_m"], y, free, tau_m))
+        yield "θ_m", f"{tm_in}, τ_s", S["theta_m"], y, free, tau_m
+        y = free = None
         if {"sea_stiffness", "joint_inertia"} <= set(val) and "tau_c" in S and "theta_j" in S:
             ks, jj = val["sea_stiffness"], val["joint_inertia"]
             A = np.array([[0, 1, 0, 0], [-ks / jm, -bm / jm, ks / jm, 0], [0, 0, 0, 1], [ks / jj, 0, -ks / jj, 0]])
@@ -111,38 +170,84 @@ def simulate_outputs(log: MeasuredLog, val: dict, delay: int, filter_hz: float) 
             B[3, 1] = 1 / jj
             y, free = _simulate(A, B, np.array([0.0, 0, 1, 0]), [(tau_m, hold), (S["tau_c"], "foh")] + fric, fs, t)
             if y is not None:
-                out.append(("θ_j", f"{tm_in}, τ_c (through the spring)", S["theta_j"], y, free, tau_m))
+                yield "θ_j", f"{tm_in}, τ_c (through the spring)", S["theta_j"], y, free, tau_m
+            y = free = None
     for key, col, x, text in (("sea_stiffness", "tau_s", ("theta_j", "theta_m"), "θ_j − θ_m"),
                               ("cuff_stiffness", "tau_c", ("theta_h", "theta_j"), "θ_h − θ_j")):
         if key in val and col in S and all(c in S for c in x):
             dx = S[x[0]] - S[x[1]]
-            out.append((col.replace("tau_", "τ_"), text, S[col], val[key] * dx, np.ones((dx.size, 1)), dx))
-    return out
+            yield col.replace("tau_", "τ_"), text, S[col], val[key] * dx, FreeResponses(dx.size, fs, ramp=False), dx
 
 
-def residual_test(output: str, input_name: str, e: np.ndarray, u: np.ndarray, lags: int = LAGS) -> ResidualTest:
+def residual_test(output: str, input_name: str, e: np.ndarray, u: np.ndarray, lags: int = LAGS,
+                  input_stats=None) -> ResidualTest:
     """Autocorrelation of ``e`` (lags 0…M, bound 2.58/√N) and its cross-correlation with ``u``
-    (lags −M…M, bound 2.58·√(Σ_k ρ_e(k) ρ_u(k))/√N for coloured signals, summed over |k| < N/20)."""
+    (lags −M…M, bound 2.58·√(Σ_k ρ_e(k) ρ_u(k))/√N for coloured signals, summed over |k| < N/20).
+    Correlations by float32 FFTs of the signals scaled to unit maximum (the bounds are ~1e-2, the
+    FFTs' error ~1e-6), of length ≥ N + N/20 (no wrap at any lag used); ``input_stats``: a cache
+    for ``u``'s spectrum and autocorrelation (under ``input_name``) when several outputs share an
+    input."""
     n = e.size
-    e, u = e - e.mean(), u - u.mean()
-    m = 1 << int(math.ceil(math.log2(2 * n)))
-    E, U = np.fft.rfft(e, m), np.fft.rfft(u, m)
-    see, suu = float(np.dot(e, e)), float(np.dot(u, u))
+    e = e - e.mean()  # (a copy: the caller's error is left as it is)
+    K = max(lags, n // 20)
+    m = _fast(n + K + 1)
+    see = float(np.dot(e, e))
+    U, ruu, suu = _input_spectrum(u, m, K, input_stats, input_name)
     if see == 0 or suu == 0:
         z = np.zeros(lags + 1)
         return ResidualTest(output, input_name, np.arange(lags + 1), z, CONFIDENCE_Z / math.sqrt(n),
                             np.arange(-lags, lags + 1), np.zeros(2 * lags + 1), math.inf, 0)
-    ree = np.fft.irfft(E * np.conj(E), m) / see
-    ruu = np.fft.irfft(U * np.conj(U), m) / suu
-    reu = np.fft.irfft(U * np.conj(E), m) / math.sqrt(see * suu)  # Σ e(k) u(k + τ): the input leads at τ < 0
-    K = max(lags, n // 20)
+    E, se = _rfft32(e, m)
+    ree = _irfft(E.real * E.real + E.imag * E.imag, m, K) * (se * se / see)
+    reu = _irfft(U * np.conj(E), m, lags + 1, lags) * (se / math.sqrt(see))  # Σ e(k) u(k + τ): the input leads at τ < 0
     k = np.r_[np.arange(K), np.arange(-K + 1, 0)]
-    bound = CONFIDENCE_Z * math.sqrt(max(float(np.sum(ree[k] * ruu[k])), 1.0) / n)
+    bound = CONFIDENCE_Z * math.sqrt(max(float(np.sum(ree[np.abs(k)] * ruu[np.abs(k)])), 1.0) / n)
     cl = np.arange(-lags, lags + 1)
     cross = -reu[cl]  # positive lag: e(t) against u(t − lag), the input leading
     peak = int(cl[int(np.argmax(np.abs(cross)))])
     return ResidualTest(output, input_name, np.arange(lags + 1), ree[: lags + 1], CONFIDENCE_Z / math.sqrt(n),
                         cl, cross, bound, peak)
+
+
+def _fast(n: int) -> int:
+    import scipy.fft
+
+    return int(scipy.fft.next_fast_len(n, real=True))
+
+
+def _rfft32(x: np.ndarray, m: int):
+    import scipy.fft
+
+    s = float(np.max(np.abs(x))) or 1.0
+    return scipy.fft.rfft((x / s).astype(np.float32), m, workers=2), s
+
+
+def _irfft(X: np.ndarray, m: int, keep: int, negative: int = 0) -> np.ndarray:
+    """The inverse transform's lags 0…keep−1 (and −negative…−1 at the end, as a circular array
+    of keep + negative values: index −k is lag −k)."""
+    import scipy.fft
+
+    out = scipy.fft.irfft(X, m, workers=2)
+    return np.concatenate([out[:keep], out[m - negative:]]).astype(float) if negative else out[:keep].astype(float)
+
+
+def _input_spectrum(u: np.ndarray, m: int, K: int, cache, name: str):
+    """(spectrum scaled by its norm, normalized autocorrelation at lags 0…K−1, Σu²) of the
+    centred input, cached in ``cache`` under its name."""
+    key = (name, m, K)
+    if cache is not None and key in cache:
+        return cache[key]
+    u = u - u.mean()
+    suu = float(np.dot(u, u))
+    if suu == 0:
+        out = (None, None, 0.0)
+    else:
+        U, su = _rfft32(u, m)
+        ruu = _irfft(U.real * U.real + U.imag * U.imag, m, K) * (su * su / suu)
+        out = (U * np.float32(su / math.sqrt(suu)), ruu, suu)
+    if cache is not None:
+        cache[key] = out
+    return out
 
 
 def _slice(log: MeasuredLog, a: int, b: int) -> MeasuredLog:
@@ -192,6 +297,7 @@ def _kfold(log, est, folds, refit, delay) -> list[OutputFit]:
             for name, (inputs, v) in by_output.items()]
 
 
+@one_blas_thread
 def validate_plant(est, log: MeasuredLog, validation_log: MeasuredLog | None = None, folds: int | None = None,
                    refit=None):
     """Validate the estimate ``est`` (a :class:`PlantEstimate` identified from ``log``): on
@@ -215,13 +321,13 @@ fold's remaining parts (as ``est`` was made: ``identify_plant`` with its keyword
     if validation_log is not None and validation_log.tau_m_held != log.tau_m_held:
         raise ConfigError("--validate", "the validation log must log the motor torque as the fitting log does "
                           "(tau_m or tau_cmd)")
-    sims = simulate_outputs(data, _values(est), delay, est.filter_hz)
-    tests, fits = [], []
-    for name, inputs, y, ys, free, u in sims:
+    tests, fits, stats = [], [], {}
+    for name, inputs, y, ys, free, u in simulate_outputs(data, _values(est), delay, est.filter_hz):
         pct, e = nrmse_percent(y, ys, free)
+        ys = free = None
         if validation_log is not None:
             fits.append(OutputFit(name, inputs, pct, y.size, "held-out log " + validation_log.source))
-        tests.append(residual_test(name, "τ_m" if inputs.startswith("τ_m") else inputs, e, u))
+        tests.append(residual_test(name, "τ_m" if inputs.startswith("τ_m") else inputs, e, u, input_stats=stats))
     if folds is not None:
         if not (isinstance(folds, int) and 2 <= folds and log.samples // folds >= MIN_SAMPLES * 2):
             raise ConfigError("--folds", f"{folds!r}: at least 2 folds of {2 * MIN_SAMPLES} samples each are needed")
