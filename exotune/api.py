@@ -456,13 +456,14 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
 def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
              sample_rate_hz: float | None = None, friction: bool = False, fix=None, validate=None,
              folds: int | None = None, frf_csv=None, plots=None) -> PlantEstimate:
-    """The plant parameters a measured log determines, with standard errors (the library twin of
-    ``exotune identify``).
+    """The plant parameters a measured log (or several together) determines, with standard errors
+    (the library twin of ``exotune identify``).
 
     Parameters
     ----------
-    source : path or Mapping
-        A CSV log (docs/identification.md#the-log), or its columns as a mapping name → sequence.
+    source : path or Mapping, or a list of them
+        A CSV log (docs/identification.md#the-log), or its columns as a mapping name → sequence;
+        a list: several logs identified together (same columns, one rate; paths, or mappings).
     out : path, optional
         Write the ``plant`` and ``uncertainty`` sections (YAML) there (a path source only; only
         when every estimate is physical).
@@ -512,12 +513,16 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
     """
     from .identification import identify_file, identify_plant, log_from_columns
 
-    if isinstance(source, Mapping):
+    several = isinstance(source, (list, tuple))
+    if isinstance(source, Mapping) or (several and source and all(isinstance(x, Mapping) for x in source)):
         if any(x is not None for x in (out, validate, folds, frf_csv, plots)):
             raise TypeError("identify writes its sections and validates only for a log file (give a path)")
-        return identify_plant(log_from_columns(dict(source), "<mapping>", delay_s, sample_rate_hz), filter_hz=filter_hz,
-                              friction=friction, fix=fix)
-    check_outputs([source, validate], outputs={"-o": out, "--frf-csv": frf_csv}, out_dirs={"--plots": plots})
+        maps = list(source) if several else [source]
+        logs = [log_from_columns(dict(m), f"<mapping {i + 1}>" if several else "<mapping>", delay_s, sample_rate_hz)
+                for i, m in enumerate(maps)]
+        return identify_plant(logs if several else logs[0], filter_hz=filter_hz, friction=friction, fix=fix)
+    check_outputs([*(source if several else [source]), validate], outputs={"-o": out, "--frf-csv": frf_csv},
+                  out_dirs={"--plots": plots})
     r = identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
                       friction=friction, fix=fix, validate=validate, folds=folds)
     if frf_csv is not None:
@@ -535,30 +540,12 @@ def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, p
            rms_nm: float | None = None, period_s: float | None = None, periods: int | None = None,
            duration_s: float | None = None, lines: str = "all", seed: int | None = None):
     """A Schroeder-phased multisine command for an identification experiment (the library twin of
-    ``exotune excite``).
-
-    Parameters
-    ----------
-    out : path, optional
-        Write the command there as CSV (columns ``t`` [s], ``tau_cmd`` [N·m], the log format
-        ``identify`` reads) and its description beside it (``EXC.json``: units, lines, phases,
-        crest factor).
-    sample_rate_hz : float
-        The rig's sample rate [Hz].
-    f_lo_hz, f_hi_hz : float
-        The band [Hz], 0 < f_lo < f_hi < sample_rate_hz/2.
-    peak_nm, rms_nm : float
-        The amplitude [N·m], as the peak or the RMS of the command (exactly one).
-    period_s : float, optional
-        The period [s] (default 1/f_lo): the frequency resolution is its inverse.
-    periods : int, optional
-        How many periods (default: whole periods making 20 s, at least two).
-    duration_s : float, optional
-        Instead of ``periods``: the whole periods within this duration [s].
-    lines : {"all", "odd", "random-odd", "log"}
-        Which harmonics of 1/period in the band are excited.
-    seed : int, optional
-        The draw of ``random-odd``.
+    ``exotune excite``): the keywords are the command's options, checked and computed by
+    :func:`exotune.identification.schroeder_multisine` (band 0 < f_lo_hz < f_hi_hz <
+    sample_rate_hz/2 [Hz], amplitude as ``peak_nm`` or ``rms_nm`` [N·m], ``period_s`` (default
+    1/f_lo), ``periods`` or ``duration_s``, ``lines`` all/odd/random-odd/log, ``seed``). With
+    ``out``, the command is written there as CSV (``t`` [s], ``tau_cmd`` [N·m], the log format
+    ``identify`` reads) and described beside it (``EXC.json``: units, lines, phases, crest factor).
 
     Returns
     -------

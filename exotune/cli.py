@@ -333,7 +333,7 @@ def codegen_cmd(controller_file, out_dir, allow_uncertified):
 
 
 @cli.command("identify")
-@click.argument("log_file", metavar="LOG.csv")
+@click.argument("log_files", metavar="LOG.csv [LOG2.csv ...]", nargs=-1, required=True)
 @click.option("-o", "--out", "out", default=None, metavar="PLANT.yaml",
               help="Write the plant and uncertainty sections (YAML) for a design file.")
 @click.option("--delay-s", "delay_s", default=None, metavar="S|auto",
@@ -353,12 +353,14 @@ def codegen_cmd(controller_file, out_dir, allow_uncertified):
 @click.option("--frf-csv", "frf_csv", default=None, metavar="FRF.csv", help="Write the measured frequency responses (CSV).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.pass_context
-def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, friction, fix, validate, folds, plots_dir,
+def identify_cmd(ctx, log_files, out, delay_s, filter_hz, sample_rate_hz, friction, fix, validate, folds, plots_dir,
                  frf_csv, as_json):
-    """Identify the plant (J_m, B_m, K_s, J_j, K_c) from a measured log (docs/identification.md).
+    """Identify the plant (J_m, B_m, K_s, J_j, K_c) from a measured log, or from several logs
+    together (docs/identification.md).
 
     LOG.csv holds a header row of column names and one row per sample (t, theta_m, tau_s, tau_m or
-    tau_cmd; theta_j, tau_c, theta_h for more parameters). Each equation is identified on its own.
+    tau_cmd; theta_j, tau_c, theta_h for more parameters); several logs (same columns, one rate)
+    are stacked, each filtered on its own. Each equation is identified on its own.
     Exit code 0: every parameter the columns allow identified; 1: some parameter not identified
     (the others are written) or not physical (≤ 0: nothing is written); 2: bad input, or a log
     that excites no parameter. The written uncertainty is the larger of 3 SE and the model error
@@ -371,8 +373,9 @@ def identify_cmd(ctx, log_file, out, delay_s, filter_hz, sample_rate_hz, frictio
         delay = number_value("--delay-s", delay, False)
     fh = None if filter_hz is None else number_value("--filter-hz", filter_hz, True)
     fs = None if sample_rate_hz is None else number_value("--sample-rate-hz", sample_rate_hz, True)
-    r = identify(log_file, out, delay_s=delay, filter_hz=fh, sample_rate_hz=fs, friction=friction, fix=fix,
-                 validate=validate, folds=folds, frf_csv=frf_csv, plots=plots_dir)
+    r = identify(list(log_files) if len(log_files) > 1 else log_files[0], out, delay_s=delay, filter_hz=fh,
+                 sample_rate_hz=fs, friction=friction, fix=fix, validate=validate, folds=folds, frf_csv=frf_csv,
+                 plots=plots_dir)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.complete:
         ctx.exit(1)

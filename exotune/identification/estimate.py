@@ -320,15 +320,18 @@ def _r2(y, fit, modes) -> float:
 def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = None,
                   sample_rate_hz: float | None = None, friction: bool = False, fix=None,
                   validate=None, folds: int | None = None) -> PlantEstimate:
-    """``exotune identify``: read a log (:func:`exotune.identification.read_log`), identify the
-    plant (:func:`identify_plant`) and, with ``out``, write the ``plant`` and ``uncertainty``
-    sections it gives as YAML (atomically): the identified and fixed parameters, when every
-    estimate is physical and at least one was identified.
+    """``exotune identify``: read a log, or several (:func:`exotune.identification.read_log`),
+    identify the plant (:func:`identify_plant`; several logs together), validate it
+    (:func:`~exotune.identification.validate.validate_plant`: on the first log, or on
+    ``validate``) and, with ``out``, write the ``plant`` and ``uncertainty`` sections it gives as
+    YAML (atomically): the identified and fixed parameters, when every estimate is physical and at
+    least one was identified.
 
     Parameters
     ----------
-    log_path : str or os.PathLike
-        The measured log (CSV, docs/identification.md#the-log).
+    log_path : str or os.PathLike, or a sequence of them
+        The measured log (CSV, docs/identification.md#the-log), or several identified together
+        (same columns, one rate, one delay).
     out : str or os.PathLike, optional
         The YAML file to write (sections to paste into a design file).
     delay_s : float or "auto"
@@ -344,7 +347,7 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     validate : str or os.PathLike, optional
         A second log (same columns and rate) to validate on (:func:`~exotune.identification.validate.validate_plant`).
     folds : int, optional
-        k-fold cross-validation on the log itself (contiguous blocks).
+        k-fold cross-validation on the log itself (contiguous blocks; one log only).
 
     Returns
     -------
@@ -353,7 +356,7 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     Raises
     ------
     ConfigError
-        Bad input.
+        Bad input (``--folds`` with several logs among it).
 
     References
     ----------
@@ -367,9 +370,15 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     fix = parse_fix(fix or {})  # bad input before the log is read
     from .validate import validate_plant
 
-    log = read_log(log_path, delay_s=delay_s, sample_rate_hz=sample_rate_hz)
+    paths = [log_path] if isinstance(log_path, (str, bytes)) or hasattr(log_path, "__fspath__") else list(log_path)
+    if len(paths) > 1 and folds is not None:
+        raise ConfigError("--folds", "k-fold cross-validation cuts one log into blocks; with several logs, validate "
+                          "on a log not fitted on (--validate LOG.csv)")
+    logs = [read_log(p, delay_s=delay_s, sample_rate_hz=sample_rate_hz) for p in paths]
     other = None if validate is None else read_log(validate, delay_s=delay_s, sample_rate_hz=sample_rate_hz)
-    est = identify_plant(log, filter_hz=filter_hz, friction=friction, fix=fix)
+    est = identify_plant(logs, filter_hz=filter_hz, friction=friction, fix=fix)
+    log = logs[0]
+    del logs[1:]
     if other is not None and est.delay is not None:  # the delay found on the fitting log
         other = dataclasses.replace(other, delay_samples=est.delay["samples"])
     fh = est.filter_hz
