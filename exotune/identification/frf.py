@@ -40,6 +40,7 @@ __all__ = ["frequency_responses", "applied_torque", "segment_length"]
 
 MIN_SEGMENT = 256
 AVERAGES = 8  # at least this many independent segments
+PERIODIC_AVERAGES = 4  # segments of whole periods of a periodic command: at least this many
 _SEGMENTS = 4  # Welch segments transformed at a time (memory: a few segments of every signal)
 
 
@@ -57,39 +58,71 @@ def segment_length(n: int) -> int:
     return int(max(MIN_SEGMENT, 2 ** int(math.floor(math.log2(max(n // AVERAGES, 2))))))
 
 
-_SEGMENTS = 4  # Welch segments transformed at a time (memory: a few segments of every signal)
+def command_period(z: np.ndarray, start: int = 0, checks: int = 32) -> int | None:
+    """The period [samples] of a command that repeats exactly from sample ``start`` on (a
+    multisine of ``exotune excite``, logged as it was played), or None: the first sample's value
+    recurring at P with z[start + P:] equal to z[start:] shifted (at most ``checks`` candidates)."""
+    x = z[start:]
+    if x.size < 8:
+        return None
+    for P in (np.flatnonzero(x[1: x.size // 2 + 1] == x[0]) + 1)[:checks]:
+        if P >= 2 and np.array_equal(x[P:], x[:-P]):
+            return int(P)
+    return None
 
 
-def _segments_fft(x: np.ndarray, nper: int, window: np.ndarray) -> np.ndarray:
-    """The spectra of Welch's segments of ``x`` (length ``nper``, half overlap, mean removed,
-    windowed), as rows: scipy.signal.welch's segments."""
+def _segmentation(z: np.ndarray, start: int, n: int):
+    """(segment length, step, first sample, averages, bin stride) of the spectra. Welch's Hann
+    segments of a power of two samples with half overlap; for an exactly periodic command of P
+    samples, segments of m ≥ 2 whole periods (at least :data:`MIN_SEGMENT` samples), half overlap,
+    read at the lines only (every m-th bin): a Hann window spreads a line over its two neighbouring
+    bins only, so no line leaks into another's bin (Hann segments of arbitrary length mix
+    neighbouring lines, which biases a response that changes between them), and a disturbance
+    that is not periodic (the person's own torque) still leaks little; the first period (the
+    plant's transient) left out where at least :data:`PERIODIC_AVERAGES` segments remain."""
+    P = command_period(z, start)
+    if P is not None:
+        m = max(2, 2 * int(math.ceil(MIN_SEGMENT / (2 * P))))  # even: the half-overlap step is whole periods
+        seg = m * P
+        first = start + P if (n - start - P) // seg >= PERIODIC_AVERAGES else start
+        if (n - first) // seg >= PERIODIC_AVERAGES:
+            nseg = (n - first - seg) // (seg // 2) + 1
+            return seg, seg // 2, first, nseg, (n - first) // seg, m
+    nper = segment_length(n)
+    step = nper - nper // 2
+    return nper, step, 0, (n - nper) // step + 1, n // nper, 1
+
+
+def _segments_fft(x: np.ndarray, nper: int, step: int, window: np.ndarray) -> np.ndarray:
+    """The spectra of the segments of ``x`` (length ``nper`` every ``step`` samples, mean removed,
+    windowed), as rows: scipy.signal.welch's segments for a Hann window and half overlap."""
     import scipy.fft
 
-    frames = np.lib.stride_tricks.sliding_window_view(np.asarray(x, float), nper)[:: nper - nper // 2]
+    frames = np.lib.stride_tricks.sliding_window_view(np.asarray(x, float), nper)[::step]
     F = frames - frames.mean(axis=1, keepdims=True)
     F *= window
     return scipy.fft.rfft(F, axis=1, workers=2)
 
 
-def _h1(z, ys, fs, nper):
+def _h1(z, ys, fs, segmentation):
     """H1 from z to each y (``ys``: functions of a sample range making that part of each signal),
-    its coherence, and the frequencies: Welch averages (Hann, half overlap, constant detrend, as
-    scipy.signal.csd) of the segments' spectra, each signal transformed once, :data:`_SEGMENTS`
-    segments at a time (float64: the responses span decades)."""
+    its coherence, and the frequencies: averages over the Hann-windowed segments
+    ``segmentation`` (length, step, first sample, count; :func:`_segmentation`) of their spectra
+    (Welch's, constant detrend, as scipy.signal.csd), each signal transformed once,
+    :data:`_SEGMENTS` segments at a time (float64: the responses span decades)."""
     import scipy.signal
 
+    nper, step, first, nseg, _nd, _every = segmentation
     window = scipy.signal.get_window("hann", nper)
-    step = nper - nper // 2
-    nseg = (z.size - nper) // step + 1
     nf = nper // 2 + 1
     pzz = np.zeros(nf)
     pzy, pyy = [np.zeros(nf, complex) for _ in ys], [np.zeros(nf) for _ in ys]
     for a in range(0, nseg, _SEGMENTS):
-        lo, hi = a * step, (min(a + _SEGMENTS, nseg) - 1) * step + nper
-        Z = _segments_fft(z[lo:hi], nper, window)
+        lo, hi = first + a * step, first + (min(a + _SEGMENTS, nseg) - 1) * step + nper
+        Z = _segments_fft(z[lo:hi], nper, step, window)
         pzz += np.sum(Z.real ** 2 + Z.imag ** 2, axis=0)
         for j, y in enumerate(ys):
-            Y = _segments_fft(y(lo, hi), nper, window)
+            Y = _segments_fft(y(lo, hi), nper, step, window)
             pzy[j] += np.sum(np.conj(Z) * Y, axis=0)
             pyy[j] += np.sum(Y.real ** 2 + Y.imag ** 2, axis=0)
     out = []
@@ -121,8 +154,8 @@ def frequency_responses(log, est) -> tuple[FrequencyResponse, ...]:
     delay = int(est.delay["samples"]) if est.delay else 0
     z = applied_torque(log, delay)
     n = z.size
-    nper = segment_length(n)
-    nd = n // nper
+    segmentation = _segmentation(z, delay if log.tau_m_held else 0, n)
+    nd, every = segmentation[4], segmentation[5]
     val = {p.key: p.value for p in est.parameters}
     def column(c):
         return lambda lo, hi: S[c][lo:hi]
@@ -139,12 +172,14 @@ def frequency_responses(log, est) -> tuple[FrequencyResponse, ...]:
         series["cuff_x"] = difference("theta_h", "theta_j")
     names = list(series)
     rate = np.gradient(z) * fs
-    f, h = _h1(z - z.mean(), [series[k] for k in names] + [lambda lo, hi: rate[lo:hi]], fs, nper)
+    f, h = _h1(z - z.mean(), [series[k] for k in names] + [lambda lo, hi: rate[lo:hi]], fs, segmentation)
     H = dict(zip(names, h))
     # the instrument's power centroid in each bin: a strong line between bins is read at its own frequency
     with np.errstate(invalid="ignore"):
         f_eff = np.arcsin(np.clip(np.abs(h[-1][0]) / fs, 0, 1)) * fs / (2 * np.pi)
-    keep = (f > 0) & (f <= fs / 4) & np.isfinite(f_eff) & (f_eff > 0)
+    # a bin without the instrument's power (its ratio is noise) stays at its own frequency
+    f_eff = np.where(np.abs(f_eff - f) > f[1] - f[0], f, f_eff)
+    keep = (f > 0) & (f <= fs / 4) & np.isfinite(f_eff) & (f_eff > 0) & (np.arange(f.size) % every == 0)
     f = f_eff[keep]
     order = np.argsort(f)
     f = f[order]
