@@ -177,8 +177,8 @@ def frequency_responses(log, est) -> tuple[FrequencyResponse, ...]:
     # the instrument's power centroid in each bin: a strong line between bins is read at its own frequency
     with np.errstate(invalid="ignore"):
         f_eff = np.arcsin(np.clip(np.abs(h[-1][0]) / fs, 0, 1)) * fs / (2 * np.pi)
-    # a bin without the instrument's power (its ratio is noise) stays at its own frequency
-    f_eff = np.where(np.abs(f_eff - f) > f[1] - f[0], f, f_eff)
+    if every > 1:  # a periodic command's lines lie on their bins (and a bin without one stays there)
+        f_eff = f
     keep = (f > 0) & (f <= fs / 4) & np.isfinite(f_eff) & (f_eff > 0) & (np.arange(f.size) % every == 0)
     f = f_eff[keep]
     order = np.argsort(f)
