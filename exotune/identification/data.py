@@ -283,7 +283,7 @@ def _parse_blocks(fh, header, types, size) -> dict:
         n += k
         if not chunk:
             break
-    return {h: (out[h][:n].copy() if h in out else np.empty(0)) for h in types}
+    return {h: (out[h][:n] if h in out else np.empty(0)) for h in types}  # (a view: a copy would cost a pass)
 
 
 def _float64_values(a) -> np.ndarray:

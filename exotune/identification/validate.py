@@ -100,20 +100,24 @@ class FreeResponses:
         peaks = [max(1.0, math.exp(min(li.real * T, 700.0))) for li in self.modes]
         self.scale = [1.0] + ([max(T / 2, 1e-300)] if ramp else []) + [
             p for li, p in zip(self.modes, peaks) for _ in range(2 if li.imag > 0 else 1)]
+        with np.errstate(under="ignore", over="ignore"):
+            self.base = [np.exp(li * np.arange(min(self.BLOCK, n)) / fs) for li in self.modes]
 
     def block(self, lo: int, hi: int) -> np.ndarray:
-        """The columns at samples lo…hi−1, as rows (k, hi − lo)."""
+        """The columns at samples lo…hi−1, as rows (k, hi − lo): e^{λt} as e^{λ t_lo}·e^{λ(t − t_lo)},
+        the second factor computed once for all blocks."""
         t = np.arange(lo, hi) / self.fs
         rows = [np.ones_like(t)] + ([t - (self.n - 1) / (2 * self.fs)] if self.ramp else [])
-        for li in self.modes:
+        for li, base in zip(self.modes, self.base):
             with np.errstate(under="ignore", over="ignore"):
-                ex = np.exp(li * t)
+                ex = base[: hi - lo] * np.exp(li * lo / self.fs)
             rows += [ex.real] + ([ex.imag] if li.imag > 0 else [])
         return np.array(rows) / np.asarray(self.scale)[:, None]
 
     def project_out(self, e: np.ndarray) -> None:
         """Remove from ``e`` (in place) its least-squares projection onto the free responses: the
-        normal equations (SVD, rank-deficient directions dropped as lstsq does), refined once."""
+        normal equations (SVD, rank-deficient directions dropped as lstsq does), refined once when
+        they are ill-conditioned."""
         k = len(self.scale)
         G, b = np.zeros((k, k)), np.zeros(k)
         spans = [(lo, min(lo + self.BLOCK, self.n)) for lo in range(0, self.n, self.BLOCK)]
@@ -124,11 +128,14 @@ class FreeResponses:
         if not np.all(np.isfinite(G)):
             return
         c = np.linalg.lstsq(G, b, rcond=1e-13)[0]
-        b = np.zeros(k)
-        for lo, hi in spans:
-            F = self.block(lo, hi)
-            b += F @ (e[lo:hi] - c @ F)
-        c = c + np.linalg.lstsq(G, b, rcond=1e-13)[0]
+        d = 1.0 / np.sqrt(np.maximum(np.diag(G), 1e-300))
+        lam = np.linalg.eigvalsh(G * np.outer(d, d))
+        if not lam[0] > 0 or lam[-1] / lam[0] > 1e4:
+            b = np.zeros(k)
+            for lo, hi in spans:
+                F = self.block(lo, hi)
+                b += F @ (e[lo:hi] - c @ F)
+            c = c + np.linalg.lstsq(G, b, rcond=1e-13)[0]
         for lo, hi in spans:
             e[lo:hi] -= c @ self.block(lo, hi)
 
