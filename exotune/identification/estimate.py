@@ -27,7 +27,7 @@ dynamic equations' variances (J_m, B_m, J_j); the static equations (K_s, K_c) ha
 
 References
 ----------
-docs/identification.md; paper eq. (5).
+docs/identification.md; paper eq. (5) (the plant's equations).
 """
 
 from __future__ import annotations
