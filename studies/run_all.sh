@@ -11,6 +11,7 @@
 #          (e) pipeline     — optimize → export → certify → simulate on one design
 #          (f) paper        — the paper's Table II and Figs. 4, 5, 6, 8, 9 reproduced, with comparison pages
 #          (g) sampled_optimum — optimize with a sample rate against a dense sampled-data reference
+#          (h) identification — excite → simulated rig → identify → validate → analyze with the plant
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PYTHON="${PYTHON:-python}"
@@ -24,6 +25,8 @@ echo "== studies/pipeline.py" >&2
 "$PYTHON" studies/pipeline.py
 echo "== studies/sampled_optimum.py" >&2
 "$PYTHON" studies/sampled_optimum.py   # optimize with a rate against a dense reference (minutes)
+echo "== studies/identification_workflow.py" >&2
+"$PYTHON" studies/identification_workflow.py
 echo "== studies/paper_figures.py" >&2
 "$PYTHON" studies/paper_figures.py   # no sweep: analysis + two 1 kHz simulations (about 20 s)
-echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate,pipeline,sampled_optimum,paper}/" >&2
+echo "results written to results/{alpha_delay,dob_delay,cuff_inertia,sample_rate,pipeline,sampled_optimum,identification,paper}/" >&2

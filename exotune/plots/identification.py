@@ -29,10 +29,13 @@ def bode_overlay(fr, axes=None):
     am.loglog(f, np.abs(M), "C1-", label="identified model")
     am.set_ylabel(f"|{fr.output_name} / ({fr.input_name})| [{fr.unit}]")
     am.set_title(f"{fr.name}: {fr.output_name} / ({fr.input_name}), {fr.averages} averages")
-    ph = np.degrees(np.angle(H))
+    # phases unwrapped: the model's along frequency, the measured one as the model's plus the
+    # (wrapped) difference, so that neither jumps by 360° between ±180°
+    pm = np.unwrap(np.angle(M))
+    ph = np.degrees(pm + np.angle(H * np.conj(M)))
     ap.fill_between(f, ph - np.degrees(z), ph + np.degrees(z), color="C0", alpha=0.2, lw=0)
     ap.semilogx(f, np.where(ok, ph, np.nan), "C0.-", ms=3)
-    ap.semilogx(f, np.degrees(np.angle(M)), "C1-")
+    ap.semilogx(f, np.degrees(pm), "C1-")
     ap.set_ylabel("phase [deg]")
     ac.semilogx(f, fr.coherence, "C2-")
     ac.axhline(0.9, color="k", ls=":", lw=0.8)
