@@ -10,12 +10,7 @@ import numpy as np
 from ..units import fmt_num
 from .metrics import AXIS_UNITS, MAX_PAIR_AXES, aggregate
 
-__all__ = ["summary_md", "value_runs", "display_path", "format_value", "safe_name", "metric_label"]
-
-
-def format_value(x, digits=4) -> str:
-    """A number as shown in the report's tables: :func:`exotune.units.fmt_num` with 4 significant digits."""
-    return fmt_num(x, digits)
+__all__ = ["summary_md", "value_runs", "display_path", "safe_name", "metric_label"]
 
 
 _UNIT_SUFFIX = {"s": "_s", "ms": "_ms", "deg": "_deg", "dB": "_db", "Hz": "_hz"}
@@ -187,9 +182,9 @@ def _robustness_lines(n, robust, used, simple, metrics) -> list[str]:
             f = info["factor"]
             vr = v[robust]
             L.append(
-                f"| `{metric_label(mk, info['unit'])}` | {info['unit']} | {format_value(np.nanmin(v) * f if np.any(~np.isnan(v)) else np.nan)} | "
-                f"{format_value(np.nanmax(v) * f if np.any(~np.isnan(v)) else np.nan)} | "
-                f"{format_value(np.nanmin(vr) * f if vr.size and np.any(~np.isnan(vr)) else np.nan)} |"
+                f"| `{metric_label(mk, info['unit'])}` | {info['unit']} | {fmt_num(np.nanmin(v) * f if np.any(~np.isnan(v)) else np.nan, 4)} | "
+                f"{fmt_num(np.nanmax(v) * f if np.any(~np.isnan(v)) else np.nan, 4)} | "
+                f"{fmt_num(np.nanmin(vr) * f if vr.size and np.any(~np.isnan(vr)) else np.nan, 4)} |"
             )
         L.append("")
         L.append("Derived metrics: *lightest stable inertia* = lower end of the stable interval containing the "
@@ -227,12 +222,12 @@ def _per_axis_lines(paths, values, axis_idx, robust, metrics, table_metrics, fil
         L.append("|" + "---|" * len(head))
         csv = [",".join(f'"{h}"' for h in csv_head)]
         for iv, val in enumerate(values[j]):
-            row = [f"{val:.4g}", str(int(counts[iv])), format_value(frac[iv], 3)]
+            row = [f"{val:.4g}", str(int(counts[iv])), fmt_num(frac[iv], 3)]
             crow = [repr(float(val)), str(int(counts[iv])), "" if np.isnan(frac[iv]) else repr(float(frac[iv]))]
             for mk in table_metrics:
                 f = metrics[mk][1]["factor"]
                 lo, hi = stats[mk][0][iv] * f, stats[mk][1][iv] * f
-                row += [format_value(lo), format_value(hi)]
+                row += [fmt_num(lo, 4), fmt_num(hi, 4)]
                 crow += ["" if np.isnan(lo) else repr(float(lo)), "" if np.isnan(hi) else repr(float(hi))]
             L.append("| " + " | ".join(row) + " |")
             csv.append(",".join(crow))
@@ -254,6 +249,6 @@ def _best_design_lines(paths, values, axis_idx, robust, metrics, table_metrics) 
         L.append("| " + " | ".join(f"`{p}`" for p in paths) + " | " + " | ".join(f"`{metric_label(mk, metrics[mk][1]['unit'])}` [{metrics[mk][1]['unit']}]" for mk in table_metrics) + " |")
         L.append("|" + "---|" * (len(paths) + len(table_metrics)))
         row = [f"{values[jj][axis_idx[jj][best]]:.4g}" for jj in range(len(paths))]
-        row += [format_value(metrics[mk][0][best] * metrics[mk][1]["factor"]) for mk in table_metrics]
+        row += [fmt_num(metrics[mk][0][best] * metrics[mk][1]["factor"], 4) for mk in table_metrics]
         L.append("| " + " | ".join(row) + " |")
     return L
