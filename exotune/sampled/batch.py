@@ -144,7 +144,39 @@ def batch_controller(cfg, fs: float, n: int):
     a similarity and by the two unobservable copies of the DOB filter's poles, whose moduli are
     kept in ``fixed``: the same eigenvalues up to rounding.
     Position feedback: the θ_m gain plus the DC gains of the θ_m blocks (continuous DC gain = the
-    Tustin one) is not zero, as :func:`dc_position_feedback` decides it on the file."""
+    Tustin one) is not zero, as :func:`dc_position_feedback` decides it on the file.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        Batch config (:func:`exotune.config.batch_config`): every field a scalar or an (n,) array.
+    fs : float
+        Sample rate [Hz].
+    n : int
+        Number of designs.
+
+    Returns
+    -------
+    Ac : numpy.ndarray
+        Controller state matrices (n, z, z).
+    Bc : numpy.ndarray
+        Input matrices (n, z, 5) of the :data:`~exotune.sampled.loop.Measured` signals.
+    Cc : numpy.ndarray
+        Output rows (n, z).
+    Dc : numpy.ndarray
+        Feed-throughs (n, 5).
+    states : numpy.ndarray
+        State count per design (n,), int.
+    position_feedback : numpy.ndarray
+        Whether each design feeds back θ_m (n,), bool.
+    fixed : numpy.ndarray
+        Moduli (n, 2) of the unobservable DOB modes left out of the realization.
+
+    Raises
+    ------
+    ValueError
+        When a design's DOB algebraic loop is singular (Q feed-through of 1).
+    """
     static, blocks = _controller_parts(cfg, n)
     degs = np.stack([_degree(den) for _i, _num, den, _pw in blocks], axis=1)
     single = np.array([len(inp) == 1 for inp, _n, _d, _p in blocks])
@@ -213,7 +245,18 @@ _PADE13 = (64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353
 def expm_stack(M: np.ndarray) -> np.ndarray:
     """e^M of a stack (k, n, n) in one vectorized pass: Padé (13, 13) with scaling and squaring
     (Higham 2005, the approximant of ``scipy.linalg.expm``), each matrix scaled by its own power
-    of two; no Python loop over the stack."""
+    of two; no Python loop over the stack.
+
+    Parameters
+    ----------
+    M : numpy.ndarray
+        Stack of square matrices (k, n, n).
+
+    Returns
+    -------
+    numpy.ndarray
+        e^M per matrix, (k, n, n).
+    """
     k, n, _ = M.shape
     if not k:
         return M.copy()

@@ -144,6 +144,23 @@ def check_design(cfg, human_intervals, environment_intervals, points: int = CHEC
     of (lo, hi) per family or environment of ``cfg``, None for a box or a single loop).
     Disagreements are listed (value, continuous, sampled).
 
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The validated design, with ``implementation.sample_rate_hz`` set.
+    human_intervals : sequence
+        Continuous stable intervals per human family of ``cfg``: a sequence of (lo, hi) in the
+        family parameter's unit, or None.
+    environment_intervals : sequence
+        Continuous stable intervals per environment of ``cfg``, or None.
+    points : int, optional
+        Log-spaced members per family range.
+
+    Returns
+    -------
+    SampledCheck
+        The free and locked verdicts, the free loop's spectral radius and the per-family checks.
+
     References
     ----------
     docs/method.md#sampled-data.

@@ -222,6 +222,22 @@ def family_check(bl: BatchLoops, des, loop: Loop, lo: float, hi: float, delay=No
     """Stable intervals of one family for the designs ``des`` (at total delays ``delay`` [s],
     default their own), by the module docstring's method.
 
+    Parameters
+    ----------
+    bl : BatchLoops
+        The sampled-data loops of the batch.
+    des : array_like of int
+        Indices of the designs to check.
+    loop : Loop
+        The family (which loop and which parameter varies).
+    lo, hi : float
+        Range of the varied parameter, in its unit (inertia [kg·m²], damping [N·m·s/rad],
+        stiffness [N·m/rad]).
+    delay : array_like or None, optional
+        Total delay [s] per design; None for each design's own.
+    points : int or None, optional
+        Grid members per design; None for ``POINTS``.
+
     Returns
     -------
     dict of per-design lists/arrays: ``stable_intervals``, ``robust`` (the whole range stable and
@@ -379,7 +395,27 @@ def _unstable_members(bl: BatchLoops, des, families: list, a: np.ndarray, slope:
 def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray:
     """Sampled-data latency margin [s] of the designs ``des`` (module docstring); 0 is not
     returned here — call it on designs stable at their own delay. ``families``:
-    [(loop, lo, hi, critical member per design)]; ``hint``: the continuous margins [s]."""
+    [(loop, lo, hi, critical member per design)]; ``hint``: the continuous margins [s].
+
+    Parameters
+    ----------
+    bl : BatchLoops
+        The sampled-data loops of the batch.
+    des : array_like of int
+        Indices of the designs, each stable at its own delay.
+    families : list of tuple
+        ``(loop, lo, hi, critical)`` per family: the :class:`~exotune.sampled.batch.Loop`, its
+        range and its critical member per design.
+    hint : array_like or None, optional
+        Continuous latency margins [s] per design, where the search starts; None to grow from half
+        a sample.
+
+    Returns
+    -------
+    numpy.ndarray
+        Latency margin [s] per design; ``inf`` where no extra delay up to ``MAX_SAMPLES`` samples
+        destabilizes a loop.
+    """
     des = np.asarray(des, dtype=np.int64)
     n = des.size
     cap = MAX_SAMPLES * bl.Ts - bl.delay[des]

@@ -54,6 +54,31 @@ def plant_ss(plant, human: dict | None = None, env: str | dict = "free"):
         J_m θ̈_m + B_m θ̇_m = τ_s + τ_m,   τ_s = K_s (θ_j − θ_m)
         J_j θ̈_j = τ_c − τ_s + τ_env,      τ_c = K_c (θ_h − θ_j)
         m θ̈_h + b θ̇_h + k θ_h = −τ_c
+
+    Parameters
+    ----------
+    plant : Plant
+        Joint-reflected plant (:class:`~exotune.model.plant.Plant`; the first member of a batch).
+    human : dict or None, optional
+        None (cuff free) or a subset of ``inertia`` [kg·m²], ``damping`` [N·m·s/rad] and
+        ``stiffness`` [N·m/rad] of the human node behind the cuff.
+    env : str or dict, optional
+        ``"free"``, ``"locked"`` or a subset of ``inertia`` [kg·m²], ``damping`` [N·m·s/rad] and
+        ``stiffness`` [N·m/rad] acting on θ_j.
+
+    Returns
+    -------
+    A : numpy.ndarray
+        State matrix (n, n) over the states θ_m, θ̇_m[, θ_j, θ̇_j][, θ_h[, θ̇_h]] [rad, rad/s].
+    B : numpy.ndarray
+        Input matrix (n, 1) of τ_m [N·m].
+    C : numpy.ndarray
+        Output matrix (5, n) of the :data:`Measured` signals.
+
+    Raises
+    ------
+    ValueError
+        When ``env`` is a string other than ``"free"`` or ``"locked"``.
     """
     g = lambda x: float(np.asarray(x).reshape(-1)[0])  # noqa: E731
     Jm, Bm, Ks, Jj, Kc = g(plant.J_m), g(plant.B_m), g(plant.K_s), g(plant.J_j), g(plant.K_c)
@@ -123,7 +148,22 @@ def _row(x: np.ndarray) -> np.ndarray:
 
 def prewarped(num: np.ndarray, den: np.ndarray, Ts: float, prewarp_hz: float | None):
     """Coefficients (ascending) of H(λ s), λ = (ω T_s/2)/tan(ω T_s/2): the standard bilinear
-    transform of H(λ s) is the Tustin transform of H prewarped at ω = 2π·prewarp_hz."""
+    transform of H(λ s) is the Tustin transform of H prewarped at ω = 2π·prewarp_hz.
+
+    Parameters
+    ----------
+    num, den : numpy.ndarray
+        Numerator and denominator coefficients of H(s), ascending powers of s.
+    Ts : float
+        Sample period [s].
+    prewarp_hz : float or None
+        Prewarp frequency [Hz]; None or 0 leaves the coefficients unchanged (λ = 1).
+
+    Returns
+    -------
+    num, den : numpy.ndarray
+        The coefficients of H(λ s), ascending powers of s.
+    """
     lam = 1.0
     if prewarp_hz:
         w = 2 * math.pi * float(prewarp_hz)
@@ -205,7 +245,23 @@ def controller_blocks(cs, plant) -> tuple[np.ndarray, list[Block]]:
         τ_cmd = G_θ θ_m + G_s τ_s + G_c τ_c − δ̂,   δ̂ = Q (J_m s² + B_m s) θ_m − Q (τ_s + τ_cmd)
 
     as static gains on the sampled signals (the K + B s parts of G_θ and G_s on θ_m, θ̇_m and τ_s,
-    τ̇_s; one gain per :data:`Measured` signal) plus proper blocks."""
+    τ̇_s; one gain per :data:`Measured` signal) plus proper blocks.
+
+    Parameters
+    ----------
+    cs : ControllerStructure
+        Single-design controller (:class:`~exotune.model.controller.ControllerStructure`).
+    plant : Plant
+        The plant; its J_m [kg·m²] and B_m [N·m·s/rad] enter the DOB's inverse motor model.
+
+    Returns
+    -------
+    static : numpy.ndarray
+        One static gain per :data:`Measured` signal (τ_cmd per signal unit: [N·m/rad],
+        [N·m·s/rad], [1], [s], [1]).
+    blocks : list of Block
+        The proper blocks (ascending coefficients), each with its input signal and prewarp key.
+    """
     Jm, Bm = float(np.ravel(plant.J_m)[0]), float(np.ravel(plant.B_m)[0])
     static = np.zeros(len(Measured))
     blocks = []
@@ -228,7 +284,30 @@ def controller_blocks(cs, plant) -> tuple[np.ndarray, list[Block]]:
 def discretize(cs, plant, sample_rate_hz: float, prewarp: dict | None = None) -> DiscreteController:
     """The discrete controller of a single-design :class:`ControllerStructure`
     (:func:`controller_blocks`), each proper block by Tustin (``prewarp``: {"theta_m"|"tau_s"|
-    "tau_c"|"dob": Hz})."""
+    "tau_c"|"dob": Hz}).
+
+    Parameters
+    ----------
+    cs : ControllerStructure
+        Single-design controller; its ``delay_s`` [s] becomes the discrete controller's delay.
+    plant : Plant
+        The plant (J_m, B_m of the DOB's inverse model).
+    sample_rate_hz : float
+        Sample rate [Hz].
+    prewarp : dict or None, optional
+        Prewarp frequency [Hz] per block kind (``"theta_m"``, ``"tau_s"``, ``"tau_c"``, ``"dob"``);
+        a kind left out is transformed without prewarping. See :func:`default_prewarp`.
+
+    Returns
+    -------
+    DiscreteController
+        The state-space controller at ``sample_rate_hz`` with the DOB's algebraic loop solved.
+
+    Raises
+    ------
+    ValueError
+        When the DOB's algebraic loop is singular (Q feed-through of 1).
+    """
     Ts = 1.0 / float(sample_rate_hz)
     pw = prewarp or {}
     static, blocks = controller_blocks(cs, plant)
@@ -239,7 +318,30 @@ def discretize(cs, plant, sample_rate_hz: float, prewarp: dict | None = None) ->
 def assemble(static, blocks, sample_rate_hz: float, delay_s: float) -> DiscreteController:
     """One state-space controller from static gains on :data:`Measured` and discrete blocks
     ``[((A, B, C, D), input), …]``; the algebraic loop τ_cmd → Q → τ_cmd (a block whose input is
-    ``"tau_cmd"`` has the feed-through q0) is solved: τ_cmd = (rest)/(1 − q0)."""
+    ``"tau_cmd"`` has the feed-through q0) is solved: τ_cmd = (rest)/(1 − q0).
+
+    Parameters
+    ----------
+    static : array_like
+        Static gain per :data:`Measured` signal.
+    blocks : list of tuple
+        ``((A, B, C, D), input)`` per discrete block; ``input`` is a :data:`Measured` name or
+        ``"tau_cmd"``.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    delay_s : float
+        Total latency [s] from sampling to the command's application.
+
+    Returns
+    -------
+    DiscreteController
+        The controller ``z[k+1] = Ac z + Bc y``, ``τ_cmd = Cc z + Dc y``.
+
+    Raises
+    ------
+    ValueError
+        When the algebraic loop is singular (the ``"tau_cmd"`` blocks' feed-through sums to 1).
+    """
     nz = sum(b[0][0].shape[0] for b in blocks)
     ny = len(Measured)
     # τ_cmd = Σ_i (C_i z_i + D_i u_i) + static·y, with u_i = y[input] or τ_cmd
@@ -277,7 +379,28 @@ def assemble(static, blocks, sample_rate_hz: float, delay_s: float) -> DiscreteC
 
 
 def zoh_fractional(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
-    """(Φ, Γ0, Γ1) of the module docstring (exact, by block matrix exponentials)."""
+    """(Φ, Γ0, Γ1) of the module docstring (exact, by block matrix exponentials).
+
+    Parameters
+    ----------
+    A : numpy.ndarray
+        Continuous state matrix (n, n).
+    B : numpy.ndarray
+        Continuous input matrix (n, m).
+    Ts : float
+        Sample period [s].
+    f : float
+        Fraction of a sample of the delay, 0 ≤ f < 1.
+
+    Returns
+    -------
+    Phi : numpy.ndarray
+        e^{A T_s}, (n, n).
+    Gamma0 : numpy.ndarray
+        Input matrix of τ_cmd[k−d], (n, m).
+    Gamma1 : numpy.ndarray
+        Input matrix of τ_cmd[k−d−1], (n, m).
+    """
     n, m = B.shape
     M = np.zeros((n + m, n + m))
     M[:n, :n] = A
@@ -295,7 +418,22 @@ def split_delay(delay_s, Ts: float):
     """(whole samples d, fraction f) of a total delay [s] (a number or an array) at the sample
     period ``Ts`` [s]: T = (d + f)·Ts, 0 ≤ f < 1, a fraction below 1e-9 read as 0 (a whole
     number of samples up to rounding). The one split of the sampled-data loop, its batches and
-    the cell proofs."""
+    the cell proofs.
+
+    Parameters
+    ----------
+    delay_s : float or array_like
+        Total delay [s].
+    Ts : float
+        Sample period [s].
+
+    Returns
+    -------
+    d : int or numpy.ndarray
+        Whole samples (an int64 array for an array ``delay_s``).
+    f : float or numpy.ndarray
+        Fraction of a sample, 0 ≤ f < 1.
+    """
     q = np.asarray(delay_s, dtype=float) / Ts
     d = np.floor(q + 1e-9).astype(np.int64)
     f = q - d
@@ -306,7 +444,20 @@ def split_delay(delay_s, Ts: float):
 
 
 def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
-    """State matrix of the sampled-data loop on [x; z; τ_cmd[k−1], …, τ_cmd[k−d−1]]."""
+    """State matrix of the sampled-data loop on [x; z; τ_cmd[k−1], …, τ_cmd[k−d−1]].
+
+    Parameters
+    ----------
+    A, B, C : numpy.ndarray
+        Continuous plant of :func:`plant_ss`.
+    ctrl : DiscreteController
+        The discrete controller (its rate and delay set the discretization).
+
+    Returns
+    -------
+    numpy.ndarray
+        The loop's square state matrix: plant states, controller states and d + 1 past commands.
+    """
     Ts = 1.0 / ctrl.sample_rate_hz
     d, f = split_delay(ctrl.delay_s, Ts)
     Phi, G0, G1 = zoh_fractional(A, B, Ts, f)
@@ -340,7 +491,32 @@ def _unit(N: int, i: int) -> np.ndarray:
 def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, env: str | dict = "free",
                    prewarp: dict | None = None, rigid_tol: float = 1e-7) -> tuple[bool, float]:
     """(stable, spectral radius) of the sampled-data loop of a :class:`ControllerStructure`
-    (:func:`loop_stable` on :func:`discretize`)."""
+    (:func:`loop_stable` on :func:`discretize`).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    cs : ControllerStructure
+        Single-design controller.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    human : dict or None, optional
+        The human node, as in :func:`plant_ss`.
+    env : str or dict, optional
+        The environment, as in :func:`plant_ss`.
+    prewarp : dict or None, optional
+        Prewarp frequencies [Hz] per block kind (:func:`discretize`).
+    rigid_tol : float, optional
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+
+    Returns
+    -------
+    stable : bool
+        True when the loop is Schur stable (an inconclusive verdict counts as not stable).
+    rho : float
+        Spectral radius of the loop matrix.
+    """
     K1 = -float(np.ravel(cs.motor_position.num)[0]) / float(np.ravel(cs.motor_position.den)[0])
     return loop_stable(plant, discretize(cs, plant, sample_rate_hz, prewarp), K1 != 0.0, human, env, rigid_tol)
 
@@ -348,7 +524,34 @@ def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, 
 def sampled_verdict(plant, cs, sample_rate_hz: float, human: dict | None = None, env: str | dict = "free",
                     prewarp: dict | None = None, rigid_tol: float = 1e-7) -> tuple[bool | None, float, float]:
     """:func:`loop_verdict` (stable, inconclusive as None; spectral radius; rounding) of the
-    sampled-data loop of a :class:`ControllerStructure`."""
+    sampled-data loop of a :class:`ControllerStructure`.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    cs : ControllerStructure
+        Single-design controller.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    human : dict or None, optional
+        The human node, as in :func:`plant_ss`.
+    env : str or dict, optional
+        The environment, as in :func:`plant_ss`.
+    prewarp : dict or None, optional
+        Prewarp frequencies [Hz] per block kind (:func:`discretize`).
+    rigid_tol : float, optional
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+
+    Returns
+    -------
+    stable : bool or None
+        The verdict; None when rounding cannot decide it.
+    rho : float
+        Spectral radius of the loop matrix.
+    rounding : float
+        Rounding bound of the eigenvalue deciding the verdict.
+    """
     K1 = -float(np.ravel(cs.motor_position.num)[0]) / float(np.ravel(cs.motor_position.den)[0])
     return loop_verdict(plant, discretize(cs, plant, sample_rate_hz, prewarp), K1 != 0.0, human, env, rigid_tol)
 
@@ -357,7 +560,35 @@ def loop_stable(plant, ctrl: DiscreteController, position_feedback: bool, human:
                 env: str | dict = "free", rigid_tol: float = 1e-7) -> tuple[bool, float]:
     """(stable, spectral radius) of the discrete controller ``ctrl`` on the plant (+ human,
     + environment); see :func:`loop_eigenvalues`. A verdict that rounding cannot decide
-    (:func:`loop_verdict`) counts as not stable here (margins built on it stay conservative)."""
+    (:func:`loop_verdict`) counts as not stable here (margins built on it stay conservative).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    ctrl : DiscreteController
+        The discrete controller.
+    position_feedback : bool
+        Whether the controller feeds back the motor position (K1 ≠ 0), which grounds the structure.
+    human : dict or None, optional
+        The human node, as in :func:`plant_ss`.
+    env : str or dict, optional
+        The environment, as in :func:`plant_ss`.
+    rigid_tol : float, optional
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+
+    Returns
+    -------
+    stable : bool
+        True only for a conclusive stable verdict.
+    rho : float
+        Spectral radius of the loop matrix.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the loop matrix overflows, or when an active time budget is spent.
+    """
     stable, rho, _ = loop_verdict(plant, ctrl, position_feedback, human, env, rigid_tol)
     return stable is True, rho
 
@@ -366,7 +597,37 @@ def loop_verdict(plant, ctrl: DiscreteController, position_feedback: bool, human
                  env: str | dict = "free", rigid_tol: float = 1e-7) -> tuple[bool | None, float, float]:
     """(stable, spectral radius, rounding) of the sampled-data loop, where ``stable`` is None
     (inconclusive) when an eigenvalue's modulus is within its rounding bound of 1
-    (:func:`spectral_verdict`)."""
+    (:func:`spectral_verdict`).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    ctrl : DiscreteController
+        The discrete controller.
+    position_feedback : bool
+        Whether the controller feeds back the motor position (K1 ≠ 0).
+    human : dict or None, optional
+        The human node, as in :func:`plant_ss`.
+    env : str or dict, optional
+        The environment, as in :func:`plant_ss`.
+    rigid_tol : float, optional
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+
+    Returns
+    -------
+    stable : bool or None
+        The verdict; None when inconclusive.
+    rho : float
+        Spectral radius of the loop matrix.
+    rounding : float
+        Rounding bound of the eigenvalue deciding the verdict.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the loop matrix overflows, or when an active time budget is spent.
+    """
     M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
     return _verdict(M, lam, None if drop is None else rigid_tol)
 
@@ -387,6 +648,13 @@ def spectral_verdict(M: np.ndarray, rigid_tol: float | None = None) -> tuple[boo
     precision (a very high sample rate, an undamped mode) exotune never reports a rounding
     artefact as "UNSTABLE" or "stable". With ``rigid_tol``, the eigenvalue nearest z = 1 is
     excluded when within that distance (the rigid-body mode of an ungrounded structure).
+
+    Parameters
+    ----------
+    M : numpy.ndarray
+        Square state matrix of a discrete-time loop.
+    rigid_tol : float or None, optional
+        Distance from z = 1 within which the nearest eigenvalue is excluded; None excludes nothing.
 
     Returns
     -------
@@ -440,7 +708,33 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
                      env: str | dict = "free", rigid_tol: float = 1e-7) -> np.ndarray:
     """Eigenvalues of the sampled-data loop; one eigenvalue at z = 1 (the rigid-body mode,
     |λ − 1| ≤ rigid_tol) is removed when nothing grounds the structure (no position feedback K1,
-    no human or environment stiffness, not locked), as in the continuous analysis."""
+    no human or environment stiffness, not locked), as in the continuous analysis.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    ctrl : DiscreteController
+        The discrete controller.
+    position_feedback : bool
+        Whether the controller feeds back the motor position (K1 ≠ 0).
+    human : dict or None, optional
+        The human node, as in :func:`plant_ss`.
+    env : str or dict, optional
+        The environment, as in :func:`plant_ss`.
+    rigid_tol : float, optional
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex eigenvalues of the loop matrix (z-plane).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the loop matrix overflows, or when an active time budget is spent.
+    """
     _M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
     return lam if drop is None else np.delete(lam, drop)
 
@@ -471,7 +765,20 @@ def _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol):
 def default_prewarp(impl) -> dict:
     """Prewarp frequencies [Hz] per block (docs/method.md#controller: Tustin prewarped at the cutoff): G_c at the
     G_v filter cutoff, the DOB blocks at the Q cutoff, the SEA blocks at the velocity-filter cutoff
-    when there is one."""
+    when there is one.
+
+    Parameters
+    ----------
+    impl : Implementation
+        The implementation options (:class:`~exotune.model.controller.Implementation`) with the
+        G_v filter, the DOB and the velocity filter.
+
+    Returns
+    -------
+    dict
+        Prewarp frequency [Hz] per block kind (``"tau_c"``, ``"dob"``, ``"theta_m"``, ``"tau_s"``);
+        a kind without a filter is left out.
+    """
     f = lambda x: float(np.ravel(x)[0])  # noqa: E731
     pw = {}
     if impl.gv_filter is not None:

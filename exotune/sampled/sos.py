@@ -19,7 +19,27 @@ __all__ = ["tustin_sos", "sos_ss", "bilinear_batch", "df2t_batch", "tustin_secti
 
 def tustin_sos(num_asc, den_asc, sample_rate_hz: float, prewarp_hz: float | None = None) -> np.ndarray:
     """Second-order sections (scipy ``sos``) of the proper num/den (ascending powers of s) by the
-    bilinear transform, prewarped at ``prewarp_hz`` (exact response there): s ← ω/tan(ωT_s/2)·(z−1)/(z+1)."""
+    bilinear transform, prewarped at ``prewarp_hz`` (exact response there): s ← ω/tan(ωT_s/2)·(z−1)/(z+1).
+
+    Parameters
+    ----------
+    num_asc, den_asc : array_like
+        Numerator and denominator of the continuous block, ascending powers of s (proper).
+    sample_rate_hz : float
+        Sample rate [Hz].
+    prewarp_hz : float or None, optional
+        Prewarp frequency [Hz]; None for the plain bilinear transform.
+
+    Returns
+    -------
+    numpy.ndarray
+        Second-order sections (q, 6): ``[b0, b1, b2, a0, a1, a2]`` per row, descending powers of z.
+
+    Raises
+    ------
+    ValueError
+        When the block is improper (numerator of higher degree than the denominator).
+    """
     num = np.trim_zeros(np.atleast_1d(np.asarray(num_asc, dtype=float)), "b")
     den = np.trim_zeros(np.atleast_1d(np.asarray(den_asc, dtype=float)), "b")
     if num.size > den.size:
@@ -33,7 +53,24 @@ def tustin_sos(num_asc, den_asc, sample_rate_hz: float, prewarp_hz: float | None
 def sos_ss(sos) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Discrete state space (A, B, C, D) of a cascade of second-order sections, each section in
     the direct form II transposed states the runtime uses (y = b0 x + s1, s1⁺ = b1 x − a1 y + s2,
-    s2⁺ = b2 x − a2 y; rows normalized by a0), chained in order."""
+    s2⁺ = b2 x − a2 y; rows normalized by a0), chained in order.
+
+    Parameters
+    ----------
+    sos : array_like
+        Second-order sections (q, 6) as :func:`tustin_sos` returns them.
+
+    Returns
+    -------
+    A : numpy.ndarray
+        State matrix (2q, 2q).
+    B : numpy.ndarray
+        Input matrix (2q, 1).
+    C : numpy.ndarray
+        Output matrix (1, 2q).
+    D : numpy.ndarray
+        Feed-through (1, 1).
+    """
     A = np.zeros((0, 0))
     B = np.zeros((0, 1))
     C = np.zeros((1, 0))
@@ -65,7 +102,26 @@ def bilinear_batch(num_asc: np.ndarray, den_asc: np.ndarray, sample_rate_hz: flo
 
     The same transfer function as :func:`tustin_sos` (s ← c (z−1)/(z+1), c = 2 f_s after the
     prewarp scaling of :func:`exotune.sampled.prewarped`), by the polynomial substitution
-    Σ_k x_k c^k (z−1)^k (z+1)^(m−k) instead of zeros and poles (no per-block root finding)."""
+    Σ_k x_k c^k (z−1)^k (z+1)^(m−k) instead of zeros and poles (no per-block root finding).
+
+    Parameters
+    ----------
+    num_asc : numpy.ndarray
+        Numerators (K, p, m+1), ascending powers of s.
+    den_asc : numpy.ndarray
+        Denominators (K, m+1), ascending powers of s, each of degree m.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    prewarp_hz : array_like or None, optional
+        Prewarp frequency [Hz] per block (K,); a block with 0 is not prewarped; None for none.
+
+    Returns
+    -------
+    b : numpy.ndarray
+        Numerators (K, p, m+1), descending powers of z.
+    a : numpy.ndarray
+        Monic denominators (K, m+1), descending powers of z.
+    """
     den = np.asarray(den_asc, dtype=float)
     num = np.asarray(num_asc, dtype=float)
     K, m1 = den.shape
@@ -91,7 +147,26 @@ def bilinear_batch(num_asc: np.ndarray, den_asc: np.ndarray, sample_rate_hz: flo
 def df2t_batch(b: np.ndarray, a: np.ndarray):
     """Stacks (A (K, m, m), B (K, m, p), C (m,), D (K, p)) of the direct form II transposed
     realization of p numerators ``b`` (K, p, m+1) over one monic denominator ``a`` (K, m+1)
-    (descending powers of z): the states of :func:`sos_ss` for a single section, of any order."""
+    (descending powers of z): the states of :func:`sos_ss` for a single section, of any order.
+
+    Parameters
+    ----------
+    b : numpy.ndarray
+        Numerators (K, p, m+1), descending powers of z.
+    a : numpy.ndarray
+        Monic denominators (K, m+1), descending powers of z.
+
+    Returns
+    -------
+    A : numpy.ndarray
+        State matrices (K, m, m).
+    B : numpy.ndarray
+        Input matrices (K, m, p).
+    C : numpy.ndarray
+        Output row (m,), shared by the batch.
+    D : numpy.ndarray
+        Feed-throughs (K, p).
+    """
     K, m1 = a.shape
     m = m1 - 1
     A = np.zeros((K, m, m))
@@ -132,7 +207,24 @@ def tustin_sections_batch(num_asc: np.ndarray, den_asc: np.ndarray, sample_rate_
     zeros at z = −1 for the excess poles, c = ω/tan(ωT_s/2) or 2 f_s), paired real with real and
     conjugate with conjugate, the gain in the first section — a cascade whose poles are each
     computed from their own pair (a single high-order companion form loses the poles clustered
-    near z = 1 at high rates). An odd order gets a pole and a zero at z = 0."""
+    near z = 1 at high rates). An odd order gets a pole and a zero at z = 0.
+
+    Parameters
+    ----------
+    num_asc : numpy.ndarray
+        Numerators (K, ·), ascending powers of s (proper).
+    den_asc : numpy.ndarray
+        Denominators (K, m+1), ascending powers of s, each of degree m.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    prewarp_hz : array_like or None, optional
+        Prewarp frequency [Hz] per block (K,); a block with 0 is not prewarped; None for none.
+
+    Returns
+    -------
+    numpy.ndarray
+        Sections (K, ⌈m/2⌉, 6), ``[b0, b1, b2, 1, a1, a2]`` per section, descending powers of z.
+    """
     den = np.asarray(den_asc, dtype=float)
     num = np.asarray(num_asc, dtype=float)
     K, m1 = den.shape
@@ -174,7 +266,24 @@ def tustin_sections_batch(num_asc: np.ndarray, den_asc: np.ndarray, sample_rate_
 
 def sos_ss_batch(sos: np.ndarray):
     """:func:`sos_ss` of a stack of cascades ``sos`` (K, q, 6): stacks (A (K, 2q, 2q), B (K, 2q),
-    C (K, 2q), D (K,))."""
+    C (K, 2q), D (K,)).
+
+    Parameters
+    ----------
+    sos : numpy.ndarray
+        Stack of cascades (K, q, 6).
+
+    Returns
+    -------
+    A : numpy.ndarray
+        State matrices (K, 2q, 2q).
+    B : numpy.ndarray
+        Input columns (K, 2q).
+    C : numpy.ndarray
+        Output rows (K, 2q).
+    D : numpy.ndarray
+        Feed-throughs (K,).
+    """
     K, q, _ = sos.shape
     n = 2 * q
     A, B, C, D = np.zeros((K, n, n)), np.zeros((K, n)), np.zeros((K, n)), np.ones(K)
