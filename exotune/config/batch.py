@@ -112,6 +112,25 @@ def batch_config(cfg: DesignConfig, overrides: dict[str, np.ndarray]) -> DesignC
     uncertainty sets shared by every design point. ``raw`` keeps describing the base design.
     With no overrides N = 1. (One function: the checks of the override values need the whole
     set of overrides, and the construction below reuses them.)
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The base design.
+    overrides : dict of str to numpy.ndarray
+        Values per overridable dotted path, each of the same length N, in the field's unit.
+
+    Returns
+    -------
+    DesignConfig
+        The batch: per-design numbers as float arrays of length N.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When a path is not overridable, the lengths differ, a value breaks a design-file rule (a
+        limit, the Nyquist limit of a cutoff, the delay's sample count), or a filter parameter is
+        overridden while the base design has no such filter.
     """
     n: int | None = None
     first = None
@@ -190,6 +209,18 @@ def design_row(cfg: DesignConfig, i: int) -> DesignConfig:
     """Design ``i`` of a batch (:func:`batch_config`) as a single design: every per-design array
     replaced by its i-th value (a float). ``raw`` still describes the batch's base design.
 
+    Parameters
+    ----------
+    cfg : DesignConfig
+        A batch (:func:`batch_config`).
+    i : int
+        Index of the design in the batch.
+
+    Returns
+    -------
+    DesignConfig
+        The single design.
+
     Examples
     --------
     >>> import numpy as np
@@ -219,6 +250,16 @@ def continuous(cfg):
     """``cfg`` with its sample rate removed (``implementation.sample_rate_hz`` None): the
     continuous-time analysis of the same design, whose delays are not limited to a number of
     samples — for margins that probe delays beyond the design's own (docs/method.md#latency-margin).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        A design or a batch.
+
+    Returns
+    -------
+    DesignConfig
+        ``cfg`` itself when it has no sample rate, else a copy without one.
 
     Examples
     --------

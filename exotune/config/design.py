@@ -129,6 +129,29 @@ class SeaConfig:
 # Design files
 # --------------------------------------------------------------------------------------------
 def parse_human(i: int, item: Any) -> tuple[HumanFamily, dict]:
+    """One entry of a design file's ``humans`` list (docs/design-file.md) as a human family.
+
+    Parameters
+    ----------
+    i : int
+        Index of the entry in ``humans``, for the field paths of errors.
+    item : Any
+        The entry read from the file: a mapping with ``kind`` (mass, spring, complex_stiffness or
+        msd) and its parameters (inertia [kg·m²], damping [N·m·s/rad], stiffness [N·m/rad], eta [–]).
+
+    Returns
+    -------
+    family : HumanFamily
+        The family: its varied parameter and range, the fixed parameters, a box's other ranges.
+    raw : dict
+        The normalized entry for the design's ``raw`` mapping.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the entry is not a mapping, its kind is missing or unknown, a parameter does not
+        validate, or an msd entry has no range or no inertia where one is needed.
+    """
     where = f"humans[{i}]"
     if not isinstance(item, dict):
         raise ConfigError(where, f"expected a mapping {{kind: ..., ...}}, got {kind_of(item)}")
@@ -181,6 +204,29 @@ def parse_human(i: int, item: Any) -> tuple[HumanFamily, dict]:
 
 
 def parse_env(i: int, item: Any) -> tuple[EnvModel, dict]:
+    """One entry of a design file's ``environment`` list (docs/design-file.md) as an environment model.
+
+    Parameters
+    ----------
+    i : int
+        Index of the entry in ``environment``, for the field paths of errors.
+    item : Any
+        The entry read from the file: a mapping with ``kind`` (locked, free, spring or mass) and
+        its range (stiffness [N·m/rad] or inertia [kg·m²]) and damping [N·m·s/rad].
+
+    Returns
+    -------
+    model : EnvModel
+        The environment model (its varied parameter and range; none for locked and free).
+    raw : dict
+        The normalized entry for the design's ``raw`` mapping.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the entry is not a mapping, its kind is missing or unknown, or a parameter does not
+        validate.
+    """
     where = f"environment[{i}]"
     if not isinstance(item, dict):
         raise ConfigError(where, f"expected a mapping {{kind: ..., ...}}, got {kind_of(item)}")
@@ -292,7 +338,27 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
     """Validate a design mapping (docs/design-file.md) and build the model objects.
 
     Every error of the file is reported: the :class:`ConfigError` raised names the first, its
-    ``more`` lines the others (top-level fields, then the humans and environments)."""
+    ``more`` lines the others (top-level fields, then the humans and environments).
+
+    Parameters
+    ----------
+    mapping : dict
+        The design file's content.
+    source : str or None, optional
+        Where it was read from (its path), kept in the result and named by top-level errors.
+
+    Returns
+    -------
+    DesignConfig
+        The validated design: plant, design parameters, implementation, humans, environments, the
+        normalized ``raw`` mapping, uncertainty and requirements.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        For every problem of the mapping (the first one's field and reason, the others in ``more``),
+        including gains that are not finite.
+    """
     if not isinstance(mapping, dict):
         raise ConfigError(source or "<design>", f"expected a mapping at the top level, got {kind_of(mapping)}")
     refuse_other_kind(mapping, "design", source)
@@ -358,7 +424,23 @@ def _check_gains_finite(plant, design) -> None:
 
 
 def load_design(path) -> DesignConfig:
-    """Read and validate a design file (docs/design-file.md). Every problem raises :class:`ConfigError`."""
+    """Read and validate a design file (docs/design-file.md). Every problem raises :class:`ConfigError`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The design file (YAML or JSON).
+
+    Returns
+    -------
+    DesignConfig
+        The validated design.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the file cannot be read or parsed, or does not validate.
+    """
     name = os.fspath(path)
     return design_from_mapping(read_yaml(name), source=name)
 
@@ -371,6 +453,27 @@ def sea_from_mapping(mapping: dict, source: str | None = None) -> SeaConfig:
 
     ``units`` is required: ``deflection`` (paper eq. (9), K2 [N·m/rad], B2 [N·m·s/rad]) or
     ``torque`` (K2 [–], B2 [s]); the two differ by the factor K_s (docs/method.md#double-compliance-shaping), so guessing is unsafe.
+
+    Parameters
+    ----------
+    mapping : dict
+        The SEA file's content.
+    source : str or None, optional
+        Where it was read from (its path).
+
+    Returns
+    -------
+    SeaConfig
+        The validated plant and SEA gains.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the mapping is not a mapping, is a file of another kind, or does not validate.
+
+    References
+    ----------
+    Paper eq. (9) (the SEA gains in deflection units).
     """
     if not isinstance(mapping, dict):
         raise ConfigError(source or "<sea>", f"expected a mapping at the top level, got {kind_of(mapping)}")
@@ -383,7 +486,23 @@ def sea_from_mapping(mapping: dict, source: str | None = None) -> SeaConfig:
 
 
 def load_sea(path) -> SeaConfig:
-    """Read and validate an SEA file (for ``exotune sea``). Raises :class:`ConfigError`."""
+    """Read and validate an SEA file (for ``exotune sea``). Raises :class:`ConfigError`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The SEA file (YAML or JSON).
+
+    Returns
+    -------
+    SeaConfig
+        The validated plant and SEA gains.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the file cannot be read or parsed, or does not validate.
+    """
     name = os.fspath(path)
     return sea_from_mapping(read_yaml(name), source=name)
 
@@ -393,7 +512,18 @@ def load_sea(path) -> SeaConfig:
 # --------------------------------------------------------------------------------------------
 def hash_mapping(mapping: Any) -> str:
     """SHA-256 (hex) of the canonical JSON of ``mapping`` (sorted keys, no whitespace, exotune's
-    JSON conventions for numpy types and non-finite floats)."""
+    JSON conventions for numpy types and non-finite floats).
+
+    Parameters
+    ----------
+    mapping : Any
+        A JSON-serializable object (numpy values allowed).
+
+    Returns
+    -------
+    str
+        The 64 hex digits of the SHA-256.
+    """
     from ..jsonio import to_jsonable
 
     text = json.dumps(to_jsonable(mapping), sort_keys=True, separators=(",", ":"), ensure_ascii=False)

@@ -120,7 +120,24 @@ def fmt_value(x: Any) -> str:
 
 
 def to_number(v: Any) -> float:
-    """A finite real number (int or float, not bool/str), else ValueError with a clear reason."""
+    """A finite real number (int or float, not bool/str), else ValueError with a clear reason.
+
+    Parameters
+    ----------
+    v : Any
+        The value read from a file.
+
+    Returns
+    -------
+    float
+        The value as a finite float.
+
+    Raises
+    ------
+    ValueError
+        When ``v`` is not an int or float (a bool, a string, null, a list, a mapping), is not
+        finite, or is an integer too large for a float.
+    """
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
         if isinstance(v, str):
             try:
@@ -149,7 +166,25 @@ def to_number(v: Any) -> float:
 def number_field(field: str, v: Any) -> float:
     """:func:`to_number` for a spec's field: a finite real number, else a
     :class:`~exotune.errors.ConfigError` naming ``field`` with :func:`to_number`'s reason (the one
-    wording of every file exotune reads: design, sweep spec, optimize spec)."""
+    wording of every file exotune reads: design, sweep spec, optimize spec).
+
+    Parameters
+    ----------
+    field : str
+        Dotted field path named by the error (e.g. ``design.amplification``).
+    v : Any
+        The value read from the file.
+
+    Returns
+    -------
+    float
+        The value as a finite float.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``v`` is not a finite real number.
+    """
     try:
         return to_number(v)
     except ValueError as e:
@@ -188,7 +223,18 @@ LIMITS: dict[str, tuple[float, bool, float, str]] = {
 
 
 def fmt_limit(x: float) -> str:
-    """A limit as the messages print it: ``0``, ``0.001``, ``1e-9``, ``1e6``, ``-1e9``."""
+    """A limit as the messages print it: ``0``, ``0.001``, ``1e-9``, ``1e6``, ``-1e9``.
+
+    Parameters
+    ----------
+    x : float
+        The limit.
+
+    Returns
+    -------
+    str
+        Its shortest form in the messages.
+    """
     if x == 0:
         return "0"
     if 1e-3 <= abs(x) < 1e4:
@@ -199,13 +245,37 @@ def fmt_limit(x: float) -> str:
 
 
 def limit_text(kind: str) -> str:
-    """The accepted range of ``kind`` (a key of :data:`LIMITS`) as text: ``[1e-9, 1e6] kg·m²``."""
+    """The accepted range of ``kind`` (a key of :data:`LIMITS`) as text: ``[1e-9, 1e6] kg·m²``.
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`LIMITS` (``"inertia"``, ``"stiffness"``, …).
+
+    Returns
+    -------
+    str
+        The range in interval notation (``(`` for an open lower end) followed by the unit.
+    """
     lo, lo_open, hi, unit = LIMITS[kind]
     return f"{'(' if lo_open else '['}{fmt_limit(lo)}, {fmt_limit(hi)}] {unit}".rstrip()
 
 
 def in_limits(x: float, kind: str) -> bool:
-    """Whether ``x`` lies in the accepted range of ``kind`` (:data:`LIMITS`)."""
+    """Whether ``x`` lies in the accepted range of ``kind`` (:data:`LIMITS`).
+
+    Parameters
+    ----------
+    x : float
+        The value, in the unit of ``kind``.
+    kind : str
+        A key of :data:`LIMITS`.
+
+    Returns
+    -------
+    bool
+        True when ``x`` is within the range (the lower end excluded when it is open).
+    """
     lo, lo_open, hi, _unit = LIMITS[kind]
     return (x > lo if lo_open else x >= lo) and x <= hi
 
@@ -248,7 +318,26 @@ def _number(gt=None, ge=None, lt=None, limit: str | None = None) -> Callable[[An
 
 def range_pair(v: Any, limit: str | None = None) -> tuple[float, float]:
     """``[lo, hi]`` with 0 < lo <= hi (both within the accepted range of ``limit``, a key of
-    :data:`LIMITS`, when given); a single number v means [v, v]."""
+    :data:`LIMITS`, when given); a single number v means [v, v].
+
+    Parameters
+    ----------
+    v : Any
+        A list ``[lo, hi]`` of two numbers, or a single number.
+    limit : str or None, optional
+        A key of :data:`LIMITS` whose range both ends must lie in; None for no limit.
+
+    Returns
+    -------
+    tuple of float
+        ``(lo, hi)``, in the unit of the field.
+
+    Raises
+    ------
+    ValueError
+        When ``v`` is not a range or number, an end is not a finite number, lo ≤ 0, lo > hi, or an
+        end lies outside the range of ``limit``.
+    """
     if isinstance(v, (list, tuple)):
         if len(v) != 2:
             raise ValueError(f"a range must be a list [lo, hi] of two numbers, got {len(v)} item(s)")
@@ -284,7 +373,26 @@ def range_pair(v: Any, limit: str | None = None) -> tuple[float, float]:
 
 def range_or_number(v: Any, limit: str | None = None):
     """For msd parameters: a list is a range (tuple), a number is a fixed value (float >= 0;
-    a nonzero one within the accepted range of ``limit``, a key of :data:`LIMITS`, when given)."""
+    a nonzero one within the accepted range of ``limit``, a key of :data:`LIMITS`, when given).
+
+    Parameters
+    ----------
+    v : Any
+        A list ``[lo, hi]`` (a range) or a single number (a fixed value).
+    limit : str or None, optional
+        A key of :data:`LIMITS`; None for no limit.
+
+    Returns
+    -------
+    tuple of float or float
+        ``(lo, hi)`` for a list (:func:`range_pair`), else the fixed value (≥ 0).
+
+    Raises
+    ------
+    ValueError
+        When the range is malformed, the number is not finite or negative, or a value lies outside
+        the range of ``limit``.
+    """
     if isinstance(v, (list, tuple)):
         return range_pair(v, limit)
     x = to_number(v)
@@ -345,7 +453,18 @@ FeltDamping = Annotated[float, BeforeValidator(_felt_damping)]
 # --------------------------------------------------------------------------------------------
 def kind_of(v: Any) -> str:
     """What a value is, for a reason: ``null``, ``a boolean``, ``the number 3``, ``the string 'x'``,
-    ``a list``, ``a mapping`` (else the type's name)."""
+    ``a list``, ``a mapping`` (else the type's name).
+
+    Parameters
+    ----------
+    v : Any
+        The value read from a file.
+
+    Returns
+    -------
+    str
+        A short description of the value for an error reason.
+    """
     if v is None:
         return "null"
     if isinstance(v, bool):
@@ -363,7 +482,20 @@ def kind_of(v: Any) -> str:
 
 def join_path(prefix: str, loc: tuple) -> str:
     """The dotted field path of ``loc`` (a pydantic error location) under ``prefix``:
-    ``join_path("humans[0]", ("inertia",))`` is ``humans[0].inertia``, list indices in brackets."""
+    ``join_path("humans[0]", ("inertia",))`` is ``humans[0].inertia``, list indices in brackets.
+
+    Parameters
+    ----------
+    prefix : str
+        The path the location is under (``""`` for the top level).
+    loc : tuple
+        A pydantic error location: field names (str) and list indices (int).
+
+    Returns
+    -------
+    str
+        The dotted field path.
+    """
     out = prefix
     for part in loc:
         if isinstance(part, int):
@@ -408,7 +540,20 @@ def _model_at(model: type[BaseModel], loc: tuple):
 
 def did_you_mean(key: Any, allowed) -> str:
     """``"; did you mean motor_inertia?"`` when ``key`` is close to one of ``allowed`` (difflib),
-    else ``""``."""
+    else ``""``.
+
+    Parameters
+    ----------
+    key : Any
+        The unknown key (a non-string key gets no suggestion).
+    allowed : iterable of str
+        The keys accepted there.
+
+    Returns
+    -------
+    str
+        The suggestion, to append to a reason, or ``""``.
+    """
     import difflib
 
     if not isinstance(key, str):
@@ -456,7 +601,27 @@ def _convert(err: ValidationError, model: type[BaseModel], prefix: str) -> Confi
 
 def validate_model(model: type[BaseModel], data: Any, prefix: str = ""):
     """``model.model_validate(data)``; its errors raised as one :class:`ConfigError` naming the
-    first field under ``prefix`` (e.g. ``humans[0]``), the other errors in its ``more`` lines."""
+    first field under ``prefix`` (e.g. ``humans[0]``), the other errors in its ``more`` lines.
+
+    Parameters
+    ----------
+    model : type of pydantic.BaseModel
+        The input model of the section.
+    data : Any
+        The section read from the file.
+    prefix : str, optional
+        Field path of the section (e.g. ``humans[0]``), prefixed to the fields of the errors.
+
+    Returns
+    -------
+    pydantic.BaseModel
+        The validated ``model`` instance.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the data does not validate: the first error's field and reason, the others in ``more``.
+    """
     try:
         return model.model_validate(data)
     except ValidationError as err:
@@ -469,7 +634,22 @@ def validate_model(model: type[BaseModel], data: Any, prefix: str = ""):
 def check_delay_samples(delay_s: float, fs: float, field: str) -> None:
     """The exact sampled-data model (docs/method.md#analyses-and-metrics) represents the delay by ⌈T·f_s⌉ shift states, in dense
     matrices: more than MAX_DELAY_SAMPLES of them (e.g. 1 ms at 1 GHz: a million) is refused
-    up front rather than running out of memory."""
+    up front rather than running out of memory.
+
+    Parameters
+    ----------
+    delay_s : float
+        Total delay [s].
+    fs : float
+        Sample rate [Hz].
+    field : str
+        Field path named by the error.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the delay spans more than ``MAX_DELAY_SAMPLES`` samples.
+    """
     n = float(delay_s) * float(fs)
     if n > MAX_DELAY_SAMPLES:
         raise ConfigError(field, f"{fs:g} Hz makes the {float(delay_s) * 1e3:g} ms delay {n:.3g} samples; the "
@@ -482,7 +662,20 @@ MAX_DELAY_SAMPLES = 200  # the sampled-data model holds one shift state per samp
 
 def check_analysis_filters(impl, prefix: str = "") -> None:
     """The analysis needs the G_v and derivative filters (docs/method.md#controller): without them the cuff path
-    G_v(s)(K̂2 + B̂2 s) is improper. ``prefix`` names where the implementation sits (``base.``)."""
+    G_v(s)(K̂2 + B̂2 s) is improper. ``prefix`` names where the implementation sits (``base.``).
+
+    Parameters
+    ----------
+    impl : Implementation
+        The implementation section (:class:`~exotune.model.controller.Implementation`).
+    prefix : str, optional
+        Field path prefix (``"base."`` in a spec), ``""`` in a design file.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``gv_filter`` or ``derivative_filter`` is missing (null).
+    """
     for key in ("gv_filter", "derivative_filter"):
         if getattr(impl, key) is None:
             raise ConfigError(f"{prefix}implementation.{key}",

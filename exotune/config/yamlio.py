@@ -270,7 +270,26 @@ def _compose_construct(text: str, name: str):
 def load_yaml_text(text: str, name: str = "<input>"):
     """Parse YAML text with exotune's safe loader (:class:`_Loader`, a ``yaml.SafeLoader``
     subclass: what ``yaml.safe_load`` does, with YAML 1.2 numbers and booleans, nesting depth and
-    alias expansion bounded and duplicate keys refused — :class:`ConfigError` naming ``name``)."""
+    alias expansion bounded and duplicate keys refused — :class:`ConfigError` naming ``name``).
+
+    Parameters
+    ----------
+    text : str
+        The YAML (or JSON) text.
+    name : str, optional
+        What the text is (a file path), named by the errors.
+
+    Returns
+    -------
+    Any
+        The parsed document (mappings, lists, strings, numbers, booleans, null).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the text is not valid YAML, nests too deeply, expands too many aliases or repeats a
+        key.
+    """
     return _compose_construct(text, name)
 
 
@@ -332,7 +351,18 @@ def read_yaml(path, max_bytes: int = MAX_YAML_BYTES) -> dict:
 def spec_base(spec) -> str | None:
     """The design file a sweep or optimize spec file names as its ``base`` (resolved against the
     spec's directory), or None (a mapping spec, no base, or a spec that cannot be read: the
-    command reports that in its own words): an input that no output may overwrite."""
+    command reports that in its own words): an input that no output may overwrite.
+
+    Parameters
+    ----------
+    spec : str, os.PathLike or Any
+        A spec file path; anything else (a mapping) gives None.
+
+    Returns
+    -------
+    str or None
+        The path of the base design file, or None.
+    """
     if not isinstance(spec, (str, os.PathLike)):
         return None
     try:
