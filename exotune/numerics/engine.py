@@ -22,7 +22,18 @@ _PREFERRED: contextvars.ContextVar[str | None] = contextvars.ContextVar("exotune
 
 def resolve_engine(engine: str | None) -> str:
     """``engine`` if given, else "numba" when the compiled kernels are usable (numba installed,
-    ``EXOTUNE_NUMPY_ONLY`` unset, not inside :func:`numpy_engine`), else "numpy"."""
+    ``EXOTUNE_NUMPY_ONLY`` unset, not inside :func:`numpy_engine`), else "numpy".
+
+    Parameters
+    ----------
+    engine : str or None
+        ``"numba"``, ``"numpy"``, or None to choose.
+
+    Returns
+    -------
+    str
+        The engine to use.
+    """
     if engine is None:
         if _PREFERRED.get() == "numpy" or os.environ.get("EXOTUNE_NUMPY_ONLY"):
             return "numpy"
@@ -36,7 +47,20 @@ def worth_compiling(work: float, threshold: float = 5e7) -> bool:
     """Whether a single long job (``work`` ≈ floating-point operations) should use a compiled
     kernel even inside :func:`numpy_engine`: numba installed and allowed (``EXOTUNE_NUMPY_ONLY``
     unset) and the work large enough that a one-time compilation (about a second, cached on disk)
-    pays for itself."""
+    pays for itself.
+
+    Parameters
+    ----------
+    work : float
+        Estimated floating-point operations of the job.
+    threshold : float, optional
+        Work above which compiling pays off.
+
+    Returns
+    -------
+    bool
+        Whether to use a compiled kernel.
+    """
     if os.environ.get("EXOTUNE_NUMPY_ONLY") or work < threshold:
         return False
     from . import kernels
@@ -45,7 +69,13 @@ def worth_compiling(work: float, threshold: float = 5e7) -> bool:
 
 
 def compiled() -> bool:
-    """Whether the compiled (numba) kernels are in use here."""
+    """Whether the compiled (numba) kernels are in use here.
+
+    Returns
+    -------
+    bool
+        True when the numba kernels are in use.
+    """
     return resolve_engine(None) == "numba"
 
 
@@ -68,7 +98,13 @@ def numpy_engine():
 
 def kernels_cached() -> bool:
     """Whether compiled kernels for this machine are already in numba's on-disk cache (beside the
-    kernel modules, or under ``NUMBA_CACHE_DIR``); False when numba is not in use."""
+    kernel modules, or under ``NUMBA_CACHE_DIR``); False when numba is not in use.
+
+    Returns
+    -------
+    bool
+        True when the kernels' cache files exist.
+    """
     if not compiled():
         return False
     env = os.environ.get("NUMBA_CACHE_DIR")

@@ -39,7 +39,21 @@ __all__ = [
 
 
 def as_poly(*coeffs, shape=None) -> np.ndarray:
-    """Stack ascending coefficients (scalars or arrays broadcast together) into a poly batch."""
+    """Stack ascending coefficients (scalars or arrays broadcast together) into a poly batch.
+
+    Parameters
+    ----------
+    *coeffs : array_like
+        The coefficients c_0, c_1, …, c_d (ascending powers), each a scalar or an array over the
+        batch.
+    shape : tuple of int or None, optional
+        Leading (batch) shape to broadcast the result to; None keeps the broadcast shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        The batch (..., d+1), float or complex.
+    """
     arrs = np.broadcast_arrays(*[np.asarray(c) for c in coeffs])
     out = np.stack(arrs, axis=-1)
     if out.dtype.kind not in "fc":
@@ -59,13 +73,35 @@ def pad_cols(a: np.ndarray, n: int) -> np.ndarray:
 
 
 def padd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a + b for polynomial batches (broadcast over leading dims)."""
+    """a + b for polynomial batches (broadcast over leading dims).
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray
+        Polynomial batches (..., ·), ascending coefficients.
+
+    Returns
+    -------
+    numpy.ndarray
+        The sum, as long as the longer operand.
+    """
     n = max(a.shape[-1], b.shape[-1])
     return pad_cols(np.asarray(a), n) + pad_cols(np.asarray(b), n)
 
 
 def psub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a - b for polynomial batches."""
+    """a - b for polynomial batches.
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray
+        Polynomial batches (..., ·), ascending coefficients.
+
+    Returns
+    -------
+    numpy.ndarray
+        The difference, as long as the longer operand.
+    """
     n = max(a.shape[-1], b.shape[-1])
     return pad_cols(np.asarray(a), n) - pad_cols(np.asarray(b), n)
 
@@ -74,7 +110,18 @@ _COMPILED_MIN_ROWS = 64  # below this many rows numpy's loop is as fast as the c
 
 
 def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a * b (batched convolution); exact zeros stay exact."""
+    """a * b (batched convolution); exact zeros stay exact.
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray
+        Polynomial batches (..., na) and (..., nb), ascending coefficients.
+
+    Returns
+    -------
+    numpy.ndarray
+        The product (..., na + nb − 1) over the broadcast leading dims.
+    """
     a = np.asarray(a)
     b = np.asarray(b)
     lead = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
@@ -93,12 +140,36 @@ def pmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def pscale(a: np.ndarray, k) -> np.ndarray:
-    """k * a with k a scalar or an array over the leading dims."""
+    """k * a with k a scalar or an array over the leading dims.
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Polynomial batch (..., d+1).
+    k : float or array_like
+        Factor, a scalar or one per row (the leading dims of ``a``).
+
+    Returns
+    -------
+    numpy.ndarray
+        The scaled batch.
+    """
     return np.asarray(a) * np.asarray(k)[..., None]
 
 
 def pder(a: np.ndarray) -> np.ndarray:
-    """d/ds of a polynomial batch."""
+    """d/ds of a polynomial batch.
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Polynomial batch (..., d+1), ascending coefficients.
+
+    Returns
+    -------
+    numpy.ndarray
+        The derivative (..., d) (a zero column for constants).
+    """
     a = np.asarray(a)
     if a.shape[-1] == 1:
         return np.zeros_like(a)
@@ -106,7 +177,20 @@ def pder(a: np.ndarray) -> np.ndarray:
 
 
 def pval(c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Evaluate ``c`` (shape (..., d+1)) at ``s`` (shape (..., K)) by Horner's rule -> (..., K)."""
+    """Evaluate ``c`` (shape (..., d+1)) at ``s`` (shape (..., K)) by Horner's rule -> (..., K).
+
+    Parameters
+    ----------
+    c : numpy.ndarray
+        Polynomial batch (..., d+1), ascending coefficients.
+    s : numpy.ndarray
+        Evaluation points (..., K), real or complex (e.g. s = jω [rad/s]).
+
+    Returns
+    -------
+    numpy.ndarray
+        The values (..., K).
+    """
     c = np.asarray(c)
     s = np.asarray(s)
     acc = np.broadcast_to(c[..., -1:], np.broadcast_shapes(c.shape[:-1] + (1,), s.shape)).astype(
@@ -118,7 +202,22 @@ def pval(c: np.ndarray, s: np.ndarray) -> np.ndarray:
 
 
 def pval_flat(c: np.ndarray, idx: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Evaluate row ``idx[i]`` of the batch ``c`` (shape (T, d+1)) at ``s[i]`` -> shape (M,)."""
+    """Evaluate row ``idx[i]`` of the batch ``c`` (shape (T, d+1)) at ``s[i]`` -> shape (M,).
+
+    Parameters
+    ----------
+    c : numpy.ndarray
+        Polynomial batch (T, d+1), ascending coefficients.
+    idx : numpy.ndarray
+        Row of ``c`` per point (M,), int.
+    s : numpy.ndarray
+        Evaluation points (M,).
+
+    Returns
+    -------
+    numpy.ndarray
+        The complex values (M,).
+    """
     cc = c[idx]
     acc = cc[:, -1].astype(np.result_type(cc, s, complex))
     for k in range(c.shape[-1] - 2, -1, -1):
@@ -127,7 +226,18 @@ def pval_flat(c: np.ndarray, idx: np.ndarray, s: np.ndarray) -> np.ndarray:
 
 
 def degree(c: np.ndarray) -> np.ndarray:
-    """Index of the highest non-zero coefficient per row (-1 for the zero polynomial)."""
+    """Index of the highest non-zero coefficient per row (-1 for the zero polynomial).
+
+    Parameters
+    ----------
+    c : numpy.ndarray
+        Polynomial batch (..., d+1), ascending coefficients.
+
+    Returns
+    -------
+    numpy.ndarray
+        Degree per row (int), −1 for the zero polynomial.
+    """
     nz = np.asarray(c) != 0
     rev = nz[..., ::-1]
     has = rev.any(axis=-1)
@@ -136,7 +246,18 @@ def degree(c: np.ndarray) -> np.ndarray:
 
 
 def leading(c: np.ndarray) -> np.ndarray:
-    """Leading (highest non-zero) coefficient per row."""
+    """Leading (highest non-zero) coefficient per row.
+
+    Parameters
+    ----------
+    c : numpy.ndarray
+        Polynomial batch (..., d+1), ascending coefficients.
+
+    Returns
+    -------
+    numpy.ndarray
+        The leading coefficient per row (0 for the zero polynomial).
+    """
     d = np.maximum(degree(c), 0)
     return np.take_along_axis(np.asarray(c), d[..., None], axis=-1)[..., 0]
 
@@ -146,6 +267,20 @@ def strip_common_low_zeros(*polys: np.ndarray, max_strip: int | None = None):
     low-order coefficients (per row). Returns ``(r, stripped_polys)``.
 
     Used to take out the structural root at s = 0 (rigid-body mode, docs/method.md#double-compliance-shaping) exactly.
+
+    Parameters
+    ----------
+    *polys : numpy.ndarray
+        The polynomial batches of the group, ascending coefficients.
+    max_strip : int or None, optional
+        Largest power of s to divide out; None for no limit.
+
+    Returns
+    -------
+    r : numpy.ndarray
+        The power of s divided out, per row (int).
+    stripped : list of numpy.ndarray
+        The polynomials divided by s**r, same shapes (zero-padded at the top).
     """
     n = max(p.shape[-1] for p in polys)
     lead = np.broadcast_shapes(*[p.shape[:-1] for p in polys])
@@ -239,6 +374,16 @@ def descending(c) -> np.ndarray:
     """Ascending coefficients (the kernels' order) → descending (numpy, scipy.signal,
     python-control, MATLAB), highest-power exact zeros dropped.
 
+    Parameters
+    ----------
+    c : array_like
+        Coefficients in ascending powers of s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Coefficients in descending powers, 1-D float (at least one entry).
+
     Examples
     --------
     >>> descending([1.0, 2.0, 3.0]).tolist()   # 1 + 2 s + 3 s²
@@ -252,6 +397,16 @@ def descending(c) -> np.ndarray:
 
 def ascending(d) -> np.ndarray:
     """Descending coefficients (numpy/python-control order) → ascending (the kernels' order).
+
+    Parameters
+    ----------
+    d : array_like
+        Coefficients in descending powers of s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Coefficients in ascending powers, 1-D float.
 
     Examples
     --------

@@ -104,6 +104,20 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, engine: str | 
     both sums are non-increasing in ω, so the bounds hold on the whole tail.
     Returns +inf for rows that are not of retarded type (deg P1 ≥ deg P0) or where P0 ≡ 0.
     Compiled (:func:`exotune._fastphase.omega_max`) unless the numpy engine is selected.
+
+    Parameters
+    ----------
+    p0, p1 : numpy.ndarray
+        Rows (T, ·) of the quasi-polynomials' P0 and P1, ascending coefficients.
+    frac : float, optional
+        The tail bounds' fraction (0 < frac < 1).
+    engine : str or None, optional
+        ``"numba"`` or ``"numpy"``; None chooses (:func:`exotune.numerics.engine.resolve_engine`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ω_max [rad/s] per row, +inf where no tail bound holds.
     """
     if _engine(engine) == "numba":
         from . import kernels as _fastphase
@@ -148,6 +162,28 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
     One function on purpose (over 80 lines): it is the numpy reference of the compiled kernel
     :func:`exotune.numerics.kernels.leaves` and follows its loop step by step, so that the two can
     be read side by side; its work list, budget and leaf arrays are shared by every step.
+
+    Parameters
+    ----------
+    evalfn : callable
+        ``evalfn(idx, w)``: the tracked functions' (value, derivative) at s = jω, ω = ``w``
+        [rad/s].
+    ntask : int
+        Number of tasks (rows).
+    grid : numpy.ndarray
+        Initial grid per task (T, K) [rad/s], increasing.
+    valid : numpy.ndarray or None, optional
+        Tasks to refine (T,), bool; None for all.
+    extra_ok : callable or None, optional
+        An extra acceptance test of an interval, as described above.
+    geometric : bool, optional
+        Split wide intervals at their geometric mean.
+
+    Returns
+    -------
+    dict
+        The accepted leaves as flat arrays (``task``, ``a``, ``b`` [rad/s], the tracked functions'
+        values at both ends) and ``resolved`` per task.
     """
     T, K = grid.shape
     if valid is None:
@@ -312,6 +348,22 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     Returns ``(N, conclusive)``: integer counts and a flag that is False when a zero lies on (or
     within the float resolution of) the imaginary axis, the type is not retarded, or the count is
     not an integer — callers must treat inconclusive as **not stable**.
+
+    Parameters
+    ----------
+    qp : QP
+        The batch of quasi-polynomials Δ(s) = P0(s) + P1(s) e^{−sT}.
+    v0 : numpy.ndarray or None, optional
+        Δ(j0) per row, overriding the evaluated value (NaN keeps it); None for none.
+    per_decade : int, optional
+        Initial grid points per decade of frequency.
+
+    Returns
+    -------
+    N : numpy.ndarray
+        Number of open-RHP zeros per row (int; −1 where not finite).
+    conclusive : numpy.ndarray
+        Whether each count holds (bool).
     """
     p0 = np.asarray(qp.p0)
     p1 = np.asarray(qp.p1)
@@ -356,6 +408,26 @@ def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.nda
 
     Brackets are kept (the Illinois modification makes both ends move), so convergence is
     guaranteed; every bracket is shrunk to a relative width of 1e-14 (or ``iters`` steps).
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(task, w)``: real values of the tracked function at ``w`` for the rows ``task``.
+    task : numpy.ndarray
+        Row per bracket (int).
+    a, b : numpy.ndarray
+        Bracket ends, with a sign change of ``fun`` between them.
+    fa : numpy.ndarray
+        ``fun`` at ``a``.
+    iters : int, optional
+        Most steps.
+    fb : numpy.ndarray or None, optional
+        ``fun`` at ``b``, evaluated when None.
+
+    Returns
+    -------
+    numpy.ndarray
+        The midpoint of each final bracket (a root).
     """
     a = a.astype(float).copy()
     b = b.astype(float).copy()

@@ -20,7 +20,18 @@ __all__ = ["one_blas_thread"]
 
 
 def one_blas_thread(fn):
-    """Decorator: run ``fn`` with BLAS limited to one thread (threadpoolctl)."""
+    """Decorator: run ``fn`` with BLAS limited to one thread (threadpoolctl).
+
+    Parameters
+    ----------
+    fn : callable
+        The function to wrap.
+
+    Returns
+    -------
+    callable
+        The wrapped function (same signature and result).
+    """
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):

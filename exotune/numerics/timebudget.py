@@ -39,7 +39,23 @@ _DEADLINE: contextvars.ContextVar = contextvars.ContextVar("exotune_time_budget"
 
 
 def check_budget_option(value) -> float:
-    """``--time-budget-s``: a positive, finite number of seconds (default :data:`DEFAULT_TIME_BUDGET_S`)."""
+    """``--time-budget-s``: a positive, finite number of seconds (default :data:`DEFAULT_TIME_BUDGET_S`).
+
+    Parameters
+    ----------
+    value : Any
+        The option's value (a number or its text); None for the default.
+
+    Returns
+    -------
+    float
+        The budget [s].
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the value is not a positive, finite number.
+    """
     from ..options import number_value
 
     return DEFAULT_TIME_BUDGET_S if value is None else number_value(FIELD, value, positive=True, noun="a number of seconds")
@@ -49,7 +65,24 @@ def check_budget_option(value) -> float:
 def time_budget(seconds: float, what: str, hint: str, writes: bool = True):
     """Within the block, :func:`check_time` raises once ``seconds`` have passed. ``what`` names
     the work ("exporting at 100000 Hz"), ``hint`` how to make it cheaper; ``writes``: the work
-    would write a file (the error then says that nothing was written)."""
+    would write a file (the error then says that nothing was written).
+
+    Parameters
+    ----------
+    seconds : float
+        The budget [s].
+    what : str
+        The work, as the error names it.
+    hint : str
+        How to make the work cheaper, as the error suggests it.
+    writes : bool, optional
+        Whether the work would write a file.
+
+    Yields
+    ------
+    None
+        Control to the block.
+    """
     token = _DEADLINE.set((time.monotonic() + seconds, seconds, what, hint, "; nothing was written" if writes else ""))
     try:
         yield
@@ -58,7 +91,13 @@ def time_budget(seconds: float, what: str, hint: str, writes: bool = True):
 
 
 def active_budget() -> tuple[float, str, str, str] | None:
-    """(seconds, what, hint, tail) of the enclosing :func:`time_budget`, None outside one."""
+    """(seconds, what, hint, tail) of the enclosing :func:`time_budget`, None outside one.
+
+    Returns
+    -------
+    tuple or None
+        ``(seconds [s], what, hint, tail)``, or None outside a budget.
+    """
     d = _DEADLINE.get()
     return None if d is None else (d[1], d[2], d[3], d[4])
 
@@ -75,7 +114,20 @@ def check_time() -> None:
 @one_blas_thread
 def eig_seconds(n: int, repeats: int = 3) -> float:
     """Measured seconds of one dense eigenvalue problem of size ``n`` on this machine (median),
-    with one BLAS thread as in the sampled-data analysis."""
+    with one BLAS thread as in the sampled-data analysis.
+
+    Parameters
+    ----------
+    n : int
+        Size of the (dense, real) matrix.
+    repeats : int, optional
+        Number of timings to take the median of.
+
+    Returns
+    -------
+    float
+        Seconds [s] of one eigenvalue problem.
+    """
     rng = np.random.default_rng(0)
     a = rng.standard_normal((n, n))
     ts = []
@@ -88,7 +140,33 @@ def eig_seconds(n: int, repeats: int = 3) -> float:
 
 def refuse_if_over(problems: int, states: int, seconds: float, what: str, hint: str, tail: str = "") -> float:
     """Refuse, before starting, work of at least ``problems`` eigenvalue problems of size
-    ``states`` whose measured cost exceeds ``seconds``. Returns the estimate [s]."""
+    ``states`` whose measured cost exceeds ``seconds``. Returns the estimate [s].
+
+    Parameters
+    ----------
+    problems : int
+        Lower bound of the number of eigenvalue problems the work solves.
+    states : int
+        Size of each problem (states of the loop matrix).
+    seconds : float
+        The time budget [s].
+    what : str
+        The work, as the error names it.
+    hint : str
+        How to make the work cheaper.
+    tail : str, optional
+        Text appended to the error (e.g. "; nothing was written").
+
+    Returns
+    -------
+    float
+        The estimated time [s].
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the estimate exceeds ``seconds``.
+    """
     est = problems * eig_seconds(states)
     if est > seconds:
         raise ConfigError(FIELD, f"{what} needs at least {problems} eigenvalue problems of a {states}-state loop "
