@@ -71,7 +71,18 @@ def _worker_init(parent_pid: int) -> None:
 def sigterm_as_exit(progress: SweepProgress):
     """SIGTERM (``kill PID``) ends the sweep like Ctrl-C: the manifest records "interrupted" and
     the worker pool is shut down (only the main thread can install a handler). The termination
-    is reported as ``progress.message("terminated", …)``."""
+    is reported as ``progress.message("terminated", …)``.
+
+    Parameters
+    ----------
+    progress : SweepProgress
+        Where the termination is reported.
+
+    Yields
+    ------
+    None
+        While SIGTERM raises ``SystemExit(128 + SIGTERM)``.
+    """
     import signal
     import threading
 
@@ -303,7 +314,27 @@ def dispatch(plan, out_dir, todo, on_result, backend, dask, workers, n_workers) 
     """Compute the chunks ``todo`` of ``plan`` with ``backend`` (``"in-process"``,
     ``"local-processes"`` with ``n_workers`` processes, or ``"dask"`` on the
     :class:`DaskConnection` ``dask``), calling
-    ``on_result(status record)`` in this process for every chunk, failed ones included."""
+    ``on_result(status record)`` in this process for every chunk, failed ones included.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+        The sweep's plan.
+    out_dir : str
+        The sweep directory the chunk files are written to.
+    todo : list of int
+        Indices of the chunks to compute.
+    on_result : callable
+        Called with each chunk's status record (a dict with ``index``, ``rows``, ``error``, …).
+    backend : str
+        ``"in-process"``, ``"local-processes"`` or ``"dask"``.
+    dask : DaskConnection or None
+        The Dask connection (backend ``"dask"``).
+    workers : int or None
+        The requested worker count (the Dask window's fallback when the cluster reports none).
+    n_workers : int
+        Worker processes of ``"local-processes"``.
+    """
     if not todo:
         return
     if backend == "dask":

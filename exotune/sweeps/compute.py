@@ -169,7 +169,26 @@ def compute_table(plan: SweepPlan, index: int):
 
 def chunk_task(spec: dict, spec_hash: str, index: int, out_dir: str | None) -> dict:
     """Compute chunk ``index``; write it to ``out_dir`` (or return the Parquet bytes when
-    ``out_dir`` is None, for remote Dask workers). Never raises: errors come back as text."""
+    ``out_dir`` is None, for remote Dask workers). Never raises: errors come back as text.
+
+    Parameters
+    ----------
+    spec : dict
+        The validated sweep spec.
+    spec_hash : str
+        Its hash (the plan is rebuilt from the spec and checked against it).
+    index : int
+        Chunk index (from 0).
+    out_dir : str or None
+        The sweep directory, or None to return the file's bytes.
+
+    Returns
+    -------
+    dict
+        The status record: ``index``, ``rows``, ``schema``, ``error`` (None or the error text),
+        ``sha256``, ``failed_rows``, ``seconds`` [s], and ``data`` (the Parquet bytes) when
+        ``out_dir`` is None; a failed chunk has ``traceback`` instead of the file's fields.
+    """
     t0 = time.perf_counter()
     try:
         plan = _plan_from_spec(spec, spec_hash)

@@ -78,7 +78,33 @@ def verified_manifest(out_dir) -> dict:
 def read_tables(out_dir: str, columns=None, allow_partial: bool = False, manifest: dict | None = None):
     """(manifest, the finished chunks concatenated as one Arrow table or None, missing chunk indices);
     ConfigError for a bad chunk (:func:`verified_manifest`, skipped when the caller passes the
-    ``manifest`` it returned), or for missing chunks unless ``allow_partial``."""
+    ``manifest`` it returned), or for missing chunks unless ``allow_partial``.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The sweep directory.
+    columns : list of str or None, optional
+        The columns to read; None for all.
+    allow_partial : bool, optional
+        Read the finished chunks of an incomplete sweep instead of refusing it.
+    manifest : dict or None, optional
+        The manifest, already verified; None to verify it here.
+
+    Returns
+    -------
+    manifest : dict
+        The manifest.
+    table : pyarrow.Table or None
+        The finished chunks' rows, None when no chunk is finished.
+    missing : list of int
+        Indices of the chunks not finished.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When a chunk is damaged or unreadable, or chunks are missing and ``allow_partial`` is False.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 

@@ -128,12 +128,56 @@ def _note(fig, flags: list[dict]) -> None:
 def draw_heatmap(ax, grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw) -> dict:
     """Draw grid[iy, ix] into the existing ``ax`` (with its colour bar): +inf cells in the
     colormap's "over" colour, NaN cells grey. Returns what a note must explain
-    (``{"nan": bool, "inf": bool, "zero": bool}``)."""
+    (``{"nan": bool, "inf": bool, "zero": bool}``).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw into.
+    grid : numpy.ndarray
+        Cell values (ny, nx), in display units.
+    xvals, yvals : array_like
+        The axis values (SI units).
+    xlabel, ylabel : str
+        The axes' parameter paths or labels.
+    title : str
+        The panel's title.
+    cbar_label : str
+        The colour bar's label (quantity and unit).
+    **kw
+        ``vmin``, ``vmax``, ``cmap``, ``log``, ``annotate``, ``fmt``, ``fontsize``.
+
+    Returns
+    -------
+    dict
+        Whether the grid has NaN, +inf and (on a log scale) non-positive cells.
+    """
     return _draw_heatmap(ax.figure, ax, grid, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw)
 
 
 def heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw) -> bytes:
-    """One heatmap figure as PNG bytes (see :func:`_draw_heatmap`)."""
+    """One heatmap figure as PNG bytes (see :func:`_draw_heatmap`).
+
+    Parameters
+    ----------
+    grid : numpy.ndarray
+        Cell values (ny, nx), in display units.
+    xvals, yvals : array_like
+        The axis values (SI units).
+    xlabel, ylabel : str
+        The axes' parameter paths or labels.
+    title : str
+        The figure's title.
+    cbar_label : str
+        The colour bar's label (quantity and unit).
+    **kw
+        As :func:`draw_heatmap`; ``annotate`` defaults to True for at most 144 cells.
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     fig = new_figure(FIGSIZE["single"])
     ax = fig.add_subplot(1, 1, 1)
     kw.setdefault("annotate", grid.size <= 144)
@@ -144,7 +188,25 @@ def heatmap(grid: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *
 def heatmap_panels(panels: list[dict], xvals, yvals, xlabel, ylabel, suptitle) -> bytes:
     """Several heatmaps over the same pair of axes in one figure (one panel per metric); a metric
     that is the same in every cell (to six digits) is named with its value under the title instead
-    of drawing a panel of one colour."""
+    of drawing a panel of one colour.
+
+    Parameters
+    ----------
+    panels : list of dict
+        One per metric: ``grid`` and the keyword arguments of :func:`draw_heatmap` (``title``,
+        ``cbar_label``, …).
+    xvals, yvals : array_like
+        The axis values (SI units).
+    xlabel, ylabel : str
+        The axes' parameter paths.
+    suptitle : str
+        The figure's title.
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     varying, constant = [], []
     for p in panels:
         g = np.asarray(p["grid"], dtype=float)
@@ -180,7 +242,26 @@ def heatmap_panels(panels: list[dict], xvals, yvals, xlabel, ylabel, suptitle) -
 
 def profile_figure(x, series, xlabel, logx, title) -> bytes:
     """Stacked panels of ``series`` [(label, y)] against ``x`` as PNG bytes (+inf drawn as markers
-    at the top of the finite values)."""
+    at the top of the finite values).
+
+    Parameters
+    ----------
+    x : array_like
+        The axis values (SI units).
+    series : list of tuple
+        ``(label, y)`` per panel.
+    xlabel : str
+        The axis' parameter path.
+    logx : bool
+        Logarithmic x axis.
+    title : str
+        The figure's title.
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     n = len(series)
     fig = new_figure((7, 1.9 * n + 0.8))
     axes = np.atleast_1d(fig.subplots(n, 1, sharex=True, squeeze=False))

@@ -38,7 +38,18 @@ _BLOCK = 1 << 20
 
 
 def sha256_file(path: str) -> str:
-    """SHA-256 (hex) of a file's bytes."""
+    """SHA-256 (hex) of a file's bytes.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+
+    Returns
+    -------
+    str
+        The 64 hex digits.
+    """
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(_BLOCK), b""):
@@ -189,6 +200,19 @@ def scan_chunks(out_dir: str, m: dict, plan: SweepPlan, strict: bool) -> dict:
 
 
 def count_failed_designs(m: dict) -> tuple[int, list[dict]]:
-    """(number of failed designs in the finished chunks, the first few as {point_index, reason})."""
+    """(number of failed designs in the finished chunks, the first few as {point_index, reason}).
+
+    Parameters
+    ----------
+    m : dict
+        The sweep's manifest.
+
+    Returns
+    -------
+    count : int
+        Failed designs in the finished chunks.
+    first : list of dict
+        The first ten of them.
+    """
     rows = [r for c in m["chunks"] if c.get("status") == "done" for r in (c.get("failed_designs") or [])]
     return len(rows), rows[:10]

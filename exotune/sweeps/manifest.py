@@ -28,14 +28,36 @@ FORMAT_VERSION = 1
 
 
 def utc_now() -> str:
-    """The current time, UTC, ISO 8601 to the second (manifest timestamps)."""
+    """The current time, UTC, ISO 8601 to the second (manifest timestamps).
+
+    Returns
+    -------
+    str
+        ISO 8601 timestamp with its ``+00:00`` offset.
+    """
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
 def load_manifest(out_dir) -> dict:
     """The manifest of a sweep directory, checked (:func:`_check_manifest`): ConfigError when it is
     missing, unreadable, too large or too deeply nested (the guarded JSON reader), a symbolic link,
-    damaged, or edited by hand (its spec no longer has the recorded spec hash)."""
+    damaged, or edited by hand (its spec no longer has the recorded spec hash).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The sweep directory.
+
+    Returns
+    -------
+    dict
+        The manifest (``manifest.json``).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the directory holds no readable, intact manifest of a sweep.
+    """
     from ..config import read_json_guarded
 
     path = os.path.join(os.fspath(out_dir), MANIFEST)
@@ -83,7 +105,18 @@ def _check_manifest(m: dict, path: str) -> None:
 
 
 def chunk_rel(index: int) -> str:
-    """The path of chunk ``index`` relative to the sweep directory (``chunks/part-XXXXXX.parquet``)."""
+    """The path of chunk ``index`` relative to the sweep directory (``chunks/part-XXXXXX.parquet``).
+
+    Parameters
+    ----------
+    index : int
+        Chunk index (from 0).
+
+    Returns
+    -------
+    str
+        The relative path.
+    """
     return f"chunks/part-{index:06d}.parquet"
 
 
@@ -128,7 +161,15 @@ def _check_integrity(m: dict, path: str) -> None:
 
 
 def write_manifest(out_dir: str, manifest: dict) -> None:
-    """Stamp ``updated`` and write the manifest atomically as strict JSON."""
+    """Stamp ``updated`` and write the manifest atomically as strict JSON.
+
+    Parameters
+    ----------
+    out_dir : str
+        The sweep directory.
+    manifest : dict
+        The manifest; its ``updated`` is set in place.
+    """
     import json
 
     manifest["updated"] = utc_now()
@@ -139,7 +180,23 @@ def write_manifest(out_dir: str, manifest: dict) -> None:
 @contextlib.contextmanager
 def dir_lock(out_dir: str):
     """Hold ``DIR/.lock`` (an exclusive, non-blocking flock) for the duration of a run; a second
-    run in the same directory is refused with a ConfigError."""
+    run in the same directory is refused with a ConfigError.
+
+    Parameters
+    ----------
+    out_dir : str
+        The sweep directory.
+
+    Yields
+    ------
+    None
+        While the lock is held.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When another process holds the lock, or ``DIR/.lock`` is a symbolic link.
+    """
     try:
         import fcntl
     except ImportError:  # pragma: no cover - non-POSIX
@@ -159,7 +216,20 @@ def dir_lock(out_dir: str):
 
 def refuse_link(path: str, what: str = "a sweep directory") -> None:
     """ConfigError when ``path`` is a symbolic link: exotune never reads, writes or deletes through
-    a link inside a sweep or report directory (it could point anywhere)."""
+    a link inside a sweep or report directory (it could point anywhere).
+
+    Parameters
+    ----------
+    path : str
+        The path to check.
+    what : str, optional
+        What the directory is, as the error names it.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``path`` is a symbolic link.
+    """
     if os.path.islink(path):
         raise ConfigError(path, f"is a symbolic link; {what} must hold its own files and directories, "
                                 "not links (exotune never writes or deletes through them)")
@@ -167,7 +237,18 @@ def refuse_link(path: str, what: str = "a sweep directory") -> None:
 
 def try_lock(out_dir: str):
     """The open ``DIR/.lock`` file holding an exclusive lock, or None when another process holds it
-    or the directory is not writable (a report then records nothing in the manifest)."""
+    or the directory is not writable (a report then records nothing in the manifest).
+
+    Parameters
+    ----------
+    out_dir : str
+        The sweep directory.
+
+    Returns
+    -------
+    file object or None
+        The locked file (close it to release the lock), or None.
+    """
     try:
         import fcntl
     except ImportError:  # pragma: no cover - non-POSIX
@@ -197,7 +278,13 @@ _ENGINE_PACKAGES = ("numerics", "model", "config", "sampled", "analysis")
 
 def engine_hash() -> str:
     """SHA-256 of the source of the packages that compute the results: a resumed sweep refuses to
-    mix chunks computed by different analysis code (the version string alone is not enough)."""
+    mix chunks computed by different analysis code (the version string alone is not enough).
+
+    Returns
+    -------
+    str
+        The 64 hex digits of the SHA-256.
+    """
     import hashlib
     from pathlib import Path
 
@@ -224,7 +311,18 @@ def _model_note(plan: SweepPlan) -> str:
 
 
 def new_manifest(plan: SweepPlan) -> dict:
-    """The manifest of a new sweep of ``plan`` (no chunk done yet, status ``running``)."""
+    """The manifest of a new sweep of ``plan`` (no chunk done yet, status ``running``).
+
+    Parameters
+    ----------
+    plan : SweepPlan
+        The sweep's plan (spec, axes, sampling, chunking).
+
+    Returns
+    -------
+    dict
+        The manifest to write.
+    """
     axes = []
     for p, v in zip(plan.paths, plan.values):
         axes.append({"path": p, "num": int(v.size), "min": float(v.min()), "max": float(v.max()),
@@ -273,7 +371,22 @@ def new_manifest(plan: SweepPlan) -> dict:
 
 def check_compatible(out_dir: str, old: dict, plan: SweepPlan) -> None:
     """Refuse (ConfigError) to resume a sweep directory holding a different spec, made by different
-    analysis code (engine hash) or by another exotune version."""
+    analysis code (engine hash) or by another exotune version.
+
+    Parameters
+    ----------
+    out_dir : str
+        The sweep directory, as the errors name it.
+    old : dict
+        The manifest found there.
+    plan : SweepPlan
+        The plan of this run.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the spec hash, engine hash or exotune version differs.
+    """
     if old.get("spec_hash") != plan.hash:
         diff = _spec_diff(old.get("spec") or {}, plan.spec)
         what = f"; differs in: {', '.join(diff)}" if diff else ""

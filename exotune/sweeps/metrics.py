@@ -43,7 +43,25 @@ _FAMILY_RE = re.compile(r"^(sampled_)?(human|env)(\d+)_(.+)_stable_intervals$")
 # ---------------------------------------------------------------------------------------------
 def interval_ends(col) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(count, first_lo, first_hi, last_lo, last_hi) per row of a ``list<list<double>>`` column
-    (a pyarrow (Chunked)Array, or a sequence of lists of [lo, hi]); NaN where there is none."""
+    (a pyarrow (Chunked)Array, or a sequence of lists of [lo, hi]); NaN where there is none.
+
+    Parameters
+    ----------
+    col : pyarrow.Array, pyarrow.ChunkedArray or sequence
+        The interval column.
+
+    Returns
+    -------
+    count : numpy.ndarray
+        Intervals per row (int).
+    first_lo, first_hi, last_lo, last_hi : numpy.ndarray
+        Ends of the first and the last interval per row, in the column's unit.
+
+    Raises
+    ------
+    ValueError
+        When an entry is not a [lo, hi] pair.
+    """
     import pyarrow as pa
     import pyarrow.compute as pc
 
@@ -97,6 +115,18 @@ def derived_metrics(table, manifest: dict) -> dict[str, tuple[np.ndarray, dict]]
     Returns {name: (values, info)} with names ``human{i}_lightest_stable_inertia`` (kg·m²) and
     ``human{i}_stiffest_stable_stiffness`` (N·m/rad) (``env{i}_…`` likewise); ``info`` holds
     title, unit, worst-case reduction and the family range.
+
+    Parameters
+    ----------
+    table : pyarrow.Table
+        The sweep's rows (with the ``*_stable_intervals`` columns).
+    manifest : dict
+        The sweep's manifest (the family kinds and ranges of its spec).
+
+    Returns
+    -------
+    dict
+        ``{name: (values, info)}`` as described above.
     """
     out = {}
     for name in table.column_names:
@@ -130,7 +160,20 @@ def derived_metrics(table, manifest: dict) -> dict[str, tuple[np.ndarray, dict]]
 
 def robust_mask(columns: dict) -> tuple[np.ndarray, list[str]]:
     """robust = free_stable ∧ human*_robust ∧ env*_stable/env*_robust, and with sampled-data columns
-    also sampled_free_stable ∧ sampled_locked_stable ∧ sampled_*_robust; returns (mask, columns used)."""
+    also sampled_free_stable ∧ sampled_locked_stable ∧ sampled_*_robust; returns (mask, columns used).
+
+    Parameters
+    ----------
+    columns : dict
+        Column name → per-row values (the verdict columns of the sweep).
+
+    Returns
+    -------
+    mask : numpy.ndarray
+        Whether each row is robust (bool).
+    used : list of str
+        The columns the mask combines.
+    """
     used = [c for c in columns if c == "free_stable"]
     used += sorted(c for c in columns if re.match(r"^human\d+_.+_robust$", c))
     used += sorted(c for c in columns if re.match(r"^env\d+_.+_(stable|robust)$", c))
@@ -147,7 +190,24 @@ def robust_mask(columns: dict) -> tuple[np.ndarray, list[str]]:
 # Aggregation
 # ---------------------------------------------------------------------------------------------
 def aggregate(cells: np.ndarray, ncells: int, values: np.ndarray, how: str) -> np.ndarray:
-    """Reduce ``values`` per cell: mean | min | max (NaN-ignoring; NaN for empty cells)."""
+    """Reduce ``values`` per cell: mean | min | max (NaN-ignoring; NaN for empty cells).
+
+    Parameters
+    ----------
+    cells : numpy.ndarray
+        Cell index per value (int).
+    ncells : int
+        Number of cells.
+    values : numpy.ndarray
+        The values.
+    how : str
+        ``"mean"``, ``"min"`` or ``"max"``.
+
+    Returns
+    -------
+    numpy.ndarray
+        One value per cell (ncells,).
+    """
     values = np.asarray(values, dtype=float)
     if how == "mean":
         ok = ~np.isnan(values)

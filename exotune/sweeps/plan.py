@@ -96,6 +96,21 @@ def _permute(x: np.ndarray, M: int, keys) -> np.ndarray:
 
 
 def chunk_points(plan: SweepPlan, index: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """(grid indices, {axis path: values}) of the rows of chunk ``index``."""
+    """(grid indices, {axis path: values}) of the rows of chunk ``index``.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+        The sweep's plan.
+    index : int
+        Chunk index (from 0).
+
+    Returns
+    -------
+    indices : numpy.ndarray
+        Flat grid index per row (int64).
+    values : dict of str to numpy.ndarray
+        Each axis' value per row (SI units).
+    """
     start, stop = plan.chunk_range(index)
     return plan.points(np.arange(start, stop, dtype=np.int64))

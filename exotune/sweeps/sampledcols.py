@@ -11,7 +11,18 @@ __all__ = ["sampled_columns", "sampled_refusal"]
 
 
 def sampled_refusal(cfg) -> str | None:
-    """Why the base design ``cfg`` cannot have sampled-data columns (None: it can)."""
+    """Why the base design ``cfg`` cannot have sampled-data columns (None: it can).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The sweep's base design.
+
+    Returns
+    -------
+    str or None
+        The reason, or None.
+    """
     if not cfg.implementation.sample_rate_hz:
         return ("needs a sample rate: the base design sets no implementation.sample_rate_hz (the sampled-data "
                 "loop is the one the runtime runs at that rate)")

@@ -32,7 +32,18 @@ MAX_AXIS_VALUES = 100_000  # per axis: the values are listed in the manifest (a 
 # Spec parsing and validation
 # ---------------------------------------------------------------------------------------------
 def is_number(v: Any) -> bool:
-    """True for an int or float (numpy scalars included), False for bools and everything else."""
+    """True for an int or float (numpy scalars included), False for bools and everything else.
+
+    Parameters
+    ----------
+    v : Any
+        The value.
+
+    Returns
+    -------
+    bool
+        Whether ``v`` is a number.
+    """
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
@@ -122,7 +133,27 @@ def _sampled_option(v: Any, cfg) -> bool:
 
 
 def int_option(field: str, v: Any, minimum: int) -> int:
-    """``v`` as an integer >= ``minimum`` (bools refused); ConfigError naming ``field`` otherwise."""
+    """``v`` as an integer >= ``minimum`` (bools refused); ConfigError naming ``field`` otherwise.
+
+    Parameters
+    ----------
+    field : str
+        Field path named by the error.
+    v : Any
+        The value read from the spec.
+    minimum : int
+        The smallest accepted value.
+
+    Returns
+    -------
+    int
+        The value.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``v`` is not an integer or is below ``minimum``.
+    """
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
         raise ConfigError(field, f"expected an integer >= {minimum}, got {v!r}")
     if int(v) < minimum:
@@ -133,7 +164,27 @@ def int_option(field: str, v: Any, minimum: int) -> int:
 def load_base(base, root: str):
     """The ``base`` of a sweep or optimization spec: a design file path (relative to ``root``) or
     an inline design mapping → (validated DesignConfig, source path or None). Errors name
-    ``base``."""
+    ``base``.
+
+    Parameters
+    ----------
+    base : str or dict
+        The spec's ``base``: a design file path or an inline design.
+    root : str
+        The directory relative paths are resolved against (the spec's).
+
+    Returns
+    -------
+    cfg : DesignConfig
+        The validated base design.
+    source : str or None
+        Its path, None for an inline design.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the base cannot be read or does not validate (the field prefixed by ``base``).
+    """
     if isinstance(base, str):
         base_path = base if os.path.isabs(base) else os.path.join(root, base)
         try:

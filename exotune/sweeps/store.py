@@ -23,7 +23,20 @@ def np_arrow(v: np.ndarray, kind: str):
 
     ``pa.array`` would give the same array, but on its first call it imports pandas to test for
     pandas objects: ~1 s of every worker's start-up, for nothing (a sweep chunk holds numpy
-    arrays only). NaN stays a NaN value, as with ``pa.array(..., from_pandas=False)``."""
+    arrays only). NaN stays a NaN value, as with ``pa.array(..., from_pandas=False)``.
+
+    Parameters
+    ----------
+    v : numpy.ndarray
+        A flat column.
+    kind : str
+        ``"b"`` (bool), ``"i"`` (int64), ``"i32"`` (int32) or ``"f"`` (float64).
+
+    Returns
+    -------
+    pyarrow.Array
+        The column.
+    """
     import pyarrow as pa
 
     if kind == "b":
@@ -36,7 +49,29 @@ def np_arrow(v: np.ndarray, kind: str):
 
 def arrow_column(name: str, v, n: int):
     """Column ``name`` of ``n`` rows as an Arrow array: a flat numpy array (bool, int, float) or a
-    sequence of lists of [a, b] items (``list<list<double>>``)."""
+    sequence of lists of [a, b] items (``list<list<double>>``).
+
+    Parameters
+    ----------
+    name : str
+        Column name, for the errors.
+    v : numpy.ndarray or sequence
+        The column's values.
+    n : int
+        Expected number of rows.
+
+    Returns
+    -------
+    pyarrow.Array
+        The column.
+
+    Raises
+    ------
+    ValueError
+        When the column does not have ``n`` rows.
+    TypeError
+        When its type or dtype is not supported.
+    """
     if isinstance(v, np.ndarray):
         if v.shape != (n,):
             raise ValueError(f"column {name!r} has shape {v.shape}, expected ({n},)")
@@ -57,7 +92,18 @@ def arrow_column(name: str, v, n: int):
 def nested_float_lists(rows):
     """list<list<double>> Arrow array of rows of items (e.g. intervals [lo, hi]), built from flat
     offsets and values (the same array as ``pa.array(rows, type=list<list<double>>)``, without a
-    Python-level conversion of every number)."""
+    Python-level conversion of every number).
+
+    Parameters
+    ----------
+    rows : sequence of sequence of sequence of float
+        Per row, its items (each a list of floats).
+
+    Returns
+    -------
+    pyarrow.ListArray
+        The ``list<list<double>>`` array.
+    """
     import itertools
 
     import pyarrow as pa
@@ -73,7 +119,18 @@ def nested_float_lists(rows):
 
 
 def table_bytes(table) -> bytes:
-    """A table as Parquet file bytes (zstd)."""
+    """A table as Parquet file bytes (zstd).
+
+    Parameters
+    ----------
+    table : pyarrow.Table
+        The table.
+
+    Returns
+    -------
+    bytes
+        The Parquet file's content.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -92,18 +149,53 @@ def _type_str(t) -> str:
 
 
 def schema_list(schema) -> list[list[str]]:
-    """An Arrow schema as [[name, type], …] (the manifest's ``columns``)."""
+    """An Arrow schema as [[name, type], …] (the manifest's ``columns``).
+
+    Parameters
+    ----------
+    schema : pyarrow.Schema
+        The chunk's schema.
+
+    Returns
+    -------
+    list of list of str
+        Column names and type texts.
+    """
     return [[f.name, _type_str(f.type)] for f in schema]
 
 
 def chunk_file(out_dir: str, index: int) -> str:
-    """The path of chunk ``index``'s Parquet file in the sweep directory ``out_dir``."""
+    """The path of chunk ``index``'s Parquet file in the sweep directory ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : str
+        The sweep directory.
+    index : int
+        Chunk index (from 0).
+
+    Returns
+    -------
+    str
+        The file's path.
+    """
     return os.path.join(out_dir, CHUNK_DIR, f"part-{index:06d}.parquet")
 
 
 def failed_rows_of(schema) -> list[dict]:
     """The failed designs recorded in a chunk's schema metadata (``exotune.failed_rows``):
-    ``[{row, point_index, reason}]``, empty for a chunk without failures."""
+    ``[{row, point_index, reason}]``, empty for a chunk without failures.
+
+    Parameters
+    ----------
+    schema : pyarrow.Schema
+        The chunk's schema.
+
+    Returns
+    -------
+    list of dict
+        The failures (an unreadable record gives one entry saying so).
+    """
     import json
 
     raw = (schema.metadata or {}).get(FAILED_ROWS_KEY)

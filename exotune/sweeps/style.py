@@ -131,13 +131,35 @@ def label(path_or_name: str) -> str:
 
 
 def short_name(path_or_name: str) -> str:
-    """Physical name and symbol without unit (for titles), e.g. ``"total delay T"``."""
+    """Physical name and symbol without unit (for titles), e.g. ``"total delay T"``.
+
+    Parameters
+    ----------
+    path_or_name : str
+        A dotted parameter path or column name, with or without a unit suffix.
+
+    Returns
+    -------
+    str
+        The quantity's name and symbol.
+    """
     q = quantity(_strip_unit(path_or_name))
     return f"{q.name} {q.symbol}".strip()
 
 
 def scale_of(path_or_name: str) -> float:
-    """SI → display factor of a quantity (1e3 for a delay shown in ms)."""
+    """SI → display factor of a quantity (1e3 for a delay shown in ms).
+
+    Parameters
+    ----------
+    path_or_name : str
+        A dotted parameter path or column name.
+
+    Returns
+    -------
+    float
+        The factor from SI to the display unit.
+    """
     return quantity(_strip_unit(path_or_name)).scale
 
 
@@ -148,7 +170,20 @@ def _strip_unit(text: str) -> str:
 
 
 def tick_labels(values, scale: float = 1.0) -> list[str]:
-    """Tick texts of axis values in display units (up to four significant digits)."""
+    """Tick texts of axis values in display units (up to four significant digits).
+
+    Parameters
+    ----------
+    values : array_like
+        Axis values in SI units.
+    scale : float, optional
+        SI → display factor (:func:`scale_of`).
+
+    Returns
+    -------
+    list of str
+        One text per value.
+    """
     return [f"{float(v) * scale:.4g}" if abs(float(v) * scale) < 1e4 else f"{float(v) * scale:.3g}"
             for v in np.asarray(values, dtype=float)]
 
@@ -185,7 +220,24 @@ def unit_axis(ax, which: str, path_or_name: str):
 
 
 def log_if_decades(ax, values, which: str = "y", decades: float = 2.0) -> bool:
-    """Log scale on ``which`` axis when the positive finite ``values`` span more than ``decades``."""
+    """Log scale on ``which`` axis when the positive finite ``values`` span more than ``decades``.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    values : array_like
+        The values shown along the axis.
+    which : str, optional
+        ``"x"`` or ``"y"``.
+    decades : float, optional
+        Span (max/min, in decades) above which the axis becomes logarithmic.
+
+    Returns
+    -------
+    bool
+        Whether the scale was set to log.
+    """
     v = np.asarray(values, dtype=float).ravel()
     v = v[np.isfinite(v) & (v > 0)]
     if v.size and v.max() / v.min() > 10.0 ** decades:
@@ -196,7 +248,25 @@ def log_if_decades(ax, values, which: str = "y", decades: float = 2.0) -> bool:
 
 def symlog_if_decades(ax, *arrays, which: str = "y", decades: float = 3.0) -> bool:
     """Symmetric-log scale when |values| exceed the initial scale (first 5 % of each array) by
-    more than ``decades``; the linear band is that initial scale."""
+    more than ``decades``; the linear band is that initial scale.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    *arrays : array_like
+        The series shown along the axis.
+    which : str, optional
+        ``"x"`` or ``"y"``.
+    decades : float, optional
+        Ratio (in decades) of the largest |value| to the initial scale above which the axis becomes
+        symmetric-log.
+
+    Returns
+    -------
+    bool
+        Whether the scale was set to symlog.
+    """
     arrs = [np.asarray(a, float).ravel() for a in arrays if np.size(a)]
     if not arrs:
         return False
@@ -213,7 +283,13 @@ def symlog_if_decades(ax, *arrays, which: str = "y", decades: float = 3.0) -> bo
 
 def plain_formatter():
     """A tick formatter without offset text and without a shared ×10ⁿ factor: every tick shows its
-    full value with as many digits as the tick spacing needs."""
+    full value with as many digits as the tick spacing needs.
+
+    Returns
+    -------
+    matplotlib.ticker.ScalarFormatter
+        The formatter.
+    """
     from matplotlib.ticker import ScalarFormatter
 
     f = ScalarFormatter(useOffset=False)
@@ -223,7 +299,30 @@ def plain_formatter():
 
 def colorbar(fig, mappable, ax, label_text: str, *, extend: str = "neither", fontsize: float = SMALL + 1,
              log: bool = False):
-    """A colour bar with its label and plain tick texts (never an offset text over the title)."""
+    """A colour bar with its label and plain tick texts (never an offset text over the title).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    mappable : matplotlib.cm.ScalarMappable
+        What the bar shows (an image, a mesh).
+    ax : matplotlib.axes.Axes
+        The axes the bar is placed beside.
+    label_text : str
+        The bar's label (quantity and unit).
+    extend : str, optional
+        Matplotlib's ``extend`` (``"neither"``, ``"min"``, ``"max"``, ``"both"``).
+    fontsize : float, optional
+        Label size [pt]; tick texts one point smaller.
+    log : bool, optional
+        A log-scaled bar keeps matplotlib's tick formatter.
+
+    Returns
+    -------
+    matplotlib.colorbar.Colorbar
+        The colour bar.
+    """
     cb = fig.colorbar(mappable, ax=ax, extend=extend)
     cb.set_label(label_text, fontsize=fontsize)
     if not log:
@@ -234,12 +333,26 @@ def colorbar(fig, mappable, ax, label_text: str, *, extend: str = "neither", fon
 
 
 def grid(ax, **kw) -> None:
-    """The common grid."""
+    """The common grid.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    **kw
+        Overrides of the grid's ``which`` and ``alpha`` and further ``Axes.grid`` arguments.
+    """
     ax.grid(True, which=kw.pop("which", GRID["which"]), alpha=kw.pop("alpha", GRID["alpha"]), **kw)
 
 
 def rc() -> dict:
-    """matplotlib rc parameters of the look (for ``matplotlib.rc_context``)."""
+    """matplotlib rc parameters of the look (for ``matplotlib.rc_context``).
+
+    Returns
+    -------
+    dict
+        rc parameter names and values.
+    """
     return {"font.size": FONTSIZE, "axes.titlesize": FONTSIZE, "axes.labelsize": FONTSIZE - 1,
             "legend.fontsize": SMALL, "xtick.labelsize": SMALL + 0.5, "ytick.labelsize": SMALL + 0.5,
             "figure.dpi": DPI, "savefig.dpi": DPI, "axes.formatter.useoffset": False}
@@ -247,7 +360,20 @@ def rc() -> dict:
 
 def new_figure(figsize=None, *, layout: str | None = "constrained"):
     """A :class:`matplotlib.figure.Figure` at :data:`DPI` on its own Agg canvas (pyplot and the global
-    backend are never touched); ``layout="constrained"`` by default so that no label is cut off."""
+    backend are never touched); ``layout="constrained"`` by default so that no label is cut off.
+
+    Parameters
+    ----------
+    figsize : tuple of float or None, optional
+        (width, height) [in]; None for ``FIGSIZE["single"]``.
+    layout : str or None, optional
+        Matplotlib layout engine; None for none.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The empty figure.
+    """
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -259,7 +385,20 @@ def new_figure(figsize=None, *, layout: str | None = "constrained"):
 
 
 def png(fig, *, tight: bool = True) -> bytes:
-    """Render ``fig`` to PNG bytes at :data:`DPI` (``bbox_inches="tight"``: nothing cut off)."""
+    """Render ``fig`` to PNG bytes at :data:`DPI` (``bbox_inches="tight"``: nothing cut off).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    tight : bool, optional
+        Crop to the drawn content (``bbox_inches="tight"``).
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight" if tight else None, pad_inches=0.08)
     return buf.getvalue()

@@ -46,7 +46,19 @@ def metric_label(name: str, unit: str) -> str:
 
 
 def safe_name(path: str) -> str:
-    """A dotted parameter path as a file-name component (``axis_<name>.csv``, …)."""
+    """A dotted parameter path as a file-name component (``axis_<name>.csv``, …).
+
+    Parameters
+    ----------
+    path : str
+        Dotted parameter path.
+
+    Returns
+    -------
+    str
+        The path with every run of other characters than letters, digits, ``_``, ``.`` and ``-``
+        replaced by ``_``.
+    """
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", path)
 
 
@@ -64,7 +76,22 @@ def _axis_table(j, paths, values, axis_idx, robust, metrics, table_metrics):
 
 
 def value_runs(vals, ok, digits: int = 4) -> str:
-    """Human-readable runs of consecutive axis values where ok, e.g. '1.5 … 4.4, 9.4 … 20'."""
+    """Human-readable runs of consecutive axis values where ok, e.g. '1.5 … 4.4, 9.4 … 20'.
+
+    Parameters
+    ----------
+    vals : sequence of float
+        The axis values, in order.
+    ok : sequence of bool
+        Which values qualify.
+    digits : int, optional
+        Significant digits.
+
+    Returns
+    -------
+    str
+        The runs, or ``"none"``.
+    """
     runs, i, n = [], 0, len(vals)
     while i < n:
         if ok[i]:
@@ -80,7 +107,18 @@ def value_runs(vals, ok, digits: int = 4) -> str:
 
 def display_path(p) -> str:
     """A path as shown in reports: relative to the working directory when it lies below it,
-    otherwise only its last two components (reports get committed and shared: no machine paths)."""
+    otherwise only its last two components (reports get committed and shared: no machine paths).
+
+    Parameters
+    ----------
+    p : str or os.PathLike
+        The path.
+
+    Returns
+    -------
+    str
+        The path as the report shows it.
+    """
     import os
 
     p = os.path.abspath(str(p))
@@ -93,7 +131,48 @@ def display_path(p) -> str:
 
 def summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx, robust, used, simple,
                metrics, table_metrics, figures, files) -> str:
-    """The text of ``summary.md``; adds the per-axis CSV tables to ``files`` (name → bytes)."""
+    """The text of ``summary.md``; adds the per-axis CSV tables to ``files`` (name → bytes).
+
+    Parameters
+    ----------
+    sweep_dir : str
+        The sweep directory.
+    m : dict
+        Its manifest.
+    n : int
+        Number of designs read.
+    missing : list of int
+        Indices of the chunks not finished.
+    paths : list of str
+        The axes' parameter paths.
+    values : list of numpy.ndarray
+        Each axis' values (SI units).
+    scales : list of str
+        Each axis' spacing (``"lin"``, ``"log"``, ``"list"``).
+    shape : tuple of int
+        The grid's shape.
+    axis_idx : list of numpy.ndarray
+        Per axis, each row's index into its values.
+    robust : numpy.ndarray
+        Whether each row is robust (bool).
+    used : list of str
+        The verdict columns the robust mask combines.
+    simple : dict
+        The scalar columns read (name → values).
+    metrics : dict
+        Key metrics: name → (values, info with ``unit`` and ``factor``).
+    table_metrics : list of str
+        The metrics the tables show.
+    figures : list of tuple
+        ``(file name, caption)`` of the figures written.
+    files : dict
+        File name → content, to which the per-axis CSV tables are added.
+
+    Returns
+    -------
+    str
+        The Markdown text.
+    """
     L = _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape)
     L += _robustness_lines(n, robust, used, simple, metrics)
     L += _per_axis_lines(paths, values, axis_idx, robust, metrics, table_metrics, files)
