@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.plant import Plant
+from .counting import RootCounter
 from .plant_margin_box import PLANT_FIELDS, PLANT_SYMBOLS, LoopModel, certify_loop, strip_rows
 
 __all__ = ["PlantWitness", "LoopPlantMargin", "PlantMargin", "plant_loops", "plant_uncertainty_margin",
@@ -221,40 +222,70 @@ def _vertex_deltas(k: float, w: np.ndarray) -> np.ndarray:
     return np.unique(s * (k * w)[None, :], axis=0)
 
 
-def _search_unstable(lp: _Loop, k: float, w: np.ndarray, extra=()):
-    """An unstable point (δ, p) of the box at level k among its vertices × member grid and the
-    ``extra`` relative points, or None."""
+def _search_points(lp: _Loop, k: float, w: np.ndarray, extra=()):
+    """The points (δ rows, members) checked for an unstable point of the box at level k: its
+    vertices × member grid, the ``extra`` relative points and the loop's unstable points found so far."""
     pts = [_vertex_deltas(k, w)]
     pts += [np.asarray(e, float)[None, :5] for e in extra]
     pts += [d[None, :] for (kk, d, _p) in lp.found if kk <= k]
-    D = np.concatenate(pts)
     members = lp.members
     extra_p = [e[5] for e in extra if len(e) > 5]
     if members is not None and extra_p:
         members = np.unique(np.r_[members, extra_p])
-    bad = loop_counts_at(lp.model, D, members, lp.r0)
-    if not bad.any():
-        return None
-    i = int(np.nonzero(bad)[0][0])
-    m = 1 if members is None else members.size
-    return D[i // m], (None if members is None else float(members[i % m]))
+    return np.concatenate(pts), members
 
 
-def _loop_upper(lp: _Loop, w: np.ndarray, rel_tol: float, k_hi: float):
-    """Smallest level k ≤ k_hi with an unstable vertex point (bisection on k): (k, δ, p) or None."""
-    hit = _search_unstable(lp, k_hi, w)
-    if hit is None:
-        return None
-    lo, hi, best = 0.0, k_hi, (k_hi, *hit)
-    while hi - lo > 0.125 * rel_tol * hi:
-        mid = 0.5 * (lo + hi)
-        hit = _search_unstable(lp, mid, w)
-        if hit is None:
-            lo = mid
-        else:
-            hi, best = mid, (mid, *hit)
-    lp.found.append(best)
-    return best
+def _search_unstable_many(jobs):
+    """:func:`_search_unstable` for several (loop, k, w, extra) jobs, every count in one
+    :class:`~exotune.analysis.counting.RootCounter` run (one vectorized call instead of one per
+    loop): a list of hits (δ, p) or None, in the order of ``jobs``."""
+    counter = RootCounter()
+    queued = []
+    for lp, k, w, extra in jobs:
+        D, members = _search_points(lp, k, w, extra)
+        h = lp.model.submit(counter, lp.model.q0[None, :] * (1.0 + D), members)
+        queued.append((lp, D, members, h))
+    counter.run()
+    out = []
+    for lp, D, members, h in queued:
+        N, r, ok = counter.result(h)
+        bad = ~(ok & (N == 0) & (r <= lp.r0))
+        if not bad.any():
+            out.append(None)
+            continue
+        i = int(np.nonzero(bad)[0][0])
+        m = 1 if members is None else members.size
+        out.append((D[i // m], (None if members is None else float(members[i % m]))))
+    return out
+
+
+def _search_unstable(lp: _Loop, k: float, w: np.ndarray, extra=()):
+    """An unstable point (δ, p) of the box at level k among its vertices × member grid and the
+    ``extra`` relative points, or None."""
+    return _search_unstable_many([(lp, k, w, extra)])[0]
+
+
+def _loops_upper(lps, w: np.ndarray, rel_tol: float, k_hi: float) -> dict:
+    """Each loop's smallest level k ≤ k_hi with an unstable vertex point (bisection on k), the
+    loops' bisections run in lockstep so that every step is one counting call: {name: (k, δ, p) or
+    None}. Each loop's bisection is exactly the one it would run alone."""
+    state = {}
+    for lp, hit in zip(lps, _search_unstable_many([(lp, k_hi, w, ()) for lp in lps])):
+        if hit is not None:
+            state[lp.name] = [lp, 0.0, k_hi, (k_hi, *hit)]
+    while True:
+        active = [st for st in state.values() if st[2] - st[1] > 0.125 * rel_tol * st[2]]
+        if not active:
+            break
+        mids = [0.5 * (st[1] + st[2]) for st in active]
+        for st, mid, hit in zip(active, mids, _search_unstable_many([(st[0], m, w, ()) for st, m in zip(active, mids)])):
+            if hit is None:
+                st[1] = mid
+            else:
+                st[2], st[3] = mid, (mid, *hit)
+    for st in state.values():
+        st[0].found.append(st[3])
+    return {lp.name: (state[lp.name][3] if lp.name in state else None) for lp in lps}
 
 
 def _witness(lp: _Loop, k: float, delta: np.ndarray, p) -> PlantWitness:
@@ -442,7 +473,7 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
             notes.append("the transmission schedule is not applied: nominal plant = the plant section")
         robust = [lp for lp in loops if lp.ok]
         detail = loop_detail or len(robust) == len(loops)
-        ups = {lp.name: _loop_upper(lp, w, rel_tol, k_cap) for lp in robust} if detail else {}
+        ups = _loops_upper(robust, w, rel_tol, k_cap) if detail else {}
         if len(robust) < len(loops):
             notes.insert(0, "not robust at the nominal plant (" + ", ".join(lp.name for lp in loops if not lp.ok)
                          + "): k* = 0" + ("; the robust loops' margins are listed" if detail else ""))

@@ -107,13 +107,18 @@ class LoopModel:
         p = None if self.fam is None else np.array([lo[5], hi[5]])
         return q, p
 
-    def counts(self, q: np.ndarray, p: np.ndarray | None):
-        """Exact RHP counts (argument principle) of every (plant, member) row: (N, r, ok)."""
+    def submit(self, counter: RootCounter, q: np.ndarray, p: np.ndarray | None):
+        """Queue the exact RHP counts of every (plant, member) row on ``counter`` (several loops'
+        rows then run in one call); returns the handle of :meth:`RootCounter.result`."""
         P0, P1 = self.coeffs(q, p)
-        c = RootCounter()
         reg = self.coeffs(q, p, real_twin=True) if self.complex else None
         reg = None if reg is None else (trim_poly(reg[0]), trim_poly(reg[1]))
-        h = c.add(trim_poly(P0), trim_poly(P1), self.T, reg=reg)
+        return counter.add(trim_poly(P0), trim_poly(P1), self.T, reg=reg)
+
+    def counts(self, q: np.ndarray, p: np.ndarray | None):
+        """Exact RHP counts (argument principle) of every (plant, member) row: (N, r, ok)."""
+        c = RootCounter()
+        h = self.submit(c, q, p)
         c.run()
         return c.result(h)
 
