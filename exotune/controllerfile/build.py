@@ -32,12 +32,43 @@ FILTER_DOC = {
 
 
 def quantity(value: float, unit: str) -> dict:
-    """A number with its unit, as the controller file writes numbers."""
+    """A number with its unit, as the controller file writes numbers.
+
+    Parameters
+    ----------
+    value : float
+        The number.
+    unit : str
+        Its unit.
+
+    Returns
+    -------
+    dict
+        ``{"value": float, "unit": str}``.
+    """
     return {"value": float(value), "unit": unit}
 
 
 def controller_section(cfg, fs: float) -> tuple[dict, list[dict], dict]:
-    """(static gains on the signals, sos filters, the six design gains with units) of one design."""
+    """(static gains on the signals, sos filters, the six design gains with units) of one design.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        A validated single design.
+    fs : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    gains : dict
+        Static gain per signal with a nonzero one: ``{"gain", "unit"}``.
+    filters : list of dict
+        Per block: name, input and units, the continuous num/den (ascending powers of s), the
+        prewarp frequency [Hz] and its ``sos`` rows.
+    six : dict
+        K1 [N·m/rad], B1 [N·m·s/rad], K2 [–], B2 [s], K2_hat [–], B2_hat [s] as quantities.
+    """
     from ..model.controller import build_controller
 
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
@@ -67,7 +98,21 @@ def controller_section(cfg, fs: float) -> tuple[dict, list[dict], dict]:
 
 def reflected_mapping(raw: dict, ratio: float) -> dict:
     """The design mapping at transmission ratio ``ratio`` (J_m, B_m, K_s × ratio²), without the
-    transmission section."""
+    transmission section.
+
+    Parameters
+    ----------
+    raw : dict
+        The design mapping (with its ``plant`` section).
+    ratio : float
+        Transmission ratio [–].
+
+    Returns
+    -------
+    dict
+        A deep copy with the reflected motor inertia [kg·m²], damping [N·m·s/rad] and SEA stiffness
+        [N·m/rad].
+    """
     import copy
 
     r = copy.deepcopy(raw)
@@ -82,7 +127,20 @@ _ANY_HUMAN = {"kind": "mass", "inertia": [0.1, 1.0], "damping": 0.0}
 
 
 def close(a: float, b: float, rtol: float) -> bool:
-    """|a − b| within ``rtol`` of the larger magnitude (two zeros are close)."""
+    """|a − b| within ``rtol`` of the larger magnitude (two zeros are close).
+
+    Parameters
+    ----------
+    a, b : float
+        The two numbers.
+    rtol : float
+        Relative tolerance.
+
+    Returns
+    -------
+    bool
+        Whether they are close.
+    """
     return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-300)
 
 
@@ -91,7 +149,25 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
     ones its ``plant``, ``design`` and ``implementation`` sections build (static gains and every
     filter's sos, :func:`exotune.controllerfile.build.controller_section`), and whether the
     implementation's delay is the file's. An invalid implementation section is a ConfigError
-    naming its field."""
+    naming its field.
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping (with its ``implementation`` section).
+    rtol : float, optional
+        Relative tolerance of the comparison.
+
+    Returns
+    -------
+    list of str
+        The mismatches: the delay and sample rate first, then each controller's gains and filters.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the plant, design or implementation section does not validate.
+    """
     from ..config import design_from_mapping
     from .fileio import schedule_entry_doc
 

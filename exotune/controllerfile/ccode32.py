@@ -81,7 +81,23 @@ def c_float(x: float) -> str:
     """A C float literal (``f`` suffix) naming the float32 value of ``x`` exactly: the shortest of
     6 to 9 significant digits whose decimal value lies strictly inside the value's rounding
     interval (checked in exact rational arithmetic), so that a compiler rounding the literal to
-    float (directly, or through double) gives the value; 9 digits always do."""
+    float (directly, or through double) gives the value; 9 digits always do.
+
+    Parameters
+    ----------
+    x : float
+        The value (rounded to float32).
+
+    Returns
+    -------
+    str
+        The literal, e.g. ``"0.1f"``.
+
+    Raises
+    ------
+    ValueError
+        When the float32 value is not finite.
+    """
     v = np.float32(x)
     if not np.isfinite(v):
         raise ValueError(f"a controller coefficient is not finite in float32: {x!r}")
@@ -279,7 +295,24 @@ def _source32(doc: dict, ctrls, t: dict, trace: dict) -> str:
 
 def generate32(doc: dict, trace: dict) -> tuple[dict[str, str], int, int]:
     """The float32 port of a float32 file: (files, number of controllers, number of sections), the
-    files those of the float64 port (``exotune_controller.h``, ``.c``, ``exotune_golden_test.c``)."""
+    files those of the float64 port (``exotune_controller.h``, ``.c``, ``exotune_golden_test.c``).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated float32 controller file's mapping.
+    trace : dict
+        Where the code came from: ``sha256`` of the file, ``certified``, ``verdict`` and ``reasons``.
+
+    Returns
+    -------
+    files : dict of str to str
+        File name → C source.
+    controllers : int
+        Number of controllers (nominal and schedule entries).
+    sections : int
+        Number of sections in the tables.
+    """
     ctrls = controllers32(doc)
     t = _tables32(ctrls)
     max_sections = max([1] + [row[6] for row in t["controllers"]])

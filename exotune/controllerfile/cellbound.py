@@ -63,7 +63,26 @@ def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> t
     ``rigid``: a right eigenvector v of every member at z = 1 (M(s)v = v for all s, verified by
     the caller): its eigenvalue is deflated. Returns (proven, margin): margin = 1 − the largest
     |centre| + radius over the discs (≤ 0 when not proven; −inf when M0 is not diagonalizable
-    in floating point)."""
+    in floating point).
+
+    Parameters
+    ----------
+    coeffs : sequence of numpy.ndarray
+        The matrix polynomial's coefficients M0, M1, … (N, N).
+    left, right : numpy.ndarray or None, optional
+        Factors of the remainder term (N, r) and (r, N); None for the identity.
+    beta : float, optional
+        Bound of ‖Δ‖₂ (0: no remainder).
+    rigid : numpy.ndarray or None, optional
+        Common eigenvector at z = 1 to deflate; None for none.
+
+    Returns
+    -------
+    proven : bool
+        Whether stability is proven.
+    margin : float
+        1 − the largest |centre| + radius.
+    """
     Ms = [np.asarray(c, dtype=float) for c in coeffs]
     M0 = Ms[0]
     left = np.eye(M0.shape[0]) if left is None else np.asarray(left, dtype=float)
@@ -162,7 +181,24 @@ def _lognorm(X: np.ndarray) -> float:
 def taylor_expm(Na: np.ndarray, dN: np.ndarray, t: float, order: int) -> list:
     """Taylor coefficients c_k = (1/k!) dᵏ/dsᵏ exp((Na + s·dN) t) at s = 0, k = 0 … order: the
     first block row of the exponential of the block-bidiagonal matrix with Na·t on the diagonal
-    and dN·t above it (the Dyson series of each block is exactly that coefficient)."""
+    and dN·t above it (the Dyson series of each block is exactly that coefficient).
+
+    Parameters
+    ----------
+    Na : numpy.ndarray
+        The matrix at s = 0 (m, m).
+    dN : numpy.ndarray
+        Its derivative in s (m, m).
+    t : float
+        The time [s] (a sample period or a part of it).
+    order : int
+        Highest coefficient K.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        c_0, …, c_K, each (m, m).
+    """
     from scipy.linalg import expm
 
     m = Na.shape[0]
@@ -209,7 +245,30 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
     on the loop's affine parameter s; module docstring). ``member(v)`` → (human, env) for
     :func:`exotune.sampled.plant_ss`; ``m`` a value inside the cell where the affine form is
     checked. Returns (proven, margin); not proven (margin −inf) when the plant is not affine in
-    one parameter over the cell, the state count changes, or the rigid mode cannot be deflated."""
+    one parameter over the cell, the state count changes, or the rigid mode cannot be deflated.
+
+    Parameters
+    ----------
+    plant : Plant
+        The file's plant.
+    ctrl : DiscreteController
+        The file's controller.
+    grounded : bool
+        Whether the controller feeds back the motor position.
+    member : callable
+        ``member(v)`` → ``(human, env)`` of the family member of value ``v``.
+    a, b : float
+        The cell, in the family parameter's unit.
+    m : float
+        A value inside the cell.
+
+    Returns
+    -------
+    proven : bool
+        Whether every member of the cell is proven stable.
+    margin : float
+        The proof's margin (−inf when not proven).
+    """
     from ..sampled.loop import closed_loop_matrix, plant_ss
 
     (Aa, Ba, Ca), (Ab, Bb, Cb), (Am, Bm, Cm) = (plant_ss(plant, *member(v)) for v in (a, b, m))

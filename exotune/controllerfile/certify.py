@@ -58,7 +58,30 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
     environment spring/mass range of the file's ``certify`` section, for the file's controller.
     Every accepted cell is proven stable (:func:`~exotune.controllerfile.cellbound.loop_cell`);
     ``proof=False`` accepts cells on step control alone (the latency margin's confirmation at a
-    nearly critical delay, where a proof would need very small cells)."""
+    nearly critical delay, where a proof would need very small cells).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+    points : int, optional
+        Grid members per family range.
+    proof : bool, optional
+        Prove every accepted cell stable (False: step control alone).
+
+    Returns
+    -------
+    dict
+        ``model``, ``free_stable`` and ``locked_stable`` (None: inconclusive), their spectral radii
+        and rounding bounds, and ``humans`` and ``environment``: per family its kind, parameter,
+        unit, range, ``stable_intervals``, ``robust`` and the search's details (or ``skipped`` /
+        ``not_certifiable``).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When an entry of the ``certify`` section does not validate, or the loop matrix overflows.
+    """
     from ..config import parse_env, parse_human
     from .fileio import discrete_from_file, plant_from_file
 
@@ -227,7 +250,23 @@ def design_mismatches(doc: dict) -> list[str]:
 
 def hand_tuned(doc: dict) -> bool:
     """Whether the file declares a hand-tuned controller (``provenance.hand_tuned: true``); any
-    other value than true/false is a ConfigError."""
+    other value than true/false is a ConfigError.
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+
+    Returns
+    -------
+    bool
+        The declaration (False when absent).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``provenance.hand_tuned`` is not a boolean.
+    """
     from ..errors import ConfigError
 
     v = (doc.get("provenance") or {}).get("hand_tuned", False)
@@ -305,6 +344,24 @@ def certify(doc: dict, precision: str | None = None) -> Certificate:
 
     Returns a :class:`~exotune.controllerfile.results.Certificate`: ``certified``, ``reasons`` and
     the whole report (``to_dict()``, the ``exotune certify --json`` object).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+    precision : str or None, optional
+        ``"float64"`` or ``"float32"``; None for the file's own.
+
+    Returns
+    -------
+    Certificate
+        The verdict and the report.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the controller was not built from the file's design section and plant (and the file
+        is not hand-tuned), or a section of the file is invalid.
     """
     from .precision import precision_of
     from .target import with_precision
@@ -353,7 +410,22 @@ def refuse_excess_work(doc: dict, entries: int | None = None) -> None:
 
 def golden_problems(doc: dict) -> tuple[list[str], int, float]:
     """(problems, samples, max error [N·m]) of the golden vectors through the reference runtime,
-    for the file's controller and each gain-schedule entry's."""
+    for the file's controller and each gain-schedule entry's.
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+
+    Returns
+    -------
+    problems : list of str
+        One per controller that does not reproduce its golden vectors.
+    samples : int
+        Length of the golden vectors.
+    max_error : float
+        Largest error of the nominal controller's commands [N·m].
+    """
     from .fileio import schedule_entry_doc
 
     ins = {s: np.asarray(v["values"], float) for s, v in doc["golden"]["inputs"].items()}
@@ -376,7 +448,18 @@ def golden_problems(doc: dict) -> tuple[list[str], int, float]:
 
 def sampled_problems(sa: dict) -> list[str]:
     """Why the file's own sampled-data analysis ``sa`` does not certify it (free/locked verdicts,
-    families not robust, not certifiable or inconclusive, unresolved cells)."""
+    families not robust, not certifiable or inconclusive, unresolved cells).
+
+    Parameters
+    ----------
+    sa : dict
+        The analysis (:func:`sampled_analysis`).
+
+    Returns
+    -------
+    list of str
+        The problems (empty: certified on these counts).
+    """
     problems = []
     for key, what in (("free", "the free exoskeleton (cuff free)"), ("locked", "the locked-joint loop")):
         if sa[f"{key}_stable"] is None:
@@ -429,7 +512,23 @@ def sampled_decision(doc: dict, sa: dict | None = None) -> tuple[dict, dict, lis
 
 def schedule_section(doc: dict) -> tuple[list, list[str], list[str]]:
     """(report entries, problems, prediction mismatches) of the gain schedule's entries, each
-    analysed as a controller of its own."""
+    analysed as a controller of its own.
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping, with a gain schedule.
+
+    Returns
+    -------
+    entries : list of dict
+        Per entry: ``joint_angle_rad``, ``ratio``, ``robust``, ``not_robust`` and its ``sampled``
+        analysis.
+    problems : list of str
+        The entries' problems.
+    mismatches : list of str
+        Where an entry's ``predicted_sampled`` differs from the analysis.
+    """
     from .fileio import schedule_entry_doc
 
     entries, problems, mism = [], [], []

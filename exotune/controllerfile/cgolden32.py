@@ -68,7 +68,18 @@ ABOUT32 = (" * Every controller of the float32 controller file through the float
 
 def controllers32(doc: dict) -> list[tuple[str, float | None, dict]]:
     """(label, joint angle [rad] or None, float32 realization): the nominal controller, then every
-    gain-schedule entry (the C port's controller indices 0, 1, ...)."""
+    gain-schedule entry (the C port's controller indices 0, 1, ...).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated float32 controller file's mapping.
+
+    Returns
+    -------
+    list of tuple
+        ``(label, joint angle [rad] or None, realization)`` per controller.
+    """
     out = [("nominal", None, doc["controller"]["realization"])]
     for e in (doc.get("gain_schedule") or {}).get("entries", []):
         out.append((f"joint angle {e['joint_angle_rad']!r} rad", float(e["joint_angle_rad"]),
@@ -120,7 +131,20 @@ def _controller_rows(doc: dict, c: int, angles: list, G, rng, scale) -> list[Gol
 
 def golden_rows32(doc: dict, seed: int = 20250) -> list[GoldenRow]:
     """The golden table of a float32 controller file (the module docstring), rows as
-    :func:`~exotune.controllerfile.cgolden.golden_rows`' with tolerance 0 (op 3: a switch)."""
+    :func:`~exotune.controllerfile.cgolden.golden_rows`' with tolerance 0 (op 3: a switch).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated float32 controller file's mapping.
+    seed : int, optional
+        Seed of the random inputs.
+
+    Returns
+    -------
+    list of GoldenRow
+        The table.
+    """
     ins = doc["golden"]["inputs"]
     G = np.array([ins[s]["values"] for s in SIGNALS], dtype=float).T
     scale = np.array([max(float(np.max(np.abs(G[:, i]))), 1e-3) for i in range(5)])
@@ -137,5 +161,18 @@ def golden_rows32(doc: dict, seed: int = 20250) -> list[GoldenRow]:
 
 def golden_program32(doc: dict, rows: list[GoldenRow]) -> str:
     """``exotune_golden_test.c`` of the float32 port: the float64 port's program
-    (:func:`~exotune.controllerfile.cgolden.golden_program`) on the float32 table, every tolerance 0."""
+    (:func:`~exotune.controllerfile.cgolden.golden_program`) on the float32 table, every tolerance 0.
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+    rows : list of GoldenRow
+        The float32 golden table (:func:`golden_rows32`).
+
+    Returns
+    -------
+    str
+        The C source.
+    """
     return golden_program(doc, rows, ABOUT32)

@@ -54,7 +54,18 @@ def check_controller_file(doc: dict) -> None:
     the ``dob`` section describes every controller; the gain schedule agrees with the transmission
     table and each entry's plant is the top-level plant reflected at its ratio; golden vectors
     have at least MIN_GOLDEN_SAMPLES samples, all of one length. Problems raise
-    :class:`ConfigError` naming the field."""
+    :class:`ConfigError` naming the field.
+
+    Parameters
+    ----------
+    doc : dict
+        A schema-valid controller file's mapping.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        At the first problem, naming its field.
+    """
     from ..config import check_delay_samples
 
     fs, T = doc["sample_rate_hz"]["value"], doc["delay_s"]["value"]

@@ -61,7 +61,23 @@ BUMPLESS_TAU_S = 0.02  # [s] time constant of the decay of the bumpless offset
 
 
 def c_double(x: float) -> str:
-    """A C double literal equal to ``x`` (``repr``: the shortest string that round-trips)."""
+    """A C double literal equal to ``x`` (``repr``: the shortest string that round-trips).
+
+    Parameters
+    ----------
+    x : float
+        The value.
+
+    Returns
+    -------
+    str
+        The literal.
+
+    Raises
+    ------
+    ValueError
+        When ``x`` is not finite.
+    """
     x = float(x)
     if not math.isfinite(x):
         raise ValueError(f"a controller coefficient is not finite: {x!r}")
@@ -71,7 +87,18 @@ def c_double(x: float) -> str:
 
 def ascii_text(s) -> str:
     """``s`` fit for a C comment or string: ASCII only (other characters as ``\\uXXXX``), no
-    comment terminator, no quote or backslash that would end a string literal."""
+    comment terminator, no quote or backslash that would end a string literal.
+
+    Parameters
+    ----------
+    s : Any
+        The text (converted with ``str``).
+
+    Returns
+    -------
+    str
+        The ASCII text.
+    """
     out = str(s).encode("ascii", "backslashreplace").decode("ascii")
     return out.replace("*/", "* /").replace("\\", "/").replace('"', "'").replace("\n", " ")
 
@@ -79,7 +106,18 @@ def ascii_text(s) -> str:
 def controllers_of(doc: dict) -> list[tuple[str, float | None, Runtime]]:
     """(label, joint angle [rad] or None, reference runtime): the nominal controller, then every
     gain-schedule entry, each as the reference runtime runs it (its gains, its sensed filters and
-    its loop filters, in its order)."""
+    its loop filters, in its order).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+
+    Returns
+    -------
+    list of tuple
+        ``(label, joint angle [rad] or None, Runtime)`` per controller.
+    """
     out = [("nominal", None, Runtime(doc))]
     for e in (doc.get("gain_schedule") or {}).get("entries", []):
         out.append((f"joint angle {e['joint_angle_rad']!r} rad", float(e["joint_angle_rad"]),
@@ -89,7 +127,18 @@ def controllers_of(doc: dict) -> list[tuple[str, float | None, Runtime]]:
 
 def layouts_of(ctrls) -> list[int]:
     """Per controller, a layout number: controllers with the same filters on the same signals with
-    the same numbers of sections share it (a bumpless switch carries their states over)."""
+    the same numbers of sections share it (a bumpless switch carries their states over).
+
+    Parameters
+    ----------
+    ctrls : list of tuple
+        The controllers, as :func:`controllers_of` gives them.
+
+    Returns
+    -------
+    list of int
+        The layout number of each (from 0).
+    """
     seen: dict[tuple, int] = {}
     out = []
     for _label, _angle, rt in ctrls:
@@ -103,7 +152,18 @@ def state_maps(coef) -> tuple[float, ...]:
     M·(w[k], w[k-1]), w the signal its denominator filters (w[k] = x[k] - a1 w[k-1] - a2 w[k-2],
     y = b0 w[k] + b1 w[k-1] + b2 w[k-2]); W = M^-1, or zero when M is singular or its condition
     number exceeds 1e10 (a numerator sharing a root with the denominator: the section then starts
-    a bumpless switch from the zero state)."""
+    a bumpless switch from the zero state).
+
+    Parameters
+    ----------
+    coef : sequence of float
+        The section ``(b0, b1, b2, a1, a2)`` (a0 = 1).
+
+    Returns
+    -------
+    tuple of float
+        The eight entries of M then W, row by row.
+    """
     import numpy as np
 
     b0, b1, b2, a1, a2 = coef
@@ -132,7 +192,24 @@ CHECKS_C = FAST_MATH_C + r'''#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD > 0
 def peek_clamp_c(real: str, zero: str, b0: str, note: str = "") -> str:
     """The C of ``filter_peek`` (a filter's output for an input without advancing its state: the
     DOB loop's h) and ``clamp`` in the arithmetic ``real`` (``double`` or ``float``; ``zero`` its
-    0 literal, ``b0`` the sections' feed-through field)."""
+    0 literal, ``b0`` the sections' feed-through field).
+
+    Parameters
+    ----------
+    real : str
+        The C type, ``"double"`` or ``"float"``.
+    zero : str
+        Its zero literal (``"0.0"``, ``"0.0f"``).
+    b0 : str
+        Name of the sections' feed-through field.
+    note : str, optional
+        Text appended to the first comment.
+
+    Returns
+    -------
+    str
+        The C source of the two functions.
+    """
     return f"""/* the filter's output for input x without advancing its state{note} */
 static {real} filter_peek(const exo_section *S, const exo_filter *f, {real} (*z)[2], {real} x)
 {{

@@ -163,7 +163,20 @@ def predicted_latency_margin(cfg) -> dict:
 
 def latency_hint(m) -> dict:
     """A continuous :class:`~exotune.analysis.LatencyMargin` as a controller file's
-    ``predicted.latency_margin`` (where the sampled-data margin's search starts; untrusted)."""
+    ``predicted.latency_margin`` (where the sampled-data margin's search starts; untrusted).
+
+    Parameters
+    ----------
+    m : LatencyMargin
+        The continuous latency margin of the design.
+
+    Returns
+    -------
+    dict
+        ``model``, ``extra_delay_s`` [s] (None when unbounded), ``extra_delay_samples``,
+        ``critical`` (loop, parameter, value, unit, frequency [Hz]), ``verified``, ``note`` and
+        ``units``.
+    """
     fin = math.isfinite(m.extra_delay_s)
     c = m.critical
     return {
@@ -241,7 +254,36 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
     ``analyses=False`` builds only what the runtime executes (controller, gain schedule, plant,
     delay, golden vectors) for an in-memory simulation: no predictions (``predicted`` is None, no
     ``predicted_sampled`` per schedule entry) — the sampled-data analysis of a 100 kHz file takes
-    minutes, a simulation needs none of it. Such a document is not a controller file to write."""
+    minutes, a simulation needs none of it. Such a document is not a controller file to write.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The validated design, with ``implementation.sample_rate_hz`` equal to ``sample_rate_hz``.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    source : str or None, optional
+        The design file's path, for the provenance.
+    input_hash : str or None, optional
+        SHA-256 of the design, for the provenance.
+    now : datetime.datetime or None, optional
+        The export time stamped in the provenance; None for the current time.
+    require_latency_margin_s : float or None, optional
+        The latency margin [s] the file must keep (:func:`requirements_section`).
+    analyses : bool, optional
+        Run the sampled-data analyses and store their predictions.
+
+    Returns
+    -------
+    dict
+        The controller file's mapping.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the controller cannot be built or written (e.g. a coefficient that does not fit the
+        target precision), or an active time budget is spent.
+    """
     from ..version import __version__
 
     fs = float(sample_rate_hz)
@@ -322,7 +364,18 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
 
 def schedule_problems(doc: dict) -> list[str]:
     """certify's problems of the gain-schedule entries of a document whose entries carry their
-    ``predicted_sampled`` analysis (as :func:`build_export` writes them)."""
+    ``predicted_sampled`` analysis (as :func:`build_export` writes them).
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping (:func:`build_export`).
+
+    Returns
+    -------
+    list of str
+        The problems, each prefixed with its entry's joint angle [rad] and ratio.
+    """
     from .certify import sampled_problems
 
     out = []
@@ -401,7 +454,25 @@ def export_design(design_file, sample_rate_hz: float | None, out, require_latenc
 
 
 def check_sample_rate(value, field: str = "--sample-rate-hz") -> float:
-    """A sample rate [Hz] from the command line: a positive, finite number (else ConfigError)."""
+    """A sample rate [Hz] from the command line: a positive, finite number (else ConfigError).
+
+    Parameters
+    ----------
+    value : Any
+        The option's value.
+    field : str, optional
+        The option named by the error.
+
+    Returns
+    -------
+    float
+        The sample rate [Hz].
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the value is not a positive, finite number.
+    """
     from ..options import number_value
 
     return number_value(field, value, positive=True, noun="a number of Hz")
@@ -409,7 +480,28 @@ def check_sample_rate(value, field: str = "--sample-rate-hz") -> float:
 
 def design_at_rate(raw, sample_rate_hz, source: str | None = None):
     """Validate a design mapping with ``implementation.sample_rate_hz`` set to ``sample_rate_hz``
-    (so every filter cutoff is checked against that Nyquist frequency)."""
+    (so every filter cutoff is checked against that Nyquist frequency).
+
+    Parameters
+    ----------
+    raw : dict
+        The design's mapping (e.g. ``DesignConfig.raw``).
+    sample_rate_hz : Any
+        The sample rate [Hz].
+    source : str or None, optional
+        The design file's path.
+
+    Returns
+    -------
+    DesignConfig
+        The validated design at that rate.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the rate is not a positive number or the design does not validate at it (a cutoff at or
+        above the Nyquist frequency).
+    """
     from ..config import design_from_mapping
 
     fs = check_sample_rate(sample_rate_hz)

@@ -19,7 +19,23 @@ __all__ = ["load_controller", "checked_controller", "check_file_limits", "write_
 
 def load_controller(path) -> dict:
     """Read (safe YAML loader) and validate a controller file (schema, then
-    :func:`check_controller_file`); returns the mapping."""
+    :func:`check_controller_file`); returns the mapping.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The controller file (YAML).
+
+    Returns
+    -------
+    dict
+        The validated controller file's mapping.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the file cannot be read or parsed, or fails a check.
+    """
     from ..config import read_yaml
 
     return checked_controller(read_yaml(path), str(path))
@@ -29,6 +45,24 @@ def checked_controller(doc, source: str = "<mapping>") -> dict:
     """Validate a controller document already in memory exactly as :func:`load_controller`
     validates a file (the kind, the schema, the accepted ranges, the file's own consistency
     checks); returns it. ``source`` names it in errors.
+
+    Parameters
+    ----------
+    doc : Any
+        The controller document.
+    source : str, optional
+        What it is (a path), named by the errors.
+
+    Returns
+    -------
+    dict
+        ``doc`` itself.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When it is another kind of file, fails the schema, an accepted range or a consistency check,
+        or its precision and realizations disagree.
 
     References
     ----------
@@ -109,7 +143,23 @@ def write_controller(doc: dict, out) -> None:
 def discrete_from_file(doc: dict):
     """The file's controller as one state space (:class:`exotune.sampled.DiscreteController`),
     built from its gains and sos filters only; for a float32 file, from its float32 realization as
-    the target executes it (:func:`exotune.controllerfile.precision.discrete_from_realization`)."""
+    the target executes it (:func:`exotune.controllerfile.precision.discrete_from_realization`).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+
+    Returns
+    -------
+    DiscreteController
+        The controller at the file's sample rate [Hz], with the file's delay [s].
+
+    Raises
+    ------
+    ValueError
+        When the DOB's algebraic loop is singular.
+    """
     c = doc["controller"]
     if c.get("realization") is not None:
         from .precision import discrete_from_realization
@@ -121,7 +171,18 @@ def discrete_from_file(doc: dict):
 
 
 def plant_from_file(doc: dict):
-    """The file's plant (:class:`exotune.model.plant.Plant`) from its ``plant`` section."""
+    """The file's plant (:class:`exotune.model.plant.Plant`) from its ``plant`` section.
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+
+    Returns
+    -------
+    Plant
+        Its plant (J_m [kg·m²], B_m [N·m·s/rad], K_s [N·m/rad], J_j [kg·m²], K_c [N·m/rad]).
+    """
     from ..model.plant import Plant
 
     p = {k: v["value"] for k, v in doc["plant"].items()}
@@ -129,7 +190,20 @@ def plant_from_file(doc: dict):
 
 
 def schedule_entry_doc(doc: dict, entry: dict) -> dict:
-    """The controller-file view of one gain-schedule entry (its plant, gains and controller)."""
+    """The controller-file view of one gain-schedule entry (its plant, gains and controller).
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+    entry : dict
+        One of its ``gain_schedule.entries``.
+
+    Returns
+    -------
+    dict
+        A shallow copy of ``doc`` with the entry's plant, gains and controller.
+    """
     return {**doc, "plant": entry["plant"], "gains": entry["gains"],
             "controller": {**doc["controller"], **entry["controller"]}}
 
@@ -139,7 +213,21 @@ def position_feedback(controller: dict, rtol: float = 1e-12) -> bool:
     the runtime executes (its θ_m gain and the DC gains of its filters on θ_m), never from the
     descriptive six-gain summary. Without it (and without a human or environment stiffness) the
     structure is ungrounded and the loop has its rigid-body eigenvalue at z = 1. For a float32
-    file, that of its realization."""
+    file, that of its realization.
+
+    Parameters
+    ----------
+    controller : dict
+        The file's ``controller`` section (or a schedule entry's).
+    rtol : float, optional
+        Relative size below which the total DC gain on θ_m counts as zero (also the rule for a
+        section's zero at z = 1).
+
+    Returns
+    -------
+    bool
+        Whether the controller feeds back the motor position.
+    """
     if controller.get("realization") is not None:
         from .precision import realization_position_feedback
 

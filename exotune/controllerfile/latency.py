@@ -261,7 +261,19 @@ def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dic
 
 
 def requirement_problems(lm: dict) -> list[str]:
-    """The certification problem when the sampled margin ``lm`` is below the file's requirement."""
+    """The certification problem when the sampled margin ``lm`` is below the file's requirement.
+
+    Parameters
+    ----------
+    lm : dict
+        The sampled-data latency margin (``required_s`` [s], ``extra_delay_s`` [s],
+        ``extra_delay_samples``).
+
+    Returns
+    -------
+    list of str
+        One problem, or none.
+    """
     req, m = lm.get("required_s"), lm.get("extra_delay_s")
     if not req or m is None or m >= req:
         return []

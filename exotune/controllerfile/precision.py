@@ -64,7 +64,25 @@ _ZERO_RTOL = 1e-12  # a DC zero / unit DC gain to this relative accuracy is kept
 
 
 def check_precision(value, field: str = "implementation.precision") -> str:
-    """``value`` when it is ``float64`` or ``float32``, else a ConfigError naming ``field``."""
+    """``value`` when it is ``float64`` or ``float32``, else a ConfigError naming ``field``.
+
+    Parameters
+    ----------
+    value : Any
+        The precision given.
+    field : str, optional
+        Field path named by the error.
+
+    Returns
+    -------
+    str
+        ``"float64"`` or ``"float32"``.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``value`` is neither.
+    """
     if not isinstance(value, str) or value not in PRECISIONS:
         raise ConfigError(field, f"must be float64 or float32 (the arithmetic of the target that runs the "
                                  f"controller), got {value!r}")
@@ -73,7 +91,24 @@ def check_precision(value, field: str = "implementation.precision") -> str:
 
 def precision_of(doc: dict) -> str:
     """The file's target arithmetic: ``implementation.precision`` (absent or null: float64).
-    A float32 file must carry a realization in every controller, a float64 file none."""
+    A float32 file must carry a realization in every controller, a float64 file none.
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+
+    Returns
+    -------
+    str
+        ``"float64"`` or ``"float32"``.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the precision is invalid, or a controller's realization is missing (float32) or present
+        (float64).
+    """
     impl = doc.get("implementation")
     p = (impl or {}).get("precision") if isinstance(impl, dict) else None
     p = "float64" if p is None else check_precision(p)
@@ -100,7 +135,20 @@ def _f32(x: float, where: str) -> float:
 
 def delta_row(row) -> tuple[list[float], bool]:
     """([β0, β1, β2, α1, α2] in float64, unit DC gain) of one sos row (a0 normalized): see the
-    module docstring. β2 is exactly 0 for a zero at z = 1 (to 1e-12 of the numerator)."""
+    module docstring. β2 is exactly 0 for a zero at z = 1 (to 1e-12 of the numerator).
+
+    Parameters
+    ----------
+    row : sequence of float
+        One sos row ``[b0, b1, b2, a0, a1, a2]``.
+
+    Returns
+    -------
+    coefficients : list of float
+        ``[β0, β1, β2, α1, α2]`` (float64).
+    unit_dc : bool
+        Whether the section's DC gain β2/α2 is 1 (to 1e-9).
+    """
     b0, b1, b2, a0, a1, a2 = (float(x) for x in row)
     b0, b1, b2, a1, a2 = b0 / a0, b1 / a0, b2 / a0, a1 / a0, a2 / a0
     beta2, alpha2 = b0 + b1 + b2, 1.0 + a1 + a2
@@ -112,7 +160,26 @@ def delta_row(row) -> tuple[list[float], bool]:
 
 def realization(controller: Mapping, where: str = "controller") -> dict:
     """The float32 realization of one controller section (its ``gains`` and ``filters``' sos):
-    gains and δ-form sections rounded to float32, the loop divisor; every number a float32 value."""
+    gains and δ-form sections rounded to float32, the loop divisor; every number a float32 value.
+
+    Parameters
+    ----------
+    controller : Mapping
+        A controller section of the file (``gains`` and ``filters`` with their ``sos``).
+    where : str, optional
+        Its field path, named by the errors.
+
+    Returns
+    -------
+    dict
+        The ``realization`` section: ``precision``, ``form``, ``note``, ``gains`` (signal →
+        float32 gain), ``filters`` (name, input, δ-form ``sections``) and ``loop_divisor``.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When a coefficient does not fit in float32.
+    """
     gains = {s: _f32(v["gain"], f"{where}.gains.{s}") for s, v in controller["gains"].items()}
     filters = []
     for f in controller["filters"]:
@@ -136,7 +203,18 @@ def realization(controller: Mapping, where: str = "controller") -> dict:
 
 
 def add_realizations(doc: dict) -> None:
-    """Add the float32 realization to the file's controller and to each gain-schedule entry's."""
+    """Add the float32 realization to the file's controller and to each gain-schedule entry's.
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping, changed in place.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When a coefficient does not fit in float32.
+    """
     doc["controller"]["realization"] = realization(doc["controller"])
     for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries") or []):
         e["controller"]["realization"] = realization(e["controller"], f"gain_schedule.entries[{j}].controller")
@@ -144,7 +222,18 @@ def add_realizations(doc: dict) -> None:
 
 def realization_problems(doc: dict) -> list[str]:
     """Where a float32 file's realizations differ from the ones its sos filters and gains give
-    (:func:`realization`; exact comparison: both are float32 values)."""
+    (:func:`realization`; exact comparison: both are float32 values).
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+
+    Returns
+    -------
+    list of str
+        One problem per differing part (empty when every realization matches).
+    """
     out = []
     ctrls = [("controller", doc["controller"])] + [
         (f"gain_schedule.entries[{j}].controller", {**doc["controller"], **e["controller"]})
@@ -231,7 +320,18 @@ def step_order(real: Mapping) -> dict:
     """The realization as the step walks it, in its order (the float32 C port's tables):
     ``gains`` [(signal index, g)], ``sensed`` [(signal index, sections)] and ``loop``
     [sections] filters, ``names`` (sensed, then loop filters) and ``divisor``; float32 values as
-    Python floats."""
+    Python floats.
+
+    Parameters
+    ----------
+    real : Mapping
+        A controller's ``realization`` section.
+
+    Returns
+    -------
+    dict
+        ``gains``, ``sensed``, ``loop``, ``names`` and ``divisor``, as described above.
+    """
     K = _Compiled(real)
     return {"gains": K.gains, "sensed": K.sensed, "loop": K.loop, "names": K.names, "divisor": K.divisor}
 
@@ -372,7 +472,19 @@ def linearize(real: Mapping) -> dict:
     rounding errors e (p)]: ``A, B, E`` (z⁺ = A z + B y + E e), ``C, D, F`` (τ_cmd = C z + D y + F e),
     and ``V`` (p × (n + 5 + p)): the exact value at each rounding point (the inputs' conversion to
     float32 first). Exact up to float64 rounding of the few products and sums that form each
-    entry (the coefficients are float32 values)."""
+    entry (the coefficients are float32 values).
+
+    Parameters
+    ----------
+    real : Mapping
+        A controller's ``realization`` section.
+
+    Returns
+    -------
+    dict
+        ``A``, ``B``, ``E``, ``C``, ``D``, ``F``, ``V`` (numpy arrays), ``labels`` (one per rounding
+        point), ``states`` (n) and ``points`` (p).
+    """
     K = _Compiled(real)
     n, m = 2 * K.n_sections, len(Measured)
     count = _Linear(n + m, n + m)
@@ -395,7 +507,22 @@ def _run_linear(ar: _Linear, K: _Compiled, n: int, m: int):
 
 def discrete_from_realization(real: Mapping, sample_rate_hz: float, delay_s: float):
     """The float32 realization as one state space (:class:`exotune.sampled.DiscreteController`):
-    the controller the certify analysis decides on, exactly as executed (:func:`linearize`)."""
+    the controller the certify analysis decides on, exactly as executed (:func:`linearize`).
+
+    Parameters
+    ----------
+    real : Mapping
+        A controller's ``realization`` section.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    delay_s : float
+        Total latency [s].
+
+    Returns
+    -------
+    DiscreteController
+        The realization's state space (no rounding inputs).
+    """
     from ..sampled.loop import DiscreteController
 
     L = linearize(real)
@@ -404,7 +531,20 @@ def discrete_from_realization(real: Mapping, sample_rate_hz: float, delay_s: flo
 
 def realization_position_feedback(real: Mapping, rtol: float = 1e-12) -> bool:
     """:func:`~exotune.controllerfile.fileio.position_feedback` of the realization: its θ_m gain
-    and the DC gains β2/α2 of its sections on θ_m."""
+    and the DC gains β2/α2 of its sections on θ_m.
+
+    Parameters
+    ----------
+    real : Mapping
+        A controller's ``realization`` section.
+    rtol : float, optional
+        Relative size below which the total DC gain on θ_m counts as zero.
+
+    Returns
+    -------
+    bool
+        Whether the realization feeds back the motor position.
+    """
     total = float(real["gains"].get("theta_m", 0.0))
     scale = abs(total)
     for f in real["filters"]:

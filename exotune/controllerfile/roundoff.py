@@ -40,7 +40,22 @@ DEFAULT_HORIZON_S = 0.1
 
 def impulse_l1(A, B, C, D, n: int, squares: bool = False):
     """Σ_{k<n} |h[k]| of the impulse responses h[0] = D, h[k] = C A^{k−1} B (one column per input);
-    with ``squares`` also Σ_{k<n} h[k]² (the H2 norm squared over the horizon)."""
+    with ``squares`` also Σ_{k<n} h[k]² (the H2 norm squared over the horizon).
+
+    Parameters
+    ----------
+    A, B, C, D : numpy.ndarray
+        A discrete state space.
+    n : int
+        The horizon [samples].
+    squares : bool, optional
+        Also return the sums of squares.
+
+    Returns
+    -------
+    numpy.ndarray or tuple of numpy.ndarray
+        Σ|h[k]| (outputs × inputs), and Σh[k]² with ``squares``.
+    """
     h = np.atleast_2d(D).astype(float)
     acc, sq = np.abs(h), h * h
     X = np.array(B, dtype=float)
@@ -76,6 +91,18 @@ def roundoff_bound(doc: dict, amplitudes: Mapping[str, float] | None = None, hor
     controllers, e.g. a gain-schedule entry's), for inputs |y_i| ≤ ``amplitudes`` (default
     :data:`DEFAULT_AMPLITUDES`) over ``horizon_samples`` (default :data:`DEFAULT_HORIZON_S` at
     the file's rate) from the zero state.
+
+    Parameters
+    ----------
+    doc : dict
+        The validated float32 controller file's mapping.
+    amplitudes : Mapping or None, optional
+        Largest |input| per signal (θ_m [rad], θ̇_m [rad/s], τ_s [N·m], τ̇_s [N·m/s], τ_c [N·m]);
+        None for :data:`DEFAULT_AMPLITUDES`.
+    horizon_samples : int or None, optional
+        The horizon [samples]; None for :data:`DEFAULT_HORIZON_S` at the file's rate.
+    controller : Mapping or None, optional
+        The controller (with its realization); None for the file's nominal one.
 
     Returns
     -------

@@ -86,7 +86,18 @@ class SosFilter:
 
 def loop_feedthrough(loop) -> float:
     """g: the output per unit τ_cmd at zero state of the filters on τ_cmd (the DOB's algebraic
-    loop), their feed-throughs summed left to right."""
+    loop), their feed-throughs summed left to right.
+
+    Parameters
+    ----------
+    loop : iterable of SosFilter
+        The filters on τ_cmd.
+
+    Returns
+    -------
+    float
+        g [–].
+    """
     g = 0.0
     for f in loop:
         g += f.feedthrough

@@ -259,10 +259,24 @@ class ControllerFile(_S):
 
 
 def schema_path() -> Path:
+    """The path of the controller file's JSON Schema shipped with the package.
+
+    Returns
+    -------
+    pathlib.Path
+        ``exotune/controllerfile/schemas/controller.schema.json``.
+    """
     return Path(__file__).resolve().parent / "schemas" / "controller.schema.json"
 
 
 def json_schema() -> dict:
+    """The JSON Schema (draft 2020-12) of a controller file, generated from :class:`ControllerFile`.
+
+    Returns
+    -------
+    dict
+        The schema.
+    """
     s = ControllerFile.model_json_schema(by_alias=True)
     s["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     s["$id"] = "https://exotune.invalid/schemas/controller/1"
@@ -271,13 +285,38 @@ def json_schema() -> dict:
 
 
 def write_schema(path: Path | None = None) -> None:
+    """Write :func:`json_schema` atomically as JSON.
+
+    Parameters
+    ----------
+    path : pathlib.Path or None, optional
+        Where; None for :func:`schema_path`.
+    """
     from ..jsonio import write_atomic
 
     write_atomic(path or schema_path(), json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n")
 
 
 def validate_controller(doc: Any, source: str = "") -> ControllerFile:
-    """Validate a controller mapping; problems raise :class:`ConfigError` naming the field."""
+    """Validate a controller mapping; problems raise :class:`ConfigError` naming the field.
+
+    Parameters
+    ----------
+    doc : Any
+        The controller document.
+    source : str, optional
+        What it is (a path), named by a top-level error.
+
+    Returns
+    -------
+    ControllerFile
+        The validated model.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the document is not a mapping or fails the schema (the first error).
+    """
     if not isinstance(doc, dict):
         raise ConfigError(source or "<controller>", "expected a mapping at the top level")
     try:

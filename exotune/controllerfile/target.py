@@ -17,7 +17,28 @@ __all__ = ["runtime_of", "with_precision"]
 
 def runtime_of(doc: dict, limit_nm: float | None = None, joint_angle_rad: float | None = None):
     """The runtime that executes the file's controller: :class:`~exotune.controllerfile.precision.Float32Runtime`
-    for a float32 realization, else the reference (float64) :class:`~exotune.controllerfile.runtime.Runtime`."""
+    for a float32 realization, else the reference (float64) :class:`~exotune.controllerfile.runtime.Runtime`.
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+    limit_nm : float or None, optional
+        Torque limit [N·m] of the command; None for none.
+    joint_angle_rad : float or None, optional
+        Joint angle [rad] choosing the gain-schedule entry; None for the nominal controller.
+
+    Returns
+    -------
+    Runtime or Float32Runtime
+        The runtime.
+
+    Raises
+    ------
+    ValueError
+        When ``limit_nm`` is not positive and finite, the angle is not finite, or the DOB's loop
+        is singular.
+    """
     if doc["controller"].get("realization") is not None:
         return Float32Runtime(doc, limit_nm, joint_angle_rad)
     return Runtime(doc, limit_nm, joint_angle_rad)
@@ -26,7 +47,25 @@ def runtime_of(doc: dict, limit_nm: float | None = None, joint_angle_rad: float 
 def with_precision(doc: dict, precision: str) -> dict:
     """A copy of the file as if exported for ``precision`` (``certify --precision``): realizations
     added (float32) or removed (float64), golden outputs recomputed by that arithmetic. Its
-    ``predicted`` sampled sections are the file's (computed for its own precision)."""
+    ``predicted`` sampled sections are the file's (computed for its own precision).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
+    precision : str
+        ``"float64"`` or ``"float32"``.
+
+    Returns
+    -------
+    dict
+        The converted copy.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``precision`` is invalid or a coefficient does not fit in float32.
+    """
     check_precision(precision, "--precision")
     d = copy.deepcopy(doc)
     if isinstance(d.get("implementation"), dict):
