@@ -69,6 +69,18 @@ class Implementation:
 
 
 def second_order_lowpass(f: SecondOrderFilter) -> Rational:
+    """The low-pass ω²/(s² + 2ζω s + ω²), ω = 2π·cutoff (a batch when the filter's fields are arrays).
+
+    Parameters
+    ----------
+    f : SecondOrderFilter
+        Cutoff [Hz] and damping ratio ζ [–].
+
+    Returns
+    -------
+    Rational
+        The filter, unit DC gain.
+    """
     w = 2.0 * np.pi * np.asarray(f.cutoff_hz, dtype=float)
     z = np.asarray(f.damping, dtype=float)
     w, z = np.broadcast_arrays(w, z)
@@ -76,6 +88,18 @@ def second_order_lowpass(f: SecondOrderFilter) -> Rational:
 
 
 def first_order_lowpass(f: FirstOrderFilter) -> Rational:
+    """The low-pass ω/(s + ω), ω = 2π·cutoff (a batch when the cutoff is an array).
+
+    Parameters
+    ----------
+    f : FirstOrderFilter
+        Cutoff [Hz].
+
+    Returns
+    -------
+    Rational
+        The filter, unit DC gain.
+    """
     w = 2.0 * np.pi * np.asarray(f.cutoff_hz, dtype=float)
     return Rational(w[..., None], as_poly(w, np.ones_like(w)))
 
@@ -167,7 +191,29 @@ STRUCTURES = {
 def build_controller(
     plant: Plant, design: DesignParams, impl: Implementation
 ) -> tuple[ControllerStructure, DoubleShaping]:
-    """Double compliance shaping → the implemented controller structure named by ``impl.structure``."""
+    """Double compliance shaping → the implemented controller structure named by ``impl.structure``.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    design : DesignParams
+        The design parameters.
+    impl : Implementation
+        The implementation (structure, filters, DOB, delay [s]).
+
+    Returns
+    -------
+    cs : ControllerStructure
+        The controller blocks G_θ, G_s, G_c, the DOB's Q and the delay [s].
+    ds : DoubleShaping
+        The shaping it was built from.
+
+    Raises
+    ------
+    ValueError
+        When ``impl.structure`` is unknown.
+    """
     ds = double_compliance_shaping(plant, design)
     if impl.structure not in STRUCTURES:
         raise ValueError(f"unknown controller structure {impl.structure!r}; known: {sorted(STRUCTURES)}")

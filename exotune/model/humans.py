@@ -87,7 +87,28 @@ class EnvModel:
 
 def family_split(kind: str, param: str, fixed: dict[str, float], eta: float = 0.0):
     """Z(s) = Z0(s) + p φ(s): return (z0 ascending coeffs [k, b, m], phi ascending coeffs,
-    complex factor applied to φ for ω > 0 (1 + jη for complex stiffness))."""
+    complex factor applied to φ for ω > 0 (1 + jη for complex stiffness)).
+
+    Parameters
+    ----------
+    kind : str
+        The family's kind (``mass``, ``spring``, ``complex_stiffness``, ``msd``).
+    param : str
+        The varied parameter (``inertia``, ``damping`` or ``stiffness``).
+    fixed : dict of str to float
+        The fixed parameters: inertia [kg·m²], damping [N·m·s/rad], stiffness [N·m/rad].
+    eta : float, optional
+        Loss factor η [–] of a complex stiffness.
+
+    Returns
+    -------
+    z0 : numpy.ndarray
+        Ascending coefficients [k, b, m] of Z0 (the varied slot zero).
+    phi : numpy.ndarray
+        Ascending coefficients of φ (one 1 in the varied slot).
+    factor : complex
+        The factor applied to φ for ω > 0.
+    """
     m = fixed.get("inertia", 0.0) if kind in ("mass", "msd") else 0.0
     b = fixed.get("damping", 0.0)
     k = fixed.get("stiffness", 0.0) if kind in ("spring", "msd", "complex_stiffness") else 0.0

@@ -199,25 +199,93 @@ class CompliancePair:
 
 
 def parallel(S: CompliancePair, C2: Tf) -> CompliancePair:
-    """Proposition 1 (Systems in Parallel): ([C1⁻¹ + C2⁻¹]⁻¹, [C1⁻¹ + C2⁻¹]⁻¹ C1⁻¹ H1)."""
+    """Proposition 1 (Systems in Parallel): ([C1⁻¹ + C2⁻¹]⁻¹, [C1⁻¹ + C2⁻¹]⁻¹ C1⁻¹ H1).
+
+    Parameters
+    ----------
+    S : CompliancePair
+        The system (C1, H1).
+    C2 : Tf
+        The compliance put in parallel [rad/(N·m)].
+
+    Returns
+    -------
+    CompliancePair
+        The interconnection.
+
+    References
+    ----------
+    Paper Proposition 1 (systems in parallel).
+    """
     C = (S.C.inv() + Tf._lift(C2).inv()).inv()
     return CompliancePair(C, C / S.C * S.H)
 
 
 def series(S: CompliancePair, C2: Tf) -> CompliancePair:
-    """Proposition 2 (Systems in Series): (C1 + C2, H1)."""
+    """Proposition 2 (Systems in Series): (C1 + C2, H1).
+
+    Parameters
+    ----------
+    S : CompliancePair
+        The system (C1, H1).
+    C2 : Tf
+        The compliance put in series [rad/(N·m)].
+
+    Returns
+    -------
+    CompliancePair
+        The interconnection.
+
+    References
+    ----------
+    Paper Proposition 2 (systems in series).
+    """
     return CompliancePair(S.C + C2, S.H)
 
 
 def virtual_parallel(S: CompliancePair, G: Tf) -> Tf:
     """Proposition 3: a position controller ``τ_m = G θ + τ'`` equals the parallel compliance
-    C' = −C1 / (H1 G)."""
+    C' = −C1 / (H1 G).
+
+    Parameters
+    ----------
+    S : CompliancePair
+        The system (C1, H1).
+    G : Tf
+        The position controller [N·m/rad].
+
+    Returns
+    -------
+    Tf
+        The virtual parallel compliance C' [rad/(N·m)].
+
+    References
+    ----------
+    Paper Proposition 3 (virtual parallel systems of a position controller).
+    """
     return -S.C / (S.H * G)
 
 
 def virtual_series(S: CompliancePair, G: Tf) -> Tf:
     """Proposition 4: a force controller ``τ_m = G τ + τ'`` equals the series compliance
-    C' = G H1."""
+    C' = G H1.
+
+    Parameters
+    ----------
+    S : CompliancePair
+        The system (C1, H1).
+    G : Tf
+        The force controller [–].
+
+    Returns
+    -------
+    Tf
+        The virtual series compliance C' [rad/(N·m)].
+
+    References
+    ----------
+    Paper Proposition 4 (virtual series systems of a force controller).
+    """
     return Tf._lift(G) * S.H
 
 
@@ -235,6 +303,32 @@ def seven_systems(
 
     ``actuator`` replaces the pure delay e^{-sT} in H1 when given (e.g. the DOB-modified
     actuator path of docs/method.md#controller); by default H1 = e^{-sT}/(J_m s² + B_m s).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (J_m [kg·m²], B_m [N·m·s/rad], K_s, K_c [N·m/rad], J_j [kg·m²]).
+    G_theta : Tf
+        Motor position block G_θ [N·m/rad].
+    G_s : Tf
+        Spring torque block G_s [–].
+    G_c : Tf
+        Cuff torque block G_c [–].
+    delay_s : float, optional
+        Actuation delay T [s] of H1.
+    actuator : Tf or None, optional
+        The actuator path replacing e^{-sT}; None for the pure delay.
+    J_m_hat, B_m_hat : array_like or None, optional
+        Virtual motor inertia Ĵ_m [kg·m²] and damping B̂_m [N·m·s/rad] of Ŝ5.
+
+    Returns
+    -------
+    dict of str to CompliancePair
+        ``S1`` … ``S7`` (and ``S5_hat``).
+
+    References
+    ----------
+    Paper Table II (the seven system interconnections); docs/method.md#controller.
     """
     s = Tf.s()
     M = plant.J_m * s * s + plant.B_m * s

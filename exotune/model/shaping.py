@@ -98,14 +98,44 @@ class Gains:
 
 
 def to_torque_units(plant: Plant, g: SeaGains) -> SeaGains:
-    """Convert SEA gains to the torque convention (divide the spring gains by K_s)."""
+    """Convert SEA gains to the torque convention (divide the spring gains by K_s).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (its K_s [N·m/rad]).
+    g : SeaGains
+        SEA gains in either convention.
+
+    Returns
+    -------
+    SeaGains
+        The gains in torque units: K1 [N·m/rad], B1 [N·m·s/rad], K2 [–], B2 [s].
+    """
     if g.units == "torque":
         return g
     return SeaGains(g.K1, g.B1, g.K2 / plant.K_s, g.B2 / plant.K_s, "torque")
 
 
 def to_deflection_units(plant: Plant, g: SeaGains) -> SeaGains:
-    """Convert SEA gains to the paper's eq. (9) deflection convention (× K_s)."""
+    """Convert SEA gains to the paper's eq. (9) deflection convention (× K_s).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (its K_s [N·m/rad]).
+    g : SeaGains
+        SEA gains in either convention.
+
+    Returns
+    -------
+    SeaGains
+        The gains in deflection units: K1, K2 [N·m/rad], B1, B2 [N·m·s/rad].
+
+    References
+    ----------
+    Paper eq. (9) (the SEA gains in deflection units).
+    """
     if g.units == "deflection":
         return g
     return SeaGains(g.K1, g.B1, g.K2 * plant.K_s, g.B2 * plant.K_s, "deflection")
@@ -115,6 +145,24 @@ def sea_gains_from_shape(plant: Plant, shape: SeaShape, units: GainUnits = "torq
     """Compliance shape → gains, paper eq. (9) (deflection units), converted if asked.
 
     K1 = J_m K̃1, K2 = J_m (K̃2 − K̃1) − K_s, B1 = J_m B̃1 − B_m, B2 = J_m (B̃2 − B̃1).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (J_m [kg·m²], B_m [N·m·s/rad], K_s [N·m/rad]).
+    shape : SeaShape
+        The C4 compliance shape (K̃ [1/s²], B̃ [1/s]).
+    units : {"torque", "deflection"}, optional
+        The convention of the returned gains.
+
+    Returns
+    -------
+    SeaGains
+        The SEA gains in ``units``.
+
+    References
+    ----------
+    Paper eq. (9) (the SEA gains from the compliance shape, deflection units).
     """
     J_m, B_m, K_s = plant.J_m, plant.B_m, plant.K_s
     g = SeaGains(
@@ -130,7 +178,24 @@ def sea_gains_from_shape(plant: Plant, shape: SeaShape, units: GainUnits = "torq
 def sea_shape_from_gains(plant: Plant, gains: SeaGains) -> SeaShape:
     """Gains → compliance shape (inverse of eq. (9); from eq. (7):
     K̃1 = K1/J_m, K̃2 = (K_s + K1 + K2)/J_m, B̃1 = (B_m + B1)/J_m, B̃2 = (B_m + B1 + B2)/J_m with
-    K2, B2 in deflection units."""
+    K2, B2 in deflection units.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (J_m [kg·m²], B_m [N·m·s/rad], K_s [N·m/rad]).
+    gains : SeaGains
+        SEA gains in either convention.
+
+    Returns
+    -------
+    SeaShape
+        The C4 compliance shape (K̃ [1/s²], B̃ [1/s]).
+
+    References
+    ----------
+    Paper eqs. (7) and (9) (the SEA compliance C4 and its gains).
+    """
     g = to_deflection_units(plant, gains)
     J_m, B_m, K_s = plant.J_m, plant.B_m, plant.K_s
     return SeaShape(
@@ -158,6 +223,23 @@ def double_compliance_shaping(plant: Plant, design: DesignParams) -> DoubleShapi
     K̃1 = 0, K̃2 = K_s/Ĵ_m, B̃1 = B̂_m/Ĵ_m, B̃2 = 2ζ√(K_s/Ĵ_m);
     K1 = 0, B1 = J_m B̃1 − B_m, K2 = J_m/Ĵ_m − 1 [–], B2 = (B̃2 − B̃1) J_m/K_s [s];
     K̂2 = α − 1, B̂2 = (2ζ̂ √(α K_c Ĵ_m) − B̂_m)/K_c [s].
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (J_m [kg·m²], B_m [N·m·s/rad], K_s, K_c [N·m/rad]); scalars or batches.
+    design : DesignParams
+        α [–], felt inertia [kg·m²], felt damping [N·m·s/rad], ζ and ζ̂ [–]; scalars or batches.
+
+    Returns
+    -------
+    DoubleShaping
+        The six gains (torque units), the C4 shape, Ĵ_m [kg·m²], B̂_m [N·m·s/rad] and the
+        warnings of assumptions the design breaks.
+
+    References
+    ----------
+    Paper §IV (double compliance shaping design of the gains).
     """
     a = np.asarray(design.amplification, dtype=float)
     J_m_hat = a * np.asarray(design.felt_inertia, dtype=float)
@@ -217,6 +299,24 @@ def nominal_transfer_functions(plant: Plant, design: DesignParams, ds: DoubleSha
 
     C4 (paper eq. (8), C5 (eq. (10), Ĉ5 = 1/(Ĵ_m s² + B̂_m s), nominal C7
     (eq. (16) with the erratum fixed: the middle term is 2ζ̂√(αK_c/Ĵ_m)·s) and G_v.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    design : DesignParams
+        The design parameters.
+    ds : DoubleShaping
+        Its double compliance shaping (:func:`double_compliance_shaping`).
+
+    Returns
+    -------
+    dict of str to Rational
+        ``C4``, ``C5`` [rad/(N·m)], ``C5_hat``, ``C7_nominal`` [rad/(N·m)] and ``G_v`` [–].
+
+    References
+    ----------
+    Paper eq. (8) (C4), eq. (10) (C5) and eq. (16) (the nominal C7).
     """
     sh = ds.shape
     K_s, J_j, K_c = plant.K_s, plant.J_j, plant.K_c
@@ -241,7 +341,20 @@ def nominal_transfer_functions(plant: Plant, design: DesignParams, ds: DoubleSha
 
 def sea_passivity_conditions(plant: Plant, gains: SeaGains) -> dict[str, bool]:
     """Nominal full-state-feedback passivity conditions of the SEA (deflection units):
-    K1 ≥ 0, B1 ≥ −B_m, B2 ≥ 0, K2 ≥ −K_s + B2·K1/(B_m + B1)."""
+    K1 ≥ 0, B1 ≥ −B_m, B2 ≥ 0, K2 ≥ −K_s + B2·K1/(B_m + B1).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (B_m [N·m·s/rad], K_s [N·m/rad]).
+    gains : SeaGains
+        SEA gains in either convention.
+
+    Returns
+    -------
+    dict of str to bool
+        Each condition's text → whether it holds (for every member of a batch).
+    """
     g = to_deflection_units(plant, gains)
     B_m, K_s = plant.B_m, plant.K_s
     denom = B_m + g.B1
