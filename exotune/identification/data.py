@@ -97,6 +97,22 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
     ``t`` column may then be absent). ``delay_s`` [s]: from ``tau_cmd`` to the applied torque, a
     whole number of samples, or ``"auto"`` (estimated by :func:`identify_plant`).
 
+    Parameters
+    ----------
+    columns : dict
+        Column name → sequence of numbers (SI units: t [s], angles [rad], torques [N·m]).
+    source : str, optional
+        What the columns are (a file path), named by the estimate.
+    delay_s : str or float, optional
+        Delay [s] of ``tau_cmd``, or ``"auto"``.
+    sample_rate_hz : float or None, optional
+        Sample rate [Hz]; None to take it from the ``t`` column.
+
+    Returns
+    -------
+    MeasuredLog
+        The checked log (time stamps from 0, its rate and where the rate came from, the delay).
+
     Raises
     ------
     ConfigError

@@ -30,7 +30,28 @@ __all__ = ["fit_delays", "screen_delays", "diagnose", "regression"]
 
 def regression(sig, eq, fixed, delay: int = 0):
     """(left-hand side per log, free columns, the free parameters) of one equation (``eq`` as in
-    :mod:`exotune.identification.estimate`), the fixed parameters moved to the left."""
+    :mod:`exotune.identification.estimate`), the fixed parameters moved to the left.
+
+    Parameters
+    ----------
+    sig : FilteredLogs
+        The filtered signals of the logs.
+    eq : tuple
+        The equation: (parameters, needed columns, unit, text, regressors, left-hand side name).
+    fixed : dict of str to float
+        Fixed parameter values (SI units), by key.
+    delay : int, optional
+        Delay [samples] of the held command.
+
+    Returns
+    -------
+    y : tuple of numpy.ndarray
+        The left-hand side per log.
+    cols : list
+        The free parameters' columns, each a tuple of per-log arrays.
+    free : list of tuple
+        The free parameters (key, symbol, unit).
+    """
     pars, _needs, _unit, _text, regs, yname = eq
     y = lhs(sig, yname, delay)
     free, cols = [], []
@@ -53,7 +74,25 @@ def lhs(sig, name: str, delay: int) -> tuple:
 
 def fit_delays(sig, design, y_base_fn, delays) -> dict:
     """{delay: (RMS residual, estimates)} of the motor equation at each delay (``y_base_fn(d)``:
-    its left-hand side)."""
+    its left-hand side).
+
+    Parameters
+    ----------
+    sig : FilteredLogs
+        The filtered signals of the logs.
+    design : Design
+        The motor equation's regression.
+    y_base_fn : callable
+        ``y_base_fn(d)``: the left-hand side per log at a delay of d samples.
+    delays : iterable of int
+        The delays [samples] to fit.
+
+    Returns
+    -------
+    dict
+        Delay [samples] → (RMS residual [N·m], estimates); a delay whose fit is not excited is left
+        out.
+    """
     out = {}
     for d in delays:
         try:
@@ -67,7 +106,24 @@ def fit_delays(sig, design, y_base_fn, delays) -> dict:
 def screen_delays(sig, design, y_fixed, max_delay: int) -> int:
     """The whole number of samples 0…``max_delay`` with the smallest motor-equation residual:
     y_d = ``y_fixed`` (per log, H[τ_s] less the fixed terms) + H[τ_cmd] delayed by d; every delay's
-    residual from cross-correlations (module docstring)."""
+    residual from cross-correlations (module docstring).
+
+    Parameters
+    ----------
+    sig : FilteredLogs
+        The filtered signals of the logs.
+    design : Design
+        The motor equation's regression.
+    y_fixed : tuple of numpy.ndarray
+        Per log, H[τ_s] less the fixed terms.
+    max_delay : int
+        The largest delay [samples] screened.
+
+    Returns
+    -------
+    int
+        The best delay [samples].
+    """
     import scipy.fft
 
     D = max_delay
@@ -95,7 +151,38 @@ def diagnose(name: str, fitted: dict, sig, friction_eq, fixed, friction: bool, d
              delay_info) -> tuple[list, list]:
     """Model errors the fitting logs show in the equation ``name`` just identified (module
     docstring); ``fitted``: its parameters (key → ParameterEstimate). Returns the warnings and
-    (key, relative parameter change, cause) of each."""
+    (key, relative parameter change, cause) of each.
+
+    Parameters
+    ----------
+    name : str
+        The equation: ``"motor"``, ``"sea"``, ``"joint"`` or ``"cuff"``.
+    fitted : dict
+        Its parameters, key → ParameterEstimate.
+    sig : FilteredLogs
+        The filtered signals of the logs.
+    friction_eq : tuple
+        The motor equation with Coulomb friction.
+    fixed : dict of str to float
+        Fixed parameter values (SI units).
+    friction : bool
+        Whether friction was identified.
+    delay : int
+        Delay [samples] of the held command.
+    lag : int
+        Lag window [samples] of the standard errors.
+    min_t : float
+        Standard errors beyond which friction counts as significant.
+    delay_info : dict or None
+        The delay's residuals (with ``better_delay`` when a neighbour fits better).
+
+    Returns
+    -------
+    warnings : list of str
+        The warnings.
+    errors : list of tuple
+        ``(key, relative parameter change, cause)`` per warning.
+    """
     warnings, errors = [], []
     value = {k: p.value for k, p in fitted.items() if not p.fixed}
     if name == "motor":

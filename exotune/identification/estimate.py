@@ -79,6 +79,16 @@ def parse_fix(fix) -> dict:
     """``{key: value}`` from a mapping or from ``NAME=VALUE`` strings (NAME a design-file key
     such as ``motor_damping`` or its symbol such as ``B_m``; ``coulomb_friction`` / ``F_c``).
 
+    Parameters
+    ----------
+    fix : dict or iterable of str
+        ``{name: value}`` or ``NAME=VALUE`` strings, values in SI units.
+
+    Returns
+    -------
+    dict of str to float
+        Design-file key → fixed value (SI units).
+
     Raises
     ------
     ConfigError

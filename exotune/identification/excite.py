@@ -157,7 +157,18 @@ class Excitation(Result):
 
 
 def sidecar_path(path) -> str:
-    """The sidecar of an excitation file: ``EXC.json`` beside ``EXC.csv``."""
+    """The sidecar of an excitation file: ``EXC.json`` beside ``EXC.csv``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The excitation's CSV path.
+
+    Returns
+    -------
+    str
+        The JSON path.
+    """
     return os.path.splitext(os.fspath(path))[0] + ".json"
 
 
@@ -304,7 +315,27 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
 def write_excitation(exc: Excitation, out) -> Excitation:
     """Write ``exc`` as CSV to ``out`` and its description (units, lines, phases, crest factor)
     as JSON to :func:`sidecar_path` (each atomically; the CSV is removed again when the sidecar
-    cannot be written). Returns ``exc`` with its ``path``."""
+    cannot be written). Returns ``exc`` with its ``path``.
+
+    Parameters
+    ----------
+    exc : Excitation
+        The excitation.
+    out : str or os.PathLike
+        The CSV path.
+
+    Returns
+    -------
+    Excitation
+        ``exc`` with ``path`` and ``sidecar`` set.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``out`` is its own sidecar path (a ``.json`` name).
+    OSError
+        When a file cannot be written.
+    """
     import dataclasses
 
     from ..jsonio import dumps, write_atomic

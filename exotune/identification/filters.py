@@ -49,14 +49,50 @@ def svf(x: np.ndarray, sample_rate_hz: float, filter_hz: float,
     """H[x], sH[x], s²H[x] for H(s) = ω³/(s + ω)³, ω = 2π·filter_hz, from the zero state;
     ``hold``: "foh" for a measured signal (linear between samples), "zoh" for the exact filtering
     of a signal held between samples (see :func:`held_svf` for the one to use with measured
-    signals)."""
+    signals).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        The signal's samples.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    filter_hz : float
+        Filter corner [Hz].
+    hold : str, optional
+        ``"foh"`` or ``"zoh"``.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        H[x], sH[x] (per second) and s²H[x] (per second squared).
+    """
     import scipy.signal
 
     return tuple(scipy.signal.lfilter(b, a, x) for b, a in _discrete(sample_rate_hz, filter_hz, hold))
 
 
 def svf_order(x: np.ndarray, sample_rate_hz: float, filter_hz: float, k: int, hold: str = "foh") -> np.ndarray:
-    """One of :func:`svf`'s outputs: s^k·H[x] (k = 0, 1, 2)."""
+    """One of :func:`svf`'s outputs: s^k·H[x] (k = 0, 1, 2).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        The signal's samples.
+    sample_rate_hz : float
+        Sample rate [Hz].
+    filter_hz : float
+        Filter corner [Hz].
+    k : int
+        The derivative's order (0, 1, 2).
+    hold : str, optional
+        ``"foh"`` or ``"zoh"``.
+
+    Returns
+    -------
+    numpy.ndarray
+        s^k·H[x].
+    """
     import scipy.signal
 
     b, a = _discrete(sample_rate_hz, filter_hz, hold)[k]
@@ -66,7 +102,22 @@ def svf_order(x: np.ndarray, sample_rate_hz: float, filter_hz: float, k: int, ho
 def held_svf(u: np.ndarray, sample_rate_hz: float, filter_hz: float) -> np.ndarray:
     """H_held[u] = H[u] + (T²/12)·s²H[u] of a command ``u`` held between samples (both filters
     exact for a held signal): the same operator as the first-order hold gives a measured smooth
-    signal, to O((ωT)³) (module docstring)."""
+    signal, to O((ωT)³) (module docstring).
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        The command's samples (e.g. τ_cmd [N·m]).
+    sample_rate_hz : float
+        Sample rate [Hz].
+    filter_hz : float
+        Filter corner [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        H_held[u].
+    """
     h = svf_order(u, sample_rate_hz, filter_hz, 0, "zoh")
     h += svf_order(u, sample_rate_hz, filter_hz, 2, "zoh") / (12.0 * sample_rate_hz ** 2)
     return h
@@ -75,14 +126,42 @@ def held_svf(u: np.ndarray, sample_rate_hz: float, filter_hz: float) -> np.ndarr
 def discretization_bound(sample_rate_hz: float, filter_hz: float) -> float:
     """Relative bound of what the hold leaves in the dynamic equations' estimates: 10⁻³·(ωT)³ (the
     O((ωT)³) images; measured below 2.5·10⁻⁴·(ωT)³ at ωT up to 0.25) plus 10⁻⁷ (the filters'
-    rounding at ωT ~ 10⁻³, measured below 2·10⁻⁸)."""
+    rounding at ωT ~ 10⁻³, measured below 2·10⁻⁸).
+
+    Parameters
+    ----------
+    sample_rate_hz : float
+        Sample rate [Hz].
+    filter_hz : float
+        Filter corner [Hz].
+
+    Returns
+    -------
+    float
+        The relative bound [–].
+    """
     wt = 2 * math.pi * filter_hz / sample_rate_hz
     return 1e-3 * wt ** 3 + 1e-7
 
 
 def velocity_sign(theta: np.ndarray, fs: float, fh: float) -> np.ndarray:
     """sign(θ̇) from the motor angle: central differences smoothed forward and backward (zero
-    phase) at 5× the filter corner."""
+    phase) at 5× the filter corner.
+
+    Parameters
+    ----------
+    theta : numpy.ndarray
+        Motor angle θ_m [rad].
+    fs : float
+        Sample rate [Hz].
+    fh : float
+        Filter corner [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        −1, 0 or 1 per sample.
+    """
     import scipy.signal
 
     b, a = scipy.signal.butter(2, min(5 * fh, 0.4 * fs) / (fs / 2))

@@ -45,7 +45,20 @@ _SEGMENTS = 4  # Welch segments transformed at a time (memory: a few segments of
 
 
 def applied_torque(log, delay_samples: int) -> np.ndarray:
-    """τ_m as applied: the ``tau_m`` column, or ``tau_cmd`` delayed by ``delay_samples``."""
+    """τ_m as applied: the ``tau_m`` column, or ``tau_cmd`` delayed by ``delay_samples``.
+
+    Parameters
+    ----------
+    log : MeasuredLog
+        The log.
+    delay_samples : int
+        Delay [samples] of ``tau_cmd``.
+
+    Returns
+    -------
+    numpy.ndarray
+        τ_m [N·m] per sample (zeros before the first command arrives).
+    """
     S = log.signals
     if "tau_m" in S:
         return np.asarray(S["tau_m"], float)
@@ -54,7 +67,18 @@ def applied_torque(log, delay_samples: int) -> np.ndarray:
 
 
 def segment_length(n: int) -> int:
-    """Welch segment: the largest power of two with :data:`AVERAGES` segments in ``n`` samples."""
+    """Welch segment: the largest power of two with :data:`AVERAGES` segments in ``n`` samples.
+
+    Parameters
+    ----------
+    n : int
+        Samples of the log.
+
+    Returns
+    -------
+    int
+        Segment length [samples], at least ``MIN_SEGMENT``.
+    """
     return int(max(MIN_SEGMENT, 2 ** int(math.floor(math.log2(max(n // AVERAGES, 2))))))
 
 
@@ -149,7 +173,20 @@ def _local(key, sym, unit, values, sigma, estimate, f, coherent) -> LocalParamet
 def frequency_responses(log, est) -> tuple[FrequencyResponse, ...]:
     """The motor, spring, joint and cuff frequency responses ``log``'s columns allow (module
     docstring), with the model of the estimate ``est`` (a :class:`PlantEstimate`) and the
-    parameters read off each; frequencies up to a quarter of the sample rate."""
+    parameters read off each; frequencies up to a quarter of the sample rate.
+
+    Parameters
+    ----------
+    log : MeasuredLog
+        The log.
+    est : PlantEstimate
+        The estimate (its parameters and delay).
+
+    Returns
+    -------
+    tuple of FrequencyResponse
+        The motor response first, then spring, joint and cuff where the columns allow them.
+    """
     S, fs = log.signals, log.sample_rate_hz
     delay = int(est.delay["samples"]) if est.delay else 0
     z = applied_torque(log, delay)

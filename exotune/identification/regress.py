@@ -56,7 +56,20 @@ class NotExcited(ValueError):
 
 
 def parzen(lags: np.ndarray, L: int) -> np.ndarray:
-    """The Parzen lag window over |lag| ≤ L."""
+    """The Parzen lag window over |lag| ≤ L.
+
+    Parameters
+    ----------
+    lags : numpy.ndarray
+        Lags [samples].
+    L : int
+        The window's half-width [samples].
+
+    Returns
+    -------
+    numpy.ndarray
+        The weights, in [0, 1].
+    """
     x = np.abs(lags) / (L + 1.0)
     return np.where(x <= 0.5, 1 - 6 * x ** 2 + 6 * x ** 3, 2 * (1 - x) ** 3)
 

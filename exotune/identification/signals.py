@@ -34,7 +34,24 @@ TRANSIENT_END = 60.0  # ωt beyond which the transients are taken as 0: (ωt)²�
 
 def transient_modes(skip: int, samples: int, fs: float, fh: float) -> np.ndarray:
     """The filters' start-up transients e^{−ωt}, ωt·e^{−ωt}, (ωt)²·e^{−ωt} at the kept samples
-    while ωt ≤ :data:`TRANSIENT_END` (they are below 4e-23 after), as rows (3, K)."""
+    while ωt ≤ :data:`TRANSIENT_END` (they are below 4e-23 after), as rows (3, K).
+
+    Parameters
+    ----------
+    skip : int
+        First kept sample.
+    samples : int
+        Samples of the log.
+    fs : float
+        Sample rate [Hz].
+    fh : float
+        Filter corner [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        The three transients (3, K) at the kept samples, K ≥ 0.
+    """
     w = 2 * math.pi * fh / fs
     end = min(samples, int(math.floor(TRANSIENT_END / w)) + 1)
     wt = w * np.arange(skip, max(end, skip))

@@ -142,7 +142,24 @@ class FreeResponses:
 
 def nrmse_percent(y, y_sim, free) -> tuple[float, np.ndarray]:
     """100·‖y − ŷ‖/‖y − ȳ‖ after the error's projection onto the free responses
-    (:class:`FreeResponses`, or None), and that error."""
+    (:class:`FreeResponses`, or None), and that error.
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        The measured output.
+    y_sim : numpy.ndarray
+        The simulated output.
+    free : FreeResponses or None
+        The free responses projected out of the error; None for none.
+
+    Returns
+    -------
+    nrmse : float
+        The normalized error [%] (NaN for a constant output).
+    e : numpy.ndarray
+        The error after the projection.
+    """
     e = y - y_sim
     if free is not None:
         free.project_out(e)
@@ -154,7 +171,24 @@ def simulate_outputs(log: MeasuredLog, val: dict, delay: int, filter_hz: float):
     """(output, inputs text, measured, simulated, free responses, input for the residual test)
     of each output the log's columns and the parameters ``val`` (key → value) allow
     (``filter_hz``: the identification's corner, for sign(θ̇_m) as the friction term had it); a
-    generator: one output's arrays at a time."""
+    generator: one output's arrays at a time.
+
+    Parameters
+    ----------
+    log : MeasuredLog
+        The log.
+    val : dict of str to float
+        Parameter values (SI units), by key.
+    delay : int
+        Delay [samples] of ``tau_cmd``.
+    filter_hz : float
+        The identification's filter corner [Hz].
+
+    Yields
+    ------
+    tuple
+        ``(output, inputs text, measured, simulated, FreeResponses, input)``.
+    """
     S, fs = log.signals, log.sample_rate_hz
     t = np.arange(log.samples) / fs
     tau_m = applied_torque(log, delay)
@@ -193,7 +227,28 @@ def residual_test(output: str, input_name: str, e: np.ndarray, u: np.ndarray, la
     Correlations by float32 FFTs of the signals scaled to unit maximum (the bounds are ~1e-2, the
     FFTs' error ~1e-6), of length ≥ N + N/20 (no wrap at any lag used); ``input_stats``: a cache
     for ``u``'s spectrum and autocorrelation (under ``input_name``) when several outputs share an
-    input."""
+    input.
+
+    Parameters
+    ----------
+    output : str
+        The output's name.
+    input_name : str
+        The input's name.
+    e : numpy.ndarray
+        The simulation error.
+    u : numpy.ndarray
+        The input.
+    lags : int, optional
+        Largest lag M [samples] reported.
+    input_stats : dict or None, optional
+        The cache of input spectra; None for none.
+
+    Returns
+    -------
+    ResidualTest
+        The correlations, their bounds and the lag of the largest cross-correlation.
+    """
     n = e.size
     e = e - e.mean()  # (a copy: the caller's error is left as it is)
     K = max(lags, n // 20)
@@ -312,9 +367,28 @@ def validate_plant(est, log: MeasuredLog, validation_log: MeasuredLog | None = N
     there) or by ``folds``-fold cross-validation on ``log`` (contiguous blocks; residual tests and
     frequency responses on ``log`` itself), or neither (residual tests and frequency responses of
     the fitting log). ``refit``: MeasuredLog → PlantEstimate, the identification to repeat on each
-fold's remaining parts (as ``est`` was made: ``identify_plant`` with its keywords). Returns
+    fold's remaining parts (as ``est`` was made: ``identify_plant`` with its keywords). Returns
     ``est`` with its ``validation`` (model errors: each parameter's departure on the frequency
     responses, docs/identification.md#honest-uncertainty).
+
+    Parameters
+    ----------
+    est : PlantEstimate
+        The estimate.
+    log : MeasuredLog
+        The fitting log.
+    validation_log : MeasuredLog or None, optional
+        A held-out log; None for none.
+    folds : int or None, optional
+        Folds of the cross-validation; None for none.
+    refit : callable or None, optional
+        The identification to repeat on each fold (needed with ``folds``).
+
+    Returns
+    -------
+    PlantEstimate
+        ``est`` with its ``validation``: output fits, residual tests, frequency responses, model
+        errors and warnings.
 
     Raises
     ------
