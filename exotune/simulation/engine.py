@@ -102,7 +102,18 @@ def bumpless_start(rt: Runtime, y0: dict) -> tuple[float, str]:
 
 
 def strip_dob(doc: dict) -> dict:
-    """A copy of the controller file ``doc`` without the DOB (its filters and ``dob`` section)."""
+    """A copy of the controller file ``doc`` without the DOB (its filters and ``dob`` section).
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+
+    Returns
+    -------
+    dict
+        A deep copy without the DOB's filters, ``dob`` set to None.
+    """
     doc = copy.deepcopy(doc)
     names = set((doc.get("dob") or {}).get("filters") or [])
     doc["controller"]["filters"] = [f for f in doc["controller"]["filters"]

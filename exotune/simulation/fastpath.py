@@ -27,13 +27,32 @@ def _filters(rt: Runtime) -> list:
 
 
 def runtime_state(rt: Runtime) -> np.ndarray:
-    """The runtime's filter states as one vector."""
+    """The runtime's filter states as one vector.
+
+    Parameters
+    ----------
+    rt : Runtime
+        The reference runtime.
+
+    Returns
+    -------
+    numpy.ndarray
+        The states of its sensed filters, then its loop filters.
+    """
     zs = [f.z.ravel() for f in _filters(rt)]
     return np.concatenate(zs) if zs else np.zeros(0)
 
 
 def set_runtime_state(rt: Runtime, z: np.ndarray) -> None:
-    """Load the runtime's filter states from one vector (the inverse of :func:`runtime_state`)."""
+    """Load the runtime's filter states from one vector (the inverse of :func:`runtime_state`).
+
+    Parameters
+    ----------
+    rt : Runtime
+        The reference runtime, changed in place.
+    z : numpy.ndarray
+        The states, in :func:`runtime_state`'s order.
+    """
     off = 0
     for f in _filters(rt):
         k = f.z.size
@@ -43,7 +62,24 @@ def set_runtime_state(rt: Runtime, z: np.ndarray) -> None:
 
 def runtime_matrices(doc: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C, D) with z' = A z + B y, τ_cmd = C z + D y (y in ``SIGNALS`` order), read off one
-    step of an unlimited reference runtime per unit state and unit input."""
+    step of an unlimited reference runtime per unit state and unit input.
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping (float64).
+
+    Returns
+    -------
+    A : numpy.ndarray
+        State update (nz, nz).
+    B : numpy.ndarray
+        Input matrix (nz, 5).
+    C : numpy.ndarray
+        Output row (nz,).
+    D : numpy.ndarray
+        Feed-through (5,).
+    """
     rt = Runtime(doc)
     nz = runtime_state(rt).size
     A, B = np.zeros((nz, nz)), np.zeros((nz, len(SIGNALS)))
@@ -69,7 +105,18 @@ NP = 7  # plant part of w: the joint's six states and the constant 1 of the mode
 def runtime_input_column(doc: dict) -> np.ndarray:
     """The runtime's filter states after one step from zero with τ_cmd = 1 fed to the DOB's loop
     filters and every sensed signal 0 (the column of the command in the state update: a clamped
-    runtime at its limit feeds the limit instead of its own command)."""
+    runtime at its limit feeds the limit instead of its own command).
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping (float64).
+
+    Returns
+    -------
+    numpy.ndarray
+        The state column (nz,).
+    """
     rt = Runtime(doc)
     for f in rt.loop:
         f.step(1.0)

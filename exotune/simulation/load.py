@@ -17,6 +17,23 @@ def check_human_inertia(value: float | None, field: str = "human_inertia") -> fl
     ``MIN_HUMAN_INERTIA`` (below it the cuff mode √(K_c/m) is beyond double precision and the
     sampled-data model overflows), else :class:`ConfigError` naming ``field``.
 
+    Parameters
+    ----------
+    value : float or None
+        The inertia [kg·m²].
+    field : str, optional
+        Field named by the error.
+
+    Returns
+    -------
+    float or None
+        ``value``.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``value`` is below ``MIN_HUMAN_INERTIA`` (or NaN).
+
     References
     ----------
     docs/cli.md#simulate.
@@ -33,6 +50,11 @@ def check_consistent(doc: dict) -> None:
     (free and locked verdicts and spectral radii, every family's stable intervals) must be those
     of its own plant, controller, sample rate and delay — an edited sample rate, delay or gain
     changes them. (An unstable but consistent file is simulated: that is what simulate is for.)
+
+    Parameters
+    ----------
+    doc : dict
+        The validated controller file's mapping.
 
     Raises
     ------
@@ -62,6 +84,26 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
 
     ``path`` may also be the content in memory: a controller document or a design mapping (both
     validated as their files are), or a loaded design (its ``raw`` mapping).
+
+    Parameters
+    ----------
+    path : str, os.PathLike, Mapping or DesignConfig
+        A controller or design file, or its content.
+    sample_rate_hz : float or None, optional
+        Sample rate [Hz] of a design's export; None for its own (refused for a controller file).
+    check : bool, optional
+        Check a controller file's consistency.
+
+    Returns
+    -------
+    dict
+        The controller document to simulate.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the input cannot be read or does not validate, a controller file is inconsistent or is
+        given a sample rate, or a design has no sample rate.
 
     References
     ----------
@@ -97,6 +139,18 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
 def at_joint_angle(doc: dict, joint_angle_rad: float) -> dict:
     """The controller document of the gain-schedule entry nearest ``joint_angle_rad`` [rad]: its
     plant and controller in place of the nominal ones (``simulate --joint-angle``).
+
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+    joint_angle_rad : float
+        Joint angle [rad].
+
+    Returns
+    -------
+    dict
+        The entry's view of the document.
 
     Raises
     ------

@@ -100,7 +100,20 @@ SCENARIOS = {
 
 
 def deadzone(x: float, b: float) -> float:
-    """Dead zone of total width ``b``: 0 for |x| ≤ b/2, else x ∓ b/2 (backlash in the spring)."""
+    """Dead zone of total width ``b``: 0 for |x| ≤ b/2, else x ∓ b/2 (backlash in the spring).
+
+    Parameters
+    ----------
+    x : float
+        The input (e.g. a deflection [rad]).
+    b : float
+        Total width of the dead zone, in the unit of ``x``; ≤ 0 for none.
+
+    Returns
+    -------
+    float
+        The output.
+    """
     if b <= 0:
         return x
     h = 0.5 * b

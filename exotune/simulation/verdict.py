@@ -93,7 +93,22 @@ def envelope_growth(t: np.ndarray, s: np.ndarray, fraction: float = FIT_FRACTION
 
 
 def classify(growth: float | None, died, diverged: bool) -> str:
-    """``growing`` / ``decaying`` / ``marginal`` (see the module docstring)."""
+    """``growing`` / ``decaying`` / ``marginal`` (see the module docstring).
+
+    Parameters
+    ----------
+    growth : float or None
+        Growth rate σ [1/s] of the envelope (None: too short to fit).
+    died : float or None
+        Time [s] the oscillation died out, or None (False counts as None).
+    diverged : bool
+        Whether the run stopped at the state bound.
+
+    Returns
+    -------
+    str
+        The verdict.
+    """
     if diverged:
         return "growing"
     if died is not None and died is not False:
@@ -107,6 +122,20 @@ def loop_spectral_radius(doc: dict, human: dict, locked: bool) -> float:
     """Spectral radius of the linearized sampled-data loop (the file's plant and controller,
     ``human``, the output locked or free; the rigid-body z = 1 of an ungrounded loop excluded).
 
+    Parameters
+    ----------
+    doc : dict
+        The controller file's mapping.
+    human : dict
+        The human: inertia [kg·m²], damping [N·m·s/rad], stiffness [N·m/rad] (any subset).
+    locked : bool
+        Whether the output is locked.
+
+    Returns
+    -------
+    float
+        ρ [–] (0 for a loop without eigenvalues).
+
     References
     ----------
     Paper §V; docs/method.md#sampled-data.
@@ -117,7 +146,20 @@ def loop_spectral_radius(doc: dict, human: dict, locked: bool) -> float:
 
 
 def dominant_frequency(t: np.ndarray, s: np.ndarray) -> float:
-    """Frequency [Hz] of the largest spectral peak of ``s`` (mean removed, Hann window)."""
+    """Frequency [Hz] of the largest spectral peak of ``s`` (mean removed, Hann window).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times [s], uniformly spaced.
+    s : numpy.ndarray
+        The signal.
+
+    Returns
+    -------
+    float
+        The frequency [Hz]; NaN with fewer than 16 samples.
+    """
     if s.size < 16:
         return math.nan
     fs = 1.0 / (t[1] - t[0])
