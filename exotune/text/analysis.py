@@ -87,7 +87,19 @@ def _sampled_and_crosscheck_lines(r: dict, yn) -> list[str]:
 
 
 def format_report(r: dict) -> str:
-    """Readable text report of :func:`analyze_design` with units."""
+    """Readable text report of :func:`analyze_design` with units.
+
+    Parameters
+    ----------
+    r : dict
+        The analysis as a mapping (``DesignAnalysis.to_dict()``, the ``exotune analyze --json``
+        object).
+
+    Returns
+    -------
+    str
+        The report.
+    """
     L = []
     yn = lambda b: "yes" if b else "NO"
     L.append("exotune analyze — " + r["model"])

@@ -9,7 +9,19 @@ __all__ = ["format_certify", "family_line", "margin_line"]
 
 
 def family_line(h: dict) -> str:
-    """One human or environment family: its range(s) with units and its verdict."""
+    """One human or environment family: its range(s) with units and its verdict.
+
+    Parameters
+    ----------
+    h : dict
+        One family of a sampled-data analysis (kind, parameter, unit, range, box, verdict and
+        ``stable_intervals``, or ``skipped`` / ``not_certifiable``).
+
+    Returns
+    -------
+    str
+        The line (indented).
+    """
     head = f"  {h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}"
     for q, (a, b) in (h.get("box") or {}).items():
         head += f" × {q} [{a:g}, {b:g}] {PARAM_UNITS.get(q, '')}".rstrip()
@@ -27,7 +39,20 @@ def _ms(x) -> str:
 
 
 def margin_line(lm: dict) -> str:
-    """The sampled-data latency margin, its critical member, the file's prediction and requirement."""
+    """The sampled-data latency margin, its critical member, the file's prediction and requirement.
+
+    Parameters
+    ----------
+    lm : dict
+        The sampled-data latency margin: ``extra_delay_s`` [s] (None: none up to 200 samples),
+        ``extra_delay_samples``, ``critical``, ``method``, ``predicted_continuous_s`` [s] and
+        ``required_s`` [s].
+
+    Returns
+    -------
+    str
+        The line (indented).
+    """
     if lm["extra_delay_s"] is None:
         head = "  latency margin (sampled-data): no instability up to 200 samples of total delay"
     else:

@@ -7,7 +7,18 @@ __all__ = ["excitation_text"]
 
 
 def excitation_text(e) -> str:
-    """The report of an :class:`exotune.identification.excite.Excitation`."""
+    """The report of an :class:`exotune.identification.excite.Excitation`.
+
+    Parameters
+    ----------
+    e : Excitation
+        The excitation.
+
+    Returns
+    -------
+    str
+        The report.
+    """
     where = f"{e.path} (t [s], tau_cmd [N·m]; described in {e.sidecar})" if e.path else "not written"
     lines = [
         f"exotune excite — Schroeder-phased multisine: {where}",

@@ -9,7 +9,18 @@ __all__ = ["validation_text"]
 
 def validation_text(v) -> str:
     """The lines of a :class:`exotune.identification.validresult.Validation`, indented under the
-    identify report."""
+    identify report.
+
+    Parameters
+    ----------
+    v : Validation
+        The validation of a plant estimate.
+
+    Returns
+    -------
+    str
+        The lines, joined.
+    """
     lines = [f"  validation on {v.data}" + ("" if v.held_out else " (the fitting log: residual tests and frequency "
                                                                  "responses only; --validate or --folds for held-out fits)")]
     for f in v.fits:

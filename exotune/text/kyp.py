@@ -9,7 +9,21 @@ __all__ = ["format_certificates"]
 
 
 def format_certificates(certs: dict, indent: str = "  ") -> list[str]:
-    """Text lines of an :func:`exotune.analysis.kyp.operator_certificates` result (or of its ``error`` entry)."""
+    """Text lines of an :func:`exotune.analysis.kyp.operator_certificates` result (or of its ``error`` entry).
+
+    Parameters
+    ----------
+    certs : dict or None
+        Model name → certificate (``passive``, ``shortage``, ``shortage_unit``,
+        ``witness_frequency_hz`` [Hz], ``reason``), or ``error``; None for none.
+    indent : str, optional
+        Prefix of each line.
+
+    Returns
+    -------
+    list of str
+        One line per certificate.
+    """
     lines = []
     for name, c in (certs or {}).items():
         if name == "error":

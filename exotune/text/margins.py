@@ -19,7 +19,19 @@ def _delay(x: float) -> str:
 
 def format_margins(margins: dict | None) -> list[str]:
     """Lines of the ``margins`` section: the latency margin with its critical loop, member and
-    crossing frequency (and in samples when a sample rate is set)."""
+    crossing frequency (and in samples when a sample rate is set).
+
+    Parameters
+    ----------
+    margins : dict or None
+        The ``margins`` section (``latency``, ``latency_continuous``, ``plant_uncertainty``,
+        ``model_of_record``); None or empty for none.
+
+    Returns
+    -------
+    list of str
+        The lines (none without margins).
+    """
     if not margins:
         return []
     L = ["Margins:"]

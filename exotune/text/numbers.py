@@ -100,6 +100,16 @@ def sampled_verdict_word(stable) -> str:
     """"stable", "UNSTABLE" or, for a verdict that rounding cannot decide (None), "inconclusive
     (spectral radius within rounding of 1)" (docs/method.md#sampled-data).
 
+    Parameters
+    ----------
+    stable : bool or None
+        The verdict (None: inconclusive).
+
+    Returns
+    -------
+    str
+        The word.
+
     Examples
     --------
     >>> sampled_verdict_word(True), sampled_verdict_word(False)

@@ -16,6 +16,18 @@ __all__ = ["format_optimize", "ms_text", "unit_word"]
 
 
 def ms_text(v) -> str:
+    """A time [s] in milliseconds, or "unbounded" (None or not finite).
+
+    Parameters
+    ----------
+    v : float or None
+        The time [s].
+
+    Returns
+    -------
+    str
+        The text.
+    """
     return "unbounded" if v is None or not math.isfinite(v) else f"{v * 1e3:.6g} ms"
 
 
@@ -25,7 +37,18 @@ _KIND_UNITS = {"mass": PARAM_UNITS["inertia"], "spring": PARAM_UNITS["stiffness"
 
 
 def unit_word(unit: str) -> str:
-    """A unit as the text prints it: dimensionless "1" as "–" (as :func:`exotune.text.numbers.unit_text`)."""
+    """A unit as the text prints it: dimensionless "1" as "–" (as :func:`exotune.text.numbers.unit_text`).
+
+    Parameters
+    ----------
+    unit : str
+        The unit.
+
+    Returns
+    -------
+    str
+        The unit as printed.
+    """
     return "–" + unit[1:] if unit == "1" or unit.startswith("1 (") else unit
 
 
@@ -96,7 +119,18 @@ def _sampled_lines(r: dict) -> list[str]:
 
 
 def format_optimize(r: dict) -> str:
-    """The text of ``exotune optimize`` for a result of :func:`optimize`."""
+    """The text of ``exotune optimize`` for a result of :func:`optimize`.
+
+    Parameters
+    ----------
+    r : dict
+        The optimization's result as a mapping (``OptimizeResult.to_dict()``).
+
+    Returns
+    -------
+    str
+        The report.
+    """
     if not r["feasible"]:
         lines = ["NO FEASIBLE DESIGN found in the bounds after "
                  f"{r['evaluated']} exact analyses; the best one breaks: {', '.join(r['broken'])}"]

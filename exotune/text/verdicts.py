@@ -13,7 +13,18 @@ def format_verdicts(sd: dict) -> list[str]:
     """Lines of the sampled-data verdicts of record (the ``sampled_data`` section of ``exotune
     analyze --json`` with a rate, :class:`exotune.controllerfile.verdicts.SampledVerdicts`): the
     verdict, the free and locked loops, every family's intervals, the latency margin
-    against its requirement and, when the exported file would not certify, why."""
+    against its requirement and, when the exported file would not certify, why.
+
+    Parameters
+    ----------
+    sd : dict
+        The verdicts of record (``SampledVerdicts.to_dict()``).
+
+    Returns
+    -------
+    list of str
+        The lines.
+    """
     req = sd["requirements"]
     lines = [f"Sampled-data verdicts of record at {sd['sample_rate_hz']:g} Hz, delay {sd['delay_s'] * 1e3:.6g} ms "
              f"({sd['delay_samples']:.4g} samples) — the loop the exported controller runs, as certify judges it:",
