@@ -339,7 +339,21 @@ def _fig_amplification(cfg, result: dict) -> bytes:
 # driver
 # ----------------------------------------------------------------------------------------------
 def render_analysis_plots(cfg, result: dict) -> dict[str, bytes]:
-    """Render every figure to PNG bytes (nothing written). Keys are the file names."""
+    """Render every figure to PNG bytes (nothing written). Keys are the file names.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The analysed design.
+    result : dict
+        Its analysis as a mapping (``DesignAnalysis.to_dict()``).
+
+    Returns
+    -------
+    dict of str to bytes
+        File name → PNG content: ``bode_compliances.png``, ``amplification.png`` and, where they
+        apply, ``nyquist_humans.png``, ``dob_loop.png`` and ``latency_boundary.png``.
+    """
     out: dict[str, bytes] = {}
     out["bode_compliances.png"] = _fig_bode_compliances(cfg, result)
     if result.get("humans"):
@@ -370,6 +384,25 @@ def write_analysis_plots(cfg, result: dict, out_dir) -> list[Path]:
     skipped when the design has no human family, ``dob_loop.png`` when it has no DOB.
     If writing fails part-way, the files written by this call are removed again (and
     ``out_dir`` too when this call created it and it is left empty). Returns the written paths.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The analysed design.
+    result : dict
+        Its analysis as a mapping (``DesignAnalysis.to_dict()``).
+    out_dir : str or os.PathLike
+        The directory to write into.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+
+    Raises
+    ------
+    OSError
+        When the directory or a file cannot be written (after the cleanup).
     """
     from ..jsonio import write_atomic
 

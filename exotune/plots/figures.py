@@ -18,7 +18,22 @@ def _axes(ax, nrows: int = 1):
 
 
 def bode_magnitude(curves, ax=None, title: str = ""):
-    """Magnitude (dB) of named frequency responses ``[(label, f_hz, H), …]`` on a log axis."""
+    """Magnitude (dB) of named frequency responses ``[(label, f_hz, H), …]`` on a log axis.
+
+    Parameters
+    ----------
+    curves : iterable of tuple
+        ``(label, f_hz, H)``: frequencies [Hz] and the complex response.
+    ax : matplotlib.axes.Axes or None, optional
+        Where to draw; None for a new figure.
+    title : str, optional
+        The axes' title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     fig, ax = _axes(ax)
     for label, f, H in curves:
         ax.semilogx(f, 20.0 * np.log10(np.abs(H)), label=label.replace("_", " "))
@@ -33,7 +48,26 @@ def bode_magnitude(curves, ax=None, title: str = ""):
 
 def compliance_phase(f_hz, H, bands=(), ax=None, title: str = ""):
     """Phase of a compliance C(j2πf) [deg] with the passivity limits of s·C (−180°…0°) drawn and
-    the non-passive ``bands`` [Hz] shaded."""
+    the non-passive ``bands`` [Hz] shaded.
+
+    Parameters
+    ----------
+    f_hz : array_like
+        Frequencies [Hz].
+    H : array_like
+        The compliance's complex response [rad/(N·m)].
+    bands : iterable of tuple, optional
+        Non-passive bands (lo, hi) [Hz].
+    ax : matplotlib.axes.Axes or None, optional
+        Where to draw; None for a new figure.
+    title : str, optional
+        The axes' title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     fig, ax = _axes(ax)
     ax.semilogx(f_hz, np.degrees(np.unwrap(np.angle(H))), label="phase of C7")
     for lim in (-180.0, 0.0):

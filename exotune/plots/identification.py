@@ -14,7 +14,20 @@ __all__ = ["bode_overlay", "residual_figure", "validation_figures"]
 def bode_overlay(fr, axes=None):
     """Magnitude, phase and coherence of one :class:`FrequencyResponse`: the measured response
     with its band (coherent bins solid, the others faint) and the model. ``axes``: three axes,
-    or None for a new figure. Returns the Figure."""
+    or None for a new figure. Returns the Figure.
+
+    Parameters
+    ----------
+    fr : FrequencyResponse
+        The measured response with its model.
+    axes : sequence of matplotlib.axes.Axes or None, optional
+        Magnitude, phase and coherence axes; None for a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     if axes is None:
         fig = style.new_figure((7.0, 7.0))
         axes = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2, 1]})
@@ -50,7 +63,20 @@ def bode_overlay(fr, axes=None):
 
 def residual_figure(test, axes=None):
     """Autocorrelation of a simulation error with its whiteness bound, and its cross-correlation
-    with the input with the bound. ``axes``: two axes, or None. Returns the Figure."""
+    with the input with the bound. ``axes``: two axes, or None. Returns the Figure.
+
+    Parameters
+    ----------
+    test : ResidualTest
+        The residual test of one simulated output.
+    axes : sequence of matplotlib.axes.Axes or None, optional
+        Two axes; None for a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     if axes is None:
         fig = style.new_figure((7.0, 5.0))
         axes = fig.subplots(2, 1)
@@ -69,7 +95,18 @@ def residual_figure(test, axes=None):
 
 def validation_figures(v) -> dict[str, bytes]:
     """PNG files of a :class:`Validation`: ``bode_<name>.png`` per frequency response,
-    ``residuals_<output>.png`` per simulated output."""
+    ``residuals_<output>.png`` per simulated output.
+
+    Parameters
+    ----------
+    v : Validation
+        The validation of a plant estimate.
+
+    Returns
+    -------
+    dict of str to bytes
+        File name → PNG content.
+    """
     files = {f"bode_{fr.name}.png": style.png(bode_overlay(fr)) for fr in v.frequency_responses}
     names = {"θ_m": "theta_m", "θ_j": "theta_j", "τ_s": "tau_s", "τ_c": "tau_c"}
     files.update({f"residuals_{names.get(t.output, t.output)}.png": style.png(residual_figure(t)) for t in v.residual_tests})

@@ -11,7 +11,23 @@ __all__ = ["latency_boundary_figure"]
 def latency_boundary_figure(boundaries, margin_s: float | None = None, ax=None):
     """For each human family, the extra delay at which each member first loses stability (the
     region below a curve is stable); members already unstable at the nominal delay are marked on
-    the axis; the design's latency margin is drawn as a horizontal line. Returns the Figure."""
+    the axis; the design's latency margin is drawn as a horizontal line. Returns the Figure.
+
+    Parameters
+    ----------
+    boundaries : sequence of LatencyBoundary
+        Per family: the members' ``values`` (in ``unit``), their ``extra_delay_s`` [s] (NaN:
+        unstable at the nominal delay), ``loop``, ``parameter`` and the nominal ``delay_s`` [s].
+    margin_s : float or None, optional
+        The design's latency margin [s]; None or not finite for no line.
+    ax : matplotlib.axes.Axes or None, optional
+        Where to draw; None for a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     from matplotlib.figure import Figure
 
     if ax is None:

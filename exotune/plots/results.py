@@ -19,7 +19,31 @@ def _axes(ax, size=(7.0, 4.6)):
 
 def sweep_map(grid, xvals, yvals, xlabel: str, ylabel: str, title: str, cbar_label: str, ax=None, **kw):
     """A sweep metric over two axes: ``grid[iy, ix]`` (one value per cell, already reduced over
-    the other axes) as a heatmap with its colour bar (+inf: the "over" colour, NaN: grey)."""
+    the other axes) as a heatmap with its colour bar (+inf: the "over" colour, NaN: grey).
+
+    Parameters
+    ----------
+    grid : array_like
+        Cell values (ny, nx), in display units.
+    xvals, yvals : array_like
+        The axis values (SI units).
+    xlabel, ylabel : str
+        The axes' parameter paths.
+    title : str
+        The title.
+    cbar_label : str
+        The colour bar's label (quantity and unit).
+    ax : matplotlib.axes.Axes or None, optional
+        Where to draw; None for a new figure.
+    **kw
+        Options of the heatmap (``vmin``, ``vmax``, ``cmap``, ``log``, ``annotate``, ``fmt``,
+        ``fontsize``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     from ..sweeps.figures import draw_heatmap
 
     fig, ax = _axes(ax)
@@ -30,7 +54,28 @@ def sweep_map(grid, xvals, yvals, xlabel: str, ylabel: str, title: str, cbar_lab
 
 def optimum_in_bounds(names, rel, at_bounds=(), binding_text: str = "", title: str = "", ax=None):
     """Where the optimum sits in each free parameter's bounds: ``rel`` ∈ [0, 1] per name (0: lower
-    bound, 1: upper bound); parameters in ``at_bounds`` drawn in red."""
+    bound, 1: upper bound); parameters in ``at_bounds`` drawn in red.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The free parameters' paths.
+    rel : array_like
+        Position of the optimum in each one's bounds, in [0, 1].
+    at_bounds : iterable of str, optional
+        Parameters at a bound.
+    binding_text : str, optional
+        The binding constraints, shown under the title.
+    title : str, optional
+        The title.
+    ax : matplotlib.axes.Axes or None, optional
+        Where to draw; None for a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     fig, ax = _axes(ax, (7.0, 0.6 + 0.45 * max(len(names), 1)))
     y = np.arange(len(names))
     colors = ["tab:red" if n in set(at_bounds) else "tab:blue" for n in names]
@@ -46,7 +91,26 @@ def optimum_in_bounds(names, rel, at_bounds=(), binding_text: str = "", title: s
 
 def pareto_front(objective, robust_fraction, optimum=None, objective_label: str = "objective", ax=None):
     """The non-dominated designs (objective, fraction of the human range robust) of an
-    optimization, with the returned optimum marked."""
+    optimization, with the returned optimum marked.
+
+    Parameters
+    ----------
+    objective : array_like
+        The front's objective values.
+    robust_fraction : array_like
+        Their robust fractions [–].
+    optimum : tuple of float or None, optional
+        (objective, robust fraction) of the returned design; None for no marker.
+    objective_label : str, optional
+        The x axis' label.
+    ax : matplotlib.axes.Axes or None, optional
+        Where to draw; None for a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     fig, ax = _axes(ax)
     ax.plot(np.asarray(objective, float), np.asarray(robust_fraction, float), "o-", ms=4, label="Pareto front")
     if optimum is not None:

@@ -99,6 +99,18 @@ def simulation_figure(rep: dict, ax=None):
     ``ax``, the first panel only (the cuff deflection, the joint angle with friction, or −τ_s
     against (α − 1)·τ_c for a locked output) drawn into that Axes. Computes nothing.
 
+    Parameters
+    ----------
+    rep : dict
+        The simulation's report (``SimulationRun.to_dict()`` with its series).
+    ax : matplotlib.axes.Axes or None, optional
+        Where to draw the first panel; None for a new two-panel figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+
     Examples
     --------
     >>> import exotune
