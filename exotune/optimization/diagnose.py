@@ -26,7 +26,22 @@ _BOUND_TOL = 1e-9
 
 
 def at_bounds(spec: OptimizeSpec, u: np.ndarray, x: np.ndarray) -> list[dict]:
-    """Parameters at (within 10⁻⁹ in unit coordinates of) one of their bounds."""
+    """Parameters at (within 10⁻⁹ in unit coordinates of) one of their bounds.
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem.
+    u : numpy.ndarray
+        The design in unit coordinates (D,).
+    x : numpy.ndarray
+        The same design in natural units (D,).
+
+    Returns
+    -------
+    list of dict
+        ``{parameter, bound ("lower" or "upper"), value}`` per parameter at a bound.
+    """
     out = []
     for j, p in enumerate(spec.free):
         if u[j] <= _BOUND_TOL:
@@ -60,7 +75,27 @@ def binding(ar: Archive, u: np.ndarray, final: dict, achieved_latency: float) ->
     A constraint is binding when its relative slack is below :data:`SLACK_TOL`, or when it is
     broken by a perturbation of the optimum (:data:`PERTURB` along each free coordinate, either
     way) that improves the objective — so a constraint that limits the optimum through one
-    parameter is found while the optimum is interior in another. Returns (names, details)."""
+    parameter is found while the optimum is interior in another. Returns (names, details).
+
+    Parameters
+    ----------
+    ar : Archive
+        The search's archive (spec, evaluation, objective).
+    u : numpy.ndarray
+        The optimum in unit coordinates (D,).
+    final : dict
+        The evaluation of the optimum.
+    achieved_latency : float
+        The optimum's latency margin [s].
+
+    Returns
+    -------
+    names : list of str
+        The binding constraints, sorted.
+    details : list of dict
+        Per name: how it binds (``slack`` with value, bound, op and unit, or ``perturbation`` with
+        the parameter moved).
+    """
     spec = ar.spec
     details = {}
     for name, v, b, op, unit, rel in _slack(spec, final["columns"], achieved_latency):
@@ -104,7 +139,25 @@ def _unstable_parts(ivs, lo, hi):
 
 def violations(spec: OptimizeSpec, ev: dict, i: int, achieved_latency: float | None) -> list[dict]:
     """Every broken constraint of row i of an evaluation, with its value and the bound it needed
-    (for ``robust``: each non-robust family, its range and the unstable part of it)."""
+    (for ``robust``: each non-robust family, its range and the unstable part of it).
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem.
+    ev : dict
+        An evaluation (``analysis``, ``broken``, …).
+    i : int
+        The row.
+    achieved_latency : float or None
+        The row's latency margin [s], when computed.
+
+    Returns
+    -------
+    list of dict
+        One entry per broken constraint (its value, op, bound and unit, or the family's range and
+        stable and unstable parts).
+    """
     cols = ev["columns"]
     out = []
     for name, bad in ev["broken"].items():
@@ -134,7 +187,24 @@ def violations(spec: OptimizeSpec, ev: dict, i: int, achieved_latency: float | N
 
 def exact_latency_margin(spec: OptimizeSpec, x: np.ndarray, ev: dict | None = None, i: int = 0):
     """Exact latency margin (:func:`exotune.analysis.margins.latency_margin`) of the design x;
-    0 without computing when its delay-sensitive verdicts already fail at the nominal delay."""
+    0 without computing when its delay-sensitive verdicts already fail at the nominal delay.
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem.
+    x : numpy.ndarray
+        The design's free-parameter values, natural units (D,).
+    ev : dict or None, optional
+        An evaluation holding the design; None to compute the margin without the shortcut.
+    i : int, optional
+        The design's row in ``ev``.
+
+    Returns
+    -------
+    LatencyMargin
+        The latency margin (``extra_delay_s`` [s]; 0 when not robust at the nominal delay).
+    """
     from ..analysis.margins import LatencyMargin, latency_margin
     from ..config import design_from_mapping
 

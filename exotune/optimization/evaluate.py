@@ -41,7 +41,20 @@ def _log_fraction(ivs, lo, hi) -> float:
 
 
 def robust_fraction(cfg, cols) -> np.ndarray:
-    """Smallest, over the human families, stable log-fraction of the family's range (1: robust)."""
+    """Smallest, over the human families, stable log-fraction of the family's range (1: robust).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The batch config (its human families and ranges).
+    res : BatchAnalysis
+        Its analysis.
+
+    Returns
+    -------
+    numpy.ndarray
+        Per design, in [0, 1] (1 only when robust).
+    """
     n = len(np.asarray(cols["free_stable"]))
     frac = np.ones(n)
     fam_keys = [k[: -len("_robust")] for k in cols if k.startswith("human") and k.endswith("_robust")]
@@ -54,7 +67,18 @@ def robust_fraction(cfg, cols) -> np.ndarray:
 
 
 def delay_sensitive_ok(cols) -> np.ndarray:
-    """The loops of the latency margin all stable: free, every environment, every human family."""
+    """The loops of the latency margin all stable: free, every environment, every human family.
+
+    Parameters
+    ----------
+    res : BatchAnalysis
+        The batch analysis.
+
+    Returns
+    -------
+    numpy.ndarray
+        Per design, bool.
+    """
     keys = [k for k in cols if k == "free_stable"
             or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable")))]
     return np.logical_and.reduce([np.asarray(cols[k], bool) for k in keys])
@@ -74,7 +98,24 @@ def _delays(spec, X) -> np.ndarray:
 def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tuple[np.ndarray, dict]:
     """Delay-sensitive verdicts of the rows of X at T + extra[i, l] (one batch).
 
-    Returns (ok of shape ``extra.shape``, the batch columns)."""
+    Returns (ok of shape ``extra.shape``, the batch columns).
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem.
+    X : numpy.ndarray
+        Designs (n, D), natural units.
+    extra : numpy.ndarray
+        Extra delays [s] per design (n, L).
+
+    Returns
+    -------
+    ok : numpy.ndarray
+        Whether every delay-sensitive verdict holds, (n, L) bool.
+    res : BatchAnalysis
+        The batch analysis of the n·L designs.
+    """
     from ..analysis import analyze_batch
     from ..config import batch_config, continuous
 
@@ -92,7 +133,20 @@ def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tupl
 def latency_ladder(spec: OptimizeSpec, X: np.ndarray) -> np.ndarray:
     """Estimated latency margin [s] of the rows of X (module docstring): a value at which every
     delay-sensitive verdict still holds, within ≈ 0.2 % of the first failing extra delay of the
-    ladder; capped at the last ladder level (no failure up to it)."""
+    ladder; capped at the last ladder level (no failure up to it).
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem.
+    X : numpy.ndarray
+        Designs (n, D), natural units.
+
+    Returns
+    -------
+    numpy.ndarray
+        The estimated latency margin [s] per design (n,).
+    """
     X = np.atleast_2d(X)
     n = X.shape[0]
     if n == 0:

@@ -42,7 +42,22 @@ TARGET_SLACK = 0.002
 
 def verdicts_at(spec: OptimizeSpec, x: np.ndarray, continuous_margin=None):
     """The sampled-data verdicts of record (:class:`~exotune.controllerfile.verdicts.SampledVerdicts`)
-    of the design ``x`` (free-parameter values) held to the spec's latency margin."""
+    of the design ``x`` (free-parameter values) held to the spec's latency margin.
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem (a base design with a sample rate).
+    x : numpy.ndarray
+        The design's free-parameter values, natural units (D,).
+    continuous_margin : LatencyMargin or None, optional
+        The design's continuous latency margin, where the sampled margin's search starts.
+
+    Returns
+    -------
+    SampledVerdicts
+        The verdicts of record.
+    """
     from ..config import design_from_mapping
     from ..controllerfile.verdicts import design_verdicts
 
@@ -112,6 +127,15 @@ def _next_constraint(m: float, fs: float, k: int, bad: list, good: list, gap: fl
 def sampled_search(spec: OptimizeSpec, rng, search):
     """The search of ``optimize`` (``search(spec, rng)`` → archive, u, continuous latency margin,
     DE result, spec used, tightening rounds) closed on the sampled-data verdicts (module docstring).
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem (a base design with a sample rate).
+    rng : numpy.random.Generator
+        The random generator of the search.
+    search : callable
+        The continuous search, ``search(spec, rng)``.
 
     Returns
     -------

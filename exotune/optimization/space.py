@@ -29,7 +29,20 @@ _MOVES = 2.0 ** np.arange(7)
 
 
 def to_unit(spec: OptimizeSpec, X: np.ndarray) -> np.ndarray:
-    """Natural units → unit coordinates (log coordinates for ``scale: log``)."""
+    """Natural units → unit coordinates (log coordinates for ``scale: log``).
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem (the free parameters' bounds and scales).
+    X : numpy.ndarray
+        Designs (n, D), natural units.
+
+    Returns
+    -------
+    numpy.ndarray
+        Unit coordinates (n, D).
+    """
     X = np.atleast_2d(np.asarray(X, float))
     U = np.empty_like(X)
     for j, (lo, hi, sc) in enumerate(spec.free.values()):
@@ -38,7 +51,20 @@ def to_unit(spec: OptimizeSpec, X: np.ndarray) -> np.ndarray:
 
 
 def from_unit(spec: OptimizeSpec, U: np.ndarray) -> np.ndarray:
-    """Unit coordinates (clipped to [0, 1]) → natural units; the bounds are reproduced exactly."""
+    """Unit coordinates (clipped to [0, 1]) → natural units; the bounds are reproduced exactly.
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem (the free parameters' bounds and scales).
+    U : numpy.ndarray
+        Unit coordinates (n, D).
+
+    Returns
+    -------
+    numpy.ndarray
+        Designs (n, D), natural units.
+    """
     U = np.atleast_2d(np.asarray(U, float))
     X = np.empty_like(U, dtype=float)
     for j, (lo, hi, sc) in enumerate(spec.free.values()):
@@ -131,7 +157,26 @@ def ray_bisect(ar: Archive, U: np.ndarray, a: np.ndarray, b: np.ndarray, rounds:
     """Multisection of the objective coordinate of each row of U between a (feasible) and b:
     each round keeps, in each bracket, the *largest* feasible point evaluated (so a better
     feasible piece past an infeasible gap is never lost). Returns the rows with the objective
-    coordinate at the last feasible point (each row stays feasible)."""
+    coordinate at the last feasible point (each row stays feasible).
+
+    Parameters
+    ----------
+    ar : Archive
+        The search's archive (the objective is the free parameter ``ar.j``).
+    U : numpy.ndarray
+        Designs (n, D), unit coordinates.
+    a : numpy.ndarray
+        Feasible objective coordinate per row (n,).
+    b : numpy.ndarray
+        The other end per row (n,).
+    rounds : int, optional
+        Multisection rounds.
+
+    Returns
+    -------
+    numpy.ndarray
+        The rows (n, D) with the objective coordinate moved.
+    """
     j = ar.j
     U = np.array(np.atleast_2d(U), float)
     a, b = np.array(a, float), np.array(b, float)
@@ -156,7 +201,22 @@ def ray_bisect(ar: Archive, U: np.ndarray, a: np.ndarray, b: np.ndarray, rounds:
 
 def ray_max(ar: Archive, U: np.ndarray, rounds: int = _RAY_ROUNDS) -> np.ndarray:
     """Push the objective coordinate of each (feasible) row of U toward its better bound: the
-    bound itself when feasible, else :func:`ray_bisect` between the row and the bound."""
+    bound itself when feasible, else :func:`ray_bisect` between the row and the bound.
+
+    Parameters
+    ----------
+    ar : Archive
+        The search's archive (the objective is the free parameter ``ar.j``).
+    U : numpy.ndarray
+        Feasible designs (n, D), unit coordinates.
+    rounds : int, optional
+        Multisection rounds of :func:`ray_bisect`.
+
+    Returns
+    -------
+    numpy.ndarray
+        The rows (n, D), each still feasible.
+    """
     j = ar.j
     U = np.array(np.atleast_2d(U), float)
     c = 1.0 if ar.sense == "max" else 0.0
@@ -189,7 +249,26 @@ def polish_boundary(ar: Archive, u: np.ndarray, budget: int, rng, h: float = _H0
     the incumbent's: a feasible trial is an improvement. The first six successes climb a ladder of objective levels (one batch); the best
     one is pushed toward its own boundary by :func:`ray_bisect` (three rounds). No success: h
     halves; a success doubles it (at most 0.2). Below :data:`H_MIN` the search restarts with the
-    initial step as long as the previous start improved and the budget lasts."""
+    initial step as long as the previous start improved and the budget lasts.
+
+    Parameters
+    ----------
+    ar : Archive
+        The search's archive (the objective is the free parameter ``ar.j``).
+    u : numpy.ndarray
+        A feasible design (D,), unit coordinates.
+    budget : int
+        Evaluations of the archive after which the search stops.
+    rng : numpy.random.Generator
+        The random generator of the directions.
+    h : float, optional
+        The initial step, unit coordinates.
+
+    Returns
+    -------
+    numpy.ndarray
+        The polished design (D,), feasible.
+    """
     j, D = ar.j, u.size
     u = ray_max(ar, u[None, :])[0]
     if D == 1:
@@ -246,7 +325,28 @@ def polish_pattern(ar: Archive, u: np.ndarray, value: float, budget: int, rng, h
     """Metric objective: batched pattern search on the feasible designs (coordinate and random
     directions, and 1, 2, 4 times the last successful step; h halved on failure down to
     :data:`H_MIN`, doubled on success up to 0.2); moves only to a feasible design with a
-    strictly better objective."""
+    strictly better objective.
+
+    Parameters
+    ----------
+    ar : Archive
+        The search's archive.
+    u : numpy.ndarray
+        A feasible design (D,), unit coordinates.
+    value : float
+        Its objective value (larger is better, as the archive ranks it).
+    budget : int
+        Evaluations of the archive after which the search stops.
+    rng : numpy.random.Generator
+        The random generator of the directions.
+    h : float, optional
+        The initial step, unit coordinates.
+
+    Returns
+    -------
+    numpy.ndarray
+        The polished design (D,), feasible.
+    """
     D = u.size
     prev = None
     while h >= H_MIN and ar.count < budget:

@@ -82,7 +82,18 @@ class OptimizeSpec:
 
 
 def default_budget(n_free: int) -> int:
-    """Default number of exact analyses: 1500 per free parameter, at least 3000."""
+    """Default number of exact analyses: 1500 per free parameter, at least 3000.
+
+    Parameters
+    ----------
+    n_free : int
+        Number of free parameters.
+
+    Returns
+    -------
+    int
+        The budget (exact analyses).
+    """
     return max(3000, 1500 * int(n_free))
 
 
@@ -230,7 +241,22 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
 
 
 def optimized_design_mapping(spec: OptimizeSpec, result: dict) -> dict:
-    """The base design mapping with the optimized values (``result["x"]``) written in."""
+    """The base design mapping with the optimized values (``result["x"]``) written in.
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem.
+    result : dict
+        The optimization's result: ``x`` (path → value) and ``latency_margin`` (with
+        ``required_s`` [s]) when there is one.
+
+    Returns
+    -------
+    dict
+        A deep copy of the base design's ``raw`` mapping, with its ``requirements`` section when the
+        latency margin asked travels with it.
+    """
     import copy
 
     raw = copy.deepcopy(spec.cfg.raw)
