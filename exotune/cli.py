@@ -143,6 +143,13 @@ def cli(ctx):
     `exotune init DIR` writes commented templates of the first three.
     Outputs: reports on stdout (--json: one JSON object); files only where an option
     names them (-o, --plots, --pareto); errors as one line `exotune: error: …`, exit 2.
+    \f
+
+    Parameters
+    ----------
+    ctx : click.Context
+        The command line's context (click passes it; the numpy engine is entered for the
+        single-design commands).
     """
     if ctx.invoked_subcommand in SINGLE_DESIGN_COMMANDS:
         # one design: the numpy engine answers at once; compiling the kernels pays only for batches
@@ -458,7 +465,13 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
 
 
 def main(argv=None) -> None:
-    """Console entry point (``exotune = exotune.cli:main``)."""
+    """Console entry point (``exotune = exotune.cli:main``).
+
+    Parameters
+    ----------
+    argv : list of str or None, optional
+        The arguments; None for ``sys.argv[1:]``.
+    """
     cli.main(args=argv, prog_name="exotune")
 
 

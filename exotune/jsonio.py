@@ -46,6 +46,22 @@ def to_jsonable(obj: Any) -> Any:
     """Recursively convert ``obj`` to JSON-ready Python objects (see the module docstring).
 
     Raises :class:`TypeError` for objects it does not know how to represent faithfully.
+
+    Parameters
+    ----------
+    obj : Any
+        The object: None, bool, str, numbers (numpy included; complex as ``{re, im}``), arrays,
+        mappings, sequences, sets, dataclasses, enums or paths.
+
+    Returns
+    -------
+    Any
+        The JSON-ready object (non-finite floats as the module docstring says).
+
+    Raises
+    ------
+    TypeError
+        For an object of another type.
     """
     if obj is None or isinstance(obj, (bool, str)):
         return obj
@@ -82,6 +98,18 @@ def write_atomic(path, data: str | bytes) -> None:
     The data go to a temporary file in the destination directory, are flushed and fsync'ed, and
     the file is moved into place with :func:`os.replace`. Missing parent directories are created.
     On any error the temporary file is removed and ``path`` is left untouched.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The destination file.
+    data : str or bytes
+        The content.
+
+    Raises
+    ------
+    OSError
+        When the file cannot be written (naming ``path``).
     """
     path = os.fspath(path)
     if isinstance(data, str):

@@ -14,6 +14,27 @@ def number_value(name: str, text, positive: bool = False, noun: str = "a number"
     """``text`` as a finite float (> 0 when ``positive``); :class:`ConfigError` naming ``name``
     otherwise. ``noun`` words the expected value ("a number of Hz").
 
+    Parameters
+    ----------
+    name : str
+        The option or field named by the error.
+    text : Any
+        The value (a string or a number).
+    positive : bool, optional
+        Require a value > 0.
+    noun : str, optional
+        What the error says was expected.
+
+    Returns
+    -------
+    float
+        The value.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the value is not a finite number, or not positive when required.
+
     Examples
     --------
     >>> number_value("--duration", "2.5", positive=True)

@@ -60,5 +60,16 @@ class Record(Result):
 
 
 def opt_float(x) -> float | None:
-    """``None`` stays ``None``; anything else becomes a Python float."""
+    """``None`` stays ``None``; anything else becomes a Python float.
+
+    Parameters
+    ----------
+    x : Any
+        None or a number.
+
+    Returns
+    -------
+    float or None
+        The value.
+    """
     return None if x is None else float(x)

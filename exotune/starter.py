@@ -19,7 +19,23 @@ TEMPLATES = ("design.yaml", "sweep.yaml", "optimize.yaml")
 
 
 def template_text(name: str) -> str:
-    """The text of one shipped template (``design.yaml``, ``sweep.yaml`` or ``optimize.yaml``)."""
+    """The text of one shipped template (``design.yaml``, ``sweep.yaml`` or ``optimize.yaml``).
+
+    Parameters
+    ----------
+    name : str
+        The template's file name.
+
+    Returns
+    -------
+    str
+        Its text.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``name`` is not a shipped template.
+    """
     if name not in TEMPLATES:
         raise ConfigError("template", f"unknown template {name!r}; one of {', '.join(TEMPLATES)}")
     return resources.files("exotune").joinpath("data", "templates", name).read_text(encoding="utf-8")

@@ -97,6 +97,23 @@ SEA_UNITS = {
 def path_unit(path: str, dimensionless: str = "1") -> str:
     """The unit of a dotted design-file path (``plant.cuff_stiffness``, ``implementation.dob.cutoff_hz``).
 
+    Parameters
+    ----------
+    path : str
+        The dotted path.
+    dimensionless : str, optional
+        What a dimensionless unit ("1") is written as.
+
+    Returns
+    -------
+    str
+        The unit.
+
+    Raises
+    ------
+    KeyError
+        When the path names no known parameter.
+
     Examples
     --------
     >>> path_unit("plant.cuff_stiffness"), path_unit("design.zeta", "–"), path_unit("implementation.dob.cutoff_hz")
