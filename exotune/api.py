@@ -44,6 +44,21 @@ def init(directory=".") -> list:
     ``directory`` (the library twin of ``exotune init``; never overwrites: a file already there
     is a :class:`~exotune.errors.ConfigError`). Returns the paths written.
 
+    Parameters
+    ----------
+    directory : str or os.PathLike, optional
+        Where to write the three files (created if missing).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+
+    Raises
+    ------
+    ConfigError
+        When a file is already there or cannot be written.
+
     References
     ----------
     docs/getting-started.md.
@@ -296,6 +311,27 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     """Maximize the objective under robust-stability constraints and write the best feasible
     design to ``out`` (the library twin of ``exotune optimize``).
 
+    Parameters
+    ----------
+    spec : str, os.PathLike or Mapping
+        The optimization spec (docs/optimize-spec.md): a file or its content.
+    out : str or os.PathLike
+        Design file to write with the optimum.
+    seed : int, optional
+        Seed of the search (default: the spec's ``seed``).
+    pareto_csv : str or os.PathLike, optional
+        Also write the Pareto front (objective against robust fraction) as CSV.
+
+    Returns
+    -------
+    OptimizeResult
+        The optimum, its feasibility, objective value, binding constraints and metrics.
+
+    Raises
+    ------
+    ConfigError
+        For bad input, or an output that would overwrite an input.
+
     Examples
     --------
     >>> import os, tempfile
@@ -337,6 +373,20 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
     allow_uncertified : bool
         Write the file even when it fails its own requirements (else :class:`~exotune.errors.RunFailed`).
 
+    Returns
+    -------
+    ExportedController
+        The controller file's document, its ``path`` and ``summary()``.
+
+    Raises
+    ------
+    ConfigError
+        For a bad design or option, or when the time budget is spent.
+    RunFailed
+        When the controller would not certify and ``allow_uncertified`` is False.
+    TypeError
+        When ``source`` is neither a path nor a design loaded from a file, or ``out`` is missing.
+
     References
     ----------
     docs/controller-file.md; docs/method.md#one-model-of-record; paper §V (the experiments' 1 kHz runtime).
@@ -374,6 +424,19 @@ def certify(source, *, precision: str | None = None, time_budget_s: float | str 
     time_budget_s : float, optional
         Refuse or stop the analysis beyond this many seconds (default 600;
         :class:`~exotune.errors.RunFailed` then).
+
+    Returns
+    -------
+    Certificate
+        ``certified``, ``reasons`` (every problem when it is not) and the whole report.
+
+    Raises
+    ------
+    ConfigError
+        For an invalid controller file, a controller not built from its design section, or when
+        the time budget is spent.
+    TypeError
+        When ``source`` is neither a path, a mapping nor an ExportedController.
 
     References
     ----------
@@ -547,11 +610,39 @@ def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, p
     ``out``, the command is written there as CSV (``t`` [s], ``tau_cmd`` [N·m], the log format
     ``identify`` reads) and described beside it (``EXC.json``: units, lines, phases, crest factor).
 
+    Parameters
+    ----------
+    out : str or os.PathLike, optional
+        CSV file to write (its sidecar ``EXC.json`` beside it); None to write nothing.
+    sample_rate_hz : float
+        Sample rate [Hz] of the command.
+    f_lo_hz, f_hi_hz : float
+        The excited band [Hz].
+    peak_nm : float, optional
+        Peak of the command [N·m] (give this or ``rms_nm``).
+    rms_nm : float, optional
+        RMS of the command [N·m].
+    period_s : float, optional
+        Period of the multisine [s] (default 1/f_lo_hz).
+    periods : int, optional
+        Number of periods (give this or ``duration_s``).
+    duration_s : float, optional
+        Length of the command [s].
+    lines : str, optional
+        Which lines of the band are excited: ``all``, ``odd``, ``random-odd`` or ``log``.
+    seed : int, optional
+        Seed of the ``random-odd`` selection.
+
     Returns
     -------
     Excitation
         ``period`` (one period of the command, N·m), ``signal()`` (t, tau_cmd), ``harmonics``,
         ``phases_rad``, ``crest_factor``, ``resolution_hz``, ``to_csv()``.
+
+    Raises
+    ------
+    ConfigError
+        For an invalid option or an unwritable output.
 
     References
     ----------
@@ -602,6 +693,16 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
         Also write the time-series PNGs into this directory (``--plots``).
     progress : callable, optional
         Called with the completed fraction (0–1) of the main run.
+
+    Returns
+    -------
+    SimulationRun
+        The run: its verdict, summary and time series; ``plot()`` draws them.
+
+    Raises
+    ------
+    ConfigError
+        For bad input (a file, the scenario, an option) or an output that would overwrite an input.
 
     References
     ----------
