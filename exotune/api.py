@@ -298,7 +298,8 @@ def report(sweep_dir, out=None) -> SweepReport:
     ----------
     docs/sweep-spec.md#report.
     """
-    from .sweeps import SweepResult, make_report
+    from .plots.sweep_report import make_report
+    from .sweeps import SweepResult
 
     if isinstance(sweep_dir, SweepResult):
         sweep_dir = sweep_dir.directory

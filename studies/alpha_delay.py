@@ -68,7 +68,7 @@ def metric_slices(df, manifest, out: Path) -> tuple[float, float]:
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
     from exotune.plots import style
-    from exotune.sweeps.figures import heatmap_panels
+    from exotune.plots.sweep import heatmap_panels
 
     A = np.asarray(manifest["spec"]["axes"]["design.amplification"]["values"])
     T = np.asarray(manifest["spec"]["axes"]["implementation.delay_s"]["values"])

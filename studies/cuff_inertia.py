@@ -46,7 +46,7 @@ def maps(kk, aa, K, A, light, ok, out: Path) -> None:
     """lightest_inertia_map.png and the forearm-band robust map (replacing the report's all-zero
     robust map: every design is unstable somewhere in [1e-4, 1] kg·m², so the family verdict is
     false everywhere — the aggregation is right, the question was not informative)."""
-    from exotune.sweeps.figures import heatmap
+    from exotune.plots.sweep import heatmap
 
     ix, iy = np.searchsorted(K, kk), np.searchsorted(A, aa)
     g = np.full((A.size, K.size), np.nan)

@@ -44,7 +44,7 @@ def sweep_map(grid, xvals, yvals, xlabel: str, ylabel: str, title: str, cbar_lab
     matplotlib.figure.Figure
         The figure.
     """
-    from ..sweeps.figures import draw_heatmap
+    from .sweep import draw_heatmap
 
     fig, ax = _axes(ax)
     draw_heatmap(ax, np.asarray(grid, float), np.asarray(xvals, float), np.asarray(yvals, float), xlabel, ylabel,

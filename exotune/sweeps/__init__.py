@@ -106,8 +106,9 @@ engine hash), :mod:`~exotune.sweeps.integrity` (checksums, reconciliation),
 :mod:`~exotune.sweeps.dataset` (reading a sweep back), :mod:`~exotune.sweeps.compute` (one chunk), :mod:`~exotune.sweeps.backends`
 (in-process, processes, Dask), :mod:`~exotune.sweeps.run` (:func:`run_sweep`),
 :mod:`~exotune.sweeps.progress`; the report: :mod:`~exotune.sweeps.metrics` (robustness and derived
-metrics), :mod:`~exotune.sweeps.figures` (heatmaps, profiles), :mod:`~exotune.sweeps.summary`
-(``summary.md`` and per-axis CSV), :mod:`~exotune.sweeps.report` (:func:`make_report`).
+metrics), :mod:`~exotune.sweeps.summary` (``summary.md`` and per-axis CSV); the report's figures and
+the report itself are views: :mod:`exotune.plots.sweep` (heatmaps, profiles) and
+:func:`exotune.plots.sweep_report.make_report` (``exotune report``, :func:`exotune.report`).
 """
 
 from .compute import chunk_task, compute_table
@@ -115,7 +116,6 @@ from .manifest import engine_hash, load_manifest
 from .metrics import AXIS_UNITS, derived_metrics, interval_ends, robust_mask
 from .plan import SweepPlan, chunk_points
 from .progress import LineProgress, SweepProgress, TqdmProgress
-from .report import make_report
 from .result import SweepReport, SweepResult
 from .run import SweepError, run_sweep
 from .spec import DEFAULT_CHUNK_SIZE, load_base, load_spec
@@ -150,7 +150,6 @@ __all__ = [
     "chunk_task",
     "np_arrow",
     "nested_float_lists",
-    "make_report",
     "derived_metrics",
     "robust_mask",
     "interval_ends",

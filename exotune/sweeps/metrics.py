@@ -1,7 +1,7 @@
 """What a sweep report computes from the rows: robustness, the key metrics and their worst cases.
 
 Definitions (robust design, lightest stable inertia, stiffest stable spring) are in the
-:mod:`exotune.sweeps.report` module docstring.
+:mod:`exotune.plots.sweep_report` module docstring.
 """
 
 from __future__ import annotations

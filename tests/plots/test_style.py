@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from exotune.plots import style
-from exotune.sweeps import figures
+from exotune.plots import sweep as figures
 
 
 @pytest.mark.parametrize("path, text, scale", [

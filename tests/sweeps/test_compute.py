@@ -14,7 +14,8 @@ import yaml
 from exotune.analysis.plant_margin import plant_uncertainty_margin
 from exotune.config import design_from_mapping, read_yaml
 from exotune.errors import ConfigError
-from exotune.sweeps import load_results, load_spec, make_report, run_sweep
+from exotune.plots.sweep_report import make_report
+from exotune.sweeps import load_results, load_spec, run_sweep
 
 ROOT = Path(__file__).resolve().parents[2]
 

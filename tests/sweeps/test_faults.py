@@ -16,7 +16,8 @@ import pytest
 import yaml
 
 from exotune.errors import ConfigError
-from exotune.sweeps import load_manifest, load_results, make_report, run_sweep, verified_manifest
+from exotune.plots.sweep_report import make_report
+from exotune.sweeps import load_manifest, load_results, run_sweep, verified_manifest
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"

@@ -18,8 +18,9 @@ from click.testing import CliRunner
 
 from exotune.cli import cli
 from exotune.errors import ConfigError
-from exotune.sweeps import (SweepError, check_dask_address, load_manifest, load_results, make_report, run_sweep,
-                           sha256_file, verified_manifest)
+from exotune.plots.sweep_report import make_report
+from exotune.sweeps import (SweepError, check_dask_address, load_manifest, load_results, run_sweep, sha256_file,
+                            verified_manifest)
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"

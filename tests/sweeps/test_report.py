@@ -15,7 +15,8 @@ from click.testing import CliRunner
 
 from exotune.cli import cli
 from exotune.errors import ConfigError
-from exotune.sweeps import interval_ends, load_results, make_report, run_sweep
+from exotune.plots.sweep_report import make_report
+from exotune.sweeps import interval_ends, load_results, run_sweep
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"

@@ -123,7 +123,8 @@ def test_values_agree_with_analyze_batch(ref):
     cfg = load_design(PAPER)
     a = np.repeat(AMP, 3)
     t = np.tile(DELAYS, 3)
-    direct = analyze_batch(batch_config(cfg, {"design.amplification": a, "implementation.delay_s": t}), latency=True)
+    direct = analyze_batch(batch_config(cfg, {"design.amplification": a, "implementation.delay_s": t}),
+                           latency=True).to_columns()
     assert set(direct) <= set(df.columns) and "latency_margin_s" in direct
     for k, v in direct.items():
         if isinstance(v, np.ndarray) and v.dtype == bool:
@@ -584,7 +585,7 @@ def test_nested_list_column_equals_pyarrow_conversion(rows):
 def test_manifest_says_a_sample_rate_is_not_simulated(tmp_path):
     """A base design with sample_rate_hz: the sweep is still the continuous analysis and says so
     (manifest ``model`` and the report's summary)."""
-    from exotune.sweeps import make_report
+    from exotune.plots.sweep_report import make_report
 
     base = yaml.safe_load(PAPER.read_text())
     base["implementation"]["sample_rate_hz"] = 1000.0

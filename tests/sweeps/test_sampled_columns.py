@@ -32,7 +32,8 @@ from exotune.controllerfile.export import build_export
 from exotune.controllerfile.fileio import discrete_from_file, position_feedback
 from exotune.errors import ConfigError
 from exotune.sampled.batch import BatchLoops
-from exotune.sweeps import load_results, make_report, run_sweep
+from exotune.plots.sweep_report import make_report
+from exotune.sweeps import load_results, run_sweep
 from exotune.sweeps.sampledcols import sampled_columns
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -106,8 +107,7 @@ def compared():
     raw["humans"] = raw["humans"][:2]  # mass and spring (the hysteretic one has no sampled-data model)
     axes = _random_axes(N_RANDOM, 7)
     b = batch_config(design_from_mapping(raw), axes)
-    cols = analyze_batch(b, latency=True)
-    sc = sampled_columns(b, cols)
+    sc = sampled_columns(b, analyze_batch(b, latency=True))
     ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
     with ctx.Pool(2) as pool:
         refs = pool.map(_certify_row, [(raw, axes, i) for i in range(N_RANDOM)], chunksize=5)

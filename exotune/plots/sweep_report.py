@@ -52,12 +52,12 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..jsonio import write_files
-from .figures import heatmap, heatmap_panels, profile_figure
-from .dataset import read_tables, verified_manifest
-from .manifest import refuse_link
-from .result import SweepReport
-from .metrics import AXIS_UNITS, MAX_PAIR_AXES, METRICS, TABLE_METRICS, aggregate, derived_metrics, robust_mask
-from .summary import safe_name, summary_md
+from .sweep import heatmap, heatmap_panels, profile_figure
+from ..sweeps.dataset import read_tables, verified_manifest
+from ..sweeps.manifest import refuse_link
+from ..sweeps.result import SweepReport
+from ..sweeps.metrics import AXIS_UNITS, MAX_PAIR_AXES, METRICS, TABLE_METRICS, aggregate, derived_metrics, robust_mask
+from ..sweeps.summary import safe_name, summary_md
 
 __all__ = ["make_report"]
 
