@@ -31,16 +31,35 @@ class Result:
     __slots__ = ()
 
     def to_dict(self) -> dict:  # pragma: no cover - every result defines it
+        """The result as the command's ``--json`` object (every result defines it).
+
+        Returns
+        -------
+        dict
+            The JSON-ready object.
+        """
         raise NotImplementedError
 
     def to_json(self) -> str:
-        """The command's ``--json`` output (strict JSON: ``Infinity``/``NaN`` as strings)."""
+        """The command's ``--json`` output (strict JSON: ``Infinity``/``NaN`` as strings).
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         from .jsonio import dumps
 
         return dumps(self.to_dict())
 
     def to_text(self) -> str:
-        """The command's text report (the JSON object where a result has no text view)."""
+        """The command's text report (the JSON object where a result has no text view).
+
+        Returns
+        -------
+        str
+            The report.
+        """
         return self.to_json()
 
     def __str__(self) -> str:
@@ -55,7 +74,13 @@ class Record(Result):
     record: Mapping[str, Any] = field(repr=False, compare=False)
 
     def to_dict(self) -> dict:
-        """The result as the command's ``--json`` object (a deep copy: editing it changes nothing here)."""
+        """The result as the command's ``--json`` object (a deep copy: editing it changes nothing here).
+
+        Returns
+        -------
+        dict
+            The record.
+        """
         return copy.deepcopy(dict(self.record))
 
 

@@ -25,18 +25,43 @@ class ExportedController(Record):
 
     @classmethod
     def from_document(cls, doc: dict, path=None) -> "ExportedController":
-        """The typed view of a controller-file document ``doc`` written to ``path``."""
+        """The typed view of a controller-file document ``doc`` written to ``path``.
+
+        Parameters
+        ----------
+        doc : dict
+            The controller file's mapping.
+        path : str or os.PathLike, optional
+            Where it was written; None for a document kept in memory.
+
+        Returns
+        -------
+        ExportedController
+            The view (its sample rate [Hz] read from ``doc``).
+        """
         return cls(doc, float(doc["sample_rate_hz"]["value"]), None if path is None else str(path))
 
     def to_text(self) -> str:
-        """The file's YAML text."""
+        """The file's YAML text.
+
+        Returns
+        -------
+        str
+            The YAML text.
+        """
         import yaml
 
         return yaml.safe_dump(self.to_dict(), sort_keys=False, allow_unicode=True)
 
     def summary(self) -> str:
         """The one line ``exotune export`` prints: where the file went, its rate, filters,
-        sampled-data verdicts and latency margin (:func:`exotune.text.export.format_export`)."""
+        sampled-data verdicts and latency margin (:func:`exotune.text.export.format_export`).
+
+        Returns
+        -------
+        str
+            The line.
+        """
         from ..text.export import format_export
 
         return format_export(self.to_dict(), self.path)
@@ -53,10 +78,28 @@ class Certificate(Record):
 
     @classmethod
     def from_report(cls, rec: dict) -> "Certificate":
-        """The typed view of a certification report ``rec``."""
+        """The typed view of a certification report ``rec``.
+
+        Parameters
+        ----------
+        rec : dict
+            The report (``certified``, ``problems``, …).
+
+        Returns
+        -------
+        Certificate
+            The view: ``certified`` and ``reasons`` (the report's problems).
+        """
         return cls(rec, bool(rec["certified"]), tuple(str(r) for r in rec.get("problems") or ()))
 
     def to_text(self) -> str:
+        """The text report of ``exotune certify``.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         from ..text.certify import format_certify
 
         return format_certify(self.to_dict())
@@ -80,12 +123,26 @@ class GeneratedC(Result):
     reasons: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
+        """The ``exotune codegen --json`` object.
+
+        Returns
+        -------
+        dict
+            ``directory``, ``files``, ``controllers``, ``sections``, ``compile_flags``,
+            ``source_sha256``, ``certified`` and ``reasons``.
+        """
         return {"directory": str(self.directory), "files": list(self.files), "controllers": self.controllers,
                 "sections": self.sections, "compile_flags": self.flags, "source_sha256": self.sha256,
                 "certified": self.certified, "reasons": list(self.reasons)}
 
     def to_text(self) -> str:
-        """The lines ``exotune codegen`` prints: what was written and how to check it on the target."""
+        """The lines ``exotune codegen`` prints: what was written and how to check it on the target.
+
+        Returns
+        -------
+        str
+            The two or three lines.
+        """
         d = self.directory
         return (f"wrote {', '.join(self.files)} to {d} ({self.controllers} controller"
                 f"{'' if self.controllers == 1 else 's'}, {self.sections} sections)\n"

@@ -99,7 +99,15 @@ class PlantEstimate(Result):
         raise KeyError(key)
 
     def covariance(self) -> tuple[list[str], np.ndarray]:
-        """The parameters' keys and their covariance matrix (block-diagonal by equation)."""
+        """The parameters' keys and their covariance matrix (block-diagonal by equation).
+
+        Returns
+        -------
+        keys : list of str
+            The parameters' keys.
+        covariance : numpy.ndarray
+            Their covariance (n, n), in the products of their SI units.
+        """
         keys = [p.key for p in self.parameters]
         C = np.zeros((len(keys), len(keys)))
         for f in self.fits:
@@ -110,18 +118,41 @@ class PlantEstimate(Result):
     @property
     def physical(self) -> bool:
         """Every estimate positive (a negative inertia, damping or stiffness is not a plant;
-        Coulomb friction may be 0: not below −3 standard errors)."""
+        Coulomb friction may be 0: not below −3 standard errors).
+
+        Returns
+        -------
+        bool
+            Whether the estimate is physical.
+        """
         return all(p.value > (-UNCERTAINTY_SIGMAS * p.std_error if p.key == "coulomb_friction" else 0)
                    for p in self.parameters)
 
     @property
     def complete(self) -> bool:
-        """Every parameter the log's columns allow identified, and physical (exit code 0)."""
+        """Every parameter the log's columns allow identified, and physical (exit code 0).
+
+        Returns
+        -------
+        bool
+            Whether the identification is complete.
+        """
         return self.physical and not self.not_identified
 
     def model_error(self, key: str):
         """The largest model error found for ``key`` (a ``ModelError``: the fitting log's
-        diagnostics, and the validation's when there is one), or None."""
+        diagnostics, and the validation's when there is one), or None.
+
+        Parameters
+        ----------
+        key : str
+            A parameter's key (``motor_inertia``, …).
+
+        Returns
+        -------
+        ModelError or None
+            The model error of largest relative size, None when none was found.
+        """
         found = list(self.model_errors) + (list(self.validation.model_errors) if self.validation is not None else [])
         found = [m for m in found if m.key == key and m.relative > 0]
         return max(found, key=lambda m: m.relative) if found else None
@@ -129,7 +160,13 @@ class PlantEstimate(Result):
     def uncertainty(self) -> dict:
         """Per design-file parameter: ``(relative range, what dominates)`` — the larger of
         :data:`UNCERTAINTY_SIGMAS` standard errors and the model error measured
-        (:meth:`model_error`), capped below 1; what dominates is "3 SE" or the model error's source."""
+        (:meth:`model_error`), capped below 1; what dominates is "3 SE" or the model error's source.
+
+        Returns
+        -------
+        dict
+            Design-file key → (relative range [–], what dominates).
+        """
         out = {}
         for p in self.parameters:
             if p.key == "coulomb_friction":  # not a design-file parameter
@@ -143,12 +180,26 @@ class PlantEstimate(Result):
     def design_sections(self) -> dict:
         """``{"plant": …, "uncertainty": …}`` for a design file: the estimates, and as relative
         range of each the larger of the :data:`UNCERTAINTY_SIGMAS`-standard-error band and the
-        model error measured (:meth:`uncertainty`; capped below 1)."""
+        model error measured (:meth:`uncertainty`; capped below 1).
+
+        Returns
+        -------
+        dict
+            The ``plant`` (values, SI units) and ``uncertainty`` (relative ranges [–]) sections.
+        """
         ps = [p for p in self.parameters if p.key != "coulomb_friction"]  # not a design-file parameter
         unc = self.uncertainty()
         return {"plant": {p.key: p.value for p in ps}, "uncertainty": {p.key: unc[p.key][0] for p in ps}}
 
     def to_dict(self) -> dict:
+        """The ``exotune identify --json`` object.
+
+        Returns
+        -------
+        dict
+            The estimates with their standard errors and units, the fits, the delay, the uncertainty,
+            the warnings, the model errors, the validation and the method.
+        """
         return {
             "source": self.source,
             "sample_rate_hz": self.sample_rate_hz,
@@ -175,6 +226,13 @@ class PlantEstimate(Result):
         }
 
     def to_text(self) -> str:
+        """The text report of ``exotune identify``.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         lines = [f"exotune identify — {self.source}: {self.samples} samples at {self.sample_rate_hz:g} Hz"
                  f"{' (given)' if self.rate_source != 't' else ''}, "
                  f"filter {self.filter_hz:g} Hz, standard errors for residuals correlated over {self.correlation_s:.3g} s"]

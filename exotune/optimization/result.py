@@ -26,13 +26,33 @@ class OptimizeResult(Record):
 
     @classmethod
     def from_report(cls, rec: dict, path=None) -> "OptimizeResult":
-        """The typed view of an optimization report ``rec`` whose design went to ``path``."""
+        """The typed view of an optimization report ``rec`` whose design went to ``path``.
+
+        Parameters
+        ----------
+        rec : dict
+            The report (``feasible``, ``objective``, …).
+        path : str or os.PathLike, optional
+            Where the design was written.
+
+        Returns
+        -------
+        OptimizeResult
+            The view; ``path`` None when no feasible design was written.
+        """
         obj = rec.get("objective") or {}
         val = obj.get("value") if isinstance(obj, dict) else obj
         return cls(rec, bool(rec["feasible"]), None if val is None else float(val),
                    None if path is None or not rec["feasible"] else str(path))
 
     def to_text(self) -> str:
+        """The text report of ``exotune optimize``.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         from ..text.optimize import format_optimize
 
         return format_optimize(self.to_dict())
@@ -40,7 +60,18 @@ class OptimizeResult(Record):
     def plot(self, ax=None):
         """Where the returned design sits in each free parameter's bounds (parameters at a bound in
         red, the binding constraints in the title), or — when the run kept a Pareto front — the
-        front with the design marked. Returns the matplotlib ``Figure``."""
+        front with the design marked. Returns the matplotlib ``Figure``.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; None for a new figure.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
+        """
         from ..plots.results import optimum_in_bounds, pareto_front
 
         r = self.to_dict()

@@ -27,18 +27,48 @@ class SweepResult(Record):
 
     @classmethod
     def from_directory(cls, directory) -> "SweepResult":
-        """The sweep written into ``directory`` (its ``manifest.json``)."""
+        """The sweep written into ``directory`` (its ``manifest.json``).
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+            The sweep directory.
+
+        Returns
+        -------
+        SweepResult
+            The sweep.
+        """
         d = Path(directory)
         return cls.from_manifest(json.loads((d / "manifest.json").read_text()), d)
 
     @classmethod
     def from_manifest(cls, man: dict, directory) -> "SweepResult":
-        """The sweep in ``directory`` whose manifest is ``man``."""
+        """The sweep in ``directory`` whose manifest is ``man``.
+
+        Parameters
+        ----------
+        man : dict
+            The manifest.
+        directory : str or os.PathLike
+            The sweep directory.
+
+        Returns
+        -------
+        SweepResult
+            The sweep.
+        """
         total = man.get("points_total", man.get("n_points"))
         return cls(man, str(directory), man.get("status"), None if total is None else int(total))
 
     def table(self):
-        """Every computed row as one ``pyarrow.Table`` (chunks in design-index order)."""
+        """Every computed row as one ``pyarrow.Table`` (chunks in design-index order).
+
+        Returns
+        -------
+        pyarrow.Table
+            The rows (an empty table before the first chunk is written).
+        """
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -46,6 +76,13 @@ class SweepResult(Record):
         return pa.concat_tables([pq.read_table(f) for f in files]) if files else pa.table({})
 
     def to_text(self) -> str:
+        """The manifest as indented JSON.
+
+        Returns
+        -------
+        str
+            The text.
+        """
         return json.dumps(self.to_dict(), indent=2)
 
     def map_data(self, column: str = "robust", axes: tuple[str, str] | None = None):
@@ -53,7 +90,24 @@ class SweepResult(Record):
         ``column`` "robust" → the fraction of robust designs; a numeric column → its worst case
         (the minimum; ``passivity_max_phase_excess_deg``: the maximum).
 
-        Returns (grid[iy, ix], x values, y values, x path, y path)."""
+        Returns (grid[iy, ix], x values, y values, x path, y path).
+
+        Parameters
+        ----------
+        column : str, optional
+            ``"robust"`` or a numeric column of the sweep.
+        axes : tuple of str, optional
+            The two axes' parameter paths (x, y).
+
+        Returns
+        -------
+        grid : numpy.ndarray
+            One value per cell (ny, nx): the fraction robust [–] or the column's worst case, in its unit.
+        xs, ys : numpy.ndarray
+            The x and y axis values (SI units), sorted.
+        x_path, y_path : str
+            The axes' parameter paths.
+        """
         import numpy as np
 
         from .metrics import aggregate, robust_mask
@@ -74,7 +128,22 @@ class SweepResult(Record):
 
     def plot(self, column: str = "robust", axes: tuple[str, str] | None = None, ax=None):
         """A heatmap of :meth:`map_data` (fraction robust or a column's worst case) over two axes;
-        returns the matplotlib ``Figure``."""
+        returns the matplotlib ``Figure``.
+
+        Parameters
+        ----------
+        column : str, optional
+            ``"robust"`` or a numeric column of the sweep.
+        axes : tuple of str, optional
+            The two axes' parameter paths (x, y); default the first two.
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; None for a new figure.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
+        """
         from ..plots.results import sweep_map
 
         grid, xs, ys, xp, yp = self.map_data(column, axes)
@@ -93,9 +162,22 @@ class SweepReport(Result):
     maps: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
+        """The ``exotune report --json`` object.
+
+        Returns
+        -------
+        dict
+            ``directory``, ``files`` and ``maps``.
+        """
         return {"directory": str(self.directory), "files": list(self.files), "maps": list(self.maps)}
 
     def to_text(self) -> str:
-        """The line ``exotune report`` prints."""
+        """The line ``exotune report`` prints.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         n = len(self.maps)
         return f"wrote report to {self.directory} ({n} map{'' if n == 1 else 's'}, summary.md)"
