@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from ..numerics.threads import one_blas_thread
-from ..sampled import loop_eigenvalues, loop_verdict
+from ..sampled import loop_eigenvalues, loop_spectra, loop_verdict
 from ..units import PARAM_UNITS
 from .build import close
 from .cellbound import loop_cell
@@ -89,6 +89,7 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
     ctrl = discrete_from_file(doc)
     grounded = position_feedback(doc["controller"])
     spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, grounded, human, env)  # noqa: E731
+    specs = lambda humans, env="free": loop_spectra(plant, ctrl, grounded, humans, env)  # noqa: E731
     verdict = lambda human=None, env="free": loop_verdict(plant, ctrl, grounded, human, env)[0]  # noqa: E731
     cell = lambda member: ((lambda a, b: loop_cell(plant, ctrl, grounded, member, a, b, math.sqrt(a * b)))  # noqa: E731
                            if proof else None)
@@ -123,7 +124,8 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
             continue
         ivs, info = stable_intervals(lambda v, fam=fam: spec(human=_human_dict(fam, v)), fam.lo, fam.hi, points,
                                      lambda v, fam=fam: verdict(human=_human_dict(fam, v)),
-                                     cell(lambda v, fam=fam: (_human_dict(fam, v), "free")))
+                                     cell(lambda v, fam=fam: (_human_dict(fam, v), "free")),
+                                     lambda vs, fam=fam: specs([_human_dict(fam, v) for v in vs]))
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]] and not info["unresolved"]))
         out["humans"].append(entry)
     for i, item in enumerate(doc["certify"].get("environment") or []):
@@ -132,7 +134,8 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
             continue
         ivs, info = stable_intervals(lambda v, e=env: spec(env={e.param: v, "damping": e.damping}), env.lo, env.hi, points,
                                      lambda v, e=env: verdict(env={e.param: v, "damping": e.damping}),
-                                     cell(lambda v, e=env: (None, {e.param: v, "damping": e.damping})))
+                                     cell(lambda v, e=env: (None, {e.param: v, "damping": e.damping})),
+                                     lambda vs, e=env: specs([None] * len(vs), [{e.param: v, "damping": e.damping} for v in vs]))
         out["environment"].append({"kind": env.kind, "parameter": env.param,
                                    "unit": PARAM_UNITS[env.param],
                                    "range": [env.lo, env.hi], **info, "stable_intervals": ivs,

@@ -133,7 +133,7 @@ def _prove(grid: list, stable: list, unresolved: list, cell_bound, refine, budge
 
 
 def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdict=None,
-                     cell_bound=None) -> tuple[list, dict]:
+                     cell_bound=None, spectra=None) -> tuple[list, dict]:
     """Stable intervals of one family. Verdicts on a grid of ``points`` values (log-spaced when
     lo > 0); every cell with a stable verdict at both ends is halved until its eigenvalue paths are
     resolved (:func:`_cell_resolved`), at most ``MAX_DEPTH`` times and ``MAX_REFINED`` values in
@@ -157,6 +157,10 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
         The family's range (log-spaced grid when ``lo > 0``).
     points : int
         Values of the base grid.
+    spectra : callable, optional
+        ``spectra(values)`` → the eigenvalues at each value, as ``spectrum`` gives them one at a
+        time (:func:`exotune.sampled.loop_spectra`: stacked matrices): the base grid and its
+        derivative steps are then computed in one call. The result is the same.
 
     Returns
     -------
@@ -178,10 +182,19 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     coord = (lambda v: math.log(v)) if log else (lambda v: v)
 
     inconclusive = []
+    ahead: dict = {}  # spectra computed in advance (the base grid and its derivative steps)
+
+    def spec(v):
+        return ahead.pop(v) if v in ahead else spectrum(v)
+
+    def step(v):
+        """The forward-difference step of the eigenvalue derivative at ``v``."""
+        return (v * max(_FD, FD_CELL * spacing) if log
+                else max(_FD * (abs(v) if v else max(abs(hi), 1.0)), FD_CELL * spacing))
 
     def at(v):
         if v not in cache:
-            lam = np.asarray(spectrum(v))
+            lam = np.asarray(spec(v))
             rho = float(np.max(np.abs(lam))) if lam.size else 0.0
             st = rho < 1.0
             if verdict is not None and abs(rho - 1.0) < NEAR_UNIT:
@@ -195,9 +208,8 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     def with_derivative(v):
         st, lam, d = at(v)
         if d is None:
-            h = (v * max(_FD, FD_CELL * spacing) if log
-                 else max(_FD * (abs(v) if v else max(abs(hi), 1.0)), FD_CELL * spacing))
-            lh = np.asarray(spectrum(v + h))
+            h = step(v)
+            lh = np.asarray(spec(v + h))
             d = np.zeros_like(lam)
             if lam.size and lh.size:  # (an eigenvalue without a partner, e.g. at v = 0: speed 0)
                 r, c = _match(lam, lh)
@@ -208,6 +220,9 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     mid = (lambda a, b: math.sqrt(a * b)) if lo > 0 else (lambda a, b: 0.5 * (a + b))
     spacing = (coord(hi) - coord(lo)) / max(points - 1, 1)  # of the base grid, in the coordinate u
     vals = [float(v) for v in (np.geomspace(lo, hi, points) if lo > 0 else np.linspace(lo, hi, points))]
+    if spectra is not None:
+        args = vals + [v + step(v) for v in vals]
+        ahead.update(zip(args, spectra(args)))
     n = max(at(vals[0])[1].size, 1)
     max_refined = MAX_REFINED if n <= REF_STATES else max(50, int(MAX_REFINED * (REF_STATES / n) ** 3))
     grid = [vals[0]]

@@ -36,7 +36,7 @@ import scipy.linalg
 import scipy.signal
 
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
-           "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "tustin", "prewarped",
+           "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "loop_spectra", "tustin", "prewarped",
            "zoh_fractional", "split_delay", "default_prewarp"]
 
 # sampled signals the controller may use (order of the plant's output vector)
@@ -401,13 +401,30 @@ def zoh_fractional(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
     Gamma1 : numpy.ndarray
         Input matrix of τ_cmd[k−d−1], (n, m).
     """
+    M = _augmented(A, B)
+    return _zoh_blocks(A.shape[0], *_zoh_exponentials(M, Ts, f))
+
+
+def _augmented(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """The block matrix [[A, B], [0, 0]] whose exponential holds the zero-order hold."""
     n, m = B.shape
     M = np.zeros((n + m, n + m))
     M[:n, :n] = A
     M[:n, n:] = B
+    return M
+
+
+def _zoh_exponentials(M: np.ndarray, Ts: float, f: float):
+    """(e^{M(1−f)Ts}, e^{M f Ts}) of one augmented matrix or a stack of them (scipy's expm on a
+    stack gives each matrix's own result, bit for bit)."""
     E0 = scipy.linalg.expm(M * (1.0 - f) * Ts)
     # a whole-sample delay (f = 0): e^0 = I, exactly what scipy.linalg.expm returns, without its cost
-    E1 = np.eye(n + m) if f == 0.0 else scipy.linalg.expm(M * f * Ts)
+    E1 = np.broadcast_to(np.eye(M.shape[-1]), M.shape) if f == 0.0 else scipy.linalg.expm(M * f * Ts)
+    return E0, E1
+
+
+def _zoh_blocks(n: int, E0: np.ndarray, E1: np.ndarray):
+    """(Φ, Γ0, Γ1) from the two exponentials of one augmented matrix."""
     Phi0, G0 = E0[:n, :n], E0[:n, n:]
     Phi = Phi0 @ E1[:n, :n]
     G1 = Phi0 @ E1[:n, n:]
@@ -443,7 +460,7 @@ def split_delay(delay_s, Ts: float):
     return d, f
 
 
-def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
+def closed_loop_matrix(A, B, C, ctrl: DiscreteController, zoh=None) -> np.ndarray:
     """State matrix of the sampled-data loop on [x; z; τ_cmd[k−1], …, τ_cmd[k−d−1]].
 
     Parameters
@@ -452,6 +469,8 @@ def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
         Continuous plant of :func:`plant_ss`.
     ctrl : DiscreteController
         The discrete controller (its rate and delay set the discretization).
+    zoh : tuple of numpy.ndarray, optional
+        (Φ, Γ0, Γ1) of :func:`zoh_fractional` when already computed (:func:`loop_spectra`).
 
     Returns
     -------
@@ -460,7 +479,7 @@ def closed_loop_matrix(A, B, C, ctrl: DiscreteController) -> np.ndarray:
     """
     Ts = 1.0 / ctrl.sample_rate_hz
     d, f = split_delay(ctrl.delay_s, Ts)
-    Phi, G0, G1 = zoh_fractional(A, B, Ts, f)
+    Phi, G0, G1 = zoh_fractional(A, B, Ts, f) if zoh is None else zoh
     n, nz, ns = A.shape[0], ctrl.Ac.shape[0], d + 1
     N = n + nz + ns
     M = np.zeros((N, N))
@@ -745,21 +764,84 @@ def _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol):
 
     check_time()  # export/certify at a high rate: stop once the time budget is spent
     A, B, C = plant_ss(plant, human, env)
-    M = closed_loop_matrix(A, B, C, ctrl)
+    M = _finite(closed_loop_matrix(A, B, C, ctrl))
+    lam = np.linalg.eigvals(M)
+    return M, lam, _rigid_index(lam, position_feedback, human, env, rigid_tol)
+
+
+def _finite(M: np.ndarray) -> np.ndarray:
+    """``M``, or the error of a loop matrix that overflows."""
     if not np.all(np.isfinite(M)):
         from ..errors import ConfigError
 
         raise ConfigError("controller", "the sampled-data loop matrix overflows (gains or filter coefficients too "
                                         "large for floating point)")
-    lam = np.linalg.eigvals(M)
+    return M
+
+
+def _rigid_index(lam: np.ndarray, position_feedback: bool, human, env, rigid_tol: float):
+    """Index of the rigid-body eigenvalue (|λ − 1| ≤ rigid_tol) of a loop that nothing grounds, else None."""
     grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
                 or (human is not None and human.get("stiffness", 0.0) > 0) or position_feedback)
-    drop = None
     if not grounded and lam.size:
         i = int(np.argmin(np.abs(lam - 1.0)))
         if abs(lam[i] - 1.0) <= rigid_tol:
-            drop = i
-    return M, lam, drop
+            return i
+    return None
+
+
+def loop_spectra(plant, ctrl: DiscreteController, position_feedback: bool, humans: list, env: str | dict | list = "free",
+                 rigid_tol: float = 1e-7) -> list:
+    """:func:`loop_eigenvalues` for several human (or environment) nodes at once: the matrix
+    exponentials and the eigenvalue problems of loops of equal size run on stacks. Each result is
+    bit for bit the point-wise one (scipy's ``expm`` and numpy's ``eigvals`` treat every matrix of a
+    stack as they treat it alone; tested).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    ctrl : DiscreteController
+        The discrete controller.
+    position_feedback : bool
+        Whether the controller feeds back the motor position (K1 ≠ 0).
+    humans : list of (dict or None)
+        The human node of each loop, as in :func:`plant_ss`.
+    env : str, dict or list, optional
+        The environment, as in :func:`plant_ss`, one for all loops or a list (one per loop).
+    rigid_tol : float, optional
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The eigenvalues of each loop (z-plane), in the order of ``humans``.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When a loop matrix overflows, or when an active time budget is spent.
+    """
+    from ..numerics.timebudget import check_time
+
+    check_time()
+    envs = env if isinstance(env, list) else [env] * len(humans)
+    Ts = 1.0 / ctrl.sample_rate_hz
+    _d, f = split_delay(ctrl.delay_s, Ts)
+    parts = [plant_ss(plant, h, e) for h, e in zip(humans, envs)]
+    groups: dict = {}
+    for i, (A, B, _C) in enumerate(parts):
+        groups.setdefault((A.shape, B.shape), []).append(i)
+    out: list = [None] * len(humans)
+    for idx in groups.values():
+        E0, E1 = _zoh_exponentials(np.stack([_augmented(parts[i][0], parts[i][1]) for i in idx]), Ts, f)
+        Ms = np.stack([_finite(closed_loop_matrix(*parts[i], ctrl, zoh=_zoh_blocks(parts[i][0].shape[0], E0[k], E1[k])))
+                       for k, i in enumerate(idx)])
+        lams = np.linalg.eigvals(Ms)
+        for k, i in enumerate(idx):
+            drop = _rigid_index(lams[k], position_feedback, humans[i], envs[i], rigid_tol)
+            out[i] = lams[k] if drop is None else np.delete(lams[k], drop)
+    return out
 
 
 def default_prewarp(impl) -> dict:
