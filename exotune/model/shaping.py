@@ -57,7 +57,7 @@ class DesignParams:
 
 @dataclass(frozen=True)
 class SeaShape:
-    """Compliance shape of C4(s) = (s² + B̃2 s + K̃2) / (K_s (s² + B̃1 s + K̃1)) (paper eq. (8)."""
+    """Compliance shape of C4(s) = (s² + B̃2 s + K̃2) / (K_s (s² + B̃1 s + K̃1)) (paper eq. (8))."""
 
     K1_tilde: np.ndarray  # [1/s²]
     B1_tilde: np.ndarray  # [1/s]

@@ -100,7 +100,7 @@ def make_report(sweep_dir, out_dir=None) -> SweepReport:
 
     References
     ----------
-    docs/sweep.md (the report).
+    docs/sweep-spec.md#report.
     """
     sweep_dir = os.fspath(sweep_dir)
     out = Path(out_dir) if out_dir is not None else Path(sweep_dir) / "report"

@@ -159,7 +159,7 @@ def load_results(out_dir, columns: list[str] | None = None, allow_partial: bool 
 
     References
     ----------
-    docs/sweep.md (output directory, columns).
+    docs/sweep-spec.md#output-directory, docs/sweep-spec.md#columns.
     """
     import pandas as pd
     import pyarrow as pa

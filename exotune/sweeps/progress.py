@@ -27,7 +27,7 @@ class SweepProgress:
 
     References
     ----------
-    docs/sweep.md (running a sweep).
+    docs/sweep-spec.md#resuming-parallelism-stopping.
     """
 
     def message(self, kind: str, text: str) -> None:

@@ -87,7 +87,7 @@ def run_sweep(
 
     References
     ----------
-    docs/sweep.md (spec, directory layout, backends, resuming).
+    docs/sweep-spec.md (keys, output directory, resuming, parallelism).
     """
     progress = as_progress(progress)
     plan = load_spec(spec_path, sample=sample, seed=seed, chunk_size=chunk_size)

@@ -228,7 +228,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
 
     References
     ----------
-    docs/sweep.md (the spec file).
+    docs/sweep-spec.md#keys.
     """
     if isinstance(spec, (str, os.PathLike)):
         spec_path = os.fspath(spec)
