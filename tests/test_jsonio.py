@@ -1,0 +1,172 @@
+"""exotune.jsonio: JSON conventions (inf as strings, NaN as null, numpy, dataclasses) and the
+all-or-nothing output writes."""
+
+import dataclasses
+import enum
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from exotune.errors import ConfigError
+from exotune.jsonio import check_outputs, dumps, staged_dir, to_jsonable, write_atomic, write_files
+
+
+class _Color(enum.Enum):
+    RED = "red"
+
+
+@dataclasses.dataclass
+class _Point:
+    x: float
+    tags: tuple
+
+
+def test_to_jsonable_conventions():
+    obj = {
+        "inf": float("inf"), "ninf": -np.inf, "nan": np.nan, "f32": np.float32(0.25), "i64": np.int64(7),
+        "b": np.bool_(True), "c": 1 + 2j, "arr": np.array([[1.0, np.inf], [np.nan, 2.0]]),
+        "tuple": (1, "a"), "set": {3, 1, 2}, "dc": _Point(1.5, (1, 2)), "enum": _Color.RED,
+        "path": Path("a/b.yaml"), 3: None,
+    }
+    out = to_jsonable(obj)
+    assert out == {
+        "inf": "inf", "ninf": "-inf", "nan": None, "f32": 0.25, "i64": 7, "b": True,
+        "c": {"re": 1.0, "im": 2.0}, "arr": [[1.0, "inf"], [None, 2.0]], "tuple": [1, "a"],
+        "set": [1, 2, 3], "dc": {"x": 1.5, "tags": [1, 2]}, "enum": "red", "path": "a/b.yaml", "3": None,
+    }
+    assert type(out["i64"]) is int and type(out["b"]) is bool and type(out["f32"]) is float
+
+
+def test_to_jsonable_refuses_unknown_objects():
+    with pytest.raises(TypeError, match="object"):
+        to_jsonable(object())
+    with pytest.raises(TypeError, match="of type type"):
+        to_jsonable(_Point)  # a dataclass type, not an instance
+
+
+@given(st.floats(allow_nan=False, allow_infinity=False, width=64))
+def test_finite_floats_round_trip_exactly(x):
+    assert json.loads(dumps({"x": x}))["x"] == x
+
+
+def test_dumps_is_strict_indented_and_keeps_unicode():
+    text = dumps({"unit": "N·m/rad", "v": [np.inf]})
+    assert json.loads(text) == {"unit": "N·m/rad", "v": ["inf"]}
+    assert "N·m/rad" in text and "\n  " in text and "Infinity" not in text
+
+
+def test_write_atomic_creates_parents_and_leaves_no_temporary(tmp_path):
+    p = tmp_path / "a" / "b" / "out.json"
+    write_atomic(p, "héllo")
+    assert p.read_bytes() == "héllo".encode("utf-8")
+    write_atomic(p, b"\x00\x01")
+    assert p.read_bytes() == b"\x00\x01"
+    assert sorted(os.listdir(p.parent)) == ["out.json"]
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (p.stat().st_mode & 0o777) == 0o666 & ~umask
+
+
+def test_write_atomic_error_names_the_destination(tmp_path):
+    d = tmp_path / "isdir"
+    d.mkdir()
+    (d / "x").write_text("keep")
+    with pytest.raises(OSError) as ei:
+        write_atomic(d, "data")  # a directory cannot be replaced by a file
+    assert str(d) in str(ei.value)
+    assert (d / "x").read_text() == "keep" and sorted(os.listdir(tmp_path)) == ["isdir"]
+
+
+def test_write_files_writes_all(tmp_path):
+    dest = tmp_path / "new" / "out"
+    write_files(dest, {"a.txt": b"A", "sub/b.txt": "B"})
+    assert (dest / "a.txt").read_bytes() == b"A" and (dest / "sub" / "b.txt").read_text() == "B"
+    write_files(dest, {"a.txt": b"A2"})  # into an existing directory: replaces, keeps the rest
+    assert (dest / "a.txt").read_bytes() == b"A2" and (dest / "sub" / "b.txt").exists()
+    assert not [n for n in os.listdir(dest) if n.startswith(".exotune-stage-")]
+
+
+def test_staged_dir_failure_leaves_nothing(tmp_path):
+    dest = tmp_path / "p" / "q" / "out"
+
+    def produce(tmp):
+        Path(tmp, "half.txt").write_text("x")
+        raise RuntimeError("plot failed")
+
+    with pytest.raises(RuntimeError, match="plot failed"):
+        staged_dir(dest, produce)
+    assert os.listdir(tmp_path) == []  # not even the created parents
+
+
+def test_staged_dir_os_error_becomes_a_config_error_naming_dest(tmp_path):
+    dest = tmp_path / "out"
+    dest.mkdir()
+    (dest / "old.txt").write_text("old")
+
+    def produce(tmp):
+        raise PermissionError(13, "Permission denied")
+
+    with pytest.raises(ConfigError) as ei:
+        staged_dir(dest, produce)
+    assert ei.value.field == str(dest) and "cannot write output: Permission denied" in ei.value.reason
+    assert os.listdir(dest) == ["old.txt"]
+
+
+def test_check_outputs_refuses_overwriting_an_input(tmp_path):
+    inp = tmp_path / "design.yaml"
+    inp.write_text("x")
+    with pytest.raises(ConfigError) as ei:
+        check_outputs([inp, {"not": "a file"}], outputs={"-o": str(inp)})
+    assert ei.value.field == str(inp) and "-o" in ei.value.reason and "input" in ei.value.reason
+    link = tmp_path / "link.yaml"
+    link.symlink_to(inp)
+    with pytest.raises(ConfigError, match="same file as the input"):
+        check_outputs([inp], outputs={"-o": link})
+
+
+def test_check_outputs_refuses_two_outputs_at_one_path_and_empty_paths(tmp_path):
+    p = tmp_path / "o.json"
+    with pytest.raises(ConfigError, match="the --pareto output is the same path as the -o output"):
+        check_outputs(outputs={"-o": p, "--pareto": p})
+    with pytest.raises(ConfigError) as ei:
+        check_outputs(outputs={"-o": ""})
+    assert ei.value.field == "-o" and ei.value.reason == "an empty path"
+
+
+def test_check_outputs_file_vs_directory(tmp_path):
+    f = tmp_path / "f.txt"
+    f.write_text("x")
+    with pytest.raises(ConfigError, match="is a directory; -o needs a file path"):
+        check_outputs(outputs={"-o": tmp_path})
+    with pytest.raises(ConfigError, match="is a directory"):
+        check_outputs(outputs={"-o": str(tmp_path / "new") + "/"})
+    with pytest.raises(ConfigError, match=r"not a directory \(--plots needs a directory\)"):
+        check_outputs(out_dirs={"--plots": f})
+    with pytest.raises(ConfigError, match="is not a directory"):
+        check_outputs(outputs={"-o": f / "below" / "x.json"})  # a file in the way
+    check_outputs([f], outputs={"-o": tmp_path / "new" / "x.json", "--none": None}, out_dirs={"--plots": tmp_path})
+
+
+def test_check_outputs_protects_directories(tmp_path):
+    chunks = tmp_path / "chunks"
+    chunks.mkdir()
+    with pytest.raises(ConfigError, match="inside .*chunks, which holds inputs"):
+        check_outputs(outputs={"-o": chunks / "x.parquet"}, protected_dirs=[chunks])
+    check_outputs(outputs={"-o": tmp_path / "chunks2.parquet"}, protected_dirs=[chunks])
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
+def test_check_outputs_refuses_unwritable_parent(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        with pytest.raises(ConfigError, match="no permission to write into"):
+            check_outputs(outputs={"-o": ro / "x.json"})
+    finally:
+        ro.chmod(0o700)
