@@ -45,10 +45,10 @@ def format_sea(rep: dict) -> str:
     extra = " (K1 = 0: no position feedback, zero static stiffness)" if st == 0 else ""
     out.append(f"Low-frequency stiffness 1/C4(0) = K_s K̃1/K̃2: {fmt_num(st)} N·m/rad{extra}")
     if rep["resonance_hz"] is None:
-        out.append("Resonance of C5 = θ_j/τ_j (paper eq. (10): none (no peak of |C5(jω)|)")
+        out.append("Resonance of C5 = θ_j/τ_j (paper eq. (10)): none (no peak of |C5(jω)|)")
     else:
         out.append(
-            f"Resonance of C5 = θ_j/τ_j (paper eq. (10): {fmt_num(rep['resonance_hz'], 5)} Hz, "
+            f"Resonance of C5 = θ_j/τ_j (paper eq. (10)): {fmt_num(rep['resonance_hz'], 5)} Hz, "
             f"peak |C5| = {fmt_num(rep['resonance_peak_compliance'], 4)} rad/(N·m)"
         )
     out.append(f"C5 poles ({'stable' if rep['c5_stable'] else 'UNSTABLE'}):")
