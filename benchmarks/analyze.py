@@ -84,7 +84,7 @@ def main() -> None:
           f"({1e3 / rate_f:.1f} ms/design; benchmarks/_percontrol_full.py)")
     print(f"ratio                          : exotune is {rate_ex / rate_c:.0f}× the minimal workflow, "
           f"{rate_ex / rate_f:.0f}× the same-outputs workflow")
-    robust = np.mean(res["human0_mass_robust"]), np.mean(res["human1_spring_robust"])
+    robust = np.mean(res.humans[0].robust), np.mean(res.humans[1].robust)
     print(f"(sanity: fraction robust — human0 mass {robust[0]:.3f}, human1 spring {robust[1]:.3f})")
 
 

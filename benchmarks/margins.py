@@ -72,10 +72,8 @@ def box_design(base: dict):
     return design_from_mapping(m)
 
 
-def robust(cols) -> bool:
-    keys = [k for k in cols if k == "free_stable"
-            or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable")))]
-    return all(bool(np.asarray(cols[k])[0]) for k in keys)
+def robust(res) -> bool:
+    return bool(res.loops_ok()[0])
 
 
 def pc_free_loop_eigs(q, cs, dob_model, order=10):
@@ -167,7 +165,7 @@ def sweep_column_cost(base_cfg, seed: int, n: int = 4096) -> None:
         t = time.perf_counter()
         cols = analyze_batch(b, latency=True)
         t1 = time.perf_counter() - t
-    robust_n = int(np.count_nonzero(cols["latency_margin_s"] > 0))
+    robust_n = int(np.count_nonzero(cols.latency_margin_s > 0))
     print(f"sweep column latency_margin_s: {n} designs ({robust_n} robust), analysis {t0 / n * 1e6:.0f} µs/design, "
           f"with the column {t1 / n * 1e6:.0f} µs/design: ×{t1 / t0:.2f} "
           f"(≈ {(t1 - t0) / max(robust_n, 1) * 1e6:.0f} µs per robust design)")

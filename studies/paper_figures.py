@@ -218,7 +218,7 @@ def fig4(out: Path) -> dict:
     res = []
     for title, impl in cases:
         cfg = _variant(**impl)
-        m = {k: _scalar(v) for k, v in dob_margins(_controller(cfg), 1).items()}
+        m = {k: _scalar(v) for k, v in dataclasses.asdict(dob_margins(_controller(cfg), 1)).items()}
         d = dob_loop(cfg, {"dob": m})
         res.append((title, m, d))
     with matplotlib.rc_context(RC):

@@ -69,7 +69,7 @@ def lightest_sampled(cfg, cs, fs: float) -> float:
 def lightest_continuous(cfg) -> float:
     fam = HumanFamily("mass", "inertia", LO, HI)
     c = dataclasses.replace(cfg, humans=(fam,), environment=())
-    iv = analyze_batch(c)["human0_mass_stable_intervals"][0]
+    iv = analyze_batch(c).humans[0].stable_intervals[0]
     return float(iv[-1][0]) if iv and iv[-1][1] >= HI * (1 - 1e-9) else math.inf
 
 

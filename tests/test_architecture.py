@@ -292,3 +292,93 @@ def test_the_command_line_calls_only_the_api():
                 if names != {"TqdmProgress"}:
                     bad.append(f"{getattr(fn, 'name', 'module')}: from .sweeps import {', '.join(sorted(names))}")
     assert not bad, bad
+
+
+# The columns of a batch analysis (docs/sweep-spec.md#columns) are user-facing names: the sweep's
+# Parquet schema and the optimizer's objectives. They are spelled where they are written or looked
+# up by name; everything else reads the typed fields of exotune.analysis.BatchAnalysis.
+COLUMN_WRITERS = {
+    "analysis.batch_result": "BatchAnalysis.to_columns/column: the one spelling of the columns",
+    "sweeps.sampledcols": "writes the sweep's sampled_* Parquet columns",
+}
+# other string-keyed documents whose keys look like columns (not batch analyses)
+COLUMN_LIKE_DOCUMENTS = {
+    "controllerfile.certify": "the sampled-data verdicts of a controller file (sa[f'{key}_stable'])",
+}
+# batch columns whose names are also keys of the JSON reports, of controller files and of the
+# optimize spec's constraints: only checked in the consumers of analyze_batch (below)
+SHARED_NAMES = {"free_stable", "locked_stable", "latency_margin_s"}
+FAMILY_SUFFIXES = ("_robust", "_stable", "_conclusive", "_stable_intervals", "_critical", "_edges",
+                   "_verification_mismatches")
+# the modules that get a BatchAnalysis (analyze_batch's callers and the functions they pass it to)
+BATCH_CONSUMERS = {"analysis.design", "analysis.margins", "analysis.plant_margin", "analysis.latency_batch",
+                   "analysis.crosscheck", "sweeps.compute", "sweeps.sampledcols", "optimization.evaluate",
+                   "optimization.diagnose", "optimization.search"}
+
+
+def _fixed_column_names() -> set:
+    """The columns of a batch analysis without families (the fixed part of the schema)."""
+    import numpy as np
+
+    from exotune.analysis.batch_result import (GAIN_NAMES, AmplificationBatch, BatchAnalysis, DobBatch, LoopBatch,
+                                               PassivityBatch)
+    from exotune.model.shaping import Gains
+
+    e = np.zeros(0)
+    res = BatchAnalysis(free=LoopBatch(e, e, e), humans=(), environment=(), passivity=PassivityBatch(e, e, []),
+                        dob=DobBatch.absent(0), amplification=AmplificationBatch(e, e, e, e), locked=LoopBatch(e, e),
+                        gains=Gains(*[e] * len(GAIN_NAMES)), latency_margin_s=e)
+    return set(res.to_columns()) - set(GAIN_NAMES)
+
+
+def _key_text(node) -> str | None:
+    """A string key as written: a literal, or an f-string with ``{}`` for each placeholder."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return node.value
+    if isinstance(node, ast.JoinedStr):
+        return "".join(v.value if isinstance(v, ast.Constant) else "{}" for v in node.values)
+    return None
+
+
+def _column_lookups(path: Path):
+    """(line, key, subscripted name) of every ``x[key]`` / ``x.get(key)`` / ``x.pop(key)`` with a string key."""
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Subscript):
+            key, obj = _key_text(node.slice), node.value
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in ("get", "pop") \
+                and node.args:
+            key, obj = _key_text(node.args[0]), node.func.value
+        else:
+            continue
+        yield node.lineno, key, (obj.id if isinstance(obj, ast.Name) else None)
+
+
+def test_batch_columns_are_read_through_the_typed_analysis():
+    """No module looks a batch-analysis column up by name in a dict except the declared writers: a
+    family column (``human0_mass_robust``, ``f"{key}_stable_intervals"``, …) or a fixed one
+    (``dob_phase_margin_deg``, …) anywhere; in the consumers of analyze_batch also the names shared
+    with the reports (``free_stable``, …) and any ``cols[…]`` (sweeps.compute, the Parquet writer,
+    keeps its ``cols`` of ``to_columns()``)."""
+    import re
+
+    fixed = _fixed_column_names()
+    family = re.compile(r"^(human|env)\d+_\w+(%s)$" % "|".join(FAMILY_SUFFIXES))
+
+    def column_name(key, strict):
+        if key is None:
+            return False
+        if key in fixed - SHARED_NAMES or family.match(key) or (strict and key in SHARED_NAMES):
+            return True
+        return "{}" in key and key.endswith(FAMILY_SUFFIXES) and key.startswith(("{}", "human", "env"))
+
+    bad = []
+    for mod, path in MODULES.items():
+        if mod in COLUMN_WRITERS or mod in COLUMN_LIKE_DOCUMENTS:
+            continue
+        consumer = mod in BATCH_CONSUMERS and not mod.startswith("optimization.")  # optimize: constraint names
+        for line, key, obj in _column_lookups(path):
+            if column_name(key, consumer):
+                bad.append(f"{mod}:{line} looks up the column {key!r}")
+            if mod in BATCH_CONSUMERS and mod != "sweeps.compute" and obj == "cols":
+                bad.append(f"{mod}:{line} subscripts cols")
+    assert not bad, "\n".join(bad)

@@ -2,6 +2,7 @@
 
 The modules, lowest first (each imports only the ones above it):
 
+``batch_result``        the typed records of a batch analysis (BatchAnalysis; ``to_columns()``: the sweep columns)
 ``charfun``             the closed-loop characteristic function Δ = Δ00 + z Δ10 + z_e Δ01 + z z_e Δ11 (paper §II model, Fig. 3 controller)
 ``counting``            exact right-half-plane root counts (argument principle), batched
 ``brackets``            refinement of crossing brackets, compiled or numpy
@@ -17,6 +18,7 @@ The modules, lowest first (each imports only the ones above it):
 
 from .amplification_ratio import amplification
 from .batch import GAIN_NAMES, analyze_batch
+from .batch_result import BatchAnalysis
 from .charfun import CharTerms, amplification_qps, char_terms, strip_qps, trim_poly
 from .counting import RootCounter, coupled_stable, free_stability, rhp_count
 from .crosscheck import pade_crosscheck, pade_stable
@@ -64,6 +66,7 @@ __all__ = [
     "dob_margins",
     "amplification",
     "analyze_batch",
+    "BatchAnalysis",
     "GAIN_NAMES",
     "analyze_design",
     "kyp_certificates",

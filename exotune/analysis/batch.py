@@ -9,12 +9,16 @@ from __future__ import annotations
 
 import contextlib
 import gc
+from dataclasses import replace
 
 import numpy as np
 
 from ..model.controller import build_controller
 from ..model.humans import HumanFamily
+from ..model.shaping import Gains
 from .amplification_ratio import dc_and_bandwidth
+from .batch_result import (GAIN_NAMES, AmplificationBatch, BatchAnalysis, DobBatch, EnvironmentBatch, FamilyBatch,
+                           LoopBatch)
 from .charfun import amplification_qps, char_terms
 from .counting import RootCounter
 from .dob import dob_margins
@@ -22,26 +26,39 @@ from .intervals import FamilySide
 from .latency_batch import batch_latency_margin
 from .phase_excess import passivity
 
-__all__ = ["analyze_batch", "GAIN_NAMES"]
+__all__ = ["analyze_batch", "BatchAnalysis", "GAIN_NAMES"]
 
 
-GAIN_NAMES = ("K1", "B1", "K2", "B2", "K2_hat", "B2_hat")
-
-
-def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0, latency: bool = False) -> dict:
+def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0, latency: bool = False) -> BatchAnalysis:
     """Every docs/method.md#analyses-and-metrics metric for a batch configuration (fields may be arrays of length N).
 
-    Returns a dict of columns named as in docs/sweep-spec.md: numpy arrays (one entry per design) and, for
-    interval-valued metrics, lists of lists of [lo, hi].
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design or a batch (:func:`exotune.config.batch_config`: fields of length N).
+    max_chunk : int
+        Designs analysed together at most (larger batches are split and joined).
+    verify : int
+        > 0: additionally count RHP roots exactly at that many log-spaced values of every human
+        family's range and check them against the intervals; a mismatch makes the family
+        inconclusive (hence not robust) and is listed in its ``verification_mismatches``. The
+        single-design report uses 64; sweeps use 0 (the interval method alone).
+    latency : bool
+        Also compute ``latency_margin_s`` [s]
+        (:func:`~exotune.analysis.latency_batch.batch_latency_margin`, docs/method.md#latency-margin):
+        the largest extra delay every loop tolerates, 0 for a design that is not robust at its
+        nominal delay. Sweeps always ask for it.
 
-    ``verify`` > 0 additionally counts RHP roots exactly at that many log-spaced values of every
-    family's range and checks them against the intervals; a mismatch makes the family
-    inconclusive (hence not robust) and is listed in ``human{i}_{kind}_verification_mismatches``.
-    The single-design report uses 64; sweeps use 0 (the interval method alone).
+    Returns
+    -------
+    BatchAnalysis
+        The typed metrics, one entry per design; ``.to_columns()`` gives the columns named as in
+        docs/sweep-spec.md#columns (numpy arrays and, for interval-valued metrics, lists of lists
+        of [lo, hi]).
 
-    ``latency`` adds the column ``latency_margin_s`` [s] (:func:`~exotune.analysis.latency_batch.batch_latency_margin`,
-    docs/method.md#latency-margin): the largest extra delay every loop tolerates, 0 for a design
-    that is not robust at its nominal delay. Sweeps always ask for it.
+    References
+    ----------
+    docs/method.md#analyses-and-metrics; docs/sweep-spec.md#columns.
     """
 
     # extreme designs overflow intermediate numbers; every result is checked for finiteness and
@@ -51,7 +68,7 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0, latency: bool = F
         if N > max_chunk:
             parts = [_analyze_chunk(_slice_cfg(cfg, slice(i, min(i + max_chunk, N))), verify, latency)
                      for i in range(0, N, max_chunk)]
-            return _concat_columns(parts)
+            return BatchAnalysis.concat(parts)
         return _analyze_chunk(cfg, verify, latency)
 
 
@@ -69,11 +86,10 @@ def _gc_paused():
             gc.enable()
 
 
-def _analyze_chunk(cfg, verify: int, latency: bool = False) -> dict:
+def _analyze_chunk(cfg, verify: int, latency: bool = False) -> BatchAnalysis:
     N = _cfg_size(cfg)
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, N)
-    out: dict = {}
     counter = RootCounter()
     h_free = counter.add(ct.qp("00").p0, ct.qp("00").p1, ct.T)
     num, den = amplification_qps(cfg.plant, cs, N)
@@ -93,76 +109,55 @@ def _analyze_chunk(cfg, verify: int, latency: bool = False) -> dict:
     env_side.submit(counter)
     counter.run()
     Nf, rf, okf = counter.result(h_free)
-    free_stable = okf & (Nf == 0) & (rf <= 1)
-    out["free_stable"] = free_stable
-    out["free_rigid_body_roots"] = rf
-    out["free_conclusive"] = okf
-    _human_columns(out, cfg.humans, human.collect(counter), edge_fams, edge_of, verify, N)
+    free = LoopBatch(stable=okf & (Nf == 0) & (rf <= 1), conclusive=okf, rigid_body_roots=rf)
+    humans = _human_results(cfg.humans, human.collect(counter), edge_fams, edge_of, verify, N)
     Nn, rn, okn = counter.result(h_num)
     Nd_, rd, okd = counter.result(h_den)
-    locked_stable = okd & (Nd_ == 0) & (rd == 0)
+    locked = LoopBatch(stable=okd & (Nd_ == 0) & (rd == 0), conclusive=okd)
     env_res = iter(env_side.collect(counter))
-    for i, env in enumerate(cfg.environment):
-        key = f"env{i}_{env.kind}"
-        if env.kind == "locked":
-            out[f"{key}_stable"] = locked_stable
-        elif env.kind == "free":
-            out[f"{key}_stable"] = free_stable
+    environment = []
+    for env in cfg.environment:
+        if env.kind in ("locked", "free"):
+            environment.append(EnvironmentBatch(env.kind, stable=(locked if env.kind == "locked" else free).stable))
         else:
             res = next(env_res)
-            out[f"{key}_robust"] = res["robust"]
-            out[f"{key}_stable_intervals"] = res["stable_intervals"]
+            environment.append(EnvironmentBatch(env.kind, robust=res.robust, stable_intervals=res.stable_intervals))
     ps = passivity(human)
-    out["passivity_conclusive"] = ps["conclusive"]
-    out["passivity_max_phase_excess_deg"] = ps["max_phase_excess_deg"]
-    out["passivity_nonpassive_band_hz"] = ps["nonpassive_band_hz"]
     dob = dob_margins(cs, N)
-    nanv = np.full(N, np.nan)
-    out["dob_phase_margin_deg"] = dob["phase_margin_deg"] if dob else nanv
-    out["dob_gain_margin_db"] = dob["gain_margin_db"] if dob else nanv
-    out["dob_delay_margin_s"] = dob["delay_margin_s"] if dob else nanv
-    out["dob_crossover_hz"] = dob["crossover_hz"] if dob else nanv
-    out["dob_stable"] = dob["stable"] if dob else np.ones(N, bool)
     dc, bw = dc_and_bandwidth(num, den)
-    out["amplification_dc"] = dc
-    out["amplification_bandwidth_hz"] = bw
-    out["amplification_minimum_phase"] = okn & (Nn == 0) & (rn == 0)
-    out["amplification_conclusive"] = okn  # False: the minimum-phase verdict is unknown (reported False)
-    out["locked_stable"] = locked_stable
-    out["locked_conclusive"] = okd
+    # amplification conclusive False: the minimum-phase verdict is unknown (reported False)
+    amp = AmplificationBatch(dc=dc, bandwidth_hz=bw, minimum_phase=okn & (Nn == 0) & (rn == 0), conclusive=okn)
+    gains = Gains(**{g: np.broadcast_to(np.asarray(getattr(ds.gains, g), dtype=float), (N,)).copy()
+                     for g in GAIN_NAMES})
+    out = BatchAnalysis(free=free, humans=tuple(humans), environment=tuple(environment), passivity=ps,
+                        dob=dob if dob is not None else DobBatch.absent(N), amplification=amp, locked=locked,
+                        gains=gains)
     if latency:
-        out["latency_margin_s"] = batch_latency_margin(ct, cfg.humans, cfg.environment, out)
-    for g in GAIN_NAMES:
-        out[g] = np.broadcast_to(np.asarray(getattr(ds.gains, g), dtype=float), (N,)).copy()
+        out = replace(out, latency_margin_s=batch_latency_margin(ct, cfg.humans, cfg.environment, out.loops_ok()))
     return out
 
 
-def _human_columns(out: dict, humans, edge_res: list, edge_fams: list, edge_of: list, verify: int, N: int) -> None:
-    """Write the columns of every human family into ``out`` from the results of its edges (one
-    edge for a one-parameter family; a box's edges, Edge Theorem)."""
+def _human_results(humans, edge_res: list, edge_fams: list, edge_of: list, verify: int, N: int) -> list[FamilyBatch]:
+    """The result of every human family from the results of its edges (one edge for a
+    one-parameter family; a box's edges, Edge Theorem)."""
+    out = []
     for i, fam in enumerate(humans):
-        key = f"human{i}_{fam.kind}"
         if not fam.box:
-            res = edge_res[edge_of[i][0]]
-            out[f"{key}_robust"] = res["robust"]
-            out[f"{key}_stable_intervals"] = res["stable_intervals"]
-            out[f"{key}_conclusive"] = res["conclusive"]
-            out[f"{key}_critical"] = res["critical"]
-            if verify:
-                out[f"{key}_verification_mismatches"] = res["verification_mismatches"]
+            out.append(edge_res[edge_of[i][0]])
             continue
         # Edge Theorem: the box is robustly stable iff every edge is; the stable set of a box is
         # not one interval, so the interval column holds [[lo, hi]] of the first ranged parameter
         # when the whole box is stable and [] otherwise (per-edge details: analyze_design)
         ers = [edge_res[j] for j in edge_of[i]]
-        robust = np.logical_and.reduce([r["robust"] for r in ers])
-        out[f"{key}_robust"] = robust
-        out[f"{key}_stable_intervals"] = [[[fam.lo, fam.hi]] if rb else [] for rb in robust]
-        out[f"{key}_conclusive"] = np.logical_and.reduce([r["conclusive"] for r in ers])
-        out[f"{key}_critical"] = [[] for _ in range(N)]  # per edge (different parameters): see _edges
-        out[f"{key}_edges"] = [[(edge_fams[j], ers[k]["stable_intervals"][t_]) for k, j in enumerate(edge_of[i])] for t_ in range(N)]
-        if verify:
-            out[f"{key}_verification_mismatches"] = [[m for r in ers for m in r["verification_mismatches"][t_]] for t_ in range(N)]
+        robust = np.logical_and.reduce([r.robust for r in ers])
+        out.append(FamilyBatch(
+            kind=fam.kind, robust=robust, stable_intervals=[[[fam.lo, fam.hi]] if rb else [] for rb in robust],
+            conclusive=np.logical_and.reduce([r.conclusive for r in ers]),
+            critical=[[] for _ in range(N)],  # per edge (different parameters): see edges
+            edges=[[(edge_fams[j], ers[k].stable_intervals[t_]) for k, j in enumerate(edge_of[i])] for t_ in range(N)],
+            verification_mismatches=([[m for r in ers for m in r.verification_mismatches[t_]] for t_ in range(N)]
+                                     if verify else None)))
+    return out
 
 
 def _cfg_size(cfg) -> int:
@@ -201,14 +196,3 @@ def _slice_cfg(cfg, sl):
         design=_slice_dc(cfg.design, sl),
         implementation=_slice_dc(cfg.implementation, sl),
     )
-
-
-def _concat_columns(parts: list[dict]) -> dict:
-    out = {}
-    for k in parts[0]:
-        v = parts[0][k]
-        if isinstance(v, np.ndarray):
-            out[k] = np.concatenate([p[k] for p in parts])
-        else:
-            out[k] = [x for p in parts for x in p[k]]
-    return out

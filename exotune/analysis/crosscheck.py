@@ -121,19 +121,19 @@ def exact_rhp_roots(p0: np.ndarray, p1: np.ndarray, T: float, orders=(10, 16), n
 
 def pade_crosscheck(cfg, orders=(10, 16)) -> dict:
     """Compare exotune's verdicts (exact delay) for one design with two Padé models (module docstring)."""
-    cols = analyze_batch(cfg)
+    res = analyze_batch(cfg)
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, 1)
     T = float(np.asarray(cfg.implementation.delay_s))
     cases = []  # (label, p0, p1, allowed_rigid, exotune verdict)
     q00, q01 = ct.qp("00"), ct.qp("01")
-    cases.append(("free cuff", q00.p0[0], q00.p1[0], 1, bool(cols["free_stable"][0])))
-    cases.append(("output locked", q01.p0[0], q01.p1[0], 0, bool(cols["locked_stable"][0])))
-    for i, fam in enumerate(cfg.humans):
+    cases.append(("free cuff", q00.p0[0], q00.p1[0], 1, bool(res.free.stable[0])))
+    cases.append(("output locked", q01.p0[0], q01.p1[0], 0, bool(res.locked.stable[0])))
+    for i, (fam, h) in enumerate(zip(cfg.humans, res.humans)):
         if fam.kind == "complex_stiffness" or fam.box:
             continue  # not rational / a box (its edges' verdicts are not listed per point)
-        ivs = cols[f"human{i}_{fam.kind}_stable_intervals"][0]
-        crit = sorted(p for p, _ in cols[f"human{i}_{fam.kind}_critical"][0])
+        ivs = h.stable_intervals[0]
+        crit = sorted(p for p, _ in h.critical[0])
         edges = [fam.lo] + [p for p in crit if fam.lo < p < fam.hi] + [fam.hi]
         pts = set([fam.lo, fam.hi])
         for a, b in zip(edges[:-1], edges[1:]):

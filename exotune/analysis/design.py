@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .batch import GAIN_NAMES, analyze_batch
+from .batch import analyze_batch
+from .batch_result import BatchAnalysis, FamilyBatch
 from .intervals import MAX_FAMILY_PIECES
 from .results import (Amplification, BoxEdge, DesignAnalysis, DobMargins, EnvironmentResult, FamilyResult, PassivityResult,
                       ScheduleEntry)
@@ -33,41 +34,39 @@ def analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
         return _analyze_design(cfg, sampled_check)
 
 
-def _human_result(cols, i: int, fam) -> FamilyResult:
-    """The typed result of human family ``i`` (its columns of the one-design batch)."""
-    key = f"human{i}_{fam.kind}"
+def _human_result(h: FamilyBatch, fam) -> FamilyResult:
+    """The typed result of one human family ``fam`` from its record ``h`` of the one-design batch."""
     fixed = {k: v for k, v in {**fam.fixed(), **({"eta": fam.eta} if fam.kind == "complex_stiffness" else {})}.items()
              if k != fam.param}
     box = edges = None
-    ivs = tuple((a, b) for a, b in cols[f"{key}_stable_intervals"][0])
+    ivs = tuple((a, b) for a, b in h.stable_intervals[0])
     if fam.box:
         box = {fam.param: (fam.lo, fam.hi), **{q: (lo, hi) for q, lo, hi in fam.box}}
         fixed = {k: v for k, v in fam.fixed().items() if k not in box}
         ivs = None  # a box's stable set is not an interval
         edges = tuple(BoxEdge(e.param, (e.lo, e.hi), {q: getattr(e, q) for q in box if q != e.param},
                               tuple((a, b) for a, b in e_ivs))
-                      for e, e_ivs in cols[f"{key}_edges"][0])
+                      for e, e_ivs in h.edges[0])
     return FamilyResult(
         kind=fam.kind, parameter=fam.param, unit=fam.unit, range=(fam.lo, fam.hi), fixed=fixed, stable_intervals=ivs,
-        robust=bool(cols[f"{key}_robust"][0]), conclusive=bool(cols[f"{key}_conclusive"][0]),
-        critical=tuple((p, f) for p, f in cols[f"{key}_critical"][0]), verified_points=VERIFY_POINTS,
-        verification_mismatches=tuple(cols[f"{key}_verification_mismatches"][0]), box=box, edges=edges)
+        robust=bool(h.robust[0]), conclusive=bool(h.conclusive[0]),
+        critical=tuple((p, f) for p, f in h.critical[0]), verified_points=VERIFY_POINTS,
+        verification_mismatches=tuple(h.verification_mismatches[0]), box=box, edges=edges)
 
 
-def _environment_results(cfg, cols) -> tuple[EnvironmentResult, ...]:
+def _environment_results(cfg, res: BatchAnalysis) -> tuple[EnvironmentResult, ...]:
     """The typed results of the environment models."""
     env = []
-    for i, e in enumerate(cfg.environment):
-        key = f"env{i}_{e.kind}"
+    for e, r in zip(cfg.environment, res.environment):
         if e.kind in ("locked", "free"):
-            env.append(EnvironmentResult(e.kind, bool(cols[f"{key}_stable"][0])))
+            env.append(EnvironmentResult(e.kind, bool(r.stable[0])))
         else:
-            env.append(EnvironmentResult(e.kind, bool(cols[f"{key}_robust"][0]), e.param, (e.lo, e.hi),
-                                         tuple((a, b) for a, b in cols[f"{key}_stable_intervals"][0])))
+            env.append(EnvironmentResult(e.kind, bool(r.robust[0]), e.param, (e.lo, e.hi),
+                                         tuple((a, b) for a, b in r.stable_intervals[0])))
     return tuple(env)
 
 
-def _sampled_check(cfg, cols, humans, env, warnings: list):
+def _sampled_check(cfg, res: BatchAnalysis, humans, env, warnings: list):
     """The sampled-data check at the file's sample rate (None without one); its disagreements with
     the continuous verdicts are appended to ``warnings``."""
     sampled = None
@@ -76,12 +75,12 @@ def _sampled_check(cfg, cols, humans, env, warnings: list):
 
         sampled = check_design(cfg, [h.stable_intervals for h in humans], [e.stable_intervals for e in env])
         fs = sampled.sample_rate_hz
-        for name, verdict in (("free", sampled.free_stable), ("locked", sampled.locked_stable)):
-            where = 'with the cuff free' if name == 'free' else 'with the output locked'
+        for verdict, continuous, where in ((sampled.free_stable, res.free.stable, "with the cuff free"),
+                                           (sampled.locked_stable, res.locked.stable, "with the output locked")):
             if verdict is None:
                 warnings.append(f"at {fs:g} Hz the sampled-data verdict {where} is inconclusive (spectral radius within "
                                 "rounding of 1)")
-            elif verdict != bool(cols[f"{name}_stable"][0]):
+            elif verdict != bool(continuous[0]):
                 warnings.append(f"at {fs:g} Hz the sampled-data loop is {'stable' if verdict else 'UNSTABLE'} "
                                 f"{where}, unlike the continuous analysis")
         for side, fams in (("human", sampled.humans), ("environment", sampled.environment)):
@@ -104,44 +103,44 @@ def _analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
     from ..config import check_analysis_filters
 
     check_analysis_filters(cfg.implementation)
-    cols = analyze_batch(cfg, verify=VERIFY_POINTS)
+    res = analyze_batch(cfg, verify=VERIFY_POINTS)
     ds = double_compliance_shaping(cfg.plant, cfg.design)
-    g = lambda k: float(np.asarray(cols[k])[0])  # noqa: E731
-    humans = tuple(_human_result(cols, i, fam) for i, fam in enumerate(cfg.humans))
-    env = _environment_results(cfg, cols)
+    humans = tuple(_human_result(h, fam) for h, fam in zip(res.humans, cfg.humans))
+    env = _environment_results(cfg, res)
     dob = None
     if cfg.implementation.dob is not None:
-        dob = DobMargins(g("dob_gain_margin_db"), g("dob_phase_margin_deg"), g("dob_delay_margin_s"),
-                         g("dob_crossover_hz"), bool(cols["dob_stable"][0]))
+        d = res.dob
+        dob = DobMargins(float(d.gain_margin_db[0]), float(d.phase_margin_deg[0]), float(d.delay_margin_s[0]),
+                         float(d.crossover_hz[0]), bool(d.stable[0]))
     warnings = list(ds.warnings)
-    sampled = _sampled_check(cfg, cols, humans, env, warnings) if sampled_check else None
+    sampled = _sampled_check(cfg, res, humans, env, warnings) if sampled_check else None
     schedule = _schedule_check(cfg) if cfg.raw.get("transmission") else None
     for e in schedule or []:
         if not e.robust:
             warnings.append(f"at joint angle {e.joint_angle_rad:g} rad (transmission ratio {e.ratio:g}) the "
                             f"rescheduled design is not robust: {', '.join(e.not_robust)}")
     kyp = kyp_certificates(cfg)  # a non-passive nominal C7 is the B2_hat < 0 warning of shaping
-    if not bool(cols["passivity_conclusive"][0]):
+    if not bool(res.passivity.conclusive[0]):
         warnings.append("the passivity analysis is inconclusive (a zero of Δ00 or Δ10 on the axis, or the "
                         "adaptive frequency search spent its per-task budget: extreme parameters)")
-    if not all(bool(cols[k][0]) for k in cols if k.endswith("_conclusive")):
+    if not bool(res.all_conclusive()[0]):
         warnings.append("some verdicts are inconclusive (a root on the imaginary axis within float resolution, an "
                         "adaptive search that spent its per-task budget, or a human range with more than "
                         f"{MAX_FAMILY_PIECES} critical values: extreme parameters): treated as NOT stable")
     return DesignAnalysis(
         structure=cfg.implementation.structure,
         delay_s=float(np.asarray(cfg.implementation.delay_s)),
-        gains={k: g(k) for k in GAIN_NAMES},
-        free_stable=bool(cols["free_stable"][0]),
-        free_rigid_body_roots=int(cols["free_rigid_body_roots"][0]),
-        locked_stable=bool(cols["locked_stable"][0]),
+        gains=res.gain_values(0),
+        free_stable=bool(res.free.stable[0]),
+        free_rigid_body_roots=int(res.free.rigid_body_roots[0]),
+        locked_stable=bool(res.locked.stable[0]),
         humans=humans,
         environment=env,
-        passivity=PassivityResult(g("passivity_max_phase_excess_deg"),
-                                  tuple((a, b) for a, b in cols["passivity_nonpassive_band_hz"][0]), kyp),
+        passivity=PassivityResult(float(res.passivity.max_phase_excess_deg[0]),
+                                  tuple((a, b) for a, b in res.passivity.nonpassive_band_hz[0]), kyp),
         dob=dob,
-        amplification=Amplification(g("amplification_dc"), g("amplification_bandwidth_hz"),
-                                    bool(cols["amplification_minimum_phase"][0])),
+        amplification=Amplification(float(res.amplification.dc[0]), float(res.amplification.bandwidth_hz[0]),
+                                    bool(res.amplification.minimum_phase[0])),
         J_m_hat_over_J_j=float(ds.J_m_hat / cfg.plant.J_j),
         warnings=tuple(warnings),
         sampled_data=sampled,
@@ -170,17 +169,19 @@ def _schedule_check(cfg) -> list[ScheduleEntry]:
     g = lambda x: float(np.ravel(x)[0])  # noqa: E731
     from ..config import batch_config
 
-    cols = analyze_batch(batch_config(cfg, {"plant.motor_inertia": g(cfg.plant.J_m) * r2,
-                                            "plant.motor_damping": g(cfg.plant.B_m) * r2,
-                                            "plant.sea_stiffness": g(cfg.plant.K_s) * r2}))
-    fams = [k[: -len("_robust")] for k in cols if k.startswith(("human", "env")) and k.endswith("_robust")]
+    res = analyze_batch(batch_config(cfg, {"plant.motor_inertia": g(cfg.plant.J_m) * r2,
+                                           "plant.motor_damping": g(cfg.plant.B_m) * r2,
+                                           "plant.sea_stiffness": g(cfg.plant.K_s) * r2}))
+    # the names of the report: a family by its loop name, a single loop by its column name
+    fams = [*zip(res.human_names(), res.humans),
+            *((k, e) for k, e in zip(res.environment_names(), res.environment) if e.stable is None)]
+    singles = [("free_stable", res.free.stable), ("locked_stable", res.locked.stable),
+               *((f"{k}_stable", e.stable) for k, e in zip(res.environment_names(), res.environment)
+                 if e.stable is not None)]
     out = []
     for i, (angle, ratio) in enumerate(zip(tr["joint_angle_rad"], tr["ratio"])):
-        bad = [k for k in fams if not bool(cols[f"{k}_robust"][i])]
-        bad += [k for k in ("free_stable", "locked_stable") if not bool(cols[k][i])]
-        bad += [k for k in cols if k.startswith("env") and k.endswith("_stable") and not bool(cols[k][i])]
-        out.append(ScheduleEntry(float(angle), float(ratio), not bad, tuple(bad),
-                                 {k: float(cols[k][i]) for k in GAIN_NAMES},
-                                 {k: tuple((a, b) for a, b in cols[f"{k}_stable_intervals"][i]) for k in fams
-                                  if f"{k}_stable_intervals" in cols}))
+        bad = [k for k, f in fams if not bool(f.robust[i])]
+        bad += [k for k, stable in singles if not bool(stable[i])]
+        out.append(ScheduleEntry(float(angle), float(ratio), not bad, tuple(bad), res.gain_values(i),
+                                 {k: tuple((a, b) for a, b in f.stable_intervals[i]) for k, f in fams}))
     return out

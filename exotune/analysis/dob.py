@@ -14,15 +14,17 @@ import numpy as np
 from ..model.controller import ControllerStructure
 from ..numerics.poly import degree, leading, padd, pmul, psub, pval_flat
 from ..numerics.quasipoly import QP
+from .batch_result import DobBatch, take_designs
 from .charfun import design_column, trim_poly
 from .counting import rhp_count
 
 __all__ = ["dob_margins", "dob_margins_rows"]
 
 
-def dob_margins(cs: ControllerStructure, N: int):
+def dob_margins(cs: ControllerStructure, N: int) -> DobBatch | None:
     """Gain [dB], phase [deg] and delay [s] margins of L_dob = Q e^{−sT}/(1 − Q) (docs/method.md#analyses-and-metrics), and
-    whether the closed DOB loop is stable (delay margin 0 when it is not).
+    whether the closed DOB loop is stable (delay margin 0 when it is not), as a
+    :class:`~exotune.analysis.batch_result.DobBatch` of N designs; None without a DOB.
 
     Gain crossovers are the positive real roots of |n_q(jω)|² − |(d_q − n_q)(jω)|² (a polynomial
     in ω); delay margin = min_k PM_k/ω_k with PM_k ∈ [0, 2π). Phase crossovers (arg L = −180° mod
@@ -40,8 +42,7 @@ def dob_margins(cs: ControllerStructure, N: int):
     inv = inv.ravel()
     if len(uniq) < N:
         nu = nq.shape[1]
-        res = dob_margins_rows(uniq[:, :nu], uniq[:, nu:-1], uniq[:, -1])
-        return {k: v[inv] for k, v in res.items()}
+        return take_designs(dob_margins_rows(uniq[:, :nu], uniq[:, nu:-1], uniq[:, -1]), inv)
     return dob_margins_rows(nq, dq, T)
 
 
@@ -49,7 +50,8 @@ def _dob_margins_standard(nq, dq, T):
     """Closed forms for the standard Q = ω_q²/(s² + 2ζω_q s + ω_q²) (docs/method.md#controller):
     L_dob = ω_q² e^{−sT}/(s (s + a)), a = 2ζω_q, has monotone gain and phase, one gain crossover
     ω_c = ω_q √(√(4ζ⁴ + 1) − 2ζ²), unwrapped PM = π/2 − atan(ω_c/a) − ω_c T, and the smallest gain
-    margin at the first −180° crossing, π/2 − atan(ω/a) − ωT = 0 (bisected on [0, π/(2T)])."""
+    margin at the first −180° crossing, π/2 − atan(ω/a) − ωT = 0 (bisected on [0, π/(2T)]).
+    Returns (phase margin [deg], gain margin [dB], delay margin [s], crossover [Hz])."""
     wq2 = nq[:, 0]
     a = dq[:, 1]
     wq = np.sqrt(wq2)
@@ -69,7 +71,7 @@ def _dob_margins_standard(nq, dq, T):
     wp = 0.5 * (lo + hi)
     with np.errstate(over="ignore", divide="ignore"):  # T → 0+: the margin → +inf
         gm = np.where(T > 0, -20 * np.log10(wq2 / (wp * np.hypot(wp, a))), np.inf)
-    return {"gain_margin_db": gm, "phase_margin_deg": pm, "delay_margin_s": dm, "crossover_hz": wc / (2 * np.pi)}
+    return pm, gm, dm, wc / (2 * np.pi)
 
 
 def dob_margins_rows(nq, dq, T):
@@ -87,9 +89,9 @@ def dob_margins_rows(nq, dq, T):
 
     Returns
     -------
-    dict
-        ``gain_margin_db``, ``phase_margin_deg``, ``delay_margin_s`` (0 when the closed DOB loop is
-        unstable), ``crossover_hz`` and ``stable``: arrays of shape (N,).
+    DobBatch
+        ``phase_margin_deg`` [deg], ``gain_margin_db`` [dB], ``delay_margin_s`` [s] (0 when the
+        closed DOB loop is unstable), ``crossover_hz`` [Hz] and ``stable``: arrays of shape (N,).
 
     References
     ----------
@@ -99,12 +101,10 @@ def dob_margins_rows(nq, dq, T):
     m = psub(dq, nq)
     standard = (nq.shape[1] == 1) and (dq.shape[1] == 3) and np.all(dq[:, 2] == 1) and np.all(dq[:, 0] == nq[:, 0])
     if standard:
-        out = _dob_margins_standard(nq, dq, T)
+        pm, gm, dm, fc = _dob_margins_standard(nq, dq, T)
         Nd, rd, okd = rhp_count(QP(trim_poly(m), trim_poly(nq), T))
         stable = okd & (Nd == 0) & (rd == 0)
-        out["delay_margin_s"] = np.where(stable, out["delay_margin_s"], 0.0)
-        out["stable"] = stable
-        return out
+        return DobBatch(pm, gm, np.where(stable, dm, 0.0), fc, stable)
     # |p(jω)|² as a polynomial in ω
     def sq(c):
         k = np.arange(c.shape[-1])
@@ -173,7 +173,7 @@ def dob_margins_rows(nq, dq, T):
     Nd, rd, okd = rhp_count(QP(trim_poly(m), trim_poly(nq), T))
     stable = okd & (Nd == 0) & (rd == 0)
     dm = np.where(stable, dm, 0.0)
-    return {"gain_margin_db": gm, "phase_margin_deg": pm, "delay_margin_s": dm, "crossover_hz": fc, "stable": stable}
+    return DobBatch(phase_margin_deg=pm, gain_margin_db=gm, delay_margin_s=dm, crossover_hz=fc, stable=stable)
 
 
 def _batched_roots(c: np.ndarray) -> np.ndarray:

@@ -21,6 +21,7 @@ from ..model.humans import HumanFamily, family_split
 from ..numerics.engine import compiled
 from ..numerics.poly import degree, leading, padd, pmul
 from ..numerics.quasipoly import QP, leaves_pair, log_grid, omega_max
+from .batch_result import FamilyBatch
 from .brackets import pair_roots, pair_values
 from .charfun import CharTerms, trim_poly
 from .counting import RootCounter
@@ -131,7 +132,10 @@ class FamilySide:
                     res.update(ver_t=ver_t, ver_p=ver_p, ver_handle=_queue_points(counter, D0, D1, phi, factor, ver_t, ver_p))
                 self.results[i] = res
 
-    def collect(self, counter: RootCounter, allowed_rigid: int = 1):
+    def collect(self, counter: RootCounter, allowed_rigid: int = 1) -> list[FamilyBatch]:
+        """Every family's result from the counts of ``counter`` (run after :meth:`submit`): one
+        :class:`~exotune.analysis.batch_result.FamilyBatch` per family, in order
+        (``verification_mismatches`` only with ``verify`` > 0)."""
         out = []
         for i, fam in enumerate(self.fams):
             R = self.results[i]
@@ -168,13 +172,9 @@ class FamilySide:
                         mismatches[t_v].append(p_)
                 bad = np.array([bool(m) for m in mismatches], dtype=bool)
                 conclusive &= ~bad
-            out.append({
-                "verification_mismatches": mismatches,
-                "stable_intervals": intervals,
-                "robust": robust & conclusive,
-                "conclusive": conclusive,
-                "critical": R["crit"],
-            })
+            out.append(FamilyBatch(kind=fam.kind, robust=robust & conclusive, stable_intervals=intervals,
+                                   conclusive=conclusive, critical=R["crit"],
+                                   verification_mismatches=mismatches if self.verify else None))
         return out
 
 
@@ -363,7 +363,7 @@ def family_wmax(D0: QP, D1: QP, phi, factor, lo, hi):
     return np.where((nlo == nhi) & (cmin > 0), w, np.inf)
 
 
-def family_intervals(ct: CharTerms, fam: HumanFamily, key0: str = "00", key1: str = "10"):
+def family_intervals(ct: CharTerms, fam: HumanFamily, key0: str = "00", key1: str = "10") -> FamilyBatch:
     """Exact stable sub-intervals of one family (convenience wrapper around :class:`FamilySide`)."""
     side = FamilySide(ct, key0, key1, [fam])
     c = RootCounter()

@@ -429,15 +429,7 @@ def _design_loops(terms: _Terms, humans, environment) -> list:
     return loops
 
 
-def _verdict_mask(cols: dict, N: int) -> np.ndarray:
-    ok = np.ones(N, dtype=bool)
-    for k, v in cols.items():
-        if k == "free_stable" or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable"))):
-            ok &= np.asarray(v, dtype=bool)
-    return ok
-
-
-def batch_latency_margin(ct, humans, environment, cols: dict) -> np.ndarray:
+def batch_latency_margin(ct, humans, environment, robust: np.ndarray) -> np.ndarray:
     """The latency margin [s] of every design of a batch (module docstring).
 
     Parameters
@@ -446,9 +438,10 @@ def batch_latency_margin(ct, humans, environment, cols: dict) -> np.ndarray:
         The batch's characteristic terms (:func:`exotune.analysis.charfun.char_terms`).
     humans, environment : sequences
         The human families and environments of the batch's designs.
-    cols : dict
-        The batch's verdict columns (``free_stable``, ``human{i}_{kind}_robust``,
-        ``env{i}_{kind}_robust|stable``): a design that fails one has margin 0.
+    robust : ndarray of bool, shape (N,)
+        The designs robust at their nominal delay (free exoskeleton, every environment and every
+        human family: :meth:`BatchAnalysis.loops_ok <exotune.analysis.BatchAnalysis.loops_ok>`);
+        the others have margin 0 and are not computed.
 
     Returns
     -------
@@ -462,9 +455,8 @@ def batch_latency_margin(ct, humans, environment, cols: dict) -> np.ndarray:
     from ..numerics.engine import compiled
 
     N = ct.T.shape[0]
-    ok = _verdict_mask(cols, N)
     out = np.zeros(N)
-    rows = np.nonzero(ok)[0]
+    rows = np.nonzero(np.asarray(robust, dtype=bool))[0]
     if rows.size == 0:
         return out
     T = np.asarray(ct.T, dtype=float)[rows]

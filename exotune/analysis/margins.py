@@ -317,20 +317,13 @@ def _loops(cfg, ct):
     return out
 
 
-def _nominal_ok(cols: dict, name: str, t: int = 0) -> bool:
-    """The verdict of one loop from batch columns (a box's edges share the box's flag)."""
-    if name == "free":
-        return bool(np.asarray(cols["free_stable"])[t])
-    base = name.split("_edge")[0]
-    for suffix in ("_stable", "_robust"):
-        if base + suffix in cols:
-            return bool(np.asarray(cols[base + suffix])[t])
-    raise KeyError(name)
+def _nominal_ok(res, name: str, t: int = 0) -> bool:
+    """The verdict of one loop from a batch analysis (a box's edges share the box's flag)."""
+    return bool(res.loop(name).verdict[t])
 
 
-def _all_ok(cols: dict, t: int) -> bool:
-    keys = [k for k in cols if k == "free_stable" or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable")))]
-    return all(bool(np.asarray(cols[k])[t]) for k in keys)
+def _all_ok(res, t: int) -> bool:
+    return bool(res.loops_ok()[t])
 
 
 def _analyze_delays(cfg, delays):
@@ -343,7 +336,7 @@ def _analyze_delays(cfg, delays):
         return analyze_batch(b)
 
 
-def latency_margin(cfg, nominal: dict | None = None, verify: bool = True) -> LatencyMargin:
+def latency_margin(cfg, nominal=None, verify: bool = True) -> LatencyMargin:
     """Latency margin of a design (module docstring): the largest extra measured-to-applied delay
     ΔT ≥ 0 for which the cuff-free exoskeleton and every environment stay stable and every human
     family stays robust over its whole range.
@@ -352,8 +345,8 @@ def latency_margin(cfg, nominal: dict | None = None, verify: bool = True) -> Lat
     ----------
     cfg : DesignConfig
         One design (``exotune.config.load_design``).
-    nominal : dict, optional
-        The design's batch columns (``analyze_batch(cfg)``) if already computed.
+    nominal : BatchAnalysis, optional
+        The design's batch analysis (``analyze_batch(cfg)``) if already computed.
     verify : bool
         Confirm the margin by the exact verdicts at T + ΔT(1 ∓ 10⁻⁶) (and lower it while the
         first check fails).
@@ -428,7 +421,7 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
             if fam is None or _nominal_ok(cols, name, 0):
                 continue
             key = name.split("_edge")[0]
-            ivs = [] if fam.box else list(cols.get(f"{key}_stable_intervals", [[]])[0])
+            ivs = [] if fam.box else list(cols.loop(key).stable_intervals[0])
             gaps, prev = [], fam.lo
             for a, b in sorted(ivs):
                 if a > prev:
@@ -566,8 +559,7 @@ def latency_boundaries(cfg, n: int = 160, intervals: list | None = None) -> list
     out = []
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if intervals is None:
-            cols = analyze_batch(cfg)
-            intervals = [cols.get(f"human{i}_{fam.kind}_stable_intervals", [[]])[0] for i, fam in enumerate(cfg.humans)]
+            intervals = [h.stable_intervals[0] for h in analyze_batch(cfg).humans]
         cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
         ct = char_terms(cfg.plant, cs, 1)
         T = float(ct.T[0])

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..numerics.engine import compiled
 from ..numerics.quasipoly import bisect_roots
+from .batch_result import PassivityBatch
 from .brackets import pair_roots
 from .charfun import CharTerms
 from .intervals import FamilySide
@@ -30,8 +31,9 @@ def c7_response(ct: CharTerms, w: np.ndarray) -> np.ndarray:
 BAND_MIN_EXCESS_DEG = 0.1
 
 
-def passivity(side: FamilySide):
-    """max_phase_excess_deg and nonpassive_band_hz of C7 = Δ10/Δ00 (docs/method.md#analyses-and-metrics).
+def passivity(side: FamilySide) -> PassivityBatch:
+    """max_phase_excess_deg [deg] and nonpassive_band_hz [Hz] of C7 = Δ10/Δ00 (docs/method.md#analyses-and-metrics),
+    as a :class:`~exotune.analysis.batch_result.PassivityBatch`.
 
     Passive phase band: arg C7 ∈ [−180°, 0°] ⇔ Im C7(jω) ≤ 0. The excess is the angular distance
     of the (wrapped) phase from that band, min(φ, 180° − φ) for φ ∈ (0°, 180°); its maximum is
@@ -164,7 +166,7 @@ def passivity(side: FamilySide):
         best[exh] = np.nan
         for t in np.flatnonzero(exh):
             bands[t] = []
-    return {"max_phase_excess_deg": best, "nonpassive_band_hz": bands, "conclusive": lv["valid"] & lv["resolved"]}
+    return PassivityBatch(conclusive=lv["valid"] & lv["resolved"], max_phase_excess_deg=best, nonpassive_band_hz=bands)
 
 
 def _golden_max(f, a_, b_):

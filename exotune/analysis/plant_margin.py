@@ -171,14 +171,8 @@ def plant_loops(cfg) -> list:
     return out
 
 
-def _nominal_ok(cols: dict, name: str) -> bool:
-    if name == "free":
-        return bool(np.asarray(cols["free_stable"])[0])
-    base = name.split("_edge")[0]
-    for suffix in ("_stable", "_robust"):
-        if base + suffix in cols:
-            return bool(np.asarray(cols[base + suffix])[0])
-    raise KeyError(name)
+def _nominal_ok(res, name: str) -> bool:
+    return bool(res.loop(name).verdict[0])
 
 
 class _Loop:
@@ -419,7 +413,7 @@ def _lower_search(loops, w, k_start, rel_tol, budget, max_steps=4, k_up=math.inf
 
 
 def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 150_000, rel_tol: float = 0.01,
-                             nominal: dict | None = None, loop_detail: bool = True) -> PlantMargin:
+                             nominal=None, loop_detail: bool = True) -> PlantMargin:
     """Plant-uncertainty margin of a design (module docstring): certified lower and witnessed upper
     bounds on the largest multiple k of the relative plant uncertainty for which every loop stays
     stable/robust with the controller designed on the nominal plant.
@@ -440,8 +434,8 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
     rel_tol : float
         Target relative gap: the upper bound is bisected to rel_tol/8 and the certification first
         tried at upper/(1 + rel_tol).
-    nominal : dict, optional
-        The design's batch columns (``analyze_batch(cfg)``) if already computed.
+    nominal : BatchAnalysis, optional
+        The design's batch analysis (``analyze_batch(cfg)``) if already computed.
     loop_detail : bool
         When the design is not robust at the nominal plant (k* = 0), also bound each robust
         loop's own margin (the costly part); False lists those loops with NaN bounds.

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .evaluate import delay_sensitive_ok, latency_ladder
+from .evaluate import column, delay_sensitive_ok, latency_ladder
 from .space import Archive, from_unit
 from .spec import CONSTRAINTS, OptimizeSpec, optimized_design_mapping
 
@@ -51,7 +51,7 @@ def at_bounds(spec: OptimizeSpec, u: np.ndarray, x: np.ndarray) -> list[dict]:
     return out
 
 
-def _slack(spec, cols, achieved_latency):
+def _slack(spec, ev, achieved_latency):
     """(name, value, bound, op, unit, relative slack) of every bound constraint set."""
     out = []
     for name, (col, op, unit) in CONSTRAINTS.items():
@@ -63,7 +63,7 @@ def _slack(spec, cols, achieved_latency):
                 continue
             v = achieved_latency
         else:
-            v = float(np.asarray(cols[col])[0])
+            v = float(np.asarray(column(ev, col))[0])
         slack = (v - b) if op == ">=" else (b - v)
         out.append((name, v, b, op, unit, slack / max(abs(b), 1e-12)))
     return out
@@ -98,7 +98,7 @@ def binding(ar: Archive, u: np.ndarray, final: dict, achieved_latency: float) ->
     """
     spec = ar.spec
     details = {}
-    for name, v, b, op, unit, rel in _slack(spec, final["columns"], achieved_latency):
+    for name, v, b, op, unit, rel in _slack(spec, final, achieved_latency):
         if rel < SLACK_TOL:
             details[name] = {"constraint": name, "how": "slack", "value": v, "bound": b, "op": op, "unit": unit}
     base = float(ar.value(final)[0])
@@ -158,24 +158,23 @@ def violations(spec: OptimizeSpec, ev: dict, i: int, achieved_latency: float | N
         One entry per broken constraint (its value, op, bound and unit, or the family's range and
         stable and unstable parts).
     """
-    cols = ev["columns"]
+    res = ev["analysis"]
     out = []
     for name, bad in ev["broken"].items():
         if not bad[i]:
             continue
         if name == "robust":
-            for k, fam in enumerate(spec.cfg.humans):
-                key = f"human{k}_{fam.kind}"
-                if bool(np.asarray(cols[f"{key}_robust"])[i]):
+            for fam, key, h in zip(spec.cfg.humans, res.human_names(), res.humans):
+                if bool(np.asarray(h.robust)[i]):
                     continue
-                ivs = [list(map(float, iv)) for iv in cols[f"{key}_stable_intervals"][i]]
+                ivs = [list(map(float, iv)) for iv in h.stable_intervals[i]]
                 out.append({"constraint": "robust", "family": key, "parameter": fam.param, "unit": fam.unit,
                             "range": [float(fam.lo), float(fam.hi)], "stable": ivs,
                             "unstable": _unstable_parts(ivs, fam.lo, fam.hi) if not fam.box else None,
                             "needed": "stable over the whole range"})
         elif name in CONSTRAINTS and name != "latency_margin_s":
             col, op, unit = CONSTRAINTS[name]
-            out.append({"constraint": name, "value": float(np.asarray(cols[col])[i]), "op": op,
+            out.append({"constraint": name, "value": float(np.asarray(column(ev, col))[i]), "op": op,
                         "bound": float(spec.constraints[name]), "unit": unit})
         elif name == "latency_margin_s":
             out.append({"constraint": name, "value": achieved_latency, "op": ">=",
@@ -208,7 +207,7 @@ def exact_latency_margin(spec: OptimizeSpec, x: np.ndarray, ev: dict | None = No
     from ..analysis.margins import LatencyMargin, latency_margin
     from ..config import design_from_mapping
 
-    if ev is not None and not bool(delay_sensitive_ok(ev["columns"])[i]):
+    if ev is not None and not bool(delay_sensitive_ok(ev["analysis"])[i]):
         return LatencyMargin(0.0, None, (), float(spec.cfg.implementation.delay_s),
                              spec.cfg.implementation.sample_rate_hz or None, None, "not robust at the nominal delay")
     cfg = design_from_mapping(optimized_design_mapping(spec, {"x": dict(zip(spec.free, map(float, x)))}))

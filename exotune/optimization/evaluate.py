@@ -25,7 +25,7 @@ import numpy as np
 from .peak import amplification_peak
 from .spec import CONSTRAINTS, OBJECTIVES, OptimizeSpec
 
-__all__ = ["evaluate", "delay_verdicts", "latency_ladder", "LADDER_S", "robust_fraction", "delay_sensitive_ok"]
+__all__ = ["evaluate", "column", "delay_verdicts", "latency_ladder", "LADDER_S", "robust_fraction", "delay_sensitive_ok"]
 
 #: extra delays [s] of the latency-objective ladder (the estimate is capped at the last one)
 LADDER_S = np.geomspace(1e-5, 0.2, 12)
@@ -40,8 +40,9 @@ def _log_fraction(ivs, lo, hi) -> float:
     return sum(f(b) - f(a) for a, b in ivs) / (f(hi) - f(lo))
 
 
-def robust_fraction(cfg, cols) -> np.ndarray:
-    """Smallest, over the human families, stable log-fraction of the family's range (1: robust).
+def robust_fraction(cfg, res) -> np.ndarray:
+    """Smallest, over the human families, stable log-fraction of the family's range (1: robust),
+    from a :class:`~exotune.analysis.BatchAnalysis` ``res`` of the batch.
 
     Parameters
     ----------
@@ -55,19 +56,17 @@ def robust_fraction(cfg, cols) -> np.ndarray:
     numpy.ndarray
         Per design, in [0, 1] (1 only when robust).
     """
-    n = len(np.asarray(cols["free_stable"]))
-    frac = np.ones(n)
-    fam_keys = [k[: -len("_robust")] for k in cols if k.startswith("human") and k.endswith("_robust")]
-    for i, key in enumerate(fam_keys):
-        fam = cfg.humans[i]
-        fr = np.array([_log_fraction(iv, fam.lo, fam.hi) for iv in cols[key + "_stable_intervals"]])
-        fr = np.where(np.asarray(cols[key + "_robust"], bool), 1.0, np.minimum(fr, 1.0 - 1e-9))
+    frac = np.ones(res.n)
+    for fam, h in zip(cfg.humans, res.humans):
+        fr = np.array([_log_fraction(iv, fam.lo, fam.hi) for iv in h.stable_intervals])
+        fr = np.where(np.asarray(h.robust, bool), 1.0, np.minimum(fr, 1.0 - 1e-9))
         frac = np.minimum(frac, fr)
     return frac
 
 
-def delay_sensitive_ok(cols) -> np.ndarray:
-    """The loops of the latency margin all stable: free, every environment, every human family.
+def delay_sensitive_ok(res) -> np.ndarray:
+    """The loops of the latency margin all stable: free, every environment, every human family
+    (:meth:`~exotune.analysis.BatchAnalysis.loops_ok` of the batch analysis ``res``).
 
     Parameters
     ----------
@@ -79,9 +78,29 @@ def delay_sensitive_ok(cols) -> np.ndarray:
     numpy.ndarray
         Per design, bool.
     """
-    keys = [k for k in cols if k == "free_stable"
-            or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable")))]
-    return np.logical_and.reduce([np.asarray(cols[k], bool) for k in keys])
+    return res.loops_ok()
+
+
+def column(ev: dict, name: str) -> np.ndarray:
+    """The values of the objective or constraint column ``name`` (docs/optimize-spec.md: the
+    column names of docs/sweep-spec.md#columns) for the rows of an evaluation ``ev``: the batch
+    analysis's column, or the optimizer's own ``amplification_peak_db``/``_hz`` and
+    ``latency_margin_s`` estimate when the evaluation computed them.
+
+    Parameters
+    ----------
+    ev : dict
+        The evaluation.
+    name : str
+        The column's name.
+
+    Returns
+    -------
+    numpy.ndarray
+        One value per row, in the column's unit.
+    """
+    own = ev.get("own_columns", {})
+    return own[name] if name in own else ev["analysis"].column(name)
 
 
 def _overrides(spec, X, rep: int = 1) -> dict:
@@ -95,10 +114,10 @@ def _delays(spec, X) -> np.ndarray:
     return np.full(X.shape[0], float(spec.cfg.implementation.delay_s))
 
 
-def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tuple[np.ndarray, dict]:
+def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tuple:
     """Delay-sensitive verdicts of the rows of X at T + extra[i, l] (one batch).
 
-    Returns (ok of shape ``extra.shape``, the batch columns).
+    Returns (ok of shape ``extra.shape``, the :class:`~exotune.analysis.BatchAnalysis`).
 
     Parameters
     ----------
@@ -126,8 +145,8 @@ def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tupl
     ov["implementation.delay_s"] = (_delays(spec, X)[:, None] + extra).ravel()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         # continuous analysis: the probed delays may exceed the sampled model's delay-state limit
-        cols = analyze_batch(batch_config(continuous(spec.cfg), ov))
-    return delay_sensitive_ok(cols).reshape(X.shape[0], L), cols
+        res = analyze_batch(batch_config(continuous(spec.cfg), ov))
+    return delay_sensitive_ok(res).reshape(X.shape[0], L), res
 
 
 def latency_ladder(spec: OptimizeSpec, X: np.ndarray) -> np.ndarray:
@@ -175,7 +194,7 @@ def latency_ladder(spec: OptimizeSpec, X: np.ndarray) -> np.ndarray:
     return lo
 
 
-def _verdict_violation(spec, cols, frac):
+def _verdict_violation(spec, res, frac):
     """Violation and broken flags of the boolean stability constraints at the nominal delay."""
     n = frac.size
     viol = np.zeros(n)
@@ -184,32 +203,32 @@ def _verdict_violation(spec, cols, frac):
         v = 1.0 - frac
         viol += v
         broken["robust"] = v > 0
-    for name in ("free_stable", "locked_stable"):
+    for name, loop in (("free_stable", res.free), ("locked_stable", res.locked)):
         if spec.constraints[name]:
-            bad = ~np.asarray(cols[name], bool)
+            bad = ~np.asarray(loop.stable, bool)
             viol += bad
             broken[name] = bad
     if spec.constraints["locked_stable"]:
-        for k in (k for k in cols if k.startswith("env") and k.endswith(("_stable", "_robust"))):
-            bad = ~np.asarray(cols[k], bool)
+        for key, e in zip(res.environment_names(), res.environment):
+            bad = ~np.asarray(e.verdict, bool)
             viol += bad
-            broken[k] = bad
+            broken[key + ("_stable" if e.stable is not None else "_robust")] = bad  # the column's name
     return viol, broken
 
 
-def _latency_violation(spec, X, cols, frac):
+def _latency_violation(spec, X, res, frac):
     """Violation and broken flag of ``latency_margin_s ≥ m`` (the checked extra delays)."""
     deltas = spec.checked_delays()
     n = X.shape[0]
     if deltas.size == 0:
         return np.zeros(n), np.zeros(n, bool)
-    nominal = delay_sensitive_ok(cols)
+    nominal = delay_sensitive_ok(res)
     viol = np.where(nominal, 0.0, 2.0)  # not stable at T: its margin is 0
     broken = ~nominal
     sel = np.nonzero(nominal)[0]
     if sel.size:
-        ok, dcols = delay_verdicts(spec, X[sel], np.broadcast_to(deltas, (sel.size, deltas.size)))
-        fr = robust_fraction(spec.cfg, dcols).reshape(sel.size, deltas.size)
+        ok, dres = delay_verdicts(spec, X[sel], np.broadcast_to(deltas, (sel.size, deltas.size)))
+        fr = robust_fraction(spec.cfg, dres).reshape(sel.size, deltas.size)
         viol[sel] = np.mean(~ok + (1.0 - fr), axis=1)
         broken[sel] = ~ok.all(1)
     return viol, broken
@@ -228,8 +247,10 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
     Returns
     -------
     dict
-        ``X``, ``columns`` (the batch columns, plus ``amplification_peak_db``/``_hz`` when that
-        constraint is set), ``violation`` (0 for feasible rows, else the total normalized
+        ``X``, ``analysis`` (the :class:`~exotune.analysis.BatchAnalysis`), ``own_columns`` (the
+        optimizer's own ``amplification_peak_db``/``_hz`` when that constraint is set and the
+        ``latency_margin_s`` estimate when it is the objective; read both through :func:`column`),
+        ``violation`` (0 for feasible rows, else the total normalized
         violation), ``feasible``, ``broken`` (constraint name → bool per row), ``objective`` and
         ``robust_fraction``.
 
@@ -243,16 +264,17 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
     X = np.atleast_2d(np.asarray(X, float))
     paths = list(spec.free)
     cfg_b = batch_config(spec.cfg, _overrides(spec, X))
-    cols = analyze_batch(cfg_b)
+    ev = {"X": X, "analysis": analyze_batch(cfg_b), "own_columns": {}}
+    res, own = ev["analysis"], ev["own_columns"]
     if "amplification_peak_db" in spec.constraints:
-        cols["amplification_peak_db"], cols["amplification_peak_hz"] = amplification_peak(cfg_b)
-    frac = robust_fraction(spec.cfg, cols)
-    viol, broken = _verdict_violation(spec, cols, frac)
+        own["amplification_peak_db"], own["amplification_peak_hz"] = amplification_peak(cfg_b)
+    frac = robust_fraction(spec.cfg, res)
+    viol, broken = _verdict_violation(spec, res, frac)
     for name, (col, op, _unit) in CONSTRAINTS.items():
         if name not in spec.constraints or name == "latency_margin_s":
             continue
         b = spec.constraints[name]
-        val = np.asarray(cols[col], float)
+        val = np.asarray(column(ev, col), float)
         val = np.where(np.isnan(val), -np.inf if op == ">=" else np.inf, val)
         gap = (b - val) if op == ">=" else (val - b)
         v = np.clip(gap / max(abs(b), 1e-12), 0.0, 10.0)
@@ -265,7 +287,7 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
         viol += v
         broken["nominal_passive"] = short > 0
     if spec.constraints.get("latency_margin_s", 0.0) > 0:
-        v, bad = _latency_violation(spec, X, cols, frac)
+        v, bad = _latency_violation(spec, X, res, frac)
         viol += v
         broken["latency_margin_s"] = bad
     what = OBJECTIVES[spec.objective][0]
@@ -275,11 +297,11 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
         obj = np.full(X.shape[0], np.nan)
         sel = np.nonzero(viol == 0)[0]
         obj[sel] = latency_ladder(spec, X[sel])
-        cols["latency_margin_s"] = obj
+        own["latency_margin_s"] = obj
     else:
-        obj = np.asarray(cols[what], float)
-    return {"X": X, "columns": cols, "violation": viol, "feasible": viol == 0, "broken": broken,
-            "objective": obj, "robust_fraction": frac}
+        obj = np.asarray(column(ev, what), float)
+    ev.update(violation=viol, feasible=viol == 0, broken=broken, objective=obj, robust_fraction=frac)
+    return ev
 
 
 def _nominal_shortage(c, n):

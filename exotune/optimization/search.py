@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from .diagnose import at_bounds, binding, exact_latency_margin, latency_record, violations
+from .evaluate import column
 from .peak import amplification_peak
 from .space import Archive, from_unit, polish_boundary, polish_pattern, ray_max
 from .spec import CONSTRAINTS, LATENCY_CHECKS, OBJECTIVES, OptimizeSpec, optimized_design_mapping
@@ -240,7 +241,7 @@ def _sampled_latency_record(spec, lm, verdicts, srec) -> dict:
 def _rel_slack(spec, final, name) -> float:
     col, op, _u = CONSTRAINTS[name]
     b = spec.constraints[name]
-    v = float(np.asarray(final["columns"][col])[0])
+    v = float(np.asarray(column(final, col))[0])
     return ((v - b) if op == ">=" else (b - v)) / max(abs(b), 1e-12)
 
 
@@ -275,18 +276,20 @@ def _certificates(spec, out) -> None:
 def _metrics(spec, final) -> dict:
     from ..config import batch_config
 
-    cols = final["columns"]
-    g = lambda k: float(np.asarray(cols[k])[0])  # noqa: E731
+    res = final["analysis"]
+    g = lambda v: float(np.asarray(v)[0])  # noqa: E731
     cfg1 = batch_config(spec.cfg, {p: final["X"][:, j] for j, p in enumerate(spec.free)})
     pk_db, pk_hz = amplification_peak(cfg1)
+    # the keys of the optimize result (docs/optimize-spec.md#result): the sweep's column names
     return {
-        "passivity_max_phase_excess_deg": {"value": g("passivity_max_phase_excess_deg"), "unit": "deg"},
-        "dob_phase_margin_deg": {"value": g("dob_phase_margin_deg"), "unit": "deg"},
-        "dob_gain_margin_db": {"value": g("dob_gain_margin_db"), "unit": "dB"},
-        "dob_delay_margin_s": {"value": g("dob_delay_margin_s"), "unit": "s"},
-        "amplification_bandwidth_hz": {"value": g("amplification_bandwidth_hz"), "unit": "Hz"},
+        "passivity_max_phase_excess_deg": {"value": g(res.passivity.max_phase_excess_deg), "unit": "deg"},
+        "dob_phase_margin_deg": {"value": g(res.dob.phase_margin_deg), "unit": "deg"},
+        "dob_gain_margin_db": {"value": g(res.dob.gain_margin_db), "unit": "dB"},
+        "dob_delay_margin_s": {"value": g(res.dob.delay_margin_s), "unit": "s"},
+        "amplification_bandwidth_hz": {"value": g(res.amplification.bandwidth_hz), "unit": "Hz"},
         "amplification_peak_db": {"value": float(pk_db[0]), "unit": "dB", "frequency_hz": float(pk_hz[0])},
-        "human_stable_intervals": {k: cols[k][0] for k in cols if k.startswith("human") and k.endswith("_stable_intervals")},
+        "human_stable_intervals": {f"{key}_stable_intervals": h.stable_intervals[0]
+                                   for key, h in zip(res.human_names(), res.humans)},
     }
 
 

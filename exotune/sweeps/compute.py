@@ -47,17 +47,18 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
 
     n = g.size
     cfg = batch_config(plan.cfg, vals)
-    cols = analyze_batch(cfg, verify=int(plan.spec.get("verify_points", 0)), latency=True)
+    res = analyze_batch(cfg, verify=int(plan.spec.get("verify_points", 0)), latency=True)
+    cols = res.to_columns()  # the Parquet schema: the column names of docs/sweep-spec.md#columns
     for k in [k for k in cols if k.endswith("_edges")]:
         del cols[k]  # per-edge details of box families (objects): single-design reports only
     for k in [k for k in cols if k.endswith("_verification_mismatches")]:
         cols[k] = np.array([len(m) for m in cols[k]], dtype=np.int64)  # count per design
     if "plant_margin" in plan.spec:
-        cols.update(_plant_margin_columns(cfg, cols, plan.spec["plant_margin"]["budget"]))
+        cols.update(_plant_margin_columns(cfg, res, plan.spec["plant_margin"]["budget"]))
     if plan.spec.get("sampled"):
         from .sampledcols import sampled_columns
 
-        cols.update(sampled_columns(cfg, cols))
+        cols.update(sampled_columns(cfg, res))
     names, arrays = ["point_index"], [np_arrow(g, "i")]
     for p in plan.paths:
         names.append(p)
@@ -73,19 +74,18 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
     return pa.Table.from_arrays(arrays, schema=schema)
 
 
-def _plant_margin_columns(cfg, cols: dict, budget: int) -> dict:
+def _plant_margin_columns(cfg, res, budget: int) -> dict:
     """The opt-in columns ``plant_margin_lower`` / ``plant_margin_upper`` (multiples of the base
     design's declared ``uncertainty``, docs/method.md#plant-uncertainty-margin), one design at a
     time; 0 for a design that is not robust at the nominal plant (no search is spent on it)."""
     from ..analysis.plant_margin import plant_uncertainty_margin
     from ..config import design_row
 
-    n = len(cols["free_stable"])
+    n = res.n
     lower, upper = np.zeros(n), np.zeros(n)
     weights = getattr(cfg, "uncertainty", None)
     for i in range(n):
-        nominal = {k: v[i : i + 1] for k, v in cols.items()}
-        pm = plant_uncertainty_margin(design_row(cfg, i), weights, nominal=nominal, budget=budget, loop_detail=False)
+        pm = plant_uncertainty_margin(design_row(cfg, i), weights, nominal=res.row(i), budget=budget, loop_detail=False)
         lower[i], upper[i] = pm.lower, pm.upper
     return {"plant_margin_lower": lower, "plant_margin_upper": upper}
 

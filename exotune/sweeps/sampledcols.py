@@ -50,16 +50,16 @@ def _families(cfg):
     return out
 
 
-def sampled_columns(cfg, cols: dict) -> dict:
+def sampled_columns(cfg, res) -> dict:
     """The sampled-data columns of a batch of designs ``cfg`` (:func:`exotune.config.batch_config`).
 
     Parameters
     ----------
     cfg : DesignConfig
         The chunk's batch (its base sets ``implementation.sample_rate_hz``).
-    cols : dict
-        The continuous columns of the same batch; ``latency_margin_s`` (when present) only chooses
-        where the sampled margin's bracket starts.
+    res : BatchAnalysis
+        The continuous analysis of the same batch (:func:`~exotune.analysis.analyze_batch`); its
+        ``latency_margin_s`` (when computed) only chooses where the sampled margin's bracket starts.
 
     Returns
     -------
@@ -79,7 +79,7 @@ def sampled_columns(cfg, cols: dict) -> dict:
 
     @one_blas_thread
     def run():
-        n = len(cols["free_stable"])
+        n = res.n
         bl = BatchLoops(cfg, float(np.ravel(cfg.implementation.sample_rate_hz)[0]), n)
         des = np.arange(n)
         out = {}
@@ -101,8 +101,7 @@ def sampled_columns(cfg, cols: dict) -> dict:
         margin = np.zeros(n)
         rows = np.nonzero(ok)[0]
         if rows.size:
-            hint = cols.get("latency_margin_s")
-            hint = None if hint is None else np.asarray(hint, float)[rows]
+            hint = None if res.latency_margin_s is None else np.asarray(res.latency_margin_s, float)[rows]
             margin[rows] = latency_margin(bl, rows, [(lp, lo, hi, c[rows]) for lp, lo, hi, c in fams], hint)
         out["sampled_latency_margin_samples"] = margin * bl.fs
         return out

@@ -51,8 +51,8 @@ def test_torque_scaling_invariance(c, alpha, zeta_hat, delay, kc):
                               HumanFamily("spring", "stiffness", 1.0, 1e4, damping=2.0)),
         environment=(EnvModel("locked"), EnvModel("spring", "stiffness", 10.0, 1e5, damping=1.0)),
     )
-    a = analyze_batch(cfg)
-    b = analyze_batch(_scaled(cfg, c))
+    a = analyze_batch(cfg).to_columns()
+    b = analyze_batch(_scaled(cfg, c)).to_columns()
     for k in a:
         x, y = a[k], b[k]
         if k.endswith("_stable_intervals"):

@@ -282,7 +282,7 @@ def test_wide_parameter_ranges_free_and_spring_verdicts():
     cfg = batch_config(base, ov)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        cols = analyze_batch(cfg)
+        cols = analyze_batch(cfg).to_columns()
     assert cols["free_conclusive"].all()
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct_w = (char_terms(cfg.plant, cs, n), k_spring_holder := {})
@@ -330,10 +330,9 @@ def test_cross_check_catches_a_wrong_stable_interval(monkeypatch):
     real = cc_mod.analyze_batch
 
     def lying(c):
-        cols = real(c)
-        cols["human0_mass_stable_intervals"] = [[[1e-6, 1.0]]]
-        cols["human0_mass_critical"] = [[]]
-        return cols
+        res = real(c)
+        lie = dataclasses.replace(res.humans[0], stable_intervals=[[[1e-6, 1.0]]], critical=[[]])
+        return dataclasses.replace(res, humans=(lie,))
 
     monkeypatch.setattr(cc_mod, "analyze_batch", lying)
     out = cc_mod.pade_crosscheck(cfg)

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from pathlib import Path
 
@@ -213,7 +214,7 @@ def _wrap180(x):
     T=st.one_of(st.just(0.0), st.floats(1e-6, 0.01)),
 )
 def test_dob_margins_closed_form(cutoff, zeta, T):
-    r = {k: float(v[0]) for k, v in dob_margins(_dob_cs(cutoff, zeta, T), 1).items()}
+    r = {k: float(v[0]) for k, v in dataclasses.asdict(dob_margins(_dob_cs(cutoff, zeta, T), 1)).items()}
     wc, pm, dm, gm = _dob_closed_form(cutoff, zeta, T)
     assert r["crossover_hz"] == pytest.approx(wc / (2 * math.pi), rel=1e-9)
     # exotune reports the phase margin wrapped into (−180°, 180°]
@@ -235,7 +236,7 @@ def test_dob_margins_python_control_pade(cutoff, zeta, T):
     n, d = control.pade(T, 10)
     L = control.tf([wq * wq], [1.0, 2 * zeta * wq, 0.0]) * control.tf(n, d)
     gm, pm, _, wpc, wgc, _ = control.stability_margins(L)
-    r = {k: float(v[0]) for k, v in dob_margins(_dob_cs(cutoff, zeta, T), 1).items()}
+    r = {k: float(v[0]) for k, v in dataclasses.asdict(dob_margins(_dob_cs(cutoff, zeta, T), 1)).items()}
     assert r["gain_margin_db"] == pytest.approx(20 * math.log10(gm), abs=1e-6)
     assert r["phase_margin_deg"] == pytest.approx(pm, abs=1e-6)
     assert r["crossover_hz"] == pytest.approx(wgc / (2 * math.pi), rel=1e-8)
@@ -336,7 +337,7 @@ def test_interval_end_points_are_reference_boundaries(capsys):
     checked = skipped = 0
     for name, m in _interval_cases():
         cfg = design_from_mapping(m)
-        out = analyze_batch(cfg)
+        out = analyze_batch(cfg).to_columns()
         plant, gains, impl = _reference_inputs(m)
         for i, fam in enumerate(cfg.humans):
             key = f"human{i}_{fam.kind}"
@@ -388,7 +389,7 @@ CS_HUMANS = [
 @pytest.mark.parametrize("d", CS_DESIGNS, ids=[f"cs{i}" for i in range(len(CS_DESIGNS))])
 def test_complex_stiffness_matches_spring_damper(d):
     m = _mapping(humans=CS_HUMANS, **d)
-    out = analyze_batch(design_from_mapping(m))
+    out = analyze_batch(design_from_mapping(m)).to_columns()
     plant, gains, impl = _reference_inputs(m)
     n_checked = 0
     for i, eta in ((1, 0.2), (2, 0.5)):
@@ -433,9 +434,9 @@ def _passivity_cases():
 @pytest.mark.parametrize("name,m", _passivity_cases(), ids=[c[0] for c in _passivity_cases()])
 def test_passivity_against_dense_grid(name, m):
     cfg, cs, _ = _controller(m)
-    out = analyze_batch(cfg)
-    best = float(out["passivity_max_phase_excess_deg"][0])
-    bands = out["passivity_nonpassive_band_hz"][0]
+    out = analyze_batch(cfg).passivity
+    best = float(out.max_phase_excess_deg[0])
+    bands = out.nonpassive_band_hz[0]
     ct = char_terms(cfg.plant, cs, 1)
     w = np.geomspace(1e-2, 1e6, 400_000)
     c7 = c7_response(ct, w[None, :])[0]
@@ -472,9 +473,9 @@ def test_the_band_holding_the_maximum_excess_is_listed_from_0_1_deg():
                  design={"amplification": 21.976006437563104, "zeta_hat": 1.37},
                  implementation={"delay_s": 0.0031, "dob": {"cutoff_hz": 173.3, "damping": 0.7}})
     cfg, cs, _ = _controller(m)
-    out = analyze_batch(cfg)
-    best = float(out["passivity_max_phase_excess_deg"][0])
-    bands = out["passivity_nonpassive_band_hz"][0]
+    out = analyze_batch(cfg).passivity
+    best = float(out.max_phase_excess_deg[0])
+    bands = out.nonpassive_band_hz[0]
     assert 0.1 <= best < 0.11
     assert len(bands) == 1
     ct = char_terms(cfg.plant, cs, 1)
@@ -488,9 +489,9 @@ def test_the_band_holding_the_maximum_excess_is_listed_from_0_1_deg():
     rng = np.random.default_rng(4)
     bcfg = batch_config(base, {"design.amplification": 21.976 * np.exp(rng.uniform(-0.3, 0.3, n)),
                                "design.zeta_hat": rng.uniform(1.0, 1.8, n)})
-    o = analyze_batch(bcfg)
-    ex = np.asarray(o["passivity_max_phase_excess_deg"])
-    nb = np.array([len(b) for b in o["passivity_nonpassive_band_hz"]])
+    o = analyze_batch(bcfg).passivity
+    ex = np.asarray(o.max_phase_excess_deg)
+    nb = np.array([len(b) for b in o.nonpassive_band_hz])
     assert ((ex >= 0.1) == (nb > 0)).all()
     assert (nb > 0).any() and (nb == 0).any()
 
@@ -620,8 +621,6 @@ def test_dob_unstable_loop_has_zero_delay_margin():
     """Past the DOB's delay limit the closed DOB loop is unstable: the wrapped PM_k/ω_k of docs/method.md#analyses-and-metrics
     would read as a positive margin, exotune reports dob.stable = False and a 0 s margin. The
     limit itself is T + DM at 1 ms (3.654 ms extra): stable just below, unstable just above."""
-    import dataclasses
-
     cfg = load_design(PAPER)
     lim = 0.001 + analyze_design(cfg).to_dict()["dob"]["delay_margin_s"]
     for T, stable in ((lim * 0.999, True), (lim * 1.001, False), (0.006, False)):
@@ -646,17 +645,15 @@ def test_dob_generic_path_equals_closed_form_path():
     dq = np.stack([wq**2, 2 * z * wq, np.ones(n)], axis=1)
     fast = dob_margins_rows(nq, dq, T)
     slow = dob_margins_rows(2 * nq, 2 * dq, T)
-    assert np.array_equal(fast["stable"], slow["stable"])
+    assert np.array_equal(fast.stable, slow.stable)
     for k in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "crossover_hz"):
-        assert np.allclose(fast[k], slow[k], rtol=1e-7, atol=1e-9), k
+        assert np.allclose(getattr(fast, k), getattr(slow, k), rtol=1e-7, atol=1e-9), k
 
 
 def test_passivity_does_not_depend_on_the_human_families():
     """C7 is a property of the exoskeleton alone: the same excess and bands whatever families the
     file lists (regression: with no family of zero fixed impedance the passivity frequency set was
     empty and the excess read 0)."""
-    import dataclasses
-
     from exotune.model.humans import HumanFamily
 
     cfg = load_design(PAPER)

@@ -51,7 +51,7 @@ def _near(iv_list, p, lo, hi, rel=0.005):
 def test_intervals_match_pointwise_counts(seed):
     n = 60
     cfg = _cfg(n, seed)
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg).to_columns()
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     rng = np.random.default_rng(seed + 50)
     checked = 0
@@ -90,7 +90,7 @@ def test_intervals_match_pointwise_counts(seed):
 
 def test_robust_flag_is_whole_range():
     cfg = _cfg(40, 3)
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg).to_columns()
     for i, fam in enumerate(cfg.humans):
         for iv, rob in zip(cols[f"human{i}_{fam.kind}_stable_intervals"], cols[f"human{i}_{fam.kind}_robust"]):
             assert bool(rob) == (len(iv) == 1 and iv[0] == [fam.lo, fam.hi])
@@ -100,7 +100,7 @@ def test_critical_values_solve_the_crossing_equation():
     """Each reported critical value p* at f* is a root on the axis to ≤ 1e-9 relative: the
     crossing function κ(jω*) = −Δ_0/(φΔ1) is real there and equals p* (docs/method.md#analyses-and-metrics asks ≤ 1e-6)."""
     cfg = _cfg(60, 4)
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg).to_columns()
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, 60)
     from exotune.model.humans import family_split
@@ -132,7 +132,7 @@ def test_very_light_inertias_down_to_1e6(seed):
     n = 12
     cfg = _cfg(n, seed)
     cfg = dataclasses.replace(cfg, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0, damping=0.0),), environment=())
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg).to_columns()
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ivs = cols["human0_mass_stable_intervals"]
     ms = np.geomspace(1e-6, 1.0, 150)
@@ -153,7 +153,7 @@ def test_paper_design_light_mass_boundary_matches_exact_root():
     the exact quasi-polynomial puts the root at Re s = +7.2e-4 for m = 1e-6 (unstable)."""
     base = load_design(ROOT / "examples" / "paper.yaml")
     cfg = dataclasses.replace(base, humans=(HumanFamily("mass", "inertia", 1e-6, 1.0, damping=0.0),))
-    iv = analyze_batch(cfg)["human0_mass_stable_intervals"][0]
+    iv = analyze_batch(cfg).humans[0].stable_intervals[0]
     assert not _inside(iv, 1.0e-6) and not _inside(iv, 1.15e-6)
     assert _inside(iv, 1.25e-6)
     assert any(abs(a - 1.2030604e-6) < 1e-12 for a, _ in iv)
@@ -196,7 +196,7 @@ def test_msd_box_edge_theorem_matches_grid_counts():
                 design=dataclasses.replace(base.design, amplification=alpha),
                 implementation=dataclasses.replace(base.implementation, delay_s=delay),
             )
-            robust = bool(analyze_batch(cfg)["human0_msd_robust"][0])
+            robust = bool(analyze_batch(cfg).humans[0].robust[0])
             cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
             M, B, K = np.meshgrid(np.geomspace(m_lo, 0.15, 7), np.linspace(0.01, 2.0, 5), np.geomspace(2.0, 300.0, 7))
             n = M.size

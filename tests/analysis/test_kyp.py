@@ -117,8 +117,8 @@ def test_delay_free_shortage_equals_frequency_minimum(changes):
     assert c["certificate_residual"] < 1e-6
     assert c["lossless_compliance"] == pytest.approx(1.0 / float(cfg.plant.K_c), rel=1e-9)
     # the analysis' exact phase metric of the same model (delay set to 0) agrees on the verdict
-    cols = analyze_batch(batch_config(cfg, {"implementation.delay_s": np.array([0.0])}))
-    excess = float(cols["passivity_max_phase_excess_deg"][0])
+    res = analyze_batch(batch_config(cfg, {"implementation.delay_s": np.array([0.0])}))
+    excess = float(res.passivity.max_phase_excess_deg[0])
     assert c["passive"] == (excess < 1e-6), (c, excess)
 
 
@@ -220,7 +220,7 @@ def test_delay_free_poles_agree_with_the_argument_principle(alpha, fi, fd, zh, f
                        implementation__dob=None if dob is None else {"cutoff_hz": dob, "damping": 0.7},
                        implementation__delay_s=0.0)
     c = operator_certificates(cfg)["delay_free"].as_dict()
-    free = bool(analyze_batch(cfg)["free_stable"][0])
+    free = bool(analyze_batch(cfg).free.stable[0])
     assert ("right half plane" in c["reason"]) == (not free), c
     if free:
         ref = max(0.0, -min_re(y_delay_free(cfg)))

@@ -75,7 +75,7 @@ def batches():
     for j, mp in enumerate(_mappings()):
         cfg, vals = _batch(mp, 24, seed=10 + j)
         b = batch_config(cfg, vals)
-        out.append((mp, vals, cfg, b, analyze_batch(b, latency=True)))
+        out.append((mp, vals, cfg, b, analyze_batch(b, latency=True).to_columns()))
     return out
 
 
@@ -104,7 +104,7 @@ def test_batch_margin_is_where_the_exact_verdicts_change(batches):
     dts = np.concatenate([T + m[idx] * (1 - 1e-6), T + m[idx] * (1 + 1e-6)])
     probe = batch_config(cfg, {k: np.concatenate([v[idx], v[idx]]) for k, v in vals.items() if k != "implementation.delay_s"}
                          | {"implementation.delay_s": dts})
-    pc = analyze_batch(probe)
+    pc = analyze_batch(probe).to_columns()
     n = len(idx)
     assert all(_all_ok(pc, t) for t in range(n))
     assert not any(_all_ok(pc, n + t) for t in range(n))
@@ -115,7 +115,7 @@ def test_numpy_reference_agrees_with_the_compiled_kernel(batches):
         pytest.skip("numba not installed: only the numpy engine exists")
     for _mp, _vals, _cfg, b, cols in batches:
         with numpy_engine():
-            ref = analyze_batch(b, latency=True)["latency_margin_s"]
+            ref = analyze_batch(b, latency=True).latency_margin_s
         got = cols["latency_margin_s"]
         assert np.array_equal(ref == 0, got == 0) and np.array_equal(np.isinf(ref), np.isinf(got))
         fin = np.isfinite(ref) & (ref > 0)
@@ -124,9 +124,9 @@ def test_numpy_reference_agrees_with_the_compiled_kernel(batches):
 
 def test_not_robust_designs_have_zero_margin_and_the_column_is_opt_in():
     cfg = design_from_mapping(PAPER)  # the paper example: its lightest inertias are unstable
-    cols = analyze_batch(cfg, latency=True)
-    assert cols["latency_margin_s"].tolist() == [0.0]
-    assert "latency_margin_s" not in analyze_batch(cfg)
+    assert analyze_batch(cfg, latency=True).latency_margin_s.tolist() == [0.0]
+    assert analyze_batch(cfg).latency_margin_s is None
+    assert "latency_margin_s" not in analyze_batch(cfg).to_columns()
 
 
 def test_no_loop_with_a_delay_has_infinite_margin():
@@ -134,8 +134,7 @@ def test_no_loop_with_a_delay_has_infinite_margin():
     crosses the imaginary axis for some extra delay (|P1| > |P0| at low frequency)."""
     mp = _mappings()[0]
     mp["implementation"]["delay_s"] = 0.0
-    cols = analyze_batch(design_from_mapping(mp), latency=True)
-    m = float(cols["latency_margin_s"][0])
+    m = float(analyze_batch(design_from_mapping(mp), latency=True).latency_margin_s[0])
     s = latency_margin(design_from_mapping(mp))
     assert 0 < m < math.inf and m == pytest.approx(s.extra_delay_s, rel=1e-6)
 
@@ -167,7 +166,7 @@ def test_box_edge_minimum_between_sampled_members_is_found_by_both():
     computations now agree and the single-design one is confirmed by the exact verdicts."""
     mp = _mappings()[1]
     cfg, vals = _batch(mp, 40, seed=101)
-    m = analyze_batch(batch_config(cfg, vals), latency=True)["latency_margin_s"][4]
+    m = analyze_batch(batch_config(cfg, vals), latency=True).latency_margin_s[4]
     s = latency_margin(_single(mp, vals, 4))
     assert s.verified is True and s.critical.loop.startswith("human0_msd_edge")
     assert m == pytest.approx(s.extra_delay_s, rel=1e-9)

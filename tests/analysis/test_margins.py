@@ -97,7 +97,7 @@ def test_design_margin_is_where_the_exact_verdicts_change(robust_margin):
     T = cfg.implementation.delay_s
     assert m.delay_s == T
     cols = analyze_batch(batch_config(cfg, {"implementation.delay_s": np.array(
-        [T, T + m.extra_delay_s * (1 - 1e-6), T + m.extra_delay_s * (1 + 1e-6)])}))
+        [T, T + m.extra_delay_s * (1 - 1e-6), T + m.extra_delay_s * (1 + 1e-6)])})).to_columns()
     assert [_all_ok(cols, t) for t in range(3)] == [True, True, False]
     # the design margin is its loops' minimum, the critical loop among them
     assert m.extra_delay_s == min(lp.extra_delay_s for lp in m.loops)

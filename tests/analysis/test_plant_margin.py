@@ -249,7 +249,7 @@ def _random_design(seed):
         m["humans"] = m["humans"][:2]
         m["environment"] = [{"kind": "locked"}, {"kind": "spring", "stiffness": [10.0, 5000.0], "damping": 1.0}]
         cfg = design_from_mapping(m)
-        cols = analyze_batch(cfg)
+        cols = analyze_batch(cfg).to_columns()
         keys = [k for k in cols if k == "free_stable"
                 or (k.startswith(("human", "env")) and k.endswith(("_robust", "_stable")))]
         if all(bool(cols[k][0]) for k in keys):

@@ -64,7 +64,7 @@ def test_analyze_design_returns_typed_parts(paper):
 def test_fields_agree_with_the_batch_columns(paper):
     """The typed fields against analyze_batch on the same design (the sweep's path)."""
     cfg, r = paper
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg).to_columns()
     assert r.free_stable is bool(cols["free_stable"][0]) and r.locked_stable is bool(cols["locked_stable"][0])
     for i, (h, fam) in enumerate(zip(r.humans, cfg.humans)):
         key = f"human{i}_{fam.kind}"

@@ -124,9 +124,9 @@ def test_analyze_batch_same_with_both_engines(monkeypatch):
         "implementation.delay_s": rng.uniform(0.0, 0.005, n),
         "plant.cuff_stiffness": np.exp(rng.uniform(np.log(50.0), np.log(3000.0), n)),
     })
-    a = analyze_batch(cfg)
+    a = analyze_batch(cfg).to_columns()
     monkeypatch.setenv("EXOTUNE_NUMPY_ONLY", "1")
-    b = analyze_batch(cfg)
+    b = analyze_batch(cfg).to_columns()
     assert a.keys() == b.keys()
     for k in a:
         x, y = a[k], b[k]

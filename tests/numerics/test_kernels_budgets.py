@@ -31,7 +31,7 @@ def _pathological():
 
 
 def test_pathological_design_terminates_inconclusive():
-    cols = analyze_batch(_pathological())
+    cols = analyze_batch(_pathological()).to_columns()
     for k in ("human0_mass", "human1_spring", "human2_complex_stiffness"):
         assert not cols[f"{k}_robust"][0]
     assert not cols["passivity_conclusive"][0]
@@ -44,9 +44,9 @@ def test_pathological_design_terminates_inconclusive():
 def test_pathological_design_in_a_batch_leaves_the_others_exact():
     """The budget is per task: the normal designs of the same batch get the same results as alone."""
     base = load_design(PAPER)
-    alone = analyze_batch(batch_config(base, {"design.amplification": np.array([4.0, 8.0])}))
+    alone = analyze_batch(batch_config(base, {"design.amplification": np.array([4.0, 8.0])})).to_columns()
     mixed = analyze_batch(unchecked(batch_config(base, {"design.amplification": np.array([4.0, 8.0, 8.0])}),
-                                    plant__motor_inertia=[0.44, 0.44, 1e-12]))
+                                    plant__motor_inertia=[0.44, 0.44, 1e-12])).to_columns()
     for k, v in alone.items():
         if isinstance(v, np.ndarray):
             np.testing.assert_array_equal(mixed[k][:2], v, err_msg=k)
@@ -137,7 +137,7 @@ def test_optimizer_treats_a_budget_exhausted_design_as_infeasible():
     finally:
         mp.undo()
     assert ev["feasible"][0] and not ev["feasible"][1]
-    assert np.isnan(ev["columns"]["passivity_max_phase_excess_deg"][1])
+    assert np.isnan(ev["analysis"].passivity.max_phase_excess_deg[1])
     assert ev["broken"]["max_phase_excess_deg"][1]
 
 
@@ -181,7 +181,7 @@ def test_family_with_thousands_of_critical_values_is_inconclusive():
 
     cfg = unchecked(load_design(PAPER), design__amplification=1.0, design__felt_inertia=1e-9,
                     design__felt_damping=1e-12, plant__cuff_stiffness=1e9, implementation__delay_s=0.2)
-    cols = analyze_batch(cfg)
+    cols = analyze_batch(cfg).to_columns()
     assert len(cols["human0_mass_critical"][0]) > MAX_FAMILY_PIECES
     assert not cols["human0_mass_conclusive"][0]
     assert not cols["human0_mass_robust"][0]
@@ -194,10 +194,10 @@ def test_zero_on_the_axis_in_a_refinement_does_not_fail_the_batch():
     whole sweep chunk failed. Now the design is analysed (inconclusive, not stable) next to a
     normal one that keeps its exact results."""
     base = load_design(PAPER)
-    alone = analyze_batch(base)
+    alone = analyze_batch(base).to_columns()
     mixed = analyze_batch(unchecked(batch_config(base, {"plant.motor_damping": np.array([17.9, 1e6]),
                                                         "implementation.delay_s": np.array([0.001, 0.0])}),
-                                    plant__motor_inertia=[0.44, 1e-12]))
+                                    plant__motor_inertia=[0.44, 1e-12])).to_columns()
     assert mixed["free_stable"][0] == alone["free_stable"][0]
     assert mixed["passivity_max_phase_excess_deg"][0] == alone["passivity_max_phase_excess_deg"][0]
     assert not mixed["free_stable"][1]

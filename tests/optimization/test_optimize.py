@@ -90,9 +90,9 @@ def test_one_dimensional_optimum_matches_a_dense_scan():
                                                  "latency_margin_s": 0.0}))
     r = optimize(spec)
     a = np.geomspace(1.5, 60.0, 400)
-    cols = analyze_batch(batch_config(spec.cfg, {"design.amplification": a}))
-    ok = (cols["free_stable"] & cols["locked_stable"] & cols["human0_mass_robust"] & cols["human1_spring_robust"]
-          & (cols["passivity_max_phase_excess_deg"] <= 20.0) & (cols["amplification_bandwidth_hz"] >= 2.0))
+    res = analyze_batch(batch_config(spec.cfg, {"design.amplification": a}))
+    ok = (res.free.stable & res.locked.stable & res.humans[0].robust & res.humans[1].robust
+          & (res.passivity.max_phase_excess_deg <= 20.0) & (res.amplification.bandwidth_hz >= 2.0))
     assert ok[0] and not ok.all()
     first_bad = int(np.argmin(ok))
     assert a[first_bad - 1] <= r["x"]["design.amplification"] * (1 + 1e-9)
