@@ -1,0 +1,115 @@
+"""exotune.config.yamlio: the guarded YAML/JSON readers (YAML 1.2 numbers, duplicate keys, depth
+and alias bounds, file kinds and sizes), each error naming the file or field."""
+
+import json
+import os
+
+import pytest
+
+from exotune.config.yamlio import (MAX_DEPTH, load_yaml_text, read_guarded, read_json_guarded, read_yaml,
+                                   spec_base)
+from exotune.errors import ConfigError
+
+
+@pytest.mark.parametrize("text, value", [
+    ("1e-3", 1e-3), ("1e3", 1000.0), ("1.0e3", 1000.0), ("-2.5", -2.5), (".5", 0.5), ("0300", 300), ("0o17", 15),
+    ("0x1F", 31), ("yes", "yes"), ("on", "on"), ("1:30", "1:30"), ("1_000", "1_000"), ("true", True),
+    ("False", False), (".inf", float("inf")), ("-.inf", float("-inf")), ("null", None), ("~", None),
+])
+def test_yaml_1_2_scalars(text, value):
+    got = load_yaml_text(f"x: {text}")["x"]
+    assert got == value and type(got) is type(value)
+
+
+def test_nan_loads_as_nan():
+    v = load_yaml_text("x: .nan")["x"]
+    assert v != v
+
+
+def test_duplicate_keys_are_refused_with_their_path_and_lines():
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text("plant:\n  motor_inertia: 1\n  motor_inertia: 2\n")
+    assert ei.value.field == "plant.motor_inertia"
+    assert ei.value.reason == "duplicate key (line 3; first at line 2)"
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text("humans:\n  - {kind: mass, kind: spring}\n")
+    assert ei.value.field == "humans[0].kind"
+
+
+def test_depth_and_alias_bombs_are_bounded():
+    deep = "x: " + "[" * (MAX_DEPTH + 5) + "]" * (MAX_DEPTH + 5)
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text(deep, "deep.yaml")
+    assert ei.value.field == "deep.yaml" and f"nested more than {MAX_DEPTH} levels" in ei.value.reason
+    bomb = "a: &a [x, x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{c}: &{c} [" + ", ".join([f"*{p}"] * 10) + "]\n" for p, c in zip("abcdef", "bcdefg"))
+    with pytest.raises(ConfigError, match="expands to more than .* values"):
+        load_yaml_text(bomb, "bomb.yaml")
+    assert load_yaml_text("a: &a [1, 2]\nb: *a\n") == {"a": [1, 2], "b": [1, 2]}  # plain aliases work
+
+
+def test_read_yaml_errors_name_the_file(tmp_path):
+    p = tmp_path / "d.yaml"
+    p.write_text("plant: [1, 2\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as ei:
+        read_yaml(p)
+    assert ei.value.field == str(p) and ei.value.reason.startswith("invalid YAML:") and "line" in ei.value.reason
+    p.write_text("- 1\n- 2\n")
+    with pytest.raises(ConfigError, match="expected a YAML mapping at the top level"):
+        read_yaml(p)
+    p.write_bytes(b"x: \xff\xfe\n")
+    with pytest.raises(ConfigError, match="not UTF-8 text"):
+        read_yaml(p)
+    p.write_bytes(b"x: 1\x00\n")
+    with pytest.raises(ConfigError, match="NUL bytes"):
+        read_yaml(p)
+    p.write_text("x: !!bool maybe\n")
+    with pytest.raises(ConfigError, match="does not fit its explicit tag"):
+        read_yaml(p)
+    p.write_text("x: !!python/object:os.system {}\n")
+    with pytest.raises(ConfigError, match="invalid YAML"):
+        read_yaml(p)  # the safe loader constructs no objects
+    p.write_text("plant: {motor_inertia: 1e-3}\n")
+    assert read_yaml(p) == {"plant": {"motor_inertia": 0.001}}
+
+
+def test_read_guarded_refuses_what_is_not_a_small_regular_file(tmp_path):
+    with pytest.raises(ConfigError) as ei:
+        read_guarded(tmp_path)
+    assert ei.value.field == str(tmp_path) and ei.value.reason == "cannot read file: a directory, not a regular file"
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError, match="a FIFO \\(named pipe\\), not a regular file"):
+        read_guarded(fifo, "sweep manifest")
+    big = tmp_path / "big"
+    big.write_bytes(b"x" * 101)
+    with pytest.raises(ConfigError, match=r"too large \(101 bytes"):
+        read_guarded(big, max_bytes=100)
+    assert read_guarded(big, max_bytes=101) == b"x" * 101
+    with pytest.raises(ConfigError, match="cannot read the sweep manifest: No such file"):
+        read_guarded(tmp_path / "missing", "sweep manifest")
+
+
+def test_read_json_guarded(tmp_path):
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps({"a": [1, 2.5, None]}))
+    assert read_json_guarded(p) == {"a": [1, 2.5, None]}
+    p.write_text("{bad json")
+    with pytest.raises(ConfigError, match="cannot read the JSON file: invalid JSON"):
+        read_json_guarded(p)
+    p.write_text("[" * (MAX_DEPTH + 2) + "]" * (MAX_DEPTH + 2))
+    with pytest.raises(ConfigError, match=f"nested more than {MAX_DEPTH} levels deep"):
+        read_json_guarded(p, "manifest")
+
+
+def test_spec_base(tmp_path):
+    spec = tmp_path / "sub" / "spec.yaml"
+    spec.parent.mkdir()
+    spec.write_text("base: ../paper.yaml\naxes: {}\n")
+    assert spec_base(spec) == os.path.join(str(spec.parent), "../paper.yaml")
+    spec.write_text("base: /abs/paper.yaml\n")
+    assert spec_base(str(spec)) == "/abs/paper.yaml"
+    spec.write_text("base: {plant: {}}\n")
+    assert spec_base(spec) is None
+    assert spec_base({"base": "x.yaml"}) is None
+    assert spec_base(tmp_path / "missing.yaml") is None
