@@ -139,7 +139,7 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
             raise ConfigError(c, "not a column of numbers")
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
-            raise ConfigError(c, f"sample {int(bad[0])} is {a[bad[0]]!r}: every value must be a finite number")
+            raise ConfigError(c, f"sample {int(bad[0])} is {float(a[bad[0]])!r}: every value must be a finite number")
         sig[c] = a
     n = sig["theta_m"].size
     if any(a.size != n for a in sig.values()):
