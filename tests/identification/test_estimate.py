@@ -1,7 +1,6 @@
 """exotune.identification.estimate: the plant parameters from a simulated log (independent
 simulation, tests/identification/simulated_logs.py), known parameters fixed, several logs together."""
 
-import numpy as np
 import pytest
 
 from exotune.errors import ConfigError

@@ -4,7 +4,6 @@ assembled per equation, the uncertainty section (3 SE or the model error), the d
 import json
 import math
 
-import numpy as np
 import pytest
 
 from exotune.identification.result import UNCERTAINTY_SIGMAS, EquationFit, ParameterEstimate, PlantEstimate
