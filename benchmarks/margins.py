@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT / "tests"))  # the independent python-control refere
 
 import exotune  # noqa: E402
 from exotune.analysis.batch import analyze_batch  # noqa: E402
-from exotune.analysis.margins import latency_margin  # noqa: E402
+from exotune.analysis.latency_margin import latency_margin  # noqa: E402
 from exotune.analysis.plant_margin import plant_uncertainty_margin  # noqa: E402
 from exotune.config import design_from_mapping  # noqa: E402
 from exotune.model.controller import build_controller  # noqa: E402

@@ -277,7 +277,7 @@ EXAMPLE_MODULES = _modules_with_examples()
 
 
 def test_the_public_api_has_examples():
-    for mod in ("exotune.api", "exotune.model.interop", "exotune.analysis.margins", "exotune.starter"):
+    for mod in ("exotune.api", "exotune.model.interop", "exotune.analysis.latency_margin", "exotune.starter"):
         assert mod in EXAMPLE_MODULES
     # every API twin of a command shows how it is called
     for name in ("load_design", "design", "analyze", "sweep", "report", "optimize", "export", "certify", "codegen", "identify", "simulate"):

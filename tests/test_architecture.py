@@ -311,7 +311,7 @@ SHARED_NAMES = {"free_stable", "locked_stable", "latency_margin_s"}
 FAMILY_SUFFIXES = ("_robust", "_stable", "_conclusive", "_stable_intervals", "_critical", "_edges",
                    "_verification_mismatches")
 # the modules that get a BatchAnalysis (analyze_batch's callers and the functions they pass it to)
-BATCH_CONSUMERS = {"analysis.design", "analysis.margins", "analysis.plant_margin", "analysis.latency_batch",
+BATCH_CONSUMERS = {"analysis.design", "analysis.latency_margin", "analysis.plant_margin", "analysis.latency",
                    "analysis.crosscheck", "sweeps.compute", "sweeps.sampledcols", "optimization.evaluate",
                    "optimization.diagnose", "optimization.search"}
 

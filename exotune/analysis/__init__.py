@@ -10,9 +10,12 @@ The modules, lowest first (each imports only the ones above it):
 ``phase_excess``        phase excess and non-passive bands of C7 = Δ10/Δ00 (paper §IV-A)
 ``dob``                 margins of the disturbance-observer loop
 ``amplification_ratio`` DC value, bandwidth and minimum phase of C6/C5 (paper §II-D)
+``latency``             the one latency-margin engine: every loop's first destabilizing extra delay, batched
 ``batch``               every metric for a batch of designs (the sweep columns)
+``latency_margin``      one design's latency margin (``latency`` for a batch of one, checked by exact verdicts)
+``plant_margin``        the plant-uncertainty margin (certified lower, witnessed upper bound)
 ``kyp``                 KYP passivity certificates of the rational models of C7 (cvxpy)
-``design``              the single-design report (``exotune analyze``)
+``design``              the single-design report (``exotune analyze``), with its margins
 ``crosscheck``          an independent root search (Padé + Newton) on the verdicts
 """
 
@@ -22,11 +25,11 @@ from .batch_result import BatchAnalysis
 from .charfun import CharTerms, amplification_qps, char_terms, strip_qps, trim_poly
 from .counting import RootCounter, coupled_stable, free_stability, rhp_count
 from .crosscheck import pade_crosscheck, pade_stable
-from .design import METRIC_UNITS, VERIFY_POINTS, analyze_design, kyp_certificates
+from .design import METRIC_UNITS, VERIFY_POINTS, analyze_design, analyze_with_margins, kyp_certificates
 from .nominal import design_report
 from .dob import dob_margins
 from .intervals import MAX_FAMILY_PIECES, family_intervals
-from .margins import LatencyMargin, LoopMargin, analyze_with_margins, latency_margin
+from .latency_margin import LatencyMargin, LoopMargin, latency_margin
 from .plant_margin import LoopPlantMargin, PlantMargin, PlantWitness, plant_loops, plant_uncertainty_margin
 from .kyp import (
     KypCertificate,

@@ -23,7 +23,7 @@ from .charfun import amplification_qps, char_terms
 from .counting import RootCounter
 from .dob import dob_margins
 from .intervals import FamilySide
-from .latency_batch import batch_latency_margin
+from .latency import batch_latency_margin
 from .phase_excess import passivity
 
 __all__ = ["analyze_batch", "BatchAnalysis", "GAIN_NAMES"]
@@ -45,7 +45,7 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0, latency: bool = F
         single-design report uses 64; sweeps use 0 (the interval method alone).
     latency : bool
         Also compute ``latency_margin_s`` [s]
-        (:func:`~exotune.analysis.latency_batch.batch_latency_margin`, docs/method.md#latency-margin):
+        (:func:`~exotune.analysis.latency.batch_latency_margin`, docs/method.md#latency-margin):
         the largest extra delay every loop tolerates, 0 for a design that is not robust at its
         nominal delay. Sweeps always ask for it.
 

@@ -7,6 +7,8 @@ docs/cli.md#exotune-analyze; docs/method.md#analyses-and-metrics.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .batch import analyze_batch
@@ -16,7 +18,7 @@ from .results import (Amplification, BoxEdge, DesignAnalysis, DobMargins, Enviro
                       ScheduleEntry)
 from ..units import METRIC_UNITS  # re-exported
 
-__all__ = ["analyze_design", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
+__all__ = ["analyze_design", "analyze_with_margins", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
 
 
 VERIFY_POINTS = 64
@@ -147,6 +149,45 @@ def _analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
         gain_schedule=None if schedule is None else tuple(schedule),
         config=cfg,
     )
+
+
+def analyze_with_margins(cfg, sampled_check: bool = True):
+    """The single-design analysis (``exotune analyze``) with its margins: the latency margin of
+    :func:`exotune.analysis.latency_margin.latency_margin` and the plant-uncertainty margin of
+    :func:`exotune.analysis.plant_margin.plant_uncertainty_margin` (weights from the design's
+    ``uncertainty`` section, 1 each when absent); ``to_dict()`` puts them first, as mappings with
+    units.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design.
+    sampled_check : bool, optional
+        Passed to :func:`analyze_design` (False: no sampled-data grid check).
+
+    Returns
+    -------
+    DesignAnalysis
+        :func:`exotune.analysis.analyze_design` with ``margins`` = (LatencyMargin, PlantMargin);
+        its ``to_dict()`` is ``{"margins": {"latency": …, "plant_uncertainty": …}, …}`` followed
+        by every key of the analysis.
+
+    References
+    ----------
+    docs/method.md#latency-margin; paper Fig. 5.
+    """
+    from .latency_margin import latency_margin
+    from .plant_margin import plant_uncertainty_margin
+
+    rec = analyze_design(cfg, sampled_check)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        cols = analyze_batch(cfg)  # the nominal verdicts, shared by both margins
+        lm = latency_margin(cfg, nominal=cols)
+        # a design that is not robust at the nominal plant has k* = 0: its robust loops' own bounds
+        # (seconds of work) are left to plant_uncertainty_margin(cfg) — analyze stays quick
+        pm = plant_uncertainty_margin(cfg, getattr(cfg, "uncertainty", None), nominal=cols, loop_detail=False)
+    return dataclasses.replace(rec, margins=(lm, pm))
+
 
 
 def kyp_certificates(cfg) -> dict:

@@ -25,7 +25,7 @@ Latency margin by default. A returned design tolerates an extra measured-to-appl
 sample period when the base design sets ``implementation.sample_rate_hz``, else 0.5 ms
 (``latency_margin_s: 0`` disables it; the default is 0 when ``robust``, ``free_stable`` or
 ``locked_stable`` is disabled, since the margin requires them). The result states the margin
-required and the one achieved, computed exactly (:func:`exotune.analysis.margins.latency_margin`).
+required and the one achieved, computed exactly (:func:`exotune.analysis.latency_margin.latency_margin`).
 ``plant_uncertainty_margin`` is recognized but not available yet (a ConfigError says so).
 
 Method. Every evaluation is the exact vectorized analysis of

@@ -185,7 +185,7 @@ def violations(spec: OptimizeSpec, ev: dict, i: int, achieved_latency: float | N
 
 
 def exact_latency_margin(spec: OptimizeSpec, x: np.ndarray, ev: dict | None = None, i: int = 0):
-    """Exact latency margin (:func:`exotune.analysis.margins.latency_margin`) of the design x;
+    """Exact latency margin (:func:`exotune.analysis.latency_margin.latency_margin`) of the design x;
     0 without computing when its delay-sensitive verdicts already fail at the nominal delay.
 
     Parameters
@@ -204,7 +204,7 @@ def exact_latency_margin(spec: OptimizeSpec, x: np.ndarray, ev: dict | None = No
     LatencyMargin
         The latency margin (``extra_delay_s`` [s]; 0 when not robust at the nominal delay).
     """
-    from ..analysis.margins import LatencyMargin, latency_margin
+    from ..analysis.latency_margin import LatencyMargin, latency_margin
     from ..config import design_from_mapping
 
     if ev is not None and not bool(delay_sensitive_ok(ev["analysis"])[i]):

@@ -3,7 +3,7 @@
 Every candidate is analysed by :func:`exotune.analysis.analyze_batch` (whole populations in one
 call). The latency-margin constraint ``latency_margin_s ≥ m`` is imposed during the search by
 requiring the delay-sensitive verdicts (cuff-free exoskeleton, environments, every human family
-robust over its range — the loops of :func:`exotune.analysis.margins.latency_margin`) also at the
+robust over its range — the loops of :func:`exotune.analysis.latency_margin.latency_margin`) also at the
 delays T + Δ for the extra delays Δ of :meth:`OptimizeSpec.checked_delays` (m·k/K, k = 1..K):
 the candidates are repeated once per extra delay and analysed in one batch. The objective
 ``latency_margin_s`` is estimated per candidate from the same verdicts: a ladder of extra delays

@@ -28,7 +28,7 @@ OBJECTIVES = {
     "amplification_bandwidth_hz": ("amplification_bandwidth_hz", "max", "Hz"),
     "dob_delay_margin_s": ("dob_delay_margin_s", "max", "s"),
     "passivity_max_phase_excess_deg": ("passivity_max_phase_excess_deg", "min", "deg"),
-    # the latency margin (exotune.analysis.margins): a verdict ladder during the search, exact at the end
+    # the latency margin (exotune.analysis.latency_margin): a verdict ladder during the search, exact at the end
     "latency_margin_s": ("latency_margin_s", "max", "s"),
 }
 #: bound constraints: name → (column, ">=" | "<=", unit)

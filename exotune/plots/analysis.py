@@ -368,7 +368,7 @@ def render_analysis_plots(cfg, result: dict) -> dict[str, bytes]:
 
 def _fig_latency_boundary(cfg, result: dict) -> bytes:
     """Each human member's first destabilizing extra delay, with the design's latency margin."""
-    from ..analysis.margins import latency_boundaries
+    from ..analysis.latency_margin import latency_boundaries
     from .margins import latency_boundary_figure
 
     margin = ((result.get("margins") or {}).get("latency") or {}).get("extra_delay_s")

@@ -1,5 +1,5 @@
 """The latency-boundary figure of ``exotune analyze --plots`` (docs/method.md#latency-margin):
-draws :func:`exotune.analysis.margins.latency_boundaries`, computes nothing."""
+draws :func:`exotune.analysis.latency_margin.latency_boundaries`, computes nothing."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """exotune optimize: the optimum is checked by an independent path — the single-design analysis
 (exotune.analysis.analyze_design) at the optimum and just past it, the exact latency margin
-(exotune.analysis.margins.latency_margin), a dense batch scan of the objective parameter and a
+(exotune.analysis.latency_margin.latency_margin), a dense batch scan of the objective parameter and a
 dense reference search — plus the split feasible set, the binding-constraint and infeasibility
 reports, the amplification peak against an independent evaluation, determinism, the Pareto
 property and the CLI contract (issue 14 item 4)."""
@@ -18,7 +18,7 @@ import yaml
 from click.testing import CliRunner
 
 from exotune.analysis import analyze_batch, analyze_design
-from exotune.analysis.margins import latency_margin
+from exotune.analysis.latency_margin import latency_margin
 from exotune.cli import cli
 from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.errors import ConfigError
@@ -502,7 +502,7 @@ def test_a_short_exact_margin_tightens_the_checked_delays(monkeypatch):
     """When the exact margin of the returned design falls short of the requirement (an
     instability window between the checked extra delays — imposed here on the first exact
     check), the checked delays are refined and the search resumes; the reported margin is exact."""
-    from exotune.analysis.margins import LatencyMargin
+    from exotune.analysis.latency_margin import LatencyMargin
     from exotune.optimization import search
 
     real = search.exact_latency_margin

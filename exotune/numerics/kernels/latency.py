@@ -1,7 +1,7 @@
 """Compiled latency margin of a batch of loops: the kernel behind
-:func:`exotune.analysis.latency_batch.batch_latency_margin`.
+:func:`exotune.analysis.latency.batch_latency_margin`.
 
-Row by row, the same construction as the numpy reference in :mod:`exotune.analysis.latency_batch`
+Row by row, the same construction as the numpy reference in :mod:`exotune.analysis.latency`
 (docs/method.md#latency-margin), in the same order and with the same iteration counts: on the
 log-spaced grid of ``npts`` points from ``wmax·10^−decades`` to ``wmax``, (1) every member in
 ``members``: sign changes of |P0|² − |P1|² refined by bisection in log ω, and grazing points;

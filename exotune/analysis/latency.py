@@ -1,6 +1,6 @@
 """The latency margin of a batch of designs at once: the sweep column ``latency_margin_s``.
 
-The definition and the construction are those of :mod:`exotune.analysis.margins`
+The definition and the construction are those of :mod:`exotune.analysis.latency_margin`
 (docs/method.md#latency-margin): a loop Δ = P0 + P1 e^{−sτ} gains a root on the imaginary axis at
 s = jω for the delay τ exactly when |P0(jω)| = |P1(jω)| and e^{−jωτ} = −P0/P1, so a crossing at ω
 costs the extra delay ΔT(ω) = ((−arg(−P0/P1) − ωT) mod 2π)/ω; for a family P_i = A_i + p B_i,
@@ -26,9 +26,9 @@ Here every step runs on all designs of a batch together:
   the one feature this grid can miss.
 
 Designs that are not robust at the nominal delay are not computed (their margin is 0). Unlike the
-single-design :func:`exotune.analysis.margins.latency_margin`, no exact re-check at T + ΔT(1 ∓ 10⁻⁶)
+single-design :func:`exotune.analysis.latency_margin.latency_margin`, no exact re-check at T + ΔT(1 ∓ 10⁻⁶)
 follows (it would cost two more full analyses per design); the tests compare the two on random
-designs (tests/analysis/test_latency_batch.py).
+designs (tests/analysis/test_latency.py).
 """
 
 from __future__ import annotations
@@ -40,7 +40,8 @@ import numpy as np
 from ..model.humans import HumanFamily, family_split
 from ..numerics.poly import pad_cols, padd, pmul
 
-__all__ = ["batch_latency_margin", "tail_bound", "GRID_PER_DECADE", "GRID_DECADES"]
+__all__ = ["batch_latency_margin", "loop_latency_margins", "member_latency_margins", "design_loops",
+           "qp_latency_margin", "family_latency_margin", "tail_bound", "GRID_PER_DECADE", "GRID_DECADES"]
 
 TWO_PI = 2.0 * math.pi
 GRID_DECADES = 9.0
@@ -129,6 +130,14 @@ class _Terms:
                      for k in PAIRS]
         self.jw = [(_Jw(c0), _Jw(c1)) for c0, c1 in self.coef]
 
+    @classmethod
+    def from_pairs(cls, pairs) -> "_Terms":
+        """Terms from coefficient rows (P0, P1) given directly, one pair per position of :data:`PAIRS`."""
+        self = cls.__new__(cls)
+        self.coef = [(np.atleast_2d(np.asarray(a, dtype=float)), np.atleast_2d(np.asarray(b, dtype=float))) for a, b in pairs]
+        self.jw = [(_Jw(c0), _Jw(c1)) for c0, c1 in self.coef]
+        return self
+
     def grid(self, w: np.ndarray) -> list:
         return [(j0.grid(w), j1.grid(w)) for j0, j1 in self.jw]
 
@@ -199,21 +208,38 @@ class _Loop:
         return self._combine(Va, Vb, w)
 
 
+def _take_min(best: np.ndarray, args: tuple, r: np.ndarray, v: np.ndarray, payload: tuple) -> None:
+    """Per row, ``best`` ← min(best, the candidates ``v`` of the row) (rows ``r``, non-finite values
+    ignored), and ``args`` ← the ``payload`` values of each new minimum (in place)."""
+    v = np.where(np.isfinite(v), v, np.inf)
+    if r.size == 0:
+        return
+    order = np.lexsort((v, r))
+    rs, vs = r[order], v[order]
+    first = np.r_[True, rs[1:] != rs[:-1]]
+    rr, vv = rs[first], vs[first]
+    better = vv < best[rr]
+    best[rr[better]] = vv[better]
+    for out, val in zip(args, payload):
+        out[rr[better]] = np.broadcast_to(val, v.shape)[order][first][better]
+
+
 def _first_delay(P0, P1, w, T):
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.mod(-np.angle(-P0 / P1) - w * T, TWO_PI) / w
 
 
 def _member_margin(loop: _Loop, p: float, w, vals, T):
-    """Per row, the smallest ΔT over the crossings of member p found on the grid ``w`` (N, G),
-    and those crossings as (rows, log ω, grid index) (sign changes refined by bisection, grazing
-    points)."""
+    """Per row, the smallest ΔT over the crossings of member p found on the grid ``w`` (N, G) and
+    its crossing frequency ω [rad/s] (NaN: none), and those crossings as (rows, log ω, grid index)
+    (sign changes refined by bisection, grazing points)."""
     A0, A1, B0, B1 = vals
     P0, P1 = A0 + p * B0, A1 + p * B1
     m0, m1 = np.abs(P0) ** 2, np.abs(P1) ** 2
     F = m0 - m1
     N = w.shape[0]
     best = np.full(N, np.inf)
+    best_w = np.full(N, np.nan)
     rows, logs, gidx = [], [], []
     r, i = np.nonzero(np.signbit(F[:, :-1]) != np.signbit(F[:, 1:]))
     if r.size:
@@ -233,7 +259,7 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
         x = np.exp(lx)
         a0, a1, b0, b1 = loop.values(x, r)
         dT = _first_delay(a0 + p * b0, a1 + p * b1, x, T[r])
-        np.minimum.at(best, r, np.where(np.isfinite(dT), dT, np.inf))
+        _take_min(best, (best_w,), r, dT, (x,))
         rows.append(r)
         logs.append(lx)
         gidx.append(i)
@@ -244,18 +270,19 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
     if r.size:
         i = i + 1
         dT = _first_delay(P0[r, i], P1[r, i], w[r, i], T[r])
-        np.minimum.at(best, r, np.where(np.isfinite(dT), dT, np.inf))
+        _take_min(best, (best_w,), r, dT, (w[r, i],))
         rows.append(r)
         logs.append(np.log(w[r, i]))
         gidx.append(i)
     cross = ((np.concatenate(rows), np.concatenate(logs), np.concatenate(gidx)) if rows
              else (np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64)))
-    return best, cross
+    return best, best_w, cross
 
 
-def _branches(loop: _Loop, w, vals, T):
+def _branches(loop: _Loop, w, vals, T, members: bool = False):
     """ΔT along the two branches p±(ω) of the crossing curves (inf where the branch leaves the
-    range or does not exist): a list of two arrays of the shape of ``w``."""
+    range or does not exist): a list of two arrays of the shape of ``w`` (``members``: a list of
+    two (ΔT, p) pairs)."""
     A0, A1, B0, B1 = vals
     qa = np.abs(B0) ** 2 - np.abs(B1) ** 2
     qb = 2.0 * np.real(A0 * np.conj(B0) - A1 * np.conj(B1))
@@ -276,14 +303,15 @@ def _branches(loop: _Loop, w, vals, T):
         P1 = A1 + pm * B1
         ok &= np.abs(P1) > 0
         dT = _first_delay(A0 + pm * B0, np.where(ok, P1, 1.0), w, T)
-        out.append(np.where(ok & np.isfinite(dT), dT, np.inf))
+        dT = np.where(ok & np.isfinite(dT), dT, np.inf)
+        out.append((dT, pm) if members else dT)
     return out
 
 
-def _refine(loop: _Loop, which: int, r, T, a, x0, b) -> np.ndarray:
+def _refine(loop: _Loop, which: int, r, T, a, x0, b):
     """Per candidate, the smallest ΔT on branch ``which`` near the finite point log ω = x0 of the
-    bracket [a, b] (log ω): an end where the branch does not exist is first moved, by bisection,
-    to the edge of the segment holding x0; then golden-section search."""
+    bracket [a, b] (log ω) and where it is (log ω): an end where the branch does not exist is
+    first moved, by bisection, to the edge of the segment holding x0; then golden-section search."""
     Tr = T[r]
 
     def f(x):
@@ -311,25 +339,26 @@ def _refine(loop: _Loop, which: int, r, T, a, x0, b) -> np.ndarray:
         f_new = f(np.where(lb, c_new, d_new))
         fc, fd = np.where(lb, f_new, fd), np.where(lb, fc, f_new)
         c, d = c_new, d_new
-    return np.fmin(fc, fd)
+    return np.fmin(fc, fd), np.where(fc <= fd, c, d)
 
 
-def _curve_margin(loop: _Loop, w, vals, T, cross) -> np.ndarray:
-    """Per row, the smallest ΔT along the crossing curves: every grid local minimum of a branch,
-    and the segments that start at an end member's crossing ``cross`` = (rows, log ω, grid index)
-    where the grid does not sample them (narrower than a grid step), each refined by
-    :func:`_refine`."""
+def _curve_margin(loop: _Loop, w, vals, T, cross):
+    """Per row, the smallest ΔT along the crossing curves, its crossing frequency ω [rad/s] and
+    member p (NaN: none): every grid local minimum of a branch, and the segments that start at an
+    end member's crossing ``cross`` = (rows, log ω, grid index) where the grid does not sample them
+    (narrower than a grid step), each refined by :func:`_refine`."""
     N, G = w.shape
     best = np.full(N, np.inf)
+    best_w, best_p = np.full(N, np.nan), np.full(N, np.nan)
     lw = np.log(w)
     h = GRID_DECADES * math.log(10.0) / (G - 1)
     cr_all, cx_all, ci_all = cross
-    for which, dT in enumerate(_branches(loop, w, vals, T[:, None])):
+    for which, (dT, pm) in enumerate(_branches(loop, w, vals, T[:, None], members=True)):
         fin = np.isfinite(dT)
         left = np.concatenate([np.full((N, 1), np.inf), dT[:, :-1]], axis=1)
         right = np.concatenate([dT[:, 1:], np.full((N, 1), np.inf)], axis=1)
         r, i = np.nonzero(fin & (dT <= left) & (dT <= right))
-        np.minimum.at(best, r, dT[r, i])
+        _take_min(best, (best_w, best_p), r, dT[r, i], (w[r, i], pm[r, i]))
         rs, a, x0, b = [r], [lw[r, np.maximum(i - 1, 0)]], [lw[r, i]], [lw[r, np.minimum(i + 1, G - 1)]]
         # a crossing whose grid neighbours are both off the branch may start a segment the grid misses
         unseen = ~fin[cr_all, ci_all] & ~fin[cr_all, np.minimum(ci_all + 1, G - 1)]
@@ -337,20 +366,22 @@ def _curve_margin(loop: _Loop, w, vals, T, cross) -> np.ndarray:
         if cr.size:
             ys = cx[:, None] + h * np.linspace(-1.0, 1.0, SEED_POINTS)[None, :]
             rr = np.repeat(cr, SEED_POINTS)
-            v = _branches(loop, np.exp(ys.ravel()), loop.values(np.exp(ys.ravel()), rr), T[rr])[which]
-            v = v.reshape(ys.shape)
+            v, vp = _branches(loop, np.exp(ys.ravel()), loop.values(np.exp(ys.ravel()), rr), T[rr], members=True)[which]
+            v, vp = v.reshape(ys.shape), vp.reshape(ys.shape)
             k = np.argmin(v, axis=1)
             v0 = v[np.arange(cr.size), k]
             ok = np.isfinite(v0)
-            np.minimum.at(best, cr[ok], v0[ok])
             y0 = ys[np.arange(cr.size), k][ok]
+            _take_min(best, (best_w, best_p), cr[ok], v0[ok], (np.exp(y0), vp[np.arange(cr.size), k][ok]))
             step = 2.0 * h / (SEED_POINTS - 1)
             rs.append(cr[ok]); a.append(y0 - step); x0.append(y0); b.append(y0 + step)
         r = np.concatenate(rs)
         if r.size:
-            m = _refine(loop, which, r, T, np.concatenate(a), np.concatenate(x0), np.concatenate(b))
-            np.minimum.at(best, r, m)
-    return best
+            m, x = _refine(loop, which, r, T, np.concatenate(a), np.concatenate(x0), np.concatenate(b))
+            xw = np.exp(x)
+            pm_x = _branches(loop, xw, loop.values(xw, r), T[r], members=True)[which][1]
+            _take_min(best, (best_w, best_p), r, m, (xw, pm_x))
+    return best, best_w, best_p
 
 
 def _grid(wmax: np.ndarray) -> np.ndarray:
@@ -360,20 +391,29 @@ def _grid(wmax: np.ndarray) -> np.ndarray:
 
 def _margins_numpy(terms: _Terms, loops: list, T: np.ndarray, wmax: np.ndarray) -> np.ndarray:
     """Per row, the smallest extra delay over every loop's crossings (the numpy reference)."""
+    return np.min(_loop_margins(terms, loops, T, wmax)[0], axis=0, initial=np.inf)
+
+
+def _loop_margins(terms: _Terms, loops: list, T: np.ndarray, wmax: np.ndarray):
+    """Per loop and row (arrays (L, N)): the smallest extra delay ΔT [s] over the loop's crossings,
+    the crossing frequency ω [rad/s] and the member p there (NaN: no crossing; p is NaN for a
+    single loop)."""
     w = _grid(wmax)
     V = terms.grid(w)
-    best = np.full(w.shape[0], np.inf)
-    for loop in loops:
+    L, N = len(loops), w.shape[0]
+    dT, om, pp = np.full((L, N), np.inf), np.full((L, N), np.nan), np.full((L, N), np.nan)
+    for j, loop in enumerate(loops):
         vals = loop.values(w, V=V)
         crossings = []
         for p in loop.members():
-            m, cross = _member_margin(loop, p, w, vals, T)
-            best = np.fmin(best, m)
+            m, mw, cross = _member_margin(loop, p, w, vals, T)
+            _take_min(dT[j], (om[j], pp[j]), np.arange(N), m, (mw, np.nan if loop.single else p))
             crossings.append(cross)
         if not loop.single and loop.hi > loop.lo:
             cross = tuple(np.concatenate([c[k] for c in crossings]) for k in range(3))
-            best = np.fmin(best, _curve_margin(loop, w, vals, T, cross))
-    return best
+            m, mw, mp = _curve_margin(loop, w, vals, T, cross)
+            _take_min(dT[j], (om[j], pp[j]), np.arange(N), m, (mw, mp))
+    return dT, om, pp
 
 
 def _margins_compiled(terms: _Terms, loops: list, T: np.ndarray, wmax: np.ndarray) -> np.ndarray:
@@ -414,19 +454,151 @@ def _family_loop(terms: _Terms, fam: HumanFamily, key1: str) -> _Loop:
     return _Loop(terms, 0, PAIRS.index(key1), z0, phi, factor, fam.lo, fam.hi)
 
 
-def _design_loops(terms: _Terms, humans, environment) -> list:
-    """The loops whose crossings bound a design's latency margin: the free exoskeleton, the
-    locked joint and the spring/mass environments, and every human family (a box through its
-    edges)."""
-    loops = [_Loop(terms, 0)]
-    for e in environment:
+def design_loops(humans, environment) -> list:
+    """(name, family or None, closing pair) of every loop whose crossings bound a design's latency
+    margin: the free exoskeleton, the locked joint and the spring/mass environments, and every
+    human family (a box through its edges, ``human{i}_{kind}_edge{j}``).
+
+    Parameters
+    ----------
+    humans, environment : sequences
+        The design's human families and environments.
+
+    Returns
+    -------
+    list of tuple
+        (loop name, :class:`~exotune.model.humans.HumanFamily` or None, "01"/"10" or None).
+    """
+    out = [("free", None, None)]
+    for i, e in enumerate(environment):
         if e.kind == "locked":
-            loops.append(_Loop(terms, PAIRS.index("01")))
+            out.append((f"env{i}_locked", None, "01"))
         elif e.kind in ("spring", "mass"):
-            loops.append(_family_loop(terms, HumanFamily(e.kind, e.param, e.lo, e.hi, damping=e.damping), "01"))
-    for fam in humans:
-        loops.extend(_family_loop(terms, edge, "10") for edge in fam.edges())
-    return loops
+            out.append((f"env{i}_{e.kind}", HumanFamily(e.kind, e.param, e.lo, e.hi, damping=e.damping), "01"))
+    for i, fam in enumerate(humans):
+        for j, edge in enumerate(fam.edges()):
+            out.append((f"human{i}_{fam.kind}" + (f"_edge{j}" if fam.box else ""), edge, "10"))
+    return out
+
+
+def _design_loops(terms: _Terms, humans, environment) -> list:
+    """The :class:`_Loop` of every loop of :func:`design_loops`."""
+    return [_Loop(terms, 0) if fam is None and key is None else
+            _Loop(terms, PAIRS.index(key)) if fam is None else _family_loop(terms, fam, key)
+            for _name, fam, key in design_loops(humans, environment)]
+
+
+def loop_latency_margins(ct, humans, environment):
+    """Every loop's latency margin for every design of a batch, with where it is reached: the
+    construction of :func:`batch_latency_margin` (the same grid, the same refinement, numpy), loop
+    by loop. The single-design margin (:func:`exotune.analysis.latency_margin.latency_margin`) is this
+    for a batch of one.
+
+    Parameters
+    ----------
+    ct : CharTerms
+        The batch's characteristic terms.
+    humans, environment : sequences
+        The human families and environments of the batch's designs.
+
+    Returns
+    -------
+    loops : list of tuple
+        :func:`design_loops`.
+    extra_delay_s, omega, member : ndarray, shape (L, N)
+        Per loop and design: the smallest extra delay ΔT [s] over its crossings (``inf``: none),
+        the crossing frequency ω [rad/s] and the family member p there (NaN: none, or a single loop).
+    """
+    N = ct.T.shape[0]
+    terms = _Terms(ct, np.arange(N))
+    loops = _design_loops(terms, humans, environment)
+    wmax = np.max([lp.wmax() for lp in loops], axis=0)
+    return (design_loops(humans, environment), *_loop_margins(terms, loops, np.asarray(ct.T, dtype=float), wmax))
+
+
+def member_latency_margins(ct, row: int, fam: HumanFamily, key: str, members) -> tuple[np.ndarray, np.ndarray]:
+    """The latency margins of single members of a family of design ``row`` (each member a loop of
+    its own, on its own tail bound's grid).
+
+    Parameters
+    ----------
+    ct : CharTerms
+        The characteristic terms.
+    row : int
+        The design.
+    fam : HumanFamily
+        The family (its range is ignored: the members are given).
+    key : str
+        The pair the family closes ("10": human, "01": environment).
+    members : array_like
+        Member values p [fam.unit].
+
+    Returns
+    -------
+    extra_delay_s, omega : ndarray
+        Per member: ΔT [s] (``inf``: no crossing) and the crossing frequency ω [rad/s] (NaN: none).
+    """
+    terms = _Terms(ct, np.array([int(row)]))
+    z0, phi, factor = family_split(fam.kind, fam.param, fam.fixed(), fam.eta)
+    ps = np.atleast_1d(np.asarray(members, dtype=float))
+    loops = [_Loop(terms, 0, PAIRS.index(key), z0, phi, factor, p, p) for p in ps]
+    T = np.asarray(ct.T, dtype=float)[[int(row)]]
+    dT, om, _ = (np.concatenate([a.ravel() for a in x]) for x in zip(*(_loop_margins(terms, [lp], T, lp.wmax()) for lp in loops)))
+    return dT, om
+
+
+def qp_latency_margin(c0, c1, T: float) -> tuple[float, float | None]:
+    """Latency margin of one loop Δ = P0 + P1 e^{−sT} given by its coefficients (1-D, ascending,
+    real; the exact roots at s = 0 divided out beforehand).
+
+    Parameters
+    ----------
+    c0, c1 : array_like
+        Ascending coefficients of P0 and P1.
+    T : float
+        Nominal delay [s].
+
+    Returns
+    -------
+    tuple
+        (ΔT [s], ``inf`` when no crossing; crossing frequency ω [rad/s] or None).
+    """
+    z = np.zeros((1, 1))
+    terms = _Terms.from_pairs([(c0, c1), (z, z), (z, z)])
+    lp = _Loop(terms, 0)
+    dT, om, _ = _loop_margins(terms, [lp], np.array([float(T)]), lp.wmax())
+    return float(dT[0, 0]), (None if not np.isfinite(om[0, 0]) else float(om[0, 0]))
+
+
+def family_latency_margin(a0, a1, b0, b1, lo: float, hi: float, T: float, wmax: float | None = None,
+                          factor: complex = 1.0):
+    """Latency margin of the family P0 = A0 + p f B0, P1 = A1 + p f B1, p ∈ [lo, hi].
+
+    Parameters
+    ----------
+    a0, a1, b0, b1 : array_like
+        Ascending real coefficients of A0, A1, B0, B1.
+    lo, hi : float
+        The member range.
+    T : float
+        Nominal delay [s].
+    wmax : float, optional
+        Top of the frequency grid [rad/s] (default: the members' tail bound, ×4).
+    factor : complex, optional
+        f (1 + jη for the hysteretic human).
+
+    Returns
+    -------
+    tuple
+        (ΔT [s], ω [rad/s] or None, critical member p or None).
+    """
+    z = np.zeros((1, 1))
+    terms = _Terms.from_pairs([(a0, a1), (b0, b1), (z, z)])
+    lp = _Loop(terms, 0, 1, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), factor, lo, hi)
+    top = lp.wmax() if wmax is None else np.array([float(wmax)])
+    dT, om, pp = _loop_margins(terms, [lp], np.array([float(T)]), top)
+    fin = np.isfinite(dT[0, 0])
+    return float(dT[0, 0]), (float(om[0, 0]) if fin else None), (float(pp[0, 0]) if fin else None)
 
 
 def batch_latency_margin(ct, humans, environment, robust: np.ndarray) -> np.ndarray:

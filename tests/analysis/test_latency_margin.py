@@ -19,7 +19,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exotune.analysis.margins import family_latency_margin, latency_margin, qp_latency_margin
+from exotune.analysis.latency import family_latency_margin, qp_latency_margin
+from exotune.analysis.latency_margin import latency_margin
 from exotune.analysis import analyze_batch
 from exotune.config import batch_config, design_from_mapping, read_yaml
 
@@ -186,7 +187,7 @@ def test_latency_boundaries_agree_with_the_margin(robust_margin):
     margin, and touch it at the critical member (an end of the critical family here)."""
     from matplotlib.figure import Figure
 
-    from exotune.analysis.margins import latency_boundaries
+    from exotune.analysis.latency_margin import latency_boundaries
     from exotune.plots.margins import latency_boundary_figure
 
     cfg, m = robust_margin
@@ -203,7 +204,7 @@ def test_latency_boundaries_agree_with_the_margin(robust_margin):
 
 
 def test_latency_boundaries_mark_members_unstable_at_nominal():
-    from exotune.analysis.margins import latency_boundaries
+    from exotune.analysis.latency_margin import latency_boundaries
 
     b = latency_boundaries(design_from_mapping(PAPER_MAP), n=30)[0]  # the paper's light masses
     bad = np.isnan(b.extra_delay_s)

@@ -1,6 +1,6 @@
-"""The sweep column ``latency_margin_s`` (exotune.analysis.latency_batch), checked against:
+"""The sweep column ``latency_margin_s`` (exotune.analysis.latency), checked against:
 
-1. the single-design latency margin (exotune.analysis.margins.latency_margin), which follows the
+1. the single-design latency margin (exotune.analysis.latency_margin.latency_margin), which follows the
    crossing curves on a 3× denser grid and confirms its answer by the exact argument-principle
    verdicts at T + ΔT(1 ∓ 10⁻⁶) — on random designs with mass, spring, complex-stiffness and msd-box
    human families and spring/mass environments;
@@ -21,8 +21,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exotune.analysis import analyze_batch
-from exotune.analysis.latency_batch import tail_bound
-from exotune.analysis.margins import latency_margin
+from exotune.analysis.latency import tail_bound
+from exotune.analysis.latency_margin import latency_margin
 from exotune.config import batch_config, design_from_mapping, read_yaml
 from exotune.numerics.engine import numpy_engine
 from exotune.numerics.kernels import AVAILABLE
