@@ -382,3 +382,40 @@ def test_batch_columns_are_read_through_the_typed_analysis():
             if mod in BATCH_CONSUMERS and mod != "sweeps.compute" and obj == "cols":
                 bad.append(f"{mod}:{line} subscripts cols")
     assert not bad, "\n".join(bad)
+
+
+# Every module has a test file named after it: tests/<package>/test_<module>.py (issue 24 item 3).
+# The modules still without one — to be emptied: analysis/, controllerfile/, numerics/kernels/ and
+# optimization/ are pending other work (being restructured); the rest wait for their file. The
+# set only shrinks: a module listed here that has its test file (or no longer exists) fails too.
+NO_TEST_FILE_YET = {
+    "analysis.amplification_ratio", "analysis.batch", "analysis.brackets", "analysis.charfun", "analysis.counting",
+    "analysis.dob", "analysis.nominal", "analysis.phase_excess", "analysis.plant_margin_box", "analysis.plot_data",
+    "analysis.responses", "analysis.sea",
+    "controllerfile.build", "controllerfile.cellbound", "controllerfile.certify", "controllerfile.cgolden32",
+    "controllerfile.cheader", "controllerfile.continuation", "controllerfile.cstep", "controllerfile.fileio",
+    "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff", "controllerfile.runtime",
+    "controllerfile.schema", "controllerfile.sos", "controllerfile.target", "controllerfile.verdicts",
+    "numerics.kernels.bounds", "numerics.kernels.common", "numerics.kernels.latency", "numerics.kernels.leaves",
+    "numerics.kernels.pair", "numerics.kernels.phase", "numerics.kernels.shiftloop",
+    "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
+    "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space", "optimization.spec",
+    "identification.validate", "options", "plots.design", "plots.margins", "plots.results", "plots.simulate", "results",
+    "simulation.engine", "simulation.plant", "simulation.report", "text.analysis", "text.design", "text.excite",
+    "text.export", "text.identify", "text.kyp", "text.margins", "text.optimize", "text.simulate",
+}
+
+
+def _own_test_file(mod: str) -> Path:
+    *pkg, name = mod.split(".")
+    return PKG.parent.joinpath("tests", *pkg, f"test_{name}.py")
+
+
+def test_every_module_has_its_own_test_file():
+    mods = sorted(m for m in MODULES if m.split(".")[-1] not in ("__init__", "__main__"))
+    missing = {m for m in mods if not _own_test_file(m).exists()}
+    new = sorted(missing - NO_TEST_FILE_YET)
+    assert not new, "modules without their test file tests/<package>/test_<module>.py: " + ", ".join(
+        str(_own_test_file(m).relative_to(PKG.parent)) for m in new)
+    done = sorted(NO_TEST_FILE_YET - missing)
+    assert not done, "remove from NO_TEST_FILE_YET (the test file exists now, or the module is gone): " + ", ".join(done)
