@@ -104,7 +104,29 @@ def dc_and_bandwidth(num: QP, den: QP, per_decade: int = 2):
 
 def amplification(plant: Plant, cs: ControllerStructure, N: int):
     """DC value, −3 dB bandwidth [Hz] and minimum-phase flag of C6/C5 (docs/method.md#analyses-and-metrics), plus the
-    output-locked stability verdict (the denominator's RHP count)."""
+    output-locked stability verdict (the denominator's RHP count).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (scalars or one value per design).
+    cs : ControllerStructure
+        The controller blocks, with the DOB filter and the delay.
+    N : int
+        Number of designs.
+
+    Returns
+    -------
+    dict
+        Arrays of shape (N,): ``dc`` (|C6/C5| at ω → 0), ``bandwidth_hz`` (the −3 dB frequency
+        [Hz]; inf when never reached, NaN when undefined), ``minimum_phase`` (no zero of C6/C5 in
+        the closed right half-plane), ``locked_stable`` (output-locked stability) and
+        ``conclusive`` (both root counts exact).
+
+    References
+    ----------
+    Paper §II-D (amplification); docs/method.md#amplification.
+    """
     num, den = amplification_qps(plant, cs, N)
     Nz, rz, okz = rhp_count(num)
     Np, rp, okp = rhp_count(den)

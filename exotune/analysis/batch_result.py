@@ -346,7 +346,20 @@ class BatchAnalysis:
 def take_designs(obj, index):
     """The record ``obj`` (any record of this module) restricted to the designs ``index`` (a slice
     or an integer array): every array and per-design list, nested records and tuples of them
-    included; names and None kept."""
+    included; names and None kept.
+
+    Parameters
+    ----------
+    obj : record, tuple, list, ndarray, str or None
+        A record of this module (or one of its fields), one entry per design.
+    index : slice or array_like of int
+        The designs kept, in this order.
+
+    Returns
+    -------
+    same type as ``obj``
+        The record of those designs alone.
+    """
     if obj is None or isinstance(obj, str):
         return obj
     if isinstance(obj, np.ndarray):
@@ -360,7 +373,18 @@ def take_designs(obj, index):
 
 def concat_batches(parts):
     """The records ``parts`` (same structure: analyses of chunks of one configuration) joined
-    design after design: arrays concatenated, per-design lists joined."""
+    design after design: arrays concatenated, per-design lists joined.
+
+    Parameters
+    ----------
+    parts : sequence of records
+        Records of the same structure (the analyses of consecutive chunks), at least one.
+
+    Returns
+    -------
+    same type as ``parts[0]``
+        The record of all their designs, in order.
+    """
     first = parts[0]
     if first is None or isinstance(first, str):
         return first

@@ -44,7 +44,28 @@ def pair_roots(fun, qa: QP, qb: QP, mode: str, task, a, b, fa, fb, k: int = 0, f
 
 
 def pair_values(fun, qa: QP, qb: QP, mode: str, task, w, k: int = 0, factor: complex = 1.0, c=None):
-    """``fun(task, w)`` (numpy reference) or the same function compiled."""
+    """``fun(task, w)`` (numpy reference) or the same function compiled.
+
+    Parameters
+    ----------
+    fun : callable or None
+        ``fun(task, w)``, the numpy reference function (unused when compiled).
+    qa, qb : QP
+        The pair of quasi-polynomials the function is built from.
+    mode : str
+        The compiled function's name: "cross" (a family's crossing function) or "mag" (|qa/qb|² − c).
+    task : ndarray of int
+        Design row of each point.
+    w : ndarray
+        Frequencies [rad/s].
+    k, factor, c :
+        Parameters of the compiled function: the family's (jω)^k and factor, the magnitude level c.
+
+    Returns
+    -------
+    ndarray
+        The function's value at each point.
+    """
     if compiled():
         from ..numerics import kernels as _fastphase
 

@@ -112,6 +112,26 @@ def char_terms(plant: Plant, cs: ControllerStructure, N: int, *, dob_model=None)
     law δ̂ = Q (M0 θ_m − τ_s − τ_cmd) gives τ_cmd = (Σ_x G_x x − Q M0 θ_m + Q τ_s)/(1 − Q), so P0
     is unchanged and P1 = d·n_q·(M0 N_θm − N_τs) − d_q Σ_x n_x (d/d_x) N_x; with M0 = M this is the
     form above (det = M N_θm − N_τs for every key). ``None`` (default) is the original code path.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (scalars or one value per design).
+    cs : ControllerStructure
+        The controller blocks, the DOB filter Q and the delay T [s].
+    N : int
+        Number of designs.
+    dob_model : tuple of (float or ndarray), optional
+        (J_m0 [kg·m²], B_m0 [N·m·s/rad]), the DOB's nominal motor model; None: the plant's own.
+
+    Returns
+    -------
+    CharTerms
+        Δ00, Δ10, Δ01, Δ11 (ascending coefficients, one row per design) and the delays T [s].
+
+    References
+    ----------
+    Paper §II (the model), §III (the DOB, eq. (15)); docs/method.md#one-characteristic-function.
     """
     Ks, Kc, Jm, Bm, Jj = (design_column(v, N) for v in (plant.K_s, plant.K_c, plant.J_m, plant.B_m, plant.J_j))
     zero = np.zeros(N)
@@ -160,7 +180,18 @@ def char_terms(plant: Plant, cs: ControllerStructure, N: int, *, dob_model=None)
 
 
 def trim_poly(c: np.ndarray) -> np.ndarray:
-    """Drop trailing all-zero highest-order columns."""
+    """Drop trailing all-zero highest-order columns.
+
+    Parameters
+    ----------
+    c : ndarray, shape (N, n)
+        Ascending polynomial coefficients, one row per design.
+
+    Returns
+    -------
+    ndarray, shape (N, m)
+        ``c`` without its all-zero highest-order columns (at least one column kept).
+    """
     nz = np.nonzero(np.any(c != 0, axis=0))[0]
     return c[:, : (nz[-1] + 1 if nz.size else 1)]
 
@@ -170,6 +201,24 @@ def amplification_qps(plant: Plant, cs: ControllerStructure, N: int) -> tuple[QP
 
     Denominator = the output-locked characteristic function; its RHP count is the locked-output
     stability verdict. C6/C5 = num/den (same normalization).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (scalars or one value per design).
+    cs : ControllerStructure
+        The controller blocks, the DOB filter Q and the delay T [s].
+    N : int
+        Number of designs.
+
+    Returns
+    -------
+    num, den : QP
+        Numerator and denominator of C6/C5, one row per design.
+
+    References
+    ----------
+    Paper §II-D (amplification, eqs. (13)–(14)); docs/method.md#amplification.
     """
     Ks, Jm, Bm = (design_column(v, N) for v in (plant.K_s, plant.J_m, plant.B_m))
     A = as_poly(Ks, Bm, Jm)

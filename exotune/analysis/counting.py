@@ -25,7 +25,22 @@ __all__ = ["RootCounter", "rhp_count", "free_stability", "coupled_stable"]
 
 
 def rhp_count(qp: QP):
-    """(N_rhp, rigid_body_roots, conclusive) with the exact s = 0 roots divided out first."""
+    """(N_rhp, rigid_body_roots, conclusive) with the exact s = 0 roots divided out first.
+
+    Parameters
+    ----------
+    qp : QP
+        Characteristic quasi-polynomials, one row per design.
+
+    Returns
+    -------
+    n_rhp : ndarray of int, shape (N,)
+        Roots in the open right half-plane.
+    rigid_body_roots : ndarray of int, shape (N,)
+        Exact roots at s = 0 divided out.
+    conclusive : ndarray of bool, shape (N,)
+        Whether the count is exact.
+    """
     c = RootCounter()
     h = c.add(qp.p0, qp.p1, qp.T)
     c.run()
@@ -98,7 +113,22 @@ class RootCounter:
 
 
 def free_stability(ct: CharTerms):
-    """Free exoskeleton (cuff free, no environment): stable except for ≤ 1 rigid-body root."""
+    """Free exoskeleton (cuff free, no environment): stable except for ≤ 1 rigid-body root.
+
+    Parameters
+    ----------
+    ct : CharTerms
+        The characteristic terms of the designs (:func:`~exotune.analysis.charfun.char_terms`).
+
+    Returns
+    -------
+    dict
+        Arrays of shape (N,): ``stable``, ``n_rhp``, ``rigid_body_roots``, ``conclusive``.
+
+    References
+    ----------
+    docs/method.md#free-and-locked-stability.
+    """
     N, r, ok = rhp_count(ct.qp("00"))
     return {"stable": ok & (N == 0) & (r <= 1), "n_rhp": N, "rigid_body_roots": r, "conclusive": ok}
 
@@ -109,6 +139,30 @@ def coupled_stable(plant: Plant, cs: ControllerStructure, N: int, human: dict | 
     ``human``: {inertia, damping, stiffness} (any subset; None = cuff free);
     ``env``: None/"free", "locked", or {inertia, damping, stiffness}.
     Returns dict(stable, n_rhp, rigid_body_roots, conclusive) of arrays over the N designs.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (scalars or one value per design).
+    cs : ControllerStructure
+        The controller blocks, the DOB filter and the delay.
+    N : int
+        Number of designs.
+    human : dict, optional
+        The person's impedance: ``inertia`` [kg·m²], ``damping`` [N·m·s/rad], ``stiffness``
+        [N·m/rad] (any subset); None: cuff free.
+    env : dict or str, optional
+        The environment: None or "free", "locked", or an impedance as ``human``.
+
+    Returns
+    -------
+    dict
+        Arrays of shape (N,): ``stable`` (no RHP root; at most one rigid-body root unless locked),
+        ``n_rhp``, ``rigid_body_roots``, ``conclusive``.
+
+    References
+    ----------
+    docs/method.md#free-and-locked-stability.
     """
     ct = char_terms(plant, cs, N)
     if env == "locked":

@@ -37,6 +37,18 @@ def pade_coefficients(T: float, n: int) -> tuple[np.ndarray, np.ndarray]:
     classic closed form (python-control's ``control.pade`` gives the same rational function; the
     tests compare them). Importing python-control only for this costs a second per process.
 
+    Parameters
+    ----------
+    T : float
+        The delay [s].
+    n : int
+        The approximant's order.
+
+    Returns
+    -------
+    num, den : ndarray, shape (n + 1,)
+        Ascending coefficients in s of the numerator and denominator.
+
     Examples
     --------
     >>> num, den = pade_coefficients(0.001, 1)   # (1 − sT/2)/(1 + sT/2)
@@ -68,7 +80,26 @@ def _roots_scaled(c: np.ndarray) -> np.ndarray:
 
 
 def pade_stable(p0: np.ndarray, p1: np.ndarray, T: float, order: int, allowed_rigid: int = 1):
-    """(stable, rightmost root) of P0 + P1·Padé_n(e^{−sT}) for one real quasi-polynomial."""
+    """(stable, rightmost root) of P0 + P1·Padé_n(e^{−sT}) for one real quasi-polynomial.
+
+    Parameters
+    ----------
+    p0, p1 : ndarray
+        Ascending coefficients of P0 and P1.
+    T : float
+        The delay [s].
+    order : int
+        The Padé approximant's order.
+    allowed_rigid : int
+        Roots at s = 0 allowed (1: the free exoskeleton's rigid-body root).
+
+    Returns
+    -------
+    stable : bool
+        Every root of the rational model in the open left half-plane, besides the allowed s = 0 roots.
+    rightmost : complex
+        Its root of largest real part [rad/s] (−inf without roots).
+    """
     q = QP(np.atleast_2d(p0), np.atleast_2d(p1), np.array([T]))
     r, (qs,) = strip_qps(q)
     roots = _pade_roots(qs.p0[0], qs.p1[0], T, order)
@@ -120,7 +151,26 @@ def exact_rhp_roots(p0: np.ndarray, p1: np.ndarray, T: float, orders=(10, 16), n
 
 
 def pade_crosscheck(cfg, orders=(10, 16)) -> dict:
-    """Compare exotune's verdicts (exact delay) for one design with two Padé models (module docstring)."""
+    """Compare exotune's verdicts (exact delay) for one design with two Padé models (module docstring).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design.
+    orders : tuple of int
+        The Padé orders of the rational models.
+
+    Returns
+    -------
+    dict
+        ``pade_orders``, ``checked`` and ``agree`` (numbers of cases), ``unconfirmed`` (labels of
+        the cases exotune calls unstable without an RHP root found) and ``disagreements`` (cases
+        exotune calls stable, with the exact RHP root found, ``re``/``im`` [rad/s]).
+
+    References
+    ----------
+    docs/method.md#second-opinions.
+    """
     res = analyze_batch(cfg)
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, 1)

@@ -31,7 +31,24 @@ def analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
     Overflow in an extreme design is reported through the inconclusive flags and warnings of
     the result, not as numpy's floating-point warnings. ``sampled_check=False`` leaves out the
     sampled-data grid check at the design's rate (``exotune analyze`` replaces it with the exact
-    verdicts of record, :func:`exotune.controllerfile.verdicts.analyze_of_record`)."""
+    verdicts of record, :func:`exotune.controllerfile.verdicts.analyze_of_record`).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The validated design.
+    sampled_check : bool
+        Whether to run the sampled-data grid check at the design's sample rate.
+
+    Returns
+    -------
+    DesignAnalysis
+        Verdicts, stable intervals, passivity, DOB margins, amplification and warnings.
+
+    References
+    ----------
+    docs/method.md#analyses-and-metrics.
+    """
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         return _analyze_design(cfg, sampled_check)
 
@@ -193,7 +210,22 @@ def analyze_with_margins(cfg, sampled_check: bool = True):
 def kyp_certificates(cfg) -> dict:
     """KYP passivity certificates of the rational models of C7 (:mod:`exotune.analysis.kyp`, cvxpy):
     name → :class:`~exotune.analysis.KypCertificate`; a missing or failing SDP solver is reported as
-    ``{"error": text}``, not raised."""
+    ``{"error": text}``, not raised.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        The validated design.
+
+    Returns
+    -------
+    dict
+        Model name → :class:`~exotune.analysis.KypCertificate`, or ``{"error": text}``.
+
+    References
+    ----------
+    Paper §IV-A (passivity of the operator compliance C7); docs/method.md#passivity-of-the-operator-compliance.
+    """
     try:
         from .kyp import operator_certificates
 

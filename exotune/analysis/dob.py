@@ -30,6 +30,23 @@ def dob_margins(cs: ControllerStructure, N: int) -> DobBatch | None:
     in ω); delay margin = min_k PM_k/ω_k with PM_k ∈ [0, 2π). Phase crossovers (arg L = −180° mod
     360°) are bracketed on a dense log grid of the continuous phase (from the roots of n_q and
     d_q − n_q, so no unwrapping) and bisected; gain margin = min over them of 1/|L|.
+
+    Parameters
+    ----------
+    cs : ControllerStructure
+        The controller blocks: the DOB filter Q and the delay T [s].
+    N : int
+        Number of designs.
+
+    Returns
+    -------
+    DobBatch or None
+        Gain [dB], phase [deg] and delay [s] margins and the closed-loop verdict, one entry per
+        design; None when the controller has no DOB.
+
+    References
+    ----------
+    Paper §III (the DOB), Fig. 4 (tuning the DOB's Q filter against the delay); docs/method.md#dob-margins.
     """
     if cs.dob_q is None:
         return None

@@ -201,7 +201,32 @@ def classify_numpy(lv: dict, k: int, factor: complex, lo: float, hi: float):
     makes Im κ ripple with period 2π/T. The leaf criteria bound each function's phase step
     (< 0.8 rad) and its departure from the trapezoid estimate (≤ 0.5 rad), so arg κ cannot swing by
     ≳ 1 rad inside a leaf and back: every plausible leaf with κ within NEAR_REAL_RAD of the real
-    axis at an end is sub-sampled (≥ 8 points, ≥ 8 per ripple period) by the caller."""
+    axis at an end is sub-sampled (≥ 8 points, ≥ 8 per ripple period) by the caller.
+
+    Parameters
+    ----------
+    lv : dict
+        The pair's leaves: ends ``a``, ``b`` [rad/s] and the values ``va``, ``vb`` of (Δ_0, Δ1) there.
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f of f φ (1 + jη for the hysteretic human).
+    lo, hi : float
+        The family's range (in its parameter's unit: [kg·m²], [N·m·s/rad] or [N·m/rad]).
+
+    Returns
+    -------
+    ga, gb : ndarray
+        The crossing function at the leaves' ends.
+    br : ndarray of bool
+        The leaves holding a plausible sign-change bracket.
+    sus : ndarray of bool
+        The leaves to sub-sample.
+
+    References
+    ----------
+    docs/method.md#stable-intervals-of-a-human-family.
+    """
     # f (jω)^k v as a complex constant times a real power (no complex power)
     fl = lambda v, w: (factor * 1j**k) * (w**k * v)  # noqa: E731
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -224,7 +249,24 @@ def classify_numpy(lv: dict, k: int, factor: complex, lo: float, hi: float):
 
 def classify(lv: dict, k: int, factor: complex, lo: float, hi: float):
     """:func:`classify_numpy`, compiled when available; leaves with a zero or non-finite value
-    (where numpy's complex inf/nan rules decide) go through the numpy reference."""
+    (where numpy's complex inf/nan rules decide) go through the numpy reference.
+
+    Parameters
+    ----------
+    lv : dict
+        The pair's leaves: ends ``a``, ``b`` [rad/s] and the values ``va``, ``vb`` of (Δ_0, Δ1) there.
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f of f φ (1 + jη for the hysteretic human).
+    lo, hi : float
+        The family's range (in its parameter's unit: [kg·m²], [N·m·s/rad] or [N·m/rad]).
+
+    Returns
+    -------
+    ga, gb, br, sus : ndarray
+        As :func:`classify_numpy`.
+    """
     if not compiled():
         return classify_numpy(lv, k, factor, lo, hi)
     from ..numerics import kernels as _fastphase
@@ -240,7 +282,28 @@ def classify(lv: dict, k: int, factor: complex, lo: float, hi: float):
 def subsample_brackets(g, D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
     """Sign-change brackets (task, a, b, g(a), g(b)) of the crossing function g on M equally
     spaced points of each leaf [sa, sb] (ends included; M ≥ 8 and ≥ 8 per delay ripple period
-    2π/T, at most 512); compiled when available."""
+    2π/T, at most 512); compiled when available.
+
+    Parameters
+    ----------
+    g : callable
+        ``g(task, w)``, the crossing function (numpy reference; unused when compiled).
+    D0, D1 : QP
+        Δ_0 and Δ1 of the family's group.
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f of f φ.
+    st : ndarray of int
+        Design row of each leaf.
+    sa, sb : ndarray
+        The leaves' ends [rad/s].
+
+    Returns
+    -------
+    task, a, b, ga, gb : ndarray
+        Design row, bracket ends [rad/s] and the crossing function's values there (opposite signs).
+    """
     if compiled():
         from ..numerics import kernels as _fastphase
 
@@ -364,7 +427,26 @@ def family_wmax(D0: QP, D1: QP, phi, factor, lo, hi):
 
 
 def family_intervals(ct: CharTerms, fam: HumanFamily, key0: str = "00", key1: str = "10") -> FamilyBatch:
-    """Exact stable sub-intervals of one family (convenience wrapper around :class:`FamilySide`)."""
+    """Exact stable sub-intervals of one family (convenience wrapper around :class:`FamilySide`).
+
+    Parameters
+    ----------
+    ct : CharTerms
+        The characteristic terms of the designs.
+    fam : HumanFamily
+        The impedance family.
+    key0, key1 : str
+        The terms Δ{key0} + z Δ{key1}: "00", "10" for a human at θ_h; "00", "01" for an environment.
+
+    Returns
+    -------
+    FamilyBatch
+        The family's stable intervals, verdicts and critical values, one entry per design.
+
+    References
+    ----------
+    Paper §IV (coupled stability); docs/method.md#stable-intervals-of-a-human-family.
+    """
     side = FamilySide(ct, key0, key1, [fam])
     c = RootCounter()
     side.submit(c)

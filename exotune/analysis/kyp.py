@@ -242,7 +242,33 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     positive real (``passive`` False, shortage NaN) or, on the axis, undecided (None).
 
     One function (over 80 lines): the steps 1–4 of the module docstring in order, each ending in an
-    early return with its verdict."""
+    early return with its verdict.
+
+    Parameters
+    ----------
+    num, den : array_like
+        Ascending coefficients of Y's numerator and denominator.
+    model : str
+        The model's name, carried into the certificate.
+    tol : float
+        Relative tolerance on the shortage (against the largest Hankel singular value).
+
+    Returns
+    -------
+    KypCertificate
+        ``passive`` (True, False or None: undecided), the shortage [rad/(N·m·s)] and why.
+
+    Raises
+    ------
+    ValueError
+        When the denominator is zero.
+    ImportError
+        When cvxpy is missing and the SDP is needed.
+
+    References
+    ----------
+    Paper §IV-A (passivity of the operator compliance); docs/method.md#passivity-of-the-operator-compliance.
+    """
     import scipy.signal
 
     num, den = _trim(num), _trim(den)
@@ -358,7 +384,22 @@ def _verify_passive(A, B, C, q0, P, num, den) -> tuple[bool, str]:
 
 
 def compliance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCertificate:
-    """Certificate of a compliance C = num/den [rad/(N·m)]: Y = s·C (ascending coefficients)."""
+    """Certificate of a compliance C = num/den [rad/(N·m)]: Y = s·C (ascending coefficients).
+
+    Parameters
+    ----------
+    num, den : array_like
+        Ascending coefficients of C's numerator and denominator.
+    model : str
+        The model's name, carried into the certificate.
+    tol : float
+        Relative tolerance on the shortage.
+
+    Returns
+    -------
+    KypCertificate
+        The certificate of the admittance Y = s·C (:func:`admittance_certificate`).
+    """
     return admittance_certificate(np.r_[0.0, _trim(num)], den, model=model, tol=tol)
 
 
@@ -371,7 +412,30 @@ def nominal_shortage(alpha, felt_inertia, felt_damping, K_c, zeta_hat):
     monotone in ν² between ω²/(K_c b) (ν = 0) and (2ζ̂ω − b)/K_c (ν → ∞): the nominal C7 is passive
     iff 2ζ̂ω ≥ b, and the shortage is max(0, (b − 2ζ̂ω)/K_c) [rad/(N·m·s)]. Ĵ_m = α·felt_inertia,
     B̂_m = α·felt_damping (docs/method.md#double-compliance-shaping). Since B̂2 = (2ζ̂√(αK_cĴ_m) − B̂_m)/K_c (paper eq. for B̂2), this is
-    max(0, −B̂2/Ĵ_m): the nominal C7 is passive iff the cuff-torque-rate gain B̂2 ≥ 0."""
+    max(0, −B̂2/Ĵ_m): the nominal C7 is passive iff the cuff-torque-rate gain B̂2 ≥ 0.
+
+    Parameters
+    ----------
+    alpha : float or array_like
+        The amplification α (dimensionless).
+    felt_inertia : float or array_like
+        The inertia the person feels, Ĵ_m/α [kg·m²].
+    felt_damping : float or array_like
+        The damping the person feels, B̂_m/α [N·m·s/rad].
+    K_c : float or array_like
+        The cuff stiffness [N·m/rad].
+    zeta_hat : float or array_like
+        The damping ratio ζ̂ of the nominal C7 (dimensionless).
+
+    Returns
+    -------
+    ndarray
+        The shortage max(0, (b − 2ζ̂ω)/K_c) [rad/(N·m·s)] (0: the nominal C7, eq. (16), is passive).
+
+    References
+    ----------
+    Paper §IV-A (passivity of the operator compliance); docs/method.md#passivity-of-the-operator-compliance.
+    """
     a = np.asarray(alpha, float)
     Jh = a * np.asarray(felt_inertia, float)
     b = a * np.asarray(felt_damping, float) / Jh
@@ -381,7 +445,32 @@ def nominal_shortage(alpha, felt_inertia, felt_damping, K_c, zeta_hat):
 
 def operator_certificates(cfg, tol: float = TOL) -> dict:
     """Both certificates of a single-design config: {"nominal": …, "delay_free": …} (each a
-    :class:`KypCertificate`; :func:`certificates_dict` gives their JSON records)."""
+    :class:`KypCertificate`; :func:`certificates_dict` gives their JSON records).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design.
+    tol : float
+        Relative tolerance on the shortage.
+
+    Returns
+    -------
+    dict
+        ``nominal`` (the nominal C7, eq. (16)) and ``delay_free`` (the implemented C7 with T = 0),
+        each a :class:`KypCertificate`.
+
+    Raises
+    ------
+    ImportError
+        When cvxpy is missing.
+    ValueError
+        When a model's denominator is zero.
+
+    References
+    ----------
+    Paper §IV-A (passivity of the operator compliance); docs/method.md#passivity-of-the-operator-compliance.
+    """
     from .charfun import char_terms
     from ..model.controller import build_controller
     from ..numerics.poly import padd
@@ -399,5 +488,16 @@ def operator_certificates(cfg, tol: float = TOL) -> dict:
 
 
 def certificates_dict(certs) -> dict:
-    """The JSON records of :func:`operator_certificates` (an ``error`` entry is kept as its text)."""
+    """The JSON records of :func:`operator_certificates` (an ``error`` entry is kept as its text).
+
+    Parameters
+    ----------
+    certs : dict
+        Name → :class:`KypCertificate` (or the text of an error).
+
+    Returns
+    -------
+    dict
+        Name → the certificate's JSON record (``as_dict()``), or the text.
+    """
     return {name: (c if isinstance(c, str) else c.as_dict()) for name, c in certs.items()}

@@ -145,6 +145,11 @@ def positive_on_axis(num, den) -> tuple[bool, str]:
     """Exact proof that Y = num/den (ascending float coefficients) is positive real with
     Re Y(jω) > 0 at every finite ω ≥ 0.
 
+    Parameters
+    ----------
+    num, den : sequence of float
+        Ascending coefficients of Y's numerator and denominator (converted to exact fractions).
+
     Returns
     -------
     tuple

@@ -96,7 +96,18 @@ def tail_bound(c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
     coefficient magnitudes; ``inf`` for a neutral row, deg P1 ≥ deg P0, or P0 ≡ 0).
 
     |P0| ≥ |c0_n| ωⁿ − Σ_{k<n} |c0_k| ω^k and |P1| ≤ Σ |c1_k| ω^k, so beyond twice the largest
-    (Σ_k-term / |c0_n|)^{1/(n−k)} no crossing exists."""
+    (Σ_k-term / |c0_n|)^{1/(n−k)} no crossing exists.
+
+    Parameters
+    ----------
+    c0, c1 : ndarray, shape (N, n)
+        Ascending coefficients of P0 and P1, one row per design.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        The frequency bound [rad/s] (``inf`` when none exists).
+    """
     m0 = np.abs(np.asarray(c0))
     m1 = np.abs(np.asarray(c1))
     n = max(m0.shape[1], m1.shape[1])

@@ -20,7 +20,20 @@ __all__ = ["c7_response", "passivity", "BAND_MIN_EXCESS_DEG"]
 
 
 def c7_response(ct: CharTerms, w: np.ndarray) -> np.ndarray:
-    """C7(jω) = Δ10/Δ00 for every design (rows) at frequencies w (N, K) [rad/(N·m)]."""
+    """C7(jω) = Δ10/Δ00 for every design (rows) at frequencies w (N, K) [rad/(N·m)].
+
+    Parameters
+    ----------
+    ct : CharTerms
+        The characteristic terms of the N designs.
+    w : ndarray, shape (N, K)
+        Frequencies [rad/s], one row per design.
+
+    Returns
+    -------
+    ndarray of complex, shape (N, K)
+        C7(jω) [rad/(N·m)].
+    """
     N = ct.T.shape[0]
     idx = np.repeat(np.arange(N), w.shape[1])
     a, _ = ct.qp("00").eval(idx, w.ravel(), deriv=False)
@@ -45,6 +58,22 @@ def passivity(side: FamilySide) -> PassivityBatch:
 
     One function (over 80 lines): the peak refinement, the band runs and their edges all index the
     same vectorized leaf arrays of every design; split, they would pass a dozen arrays around.
+
+    Parameters
+    ----------
+    side : FamilySide
+        The human side of the loop (Δ00, Δ10), whose leaves at z0 = 0 are reused or computed.
+
+    Returns
+    -------
+    PassivityBatch
+        ``conclusive``, ``max_phase_excess_deg`` [deg] (NaN: partial frequency coverage) and
+        ``nonpassive_band_hz`` [Hz], one entry per design.
+
+    References
+    ----------
+    Paper §IV-A (passivity of the operator compliance), Fig. 5 (the passive phase region);
+    docs/method.md#passivity-of-the-operator-compliance.
     """
     z0 = (0.0, 0.0, 0.0)
     D0, D1, lv = side.leaves.get(z0) or side.compute_leaves(z0)

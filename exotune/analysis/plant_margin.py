@@ -156,7 +156,23 @@ def _weights(weights) -> np.ndarray:
 
 def plant_loops(cfg) -> list:
     """(name, family or None, key0, key1) of every loop of the design, in the order and with the
-    names of the latency margin (free, environments, every human family or box edge)."""
+    names of the latency margin (free, environments, every human family or box edge).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design.
+
+    Returns
+    -------
+    list of tuple
+        ``(name, family, key0, key1)``: the loop's name, its HumanFamily (None for a single loop)
+        and its characteristic terms (``key1`` None for a single loop).
+
+    References
+    ----------
+    docs/method.md#plant-uncertainty-margin.
+    """
     from ..model.humans import HumanFamily
 
     out = [("free", None, "00", None)]
@@ -203,7 +219,24 @@ class _Loop:
 def loop_counts_at(model: LoopModel, deltas: np.ndarray, members, r0: int) -> np.ndarray:
     """Unstable mask (plant-major, member-minor) of the plants q0(1 + δ) (rows of ``deltas``) and the
     family ``members`` by the exact argument-principle count (more roots at s = 0 than ``r0``, a
-    right-half-plane root or an inconclusive count)."""
+    right-half-plane root or an inconclusive count).
+
+    Parameters
+    ----------
+    model : LoopModel
+        The loop, its controller fixed.
+    deltas : ndarray, shape (n, 5)
+        Relative deviations δ of (J_m, B_m, K_s, J_j, K_c) from the nominal plant (dimensionless).
+    members : ndarray or None
+        The family members p (in the family parameter's unit), None for a single loop.
+    r0 : int
+        The roots at s = 0 allowed (the nominal loop's).
+
+    Returns
+    -------
+    ndarray of bool
+        True where the plant (and member) is unstable or the count inconclusive.
+    """
     q = model.q0[None, :] * (1.0 + np.atleast_2d(deltas))
     N, r, ok = model.counts(q, members)
     return ~(ok & (N == 0) & (r <= r0))

@@ -124,7 +124,20 @@ class LoopModel:
 
 
 def strip_rows(P0: np.ndarray, P1: np.ndarray):
-    """Divide the exact zero low-order coefficients common to every row (structural roots at s = 0)."""
+    """Divide the exact zero low-order coefficients common to every row (structural roots at s = 0).
+
+    Parameters
+    ----------
+    P0, P1 : ndarray
+        Ascending coefficients of P0 and P1, one row per loop.
+
+    Returns
+    -------
+    r : int
+        Number of low-order columns divided out (roots at s = 0).
+    P0, P1 : ndarray
+        The divided coefficients, trailing all-zero columns dropped.
+    """
     w = max(P0.shape[1], P1.shape[1])
     nz = np.any(pad_cols(P0, w) != 0, axis=0) | np.any(pad_cols(P1, w) != 0, axis=0)
     r = int(np.argmax(nz)) if nz.any() else 0
@@ -153,6 +166,13 @@ def hull_distance(V: np.ndarray, slack: np.ndarray | None = None):
     min_v Re(V_v x̄)/|x|, the distance of 0 to the hull along the direction x. With ``slack``
     (W, R), every point v may move by up to slack[:, v]: the bound min_v (Re(V_v x̄)/|x| − slack_v)
     is still rigorous for the moved hull. Rows stop iterating once that bound is positive.
+
+    Parameters
+    ----------
+    V : ndarray of complex, shape (W, R)
+        The points, one hull per row (the vertex values Δ(jω) at one frequency).
+    slack : ndarray, shape (W, R), optional
+        How far each point may move (default: 0).
 
     Returns
     -------
@@ -330,6 +350,27 @@ def certify_loop(model: LoopModel, lo: np.ndarray, hi: np.ndarray, r0: int, budg
     midpoint must exceed the motion bound (b − a)/2 · max|dΔ/dω| plus a rounding allowance, or the
     interval is halved (when the hull is clear of 0) or the box is halved along the coordinate that
     most reduces the hull's spread (when it is not). ``budget`` caps the interval evaluations.
+
+    Parameters
+    ----------
+    model : LoopModel
+        The loop, its controller fixed.
+    lo, hi : ndarray, shape (ndim,)
+        The box: relative plant deviations δ (dimensionless) and, for a family, the member p.
+    r0 : int
+        The nominal loop's structural roots at s = 0.
+    budget : int
+        The most interval evaluations spent.
+
+    Returns
+    -------
+    CertifyResult
+        ``certified``, the evaluations spent, and otherwise the reason, the box hints and the
+        frequency [rad/s] where the subdivision stalled.
+
+    References
+    ----------
+    docs/method.md#plant-uncertainty-margin.
     """
     root = _make_box(model, lo, hi, 0, r0)
     if root is None:

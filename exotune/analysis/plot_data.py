@@ -38,7 +38,17 @@ N_GRID = 2400
 
 
 def finite(x) -> bool:
-    """True for a finite number (None, strings and NaN/inf are not)."""
+    """True for a finite number (None, strings and NaN/inf are not).
+
+    Parameters
+    ----------
+    x : object
+        Any value.
+
+    Returns
+    -------
+    bool
+    """
     try:
         return x is not None and math.isfinite(float(x))
     except (TypeError, ValueError):
@@ -99,19 +109,52 @@ def _rational_response(r, w: np.ndarray) -> np.ndarray:
 
 
 def phase_deg(H: np.ndarray) -> np.ndarray:
-    """Continuous phase [deg] of a response, anchored so that the first value lies in (−180°, 180°]."""
+    """Continuous phase [deg] of a response, anchored so that the first value lies in (−180°, 180°].
+
+    Parameters
+    ----------
+    H : ndarray of complex
+        A frequency response on an increasing frequency grid.
+
+    Returns
+    -------
+    ndarray
+        Its unwrapped phase [deg].
+    """
     ph = np.unwrap(np.angle(H))
     return np.degrees(ph - 2 * np.pi * np.round((ph[0] - np.angle(H[0])) / (2 * np.pi)))
 
 
 def db(H) -> np.ndarray:
-    """20 log10 |H| (−inf at 0, without a warning)."""
+    """20 log10 |H| (−inf at 0, without a warning).
+
+    Parameters
+    ----------
+    H : array_like of complex
+        A frequency response.
+
+    Returns
+    -------
+    ndarray
+        Its magnitude [dB].
+    """
     with np.errstate(divide="ignore"):
         return 20.0 * np.log10(np.abs(H))
 
 
 def second_delay(T: float) -> float:
-    """The larger comparison delay of ``amplification.png``: max(2T, T + 2 ms)."""
+    """The larger comparison delay of ``amplification.png``: max(2T, T + 2 ms).
+
+    Parameters
+    ----------
+    T : float
+        The design's delay [s].
+
+    Returns
+    -------
+    float
+        The comparison delay [s] (paper Fig. 5 compares the amplification at two delays).
+    """
     return max(2.0 * T, T + 2e-3)
 
 
