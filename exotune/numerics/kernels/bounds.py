@@ -127,7 +127,24 @@ if AVAILABLE:
 
 def family_wmax(p0a, p1a, p0b, p1b, phi, factor: complex, lo: float, hi: float) -> np.ndarray:
     """Compiled :func:`exotune.analysis._family_wmax` for real coefficient batches: a tail
-    frequency valid for every p in [lo, hi] of Δa + p·φ·f·Δb."""
+    frequency valid for every p in [lo, hi] of Δa + p·φ·f·Δb.
+
+    Parameters
+    ----------
+    p0a, p1a, p0b, p1b : ndarray, shape (n, ·)
+        Ascending real coefficients of P0 and P1 of Δa and Δb, one row per design.
+    phi : ndarray
+        Ascending coefficients of the polynomial φ(s) of the family.
+    factor : complex
+        The constant f (1 + jη for the hysteretic human).
+    lo, hi : float
+        The family's range (in its parameter's unit: [kg·m²], [N·m·s/rad] or [N·m/rad]).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The tail frequency [rad/s] per row (+inf where no tail bound holds).
+    """
     f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
     out = np.empty(p0a.shape[0])
     factor = complex(factor)
@@ -150,14 +167,38 @@ if AVAILABLE:
 
 
 def pmul_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Compiled batched product of two real polynomial batches of shape (n, ·)."""
+    """Compiled batched product of two real polynomial batches of shape (n, ·).
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (n, ·)
+        Ascending coefficients, one polynomial per row.
+
+    Returns
+    -------
+    ndarray, shape (n, a.shape[1] + b.shape[1] − 1)
+        The row-by-row products.
+    """
     out = np.zeros((a.shape[0], a.shape[1] + b.shape[1] - 1))
     _pmul_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float), out)
     return out
 
 
 def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25) -> np.ndarray:
-    """Compiled :func:`exotune.quasipoly.omega_max` (same bound, row by row)."""
+    """Compiled :func:`exotune.quasipoly.omega_max` (same bound, row by row).
+
+    Parameters
+    ----------
+    p0, p1 : ndarray, shape (n, ·)
+        Ascending coefficients of the quasi-polynomials' P0 and P1.
+    frac : float
+        The tail bounds' fraction (0 < frac < 1).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ω_max [rad/s] per row, +inf where no tail bound holds.
+    """
     a0 = np.ascontiguousarray(np.abs(p0), dtype=float)
     a1 = np.ascontiguousarray(np.abs(p1), dtype=float)
     out = np.empty(a0.shape[0])

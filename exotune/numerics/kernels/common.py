@@ -127,6 +127,17 @@ if AVAILABLE:
 
 def coefficients(q):
     """The coefficient rows (p0, p1) of the quasi-polynomial batch ``q``, contiguous, complex when
-    either is complex (else float): the layout the kernels take."""
+    either is complex (else float): the layout the kernels take.
+
+    Parameters
+    ----------
+    q : QP
+        A batch of quasi-polynomials.
+
+    Returns
+    -------
+    p0, p1 : ndarray
+        Its ascending coefficient rows, C-contiguous, of a common dtype.
+    """
     dt = complex if (np.iscomplexobj(q.p0) or np.iscomplexobj(q.p1)) else float
     return np.ascontiguousarray(np.asarray(q.p0, dtype=dt)), np.ascontiguousarray(np.asarray(q.p1, dtype=dt))

@@ -143,7 +143,31 @@ if AVAILABLE:
 def leaves2(qa, qb, grid, valid, arg_step, der_step, max_levels, lthr=None):
     """Compiled :func:`exotune.quasipoly.adaptive_leaves` for two tracked quasi-polynomials with the
     same delays (``qa.T``); ``lthr`` (log of the −3 dB level per task) adds the magnitude criterion
-    of the amplification bandwidth. Returns the same dict layout."""
+    of the amplification bandwidth. Returns the same dict layout.
+
+    Parameters
+    ----------
+    qa, qb : QP
+        The pair of quasi-polynomials Δa, Δb (same delays T [s]).
+    grid : ndarray, shape (ntask, K)
+        The initial frequencies [rad/s] of each task, increasing along axis 1.
+    valid : ndarray of bool, shape (ntask,)
+        The tasks to refine.
+    arg_step : float
+        The largest accepted phase step of an interval [rad] (``quasipoly.ARG_STEP``).
+    der_step : float
+        The largest accepted (b − a)·|Δ'/Δ(b) − Δ'/Δ(a)| of an interval (``quasipoly.DER_STEP``).
+    max_levels : int
+        The most halvings of an interval (``quasipoly.MAX_LEVELS``).
+    lthr : ndarray, shape (ntask,), optional
+        log of the −3 dB level dc/√2 of |C6/C5| per task; None: no magnitude criterion.
+
+    Returns
+    -------
+    dict
+        ``task``, ``a``, ``b`` (the leaves' ends [rad/s]), ``va``, ``vb`` (the values of Δa and Δb
+        at them), and per task ``resolved`` and ``exhausted`` (the work budget spent).
+    """
     cA0, cA1 = coefficients(qa)
     cB0, cB1 = coefficients(qb)
     if cA0.dtype != cB0.dtype:

@@ -131,7 +131,31 @@ def _cvals(c, n):
 
 def pair_values(qa, qb, mode: str, task, w, k: int = 0, factor: complex = 1.0, c=None):
     """One of the scalar functions of ``mode`` ("cross", "mag", "excess"; see ``_fun``) at the
-    (task, ω) pairs, compiled."""
+    (task, ω) pairs, compiled.
+
+    Parameters
+    ----------
+    qa, qb : QP
+        The pair of quasi-polynomials Δa, Δb (same delays T [s]).
+    mode : str
+        "cross" (Im[Δa·conj(f (jω)^k Δb)]), "mag" (|Δa/Δb|² − c) or "excess" (the passivity phase
+        excess of Δb/Δa [deg]).
+    task : ndarray of int
+        Design row of each point.
+    w : ndarray
+        Frequencies [rad/s].
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f (1 + jη for the hysteretic human).
+    c : float or ndarray, optional
+        The magnitude level c per design ("mag").
+
+    Returns
+    -------
+    ndarray
+        The function's value at each point.
+    """
     factor = complex(factor)
     out = np.empty(len(task))
     if len(task):
@@ -142,7 +166,33 @@ def pair_values(qa, qb, mode: str, task, w, k: int = 0, factor: complex = 1.0, c
 
 def pair_roots(qa, qb, mode: str, task, a, b, fa, fb, k: int = 0, factor: complex = 1.0, c=None):
     """Compiled Illinois (same algorithm as :func:`exotune.quasipoly.bisect_roots`) on sign-change
-    brackets of the ``mode`` function."""
+    brackets of the ``mode`` function.
+
+    Parameters
+    ----------
+    qa, qb : QP
+        The pair of quasi-polynomials Δa, Δb (same delays T [s]).
+    mode : str
+        "cross" (Im[Δa·conj(f (jω)^k Δb)]), "mag" (|Δa/Δb|² − c) or "excess" (the passivity phase
+        excess of Δb/Δa [deg]).
+    task : ndarray of int
+        Design row of each bracket.
+    a, b : ndarray
+        The brackets' ends [rad/s].
+    fa, fb : ndarray
+        The function's values there (opposite signs).
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f (1 + jη for the hysteretic human).
+    c : float or ndarray, optional
+        The magnitude level c per design ("mag").
+
+    Returns
+    -------
+    ndarray
+        The zero in each bracket [rad/s].
+    """
     factor = complex(factor)
     out = np.empty(len(task))
     if len(task):
@@ -154,14 +204,55 @@ def pair_roots(qa, qb, mode: str, task, a, b, fa, fb, k: int = 0, factor: comple
 
 def refine_crossings(qa, qb, k: int, factor: complex, task, a, b, fa, fb):
     """Compiled Illinois refinement of the zeros of g(ω) = Im[Δa(jω)·conj(f (jω)^k Δb(jω))] on
-    sign-change brackets (same algorithm as :func:`exotune.quasipoly.bisect_roots`)."""
+    sign-change brackets (same algorithm as :func:`exotune.quasipoly.bisect_roots`).
+
+    Parameters
+    ----------
+    qa, qb : QP
+        The pair of quasi-polynomials Δa, Δb (same delays T [s]).
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f (1 + jη for the hysteretic human).
+    task : ndarray of int
+        Design row of each bracket.
+    a, b : ndarray
+        The brackets' ends [rad/s].
+    fa, fb : ndarray
+        g at the ends (opposite signs).
+
+    Returns
+    -------
+    ndarray
+        The crossing frequency in each bracket [rad/s].
+    """
     return pair_roots(qa, qb, "cross", task, a, b, fa, fb, k=k, factor=factor)
 
 
 def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40):
     """Golden-section maximization of the ``mode`` function on [a, b] per entry (one new
     evaluation per iteration); returns the value at the final midpoint (same iteration as the numpy
-    reference in exotune.analysis)."""
+    reference in exotune.analysis).
+
+    Parameters
+    ----------
+    qa, qb : QP
+        The pair of quasi-polynomials Δa, Δb (same delays T [s]).
+    mode : str
+        "cross" (Im[Δa·conj(f (jω)^k Δb)]), "mag" (|Δa/Δb|² − c) or "excess" (the passivity phase
+        excess of Δb/Δa [deg]).
+    task : ndarray of int
+        Design row of each interval.
+    a, b : ndarray
+        The intervals' ends [rad/s].
+    iters : int
+        Golden-section iterations.
+
+    Returns
+    -------
+    ndarray
+        The maximum found on each interval (for "excess": [deg]).
+    """
     out = np.empty(len(task))
     if len(task):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
@@ -222,7 +313,29 @@ if AVAILABLE:
 
 def classify_leaves(lv: dict, k: int, factor: complex, lo: float, hi: float, sin_near: float):
     """Compiled :func:`exotune.analysis._classify_numpy` over the leaves ``lv`` of a pair:
-    (ga, gb, bracket mask, sub-sample mask, degenerate mask)."""
+    (ga, gb, bracket mask, sub-sample mask, degenerate mask).
+
+    Parameters
+    ----------
+    lv : dict
+        The pair's leaves: ends ``a``, ``b`` [rad/s] and the values ``va``, ``vb`` of (Δa, Δb) there.
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f (1 + jη for the hysteretic human).
+    lo, hi : float
+        The family's range (in its parameter's unit: [kg·m²], [N·m·s/rad] or [N·m/rad]).
+    sin_near : float
+        sin of the angle within which κ counts as near the real axis (``intervals.SIN_NEAR``).
+
+    Returns
+    -------
+    ga, gb : ndarray
+        The crossing function at the leaves' ends.
+    bracket, subsample, degenerate : ndarray of bool
+        The leaves holding a sign-change bracket, those to sub-sample, and those with a zero or
+        non-finite value (left to the numpy reference).
+    """
     n = lv["a"].size
     ga, gb = np.empty(n), np.empty(n)
     flags = np.empty(n, np.uint8)
@@ -267,7 +380,26 @@ if AVAILABLE:
 
 def subsample_brackets(qa, qb, k: int, factor: complex, st, sa, sb):
     """Compiled sub-sampling of leaves (see :meth:`exotune.analysis._Side.submit`): the sign-change
-    brackets (task, a, b, g(a), g(b)) of g(ω) = Im[Δa·conj(f (jω)^k Δb)] on each leaf's points."""
+    brackets (task, a, b, g(a), g(b)) of g(ω) = Im[Δa·conj(f (jω)^k Δb)] on each leaf's points.
+
+    Parameters
+    ----------
+    qa, qb : QP
+        The pair of quasi-polynomials Δa, Δb (same delays T [s]).
+    k : int
+        The power of (jω) in f φ.
+    factor : complex
+        The constant f (1 + jη for the hysteretic human).
+    st : ndarray of int
+        Design row of each leaf.
+    sa, sb : ndarray
+        The leaves' ends [rad/s].
+
+    Returns
+    -------
+    task, a, b, ga, gb : ndarray
+        Design row, bracket ends [rad/s] and g there (opposite signs).
+    """
     factor = complex(factor)
     Tt = qa.T[st]
     per = np.where(Tt > 0, 2 * np.pi / np.maximum(Tt, 1e-300), np.inf)

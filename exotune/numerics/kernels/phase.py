@@ -122,7 +122,34 @@ if AVAILABLE:
 
 def phase_sums(p0: np.ndarray, p1: np.ndarray, T: np.ndarray, grid: np.ndarray, valid: np.ndarray,
                arg_step: float, der_step: float, max_levels: int):
-    """(Σ principal phase steps over [grid[:, 0], grid[:, -1]], resolved, evaluations) per task."""
+    """(Σ principal phase steps over [grid[:, 0], grid[:, -1]], resolved, evaluations) per task.
+
+    Parameters
+    ----------
+    p0, p1 : ndarray, shape (ntask, ·)
+        Ascending coefficients of P0 and P1 (real or complex).
+    T : ndarray, shape (ntask,)
+        The delays [s].
+    grid : ndarray, shape (ntask, K)
+        The initial frequencies [rad/s], increasing along axis 1.
+    valid : ndarray of bool, shape (ntask,)
+        The tasks to sum.
+    arg_step : float
+        The largest accepted phase step of an interval [rad] (``quasipoly.ARG_STEP``).
+    der_step : float
+        The largest accepted (b − a)·|Δ'/Δ(b) − Δ'/Δ(a)| of an interval (``quasipoly.DER_STEP``).
+    max_levels : int
+        The most halvings of an interval (``quasipoly.MAX_LEVELS``).
+
+    Returns
+    -------
+    total : ndarray, shape (ntask,)
+        The phase change of Δ(jω) over the grid [rad].
+    resolved : ndarray of bool, shape (ntask,)
+        Every interval resolved.
+    evaluations : ndarray of int, shape (ntask,)
+        The evaluations of Δ spent.
+    """
     dt = complex if (np.iscomplexobj(p0) or np.iscomplexobj(p1)) else float
     c0T = np.ascontiguousarray(np.asarray(p0, dtype=dt))
     c1T = np.ascontiguousarray(np.asarray(p1, dtype=dt))
@@ -232,7 +259,44 @@ def count_tasks(P0, P1, T, R0, R1, has_reg, arg_step: float, der_step: float, ma
     roots stripped (with the regularized twin), the zero-delay fold, the tail bound, the adaptive
     phase sum, the tail and ω = 0 terms and the count (same formulas as quasipoly.count_rhp).
     ``group``: consecutive tasks with the same id share MAX_GROUP_EVALS (default: every task its
-    own group). Returns (N, rigid_body_roots, conclusive)."""
+    own group). Returns (N, rigid_body_roots, conclusive).
+
+    Parameters
+    ----------
+    P0, P1 : ndarray, shape (n, ·)
+        Ascending coefficients of each task's P0 and P1 (real or complex).
+    T : ndarray, shape (n,)
+        The delays [s].
+    R0, R1 : ndarray, shape (n, ·)
+        The real regularized twin's coefficients (the hysteretic human's Δ(j0)).
+    has_reg : ndarray of bool, shape (n,)
+        The tasks whose twin is used.
+    arg_step : float
+        The largest accepted phase step of an interval [rad] (``quasipoly.ARG_STEP``).
+    der_step : float
+        The largest accepted (b − a)·|Δ'/Δ(b) − Δ'/Δ(a)| of an interval (``quasipoly.DER_STEP``).
+    max_levels : int
+        The most halvings of an interval (``quasipoly.MAX_LEVELS``).
+    decades : float
+        Decades of the initial frequency grid below the tail bound.
+    per_decade : int
+        Initial frequency points per decade.
+    group : ndarray of int, shape (n,), optional
+        Work-budget group of each task.
+
+    Returns
+    -------
+    n_rhp : ndarray of int, shape (n,)
+        Roots in the open right half-plane.
+    rigid_body_roots : ndarray of int, shape (n,)
+        Exact roots at s = 0 stripped.
+    conclusive : ndarray of bool, shape (n,)
+        Whether the count is exact.
+
+    References
+    ----------
+    docs/method.md#free-and-locked-stability.
+    """
     n = P0.shape[0]
     group = np.arange(n, dtype=np.int64) if group is None else np.ascontiguousarray(group, dtype=np.int64)
     outN = np.empty(n, np.int64)
