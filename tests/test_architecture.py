@@ -401,8 +401,7 @@ NO_TEST_FILE_YET = {
     "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
     "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space", "optimization.spec",
     "identification.validate", "options", "plots.design", "plots.margins", "plots.results", "plots.simulate", "results",
-    "simulation.engine", "simulation.plant", "simulation.report", "text.analysis", "text.design", "text.excite",
-    "text.export", "text.identify", "text.kyp", "text.margins", "text.optimize", "text.simulate",
+    "simulation.engine", "simulation.plant", "simulation.report", "text.export",
 }
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from ..units import PARAM_UNITS
+from ..units import PARAM_UNITS, path_unit
 from .kyp import format_certificates
 
 __all__ = ["format_optimize", "ms_text", "unit_word"]
@@ -61,6 +61,15 @@ def _intervals(key: str, iv) -> str:
     return ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in iv) + (f" {unit}" if unit else "")
 
 
+def _value(path: str, v: float) -> str:
+    """A design-file value with the unit of its path (``design.felt_inertia`` → kg·m²)."""
+    try:
+        unit = path_unit(path, dimensionless="–")
+    except KeyError:
+        return f"{v:.6g}"
+    return f"{v:.6g} {unit}"
+
+
 def _violation_lines(r: dict) -> list[str]:
     lines = []
     for v in r.get("violations", []):
@@ -81,7 +90,8 @@ def _violation_lines(r: dict) -> list[str]:
 def _bound_lines(r: dict) -> list[str]:
     if not r.get("at_bounds"):
         return []
-    return ["  at their bounds: " + ", ".join(f"{b['parameter']} = {b['value']:.6g} ({b['bound']})" for b in r["at_bounds"])]
+    return ["  at their bounds: " + ", ".join(f"{b['parameter']} = {_value(b['parameter'], b['value'])} ({b['bound']})"
+                                             for b in r["at_bounds"])]
 
 
 def _latency_line(r: dict) -> str:
@@ -134,12 +144,12 @@ def format_optimize(r: dict) -> str:
     if not r["feasible"]:
         lines = ["NO FEASIBLE DESIGN found in the bounds after "
                  f"{r['evaluated']} exact analyses; the best one breaks: {', '.join(r['broken'])}"]
-        lines += [f"  {p} = {v:.6g}" for p, v in r["x"].items()]
+        lines += [f"  {p} = {_value(p, v)}" for p, v in r["x"].items()]
         lines += _violation_lines(r) + _bound_lines(r)
         return "\n".join(lines)
     o = r["objective"]
     lines = [f"optimum ({r['evaluated']} designs analysed exactly): {o['name']} = {o['value']:.6g} {unit_word(o['unit'])} ({o['sense']}imized)"]
-    lines += [f"  {p} = {v:.6g}" for p, v in r["x"].items()]
+    lines += [f"  {p} = {_value(p, v)}" for p, v in r["x"].items()]
     lines.append("  active constraints (binding at the optimum): " + (", ".join(r["active_constraints"]) or "none"))
     lines += _bound_lines(r)
     if r.get("near_binding"):

@@ -355,7 +355,7 @@ def test_infeasible_report_names_every_broken_constraint_with_its_bound():
     assert "NO FEASIBLE DESIGN" in text and "dob_delay_margin_s" in text and "needed >= 1 s" in text
     assert "robust: human0_mass not stable over inertia" in text and "unstable for" in text
     for b in r["at_bounds"]:
-        assert b["value"] in (30.0, 60.0) and f"{b['parameter']} = {b['value']:.6g} ({b['bound']})" in text
+        assert b["value"] in (30.0, 60.0) and f"{b['parameter']} = {b['value']:.6g} – ({b['bound']})" in text  # α: dimensionless
 
 
 @pytest.fixture(scope="module")
