@@ -7,7 +7,7 @@ The modules, lowest first (each imports only the ones above it):
 ``counting``            exact right-half-plane root counts (argument principle), batched
 ``brackets``            refinement of crossing brackets, compiled or numpy
 ``intervals``           exact stable intervals of an impedance family (human, environment)
-``phase_excess``        phase excess and non-passive bands of C7 = Δ10/Δ00 (paper §IV-A)
+``operator_passivity`` phase excess and non-passive bands of C7 = Δ10/Δ00 (paper §IV-A)
 ``dob``                 margins of the disturbance-observer loop
 ``amplification_ratio`` DC value, bandwidth and minimum phase of C6/C5 (paper §II-D)
 ``latency``             the one latency-margin engine: every loop's first destabilizing extra delay, batched
@@ -39,7 +39,7 @@ from .kyp import (
     nominal_shortage,
     operator_certificates,
 )
-from .phase_excess import BAND_MIN_EXCESS_DEG, c7_response, passivity
+from .operator_passivity import BAND_MIN_EXCESS_DEG, c7_response, passivity
 from .sea import sea_report
 
 __all__ = [

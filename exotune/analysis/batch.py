@@ -24,7 +24,7 @@ from .counting import RootCounter
 from .dob import dob_margins
 from .intervals import FamilySide
 from .latency import batch_latency_margin
-from .phase_excess import passivity
+from .operator_passivity import passivity
 
 __all__ = ["analyze_batch", "BatchAnalysis", "GAIN_NAMES"]
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..model.controller import build_controller
 from .charfun import char_terms
-from .phase_excess import c7_response
+from .operator_passivity import c7_response
 
 __all__ = ["c7_frequency_response"]
 
