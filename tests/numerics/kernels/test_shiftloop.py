@@ -12,7 +12,7 @@ import pytest
 from exotune.numerics.kernels import AVAILABLE
 
 pytestmark = pytest.mark.skipif(not AVAILABLE, reason="numba not installed: only the dense numpy recursion exists")
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 
 
 def _dense(Phi, g_cur, g_old, g_push, BC, A, u_p, u_c, d):
