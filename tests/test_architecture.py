@@ -400,7 +400,7 @@ NO_TEST_FILE_YET = {
     "numerics.kernels.pair", "numerics.kernels.phase",
     "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
     "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space", "optimization.spec",
-    "identification.validate", "simulation.engine", "simulation.plant", "simulation.report", "text.export",
+    "simulation.engine", "simulation.report", "text.export",
 }
 
 

@@ -265,7 +265,7 @@ def residual_test(output: str, input_name: str, e: np.ndarray, u: np.ndarray, la
     k = np.r_[np.arange(K), np.arange(-K + 1, 0)]
     bound = CONFIDENCE_Z * math.sqrt(max(float(np.sum(ree[np.abs(k)] * ruu[np.abs(k)])), 1.0) / n)
     cl = np.arange(-lags, lags + 1)
-    cross = -reu[cl]  # positive lag: e(t) against u(t − lag), the input leading
+    cross = reu[-cl]  # positive lag: e(t) against u(t − lag) = reu at −lag, the input leading
     peak = int(cl[int(np.argmax(np.abs(cross)))])
     return ResidualTest(output, input_name, np.arange(lags + 1), ree[: lags + 1], CONFIDENCE_Z / math.sqrt(n),
                         cl, cross, bound, peak)
