@@ -396,8 +396,6 @@ NO_TEST_FILE_YET = {
     "controllerfile.cheader", "controllerfile.continuation", "controllerfile.cstep", "controllerfile.fileio",
     "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff", "controllerfile.runtime",
     "controllerfile.schema", "controllerfile.sos", "controllerfile.target", "controllerfile.verdicts",
-    "numerics.kernels.bounds", "numerics.kernels.latency", "numerics.kernels.leaves",
-    "numerics.kernels.pair", "numerics.kernels.phase",
     "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
     "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space", "optimization.spec",
     "simulation.engine", "simulation.report", "text.export",
