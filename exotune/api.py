@@ -143,10 +143,13 @@ def design(source, *, plots=None) -> DesignSummary:
     with numpy_engine():
         r = design_report(cfg)
     if plots is not None:
+        from .analysis.nominal import design_bode_figures
         from .jsonio import write_files
         from .plots.design import design_plots
 
-        write_files(plots, design_plots(cfg))
+        with numpy_engine():
+            figures = design_bode_figures(cfg)  # the numbers: the analysis layer's; the plots only draw
+        write_files(plots, design_plots(figures))
     return r
 
 
@@ -215,10 +218,13 @@ def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
 
             r = replace(r, cross_check=pade_crosscheck(cfg))
     if plots is not None:
+        from .analysis.figure_data import analysis_figures
         from .jsonio import staged_dir
         from .plots.analysis import write_analysis_plots
 
-        staged_dir(plots, lambda tmp: write_analysis_plots(cfg, r.to_dict(), tmp))
+        with numpy_engine():
+            figs = analysis_figures(cfg, r)  # the numbers: the analysis layer's; the plots only draw
+        staged_dir(plots, lambda tmp: write_analysis_plots(figs, tmp))
     return r
 
 

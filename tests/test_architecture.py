@@ -415,3 +415,28 @@ def test_every_module_has_its_own_test_file():
         str(_own_test_file(m).relative_to(PKG.parent)) for m in new)
     done = sorted(NO_TEST_FILE_YET - missing)
     assert not done, "remove from NO_TEST_FILE_YET (the test file exists now, or the module is gone): " + ", ".join(done)
+
+
+# Figures never compute (docs/architecture.md, issue 24): the plots take the analysis's numbers as
+# typed records (exotune.analysis.figure_data.AnalysisFigures, LatencyBoundary, …) and may import
+# from exotune.analysis only classes, module-level constants and these display conversions of the
+# numbers they are given (dB, continuous phase, finiteness), never a function that computes.
+PLOTS_DISPLAY_CONVERSIONS = {"db", "phase_deg", "finite"}
+
+
+def test_plots_import_no_computing_function_from_the_analysis():
+    import importlib
+    import inspect
+
+    bad = []
+    for mod, tgt, name, line, _func in EDGES:
+        if _top(mod) != "plots" or _top(tgt) != "analysis":
+            continue
+        if name is None:  # a whole module: any of its functions could be called
+            bad.append(f"{mod}:{line} imports the module {tgt}")
+            continue
+        obj = getattr(importlib.import_module("exotune." + tgt.removesuffix(".__init__")), name)
+        constant = name.isupper() and not callable(obj)
+        if not (inspect.isclass(obj) or constant or name in PLOTS_DISPLAY_CONVERSIONS):
+            bad.append(f"{mod}:{line} imports {tgt}.{name}, which computes (pass its result as a typed record)")
+    assert not bad, "\n".join(bad)

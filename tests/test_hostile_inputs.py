@@ -395,7 +395,7 @@ def test_design_plots_full_disk_leaves_nothing(tmp_path, monkeypatch, existing):
 def test_analyze_plots_failure_leaves_nothing(tmp_path, monkeypatch):
     import exotune.plots.analysis as pa
 
-    def write_some_then_fail(cfg, rep, out):
+    def write_some_then_fail(figs, out):
         Path(out, "first.png").write_bytes(b"png")
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.path.join(out, "second.png"))
 

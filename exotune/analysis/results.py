@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any, Mapping
 
 from ..record import Record, Result, opt_float
@@ -100,14 +101,27 @@ class DesignSummary(Record):
 
         return format_design(self.to_dict())
 
+    @cached_property
+    def frequency_responses(self) -> tuple:
+        """The nominal transfer functions' frequency responses that :meth:`plot` draws, computed
+        once (:func:`exotune.analysis.responses.nominal_frequency_responses`; not in ``to_dict``).
+
+        Returns
+        -------
+        (numpy.ndarray, dict)
+            The frequencies [Hz] (800, 0.01 Hz – 1 kHz) and name → complex response (compliances
+            in rad/(N·m); G_v in [1]).
+        """
+        from .responses import nominal_frequency_responses
+
+        return nominal_frequency_responses(self.config)
+
     def plot(self, ax=None):
         """Bode magnitude of the nominal transfer functions; returns the matplotlib ``Figure``."""
-        import numpy as np
-
         from ..plots.figures import bode_magnitude
 
-        f = np.geomspace(0.01, 1000.0, 800)
-        curves = [(name, f, np.asarray(tf(2j * np.pi * f)).ravel()) for name, tf in self.transfer_functions().items()]
+        f, responses = self.frequency_responses
+        curves = [(name, f, H) for name, H in responses.items()]
         return bode_magnitude(curves, ax=ax, title="nominal transfer functions (design)")
 
 
@@ -446,12 +460,26 @@ class DesignAnalysis(Result):
 
         return format_report(self.to_dict())
 
+    @cached_property
+    def c7_response(self) -> tuple:
+        """The operator-side compliance C7 that :meth:`plot` draws, computed once
+        (:func:`exotune.analysis.responses.c7_frequency_response` on its default grid; not in
+        ``to_dict``).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            The frequencies [Hz] (800, 0.01 Hz – 1 kHz) and C7 [rad/(N·m)] (complex).
+        """
+        from .responses import c7_frequency_response
+
+        return c7_frequency_response(self.config)
+
     def plot(self, ax=None):
         """Bode plot of the operator-side compliance C7 with its non-passive bands shaded and the
         passivity limits drawn; returns the matplotlib ``Figure``."""
         from ..plots.figures import compliance_phase
-        from .responses import c7_frequency_response
 
-        f, H = c7_frequency_response(self.config)
+        f, H = self.c7_response
         return compliance_phase(f, H, self.passivity.nonpassive_band_hz, ax=ax,
                                 title="operator-side compliance C7 (paper Fig. 5)")

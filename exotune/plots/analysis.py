@@ -1,7 +1,8 @@
 """Analysis plots of one design (``exotune analyze DESIGN.yaml --plots DIR``).
 
-:func:`write_analysis_plots` draws, from a scalar :class:`~exotune.config.DesignConfig` and the
-dict of :func:`exotune.analysis.analyze_design`:
+:func:`write_analysis_plots` draws the typed figure data of one analysed design,
+:class:`exotune.analysis.figure_data.AnalysisFigures` (computed by
+:func:`exotune.analysis.figure_data.analysis_figures`; this module computes nothing):
 
 ``bode_compliances.png``
     Bode magnitude and phase of C5 = Δ01/Δ00 (environment side, cuff free), C7 = Δ10/Δ00
@@ -32,7 +33,6 @@ each PNG written atomically. A failure while rendering writes nothing and create
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -68,11 +68,8 @@ def _fmt_s(t: float) -> str:
     return f"{t * 1e3:.3g} ms"
 
 
-def _design_label(cfg, result: dict) -> str:
-    alpha = float(np.asarray(cfg.design.amplification))
-    T = float(np.asarray(cfg.implementation.delay_s))
-    name = os.path.basename(cfg.source) if getattr(cfg, "source", None) else "design"
-    return f"{name}: α = {alpha:.4g}, T = {_fmt_s(T)}, structure '{result.get('structure', cfg.implementation.structure)}'"
+def _design_label(figs) -> str:
+    return f"{figs.name}: α = {figs.amplification:.4g}, T = {_fmt_s(figs.delay_s)}, structure '{figs.structure}'"
 
 
 def _mark_bands(ax, bands, label=True):
@@ -84,11 +81,10 @@ def _mark_bands(ax, bands, label=True):
 # ----------------------------------------------------------------------------------------------
 # 1. Bode of the compliances
 # ----------------------------------------------------------------------------------------------
-def _fig_bode_compliances(cfg, result: dict) -> bytes:
-    from ..analysis.plot_data import compliance_responses
-
-    r = compliance_responses(cfg, result)
-    f, C5, C7, A = r["f"], r["C5"], r["C7"], r["A"]
+def _fig_bode_compliances(figs) -> bytes:
+    result = figs.result
+    r = figs.compliances
+    f, C5, C7, A = r.f_hz, r.C5, r.C7, r.A
     bands = (result.get("passivity") or {}).get("nonpassive_band_hz") or []
     excess = (result.get("passivity") or {}).get("max_phase_excess_deg")
 
@@ -98,7 +94,7 @@ def _fig_bode_compliances(cfg, result: dict) -> bytes:
     ax1.semilogx(f, db(C7), color="tab:orange", label="C7 = θ_h/τ_h (operator side)")
     ax1.set_ylabel("|C| [dB re 1 rad/(N·m)]")
     ax2.semilogx(f, db(A), color="tab:purple", label="C6/C5 (amplification)")
-    alpha = float(np.asarray(cfg.design.amplification))
+    alpha = figs.amplification
     ax2.axhline(20 * np.log10(alpha), color="tab:purple", ls=":", lw=0.9, label=f"α = {alpha:.4g}")
     ax2.set_ylabel("|C6/C5| [dB re 1]")
     ax3.axhspan(-180.0, 0.0, color=PASSIVE_COLOR, alpha=0.10, lw=0, label="passive phase band [−180°, 0°]")
@@ -126,7 +122,7 @@ def _fig_bode_compliances(cfg, result: dict) -> bytes:
         for c in h.get("critical") or []
     )
     ex = f"max phase excess of C7: {excess:.3g}°" if finite(excess) else ""
-    fig.suptitle("Compliances with delay and filters — " + _design_label(cfg, result), fontsize=10)
+    fig.suptitle("Compliances with delay and filters — " + _design_label(figs), fontsize=10)
     foot = ex + (("; dashed lines: human stability boundaries (" + crit_txt + ")") if crit_txt else "")
     fig.text(0.5, 0.01, foot, ha="center", va="bottom", fontsize=7.5, wrap=True)
     fig.subplots_adjust(left=0.11, right=0.97, top=0.95, bottom=0.08, hspace=0.1)
@@ -143,12 +139,10 @@ def _nyq_extent(L: np.ndarray) -> float:
     return float(np.max(np.abs(L.imag[m]))) if m.any() else 0.0
 
 
-def _fig_nyquist_humans(cfg, result: dict) -> bytes:
+def _fig_nyquist_humans(figs) -> bytes:
     from matplotlib import colormaps
 
-    from ..analysis.plot_data import human_loops
-
-    loops = human_loops(cfg, result)
+    loops = figs.human_loops
     n = len(loops)
     ncol = min(n, 2)
     nrow = int(math.ceil(n / ncol))
@@ -156,33 +150,35 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
     axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False)).ravel()
     cmap = colormaps[style.CMAPS["sequential"]]
     for ax, loop in zip(axes, loops):
-        h, fixed, eta, curves = loop["h"], loop["fixed"], loop["eta"], loop["curves"]
-        kind, param = h["kind"], h["parameter"]
+        fixed, eta, curves = loop.fixed, loop.eta, loop.curves
+        kind, param, unit = loop.kind, loop.parameter, loop.unit
         ax.axhline(0, color="0.6", lw=0.6)
         ax.axvline(0, color="0.6", lw=0.6)
         ax.plot([-1], [0], marker="+", color="red", ms=14, mew=2, ls="none", label="−1 (critical point)", zorder=5)
         sym = _SYMBOL.get(param, param)
-        edge = loop.get("edge")
+        edge = loop.edge
         # an edge of an msd box: every member is named by both (all) its ranged parameters
         at = "".join(f", {_SYMBOL.get(q, q)} = {x:.4g} {PARAM_UNITS.get(q, '')}" for q, x in edge["at"].items()) if edge else ""
         crossing_labelled = False
         ymax = 0.0
-        for j, (v, role, state, L, x) in enumerate(curves):
+        for j, curve in enumerate(curves):
+            v, state, L, x = curve.value, curve.state, curve.L, curve.crossings
             col = cmap(0.1 + 0.8 * j / max(len(curves) - 1, 1))
             ls = "-" if state != "UNSTABLE" else "--"
             ymax = max(ymax, _nyq_extent(L))
             inview = np.any((L.real > NYQ_XLIM[0]) & (L.real < NYQ_XLIM[1]) & (np.abs(L.imag) < NYQ_YMAX))
             ax.plot(L.real, L.imag, color=col, ls=ls, lw=1.3,
-                    label=f"{sym} = {v:.4g} {h['unit']}{at} ({state})" + ("" if inview else " — outside the view"))
+                    label=f"{sym} = {v:.4g} {unit}{at} ({state})" + ("" if inview else " — outside the view"))
             ax.plot(L.real, -L.imag, color=col, ls=ls, lw=0.7, alpha=0.35)  # ω < 0 (mirror image)
             x = x[(x > NYQ_XLIM[0]) & (x < NYQ_XLIM[1])]
             if x.size:
                 ax.plot(x, np.zeros_like(x), marker="o", mfc="none", color=col, ms=6, ls="none",
                         label="crossings of the negative real axis" if not crossing_labelled else None)
                 crossing_labelled = True
-        for c, Lc in loop["critical"]:
+        for c in loop.critical:
+            Lc = c.L
             ax.plot([Lc.real], [Lc.imag], marker="x", color="red", ms=9, mew=1.8, ls="none")
-            ax.annotate(f"{sym} = {c['value']:.4g}: L = −1 at {c['frequency_hz']:.4g} Hz", (Lc.real, Lc.imag),
+            ax.annotate(f"{sym} = {c.value:.4g}: L = −1 at {c.frequency_hz:.4g} Hz", (Lc.real, Lc.imag),
                         xytext=(8, 12), textcoords="offset points", fontsize=7.5, color="red")
         yh = min(max(1.3 * ymax, NYQ_YMIN), NYQ_YMAX)
         ax.set_xlim(*NYQ_XLIM)
@@ -197,15 +193,15 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
             "complex_stiffness": "Z = k (1 + jη sign ω)",
         }.get(kind, kind)
         fx = ", ".join(f"{_SYMBOL.get(k, k) if k != 'eta' else 'η'} = {v:.4g}" for k, v in {**fixed, **({"eta": eta} if kind == "complex_stiffness" else {})}.items() if k != param)
-        iv = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in h.get("stable_intervals") or [])
-        iv = f"{iv} {h['unit']}" if iv else "none"
+        iv = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in loop.stable_intervals)
+        iv = f"{iv} {unit}" if iv else "none"
         head = f"{kind} box, edge {edge['index'] + 1} of {edge['count']}" if edge else kind
-        ax.set_title(f"{head}: {zdesc}  ({fx})\n{sym} ∈ [{h['range'][0]:.4g}, {h['range'][1]:.4g}] {h['unit']}; stable on {iv}",
+        ax.set_title(f"{head}: {zdesc}  ({fx})\n{sym} ∈ [{loop.range[0]:.4g}, {loop.range[1]:.4g}] {unit}; stable on {iv}",
                      fontsize=8.5)
         ax.legend(loc="lower left", fontsize=7)
     for ax in axes[n:]:
         ax.set_visible(False)
-    fig.suptitle("Coupled loop L(jω) = Z_h(jω)·C7(jω), Δ = Δ00·(1 + L) — " + _design_label(cfg, result), fontsize=10)
+    fig.suptitle("Coupled loop L(jω) = Z_h(jω)·C7(jω), Δ = Δ00·(1 + L) — " + _design_label(figs), fontsize=10)
     fig.text(0.5, 0.005,
              f"Linear view limited to Re L ∈ [{NYQ_XLIM[0]:g}, {NYQ_XLIM[1]:g}] and |Im L| ≤ {NYQ_YMAX:g} around −1, "
              "the imaginary axis zoomed further where the curves left of the origin are flat (axes not to equal scale); "
@@ -219,12 +215,10 @@ def _fig_nyquist_humans(cfg, result: dict) -> bytes:
 # ----------------------------------------------------------------------------------------------
 # 3. DOB loop (paper Fig. 4)
 # ----------------------------------------------------------------------------------------------
-def _fig_dob_loop(cfg, result: dict) -> bytes:
-    from ..analysis.plot_data import dob_loop
-
-    r = dob_loop(cfg, result)
-    f, T, Q, L, CL, phL = r["f"], r["T"], r["Q"], r["L"], r["CL"], r["phL"]
-    dob = result.get("dob") or {}
+def _fig_dob_loop(figs) -> bytes:
+    r = figs.dob
+    f, T, Q, L, CL, phL = r.f_hz, r.delay_s, r.Q, r.L, r.CL, r.phase_L_deg
+    dob = figs.result.get("dob") or {}
 
     fig = _new_figure((8.5, 8.0))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
@@ -243,8 +237,8 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
             ax2.axhline(-180 + 360 * k, color="k", lw=0.6, ls=":")
     ax2.set_ylim(max(phL.min(), -900) - 20, 20)
     # gain crossover (from the analysis) and the phase crossover with the largest |L| on the grid
-    if r["crossover"] is not None:
-        fc, Lc, phc, target = r["crossover"]
+    if r.crossover is not None:
+        fc, Lc, phc, target = r.crossover
         for ax in (ax1, ax2):
             ax.axvline(fc, color="tab:green", ls="--", lw=0.9)
         ax1.plot([fc], [db(Lc)], "o", color="tab:green", label=f"gain crossover {fc:.4g} Hz")
@@ -252,8 +246,8 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
         ax2.annotate("", xy=(fc, phc), xytext=(fc, target), arrowprops=dict(arrowstyle="<->", color="tab:green"))
         if finite(pm):
             ax2.text(fc / 1.08, 0.5 * (phc + target), f"PM = {pm:.3g}° ", color="tab:green", fontsize=8, va="center", ha="right")
-    if r["phase_crossover"] is not None:
-        j = r["phase_crossover"]
+    if r.phase_crossover is not None:
+        j = r.phase_crossover
         f180 = f[j]
         mag180 = db(L[j])
         for ax in (ax1, ax2):
@@ -282,10 +276,9 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
         style.grid(ax)
         ax.legend(loc="upper right" if ax is ax1 else "lower left", fontsize=8)
     ax2.set_xlim(f[0], f[-1])
-    q = cfg.implementation.dob
     fig.suptitle(
-        f"DOB loop (paper Fig. 4): Q at {float(np.asarray(q.cutoff_hz)):.4g} Hz, ζ_q = {float(np.asarray(q.damping)):.3g} — "
-        + _design_label(cfg, result),
+        f"DOB loop (paper Fig. 4): Q at {r.cutoff_hz:.4g} Hz, ζ_q = {r.damping:.3g} — "
+        + _design_label(figs),
         fontsize=10,
     )
     fig.subplots_adjust(left=0.1, right=0.97, top=0.94, bottom=0.07, hspace=0.08)
@@ -295,19 +288,17 @@ def _fig_dob_loop(cfg, result: dict) -> bytes:
 # ----------------------------------------------------------------------------------------------
 # 4. Amplification at two delays (paper Fig. 5)
 # ----------------------------------------------------------------------------------------------
-def _fig_amplification(cfg, result: dict) -> bytes:
-    from ..analysis.plot_data import amplification_at_delays
-
-    f, runs = amplification_at_delays(cfg, result)
-    amp_res = result.get("amplification") or {}
-    alpha = float(np.asarray(cfg.design.amplification))
+def _fig_amplification(figs) -> bytes:
+    f, runs = figs.amplification_at_delays.f_hz, figs.amplification_at_delays.runs
+    amp_res = figs.result.get("amplification") or {}
+    alpha = figs.amplification
 
     fig = _new_figure((8.5, 8.0))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     styles = [("tab:blue", "-"), ("tab:red", "--")]
     for run, (col, ls) in zip(runs, styles):
-        A, mp, bw, locked = run["A"], run["minimum_phase"], run["bandwidth_hz"], run["locked_stable"]
-        tag = f"T = {_fmt_s(run['T'])}" + (" (configured)" if run["configured"] else "")
+        A, mp, bw, locked = run.A, run.minimum_phase, run.bandwidth_hz, run.locked_stable
+        tag = f"T = {_fmt_s(run.delay_s)}" + (" (configured)" if run.configured else "")
         mp_txt = "minimum phase" if mp else "NON-minimum phase"
         lk_txt = "" if locked is None else ("; output-locked stable" if locked else "; output-locked UNSTABLE")
         bw_txt = f"; −3 dB at {bw:.3g} Hz" if finite(bw) else "; −3 dB not reached"
@@ -328,7 +319,7 @@ def _fig_amplification(cfg, result: dict) -> bytes:
         style.grid(ax)
         ax.legend(loc="lower left", fontsize=7.5)
     ax2.set_xlim(f[0], f[-1])
-    fig.suptitle("Amplification C6/C5 = −τ_env/τ_h (output locked) at two delays — " + _design_label(cfg, result), fontsize=10)
+    fig.suptitle("Amplification C6/C5 = −τ_env/τ_h (output locked) at two delays — " + _design_label(figs), fontsize=10)
     fig.text(0.5, 0.005, "Second delay = max(2T, T + 2 ms); minimum-phase and output-locked verdicts by exact RHP counts "
              "of the numerator and denominator quasi-polynomials.", ha="center", va="bottom", fontsize=7.5)
     fig.subplots_adjust(left=0.1, right=0.97, top=0.94, bottom=0.08, hspace=0.08)
@@ -338,15 +329,14 @@ def _fig_amplification(cfg, result: dict) -> bytes:
 # ----------------------------------------------------------------------------------------------
 # driver
 # ----------------------------------------------------------------------------------------------
-def render_analysis_plots(cfg, result: dict) -> dict[str, bytes]:
+def render_analysis_plots(figs) -> dict[str, bytes]:
     """Render every figure to PNG bytes (nothing written). Keys are the file names.
 
     Parameters
     ----------
-    cfg : DesignConfig
-        The analysed design.
-    result : dict
-        Its analysis as a mapping (``DesignAnalysis.to_dict()``).
+    figs : AnalysisFigures
+        The figure data of the analysed design
+        (:func:`exotune.analysis.figure_data.analysis_figures`).
 
     Returns
     -------
@@ -355,28 +345,26 @@ def render_analysis_plots(cfg, result: dict) -> dict[str, bytes]:
         apply, ``nyquist_humans.png``, ``dob_loop.png`` and ``latency_boundary.png``.
     """
     out: dict[str, bytes] = {}
-    out["bode_compliances.png"] = _fig_bode_compliances(cfg, result)
-    if result.get("humans"):
-        out["nyquist_humans.png"] = _fig_nyquist_humans(cfg, result)
-    if cfg.implementation.dob is not None:
-        out["dob_loop.png"] = _fig_dob_loop(cfg, result)
-    out["amplification.png"] = _fig_amplification(cfg, result)
-    if result.get("humans"):
-        out["latency_boundary.png"] = _fig_latency_boundary(cfg, result)
+    humans = bool(figs.result.get("humans"))
+    out["bode_compliances.png"] = _fig_bode_compliances(figs)
+    if humans:
+        out["nyquist_humans.png"] = _fig_nyquist_humans(figs)
+    if figs.dob is not None:
+        out["dob_loop.png"] = _fig_dob_loop(figs)
+    out["amplification.png"] = _fig_amplification(figs)
+    if humans:
+        out["latency_boundary.png"] = _fig_latency_boundary(figs)
     return out
 
 
-def _fig_latency_boundary(cfg, result: dict) -> bytes:
+def _fig_latency_boundary(figs) -> bytes:
     """Each human member's first destabilizing extra delay, with the design's latency margin."""
-    from ..analysis.latency_margin import latency_boundaries
     from .margins import latency_boundary_figure
 
-    margin = ((result.get("margins") or {}).get("latency") or {}).get("extra_delay_s")
-    intervals = [h.get("stable_intervals") for h in result["humans"]]  # the analysis's own: not analysed again
-    return _png(latency_boundary_figure(latency_boundaries(cfg, intervals=intervals), margin))
+    return _png(latency_boundary_figure(figs.latency_boundaries, figs.latency_margin_s))
 
 
-def write_analysis_plots(cfg, result: dict, out_dir) -> list[Path]:
+def write_analysis_plots(figs, out_dir) -> list[Path]:
     """Render the analysis figures of one design and write them as PNGs into ``out_dir``.
 
     All figures are rendered in memory first; ``out_dir`` is created (if needed) only after
@@ -387,10 +375,9 @@ def write_analysis_plots(cfg, result: dict, out_dir) -> list[Path]:
 
     Parameters
     ----------
-    cfg : DesignConfig
-        The analysed design.
-    result : dict
-        Its analysis as a mapping (``DesignAnalysis.to_dict()``).
+    figs : AnalysisFigures
+        The figure data of the analysed design
+        (:func:`exotune.analysis.figure_data.analysis_figures`).
     out_dir : str or os.PathLike
         The directory to write into.
 
@@ -406,7 +393,7 @@ def write_analysis_plots(cfg, result: dict, out_dir) -> list[Path]:
     """
     from ..jsonio import write_atomic
 
-    files = render_analysis_plots(cfg, result)
+    files = render_analysis_plots(figs)
     out = Path(out_dir)
     created = not out.exists()
     written: list[Path] = []

@@ -47,13 +47,14 @@ def bode_png(curves, title: str, ylabel: str) -> bytes:
     return style.png(fig)
 
 
-def design_plots(cfg) -> dict[str, bytes]:
+def design_plots(figures) -> dict[str, bytes]:
     """The Bode figures of a design, rendered in memory (nothing is written).
 
     Parameters
     ----------
-    cfg : exotune.config.design.DesignConfig
-        A loaded design file.
+    figures : dict
+        ``{file name: (title, unit, curves)}`` as computed by
+        :func:`exotune.analysis.nominal.design_bode_figures` (this module only draws them).
 
     Returns
     -------
@@ -65,6 +66,4 @@ def design_plots(cfg) -> dict[str, bytes]:
     ----------
     Paper §II-C–§IV; docs/cli.md#design.
     """
-    from ..analysis.nominal import design_bode_figures
-
-    return {name: bode_png(curves, title, unit) for name, (title, unit, curves) in design_bode_figures(cfg).items()}
+    return {name: bode_png(curves, title, unit) for name, (title, unit, curves) in figures.items()}

@@ -184,3 +184,36 @@ def test_repr_is_a_readable_summary(paper, box):
     assert f"mass inertia in [0.001, 1] kg·m²: stable [{lo:.6g}, 1] (not robust)" in text
     assert "DOB phase margin" in text and "1 warning" in text
     assert "box inertia, stiffness, 4 edges" in repr(box[1].humans[0])
+
+
+def test_plots_draw_the_arrays_the_results_hold(paper):
+    """``plot()`` only hands stored arrays to the plots layer: C7 of ``DesignAnalysis.c7_response``
+    and the nominal responses of ``DesignSummary.frequency_responses``, computed once (the same
+    object on every call) and never part of ``to_dict()``."""
+    from matplotlib.figure import Figure
+
+    from exotune.analysis import design_report
+    from exotune.analysis.responses import c7_frequency_response
+
+    cfg, r = paper
+    f, H = r.c7_response
+    assert r.c7_response is r.c7_response  # cached
+    np.testing.assert_array_equal(H, c7_frequency_response(cfg)[1])
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert r.plot(ax=ax) is fig
+    np.testing.assert_array_equal(ax.lines[0].get_xdata(), f)
+    np.testing.assert_array_equal(ax.lines[0].get_ydata(), np.degrees(np.unwrap(np.angle(H))))
+    assert r.to_dict() == analyze_design(cfg).to_dict()
+
+    d = design_report(cfg)
+    f, responses = d.frequency_responses
+    assert d.frequency_responses is d.frequency_responses and set(responses) == set(d.transfer_functions())
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert d.plot(ax=ax) is fig
+    for line, (name, Hn) in zip(ax.lines, responses.items(), strict=True):
+        np.testing.assert_array_equal(line.get_xdata(), f)
+        np.testing.assert_array_equal(line.get_ydata(), 20.0 * np.log10(np.abs(Hn)))
+    assert "frequency_responses" not in d.to_dict() and "c7_response" not in r.to_dict()
+    json.loads(d.to_json())
