@@ -398,7 +398,6 @@ NO_TEST_FILE_YET = {
     "controllerfile.schema", "controllerfile.sos", "controllerfile.target", "controllerfile.verdicts",
     "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
     "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space", "optimization.spec",
-    "simulation.engine", "simulation.report", "text.export",
 }
 
 

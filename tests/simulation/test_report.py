@@ -1,0 +1,77 @@
+"""exotune.simulation.report: a run's summary on hand-made series (verdict, metrics by their
+definitions, null metrics with the reason for a growing run), the run budget, run_scenario."""
+
+import copy
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exotune.config import design_from_mapping, load_design
+from exotune.controllerfile import build_export
+from exotune.errors import ConfigError
+from exotune.simulation.report import check_budget, run_scenario, summarize
+from exotune.simulation.result import SimulationRun
+from exotune.simulation.scenarios import SCENARIOS
+
+ROOT = Path(__file__).resolve().parents[2]
+FS = 1000.0
+T = np.arange(0.0, 4.0, 1 / FS)
+
+
+def _sim(tau_s, tau_c, theta_h=None, diverged=None):
+    z = np.zeros(T.size)
+    return {"sample_rate_hz": FS, "start": "bumpless", "diverged": diverged,
+            "series": {"t": T, "tau_s": tau_s, "tau_c": tau_c, "theta_h": z if theta_h is None else theta_h,
+                       "theta_j": z, "tau_m": 3.0 + 0 * T, "tau_cmd": -4.0 + 0 * T}}
+
+
+def test_locked_output_metrics_by_their_definitions():
+    sc = SCENARIOS["locked-output"]
+    tc = 5.0 + 0 * T
+    ts = -35.0 + np.exp(-2.0 * T) * np.sin(40 * T)  # settles at −35 N·m: (τ_c − τ_s)/τ_c = 8
+    sm = summarize(_sim(ts, tc), sc, 8.0, 0.99)
+    assert sm["verdict"] == "decaying" and not sm["diverged"]
+    assert sm["samples"] == T.size and sm["duration_s"] == {"value": 4.0, "unit": "s"}
+    assert sm["steady_cuff_torque"]["value"] == pytest.approx(5.0)
+    assert sm["delivered_amplification"]["value"] == pytest.approx(8.0, rel=1e-4)
+    assert sm["delivered_amplification"]["design_alpha"] == 8.0
+    assert abs(sm["amplification_error"]["value"]) < 1e-4
+    assert sm["peak_motor_torque"] == {"value": 3.0, "unit": "N·m"} and sm["peak_command"]["value"] == 4.0
+    rho = sm["loop_spectral_radius"]
+    assert rho["value"] == 0.99 and rho["growth_rate_per_s"] == pytest.approx(FS * math.log(0.99))
+
+
+def test_a_growing_run_has_no_metrics_and_says_why():
+    sc = SCENARIOS["light-mass"]
+    grow = np.exp(0.8 * T) * np.sin(60 * T)
+    sm = summarize(_sim(grow, grow, theta_h=1e-3 * grow), sc, 8.0, 1.001)
+    assert sm["verdict"] == "growing" and sm["diverged"]
+    assert sm["envelope_growth_rate"]["value"] == pytest.approx(0.8, abs=0.05)
+    assert sm["metrics_null_reason"].startswith("growing run: the oscillation of tau_")
+    assert sm["peak_motor_torque"]["value"] is None and sm["cuff_oscillation_start_rad"]["value"] is None
+    stopped = summarize(_sim(grow, grow, diverged="an angle beyond 1e6 rad"), sc, 8.0, None)
+    assert stopped["stopped"] == "an angle beyond 1e6 rad"
+    assert stopped["metrics_null_reason"] == "growing run: an angle beyond 1e6 rad"
+    assert stopped["loop_spectral_radius"]["growth_rate_per_s"] is None
+
+
+def test_the_run_budget():
+    check_budget(1000.0, 6.0)
+    with pytest.raises(ConfigError) as ei:
+        check_budget(1000.0, 1e6)
+    assert ei.value.field == "--duration"
+    assert ei.value.reason == ("1e+06 s at 1000 Hz is 1e+09 samples; a run is limited to 1e+07 samples (shorten "
+                               "--duration or lower the rate)")
+
+
+def test_run_scenario_returns_the_typed_run():
+    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
+    raw["implementation"].update(sample_rate_hz=FS)
+    doc = build_export(design_from_mapping(raw), FS)
+    run = run_scenario(doc, "locked-output", duration_s=1.0)
+    assert isinstance(run, SimulationRun) and run.scenario == "locked-output"
+    rep = run.to_dict()
+    assert rep["summary"]["verdict"] in ("decaying", "marginal") and "runs" not in rep
+    assert run.runs and all("series" in r for r in run.runs.values())
