@@ -1,0 +1,82 @@
+"""exotune.optimization.spec: a bad entry of an optimization spec is refused naming its field
+(docs/optimize-spec.md), and a valid one is read with its bounds, scales, defaults and seed."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+
+from exotune.config import load_design
+from exotune.errors import ConfigError
+from exotune.optimization.spec import DEFAULT_LATENCY_MARGIN_S, default_budget, load_optimize_spec
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def base():
+    return copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
+
+
+def _spec(base, **kw):
+    s = {"base": copy.deepcopy(base), "objective": "amplification",
+         "free": {"design.amplification": [1.5, 60.0], "design.zeta_hat": {"lo": 0.3, "hi": 1.2, "scale": "lin"}}}
+    s.update(kw)
+    return s
+
+
+def test_a_valid_spec_is_read_with_its_bounds_scales_and_defaults(base):
+    spec = load_optimize_spec(_spec(base))
+    assert spec.objective == "amplification"
+    lo, hi, scale = spec.free["design.amplification"]
+    assert (lo, hi) == (1.5, 60.0) and scale in ("log", "lin")
+    assert spec.free["design.zeta_hat"] == (0.3, 1.2, "lin")
+    assert spec.budget == default_budget(2) == 3000 and spec.seed == 0
+    assert default_budget(4) == 6000
+    assert spec.constraints["latency_margin_s"] == pytest.approx(DEFAULT_LATENCY_MARGIN_S)
+    assert load_optimize_spec(_spec(base, seed=3), seed=7).seed == 7  # the command line wins
+
+
+def test_a_latency_margin_of_zero_checks_no_delay(base):
+    spec = load_optimize_spec(_spec(base, constraints={"latency_margin_s": 0.0}))
+    assert spec.checked_delays().size == 0
+    spec = load_optimize_spec(_spec(base, constraints={"latency_margin_s": 0.002}))
+    d = spec.checked_delays()
+    assert d.size > 0 and d.max() == pytest.approx(0.002) and (d > 0).all()
+
+
+@pytest.mark.parametrize("change,field", [
+    (dict(objective="nonsense"), "objective"),
+    (dict(free={"design.amplification": [60.0, 2.0]}), "free.design.amplification"),
+    (dict(free={"design.amplification": {"lo": 1.0, "hi": 5.0, "step": 1}}), "free.design.amplification.step"),
+    (dict(free={"design.amplification": {"lo": 1.0, "hi": 5.0, "scale": "exp"}}), "free.design.amplification.scale"),
+    (dict(free={"design.amplification": {"lo": 1.0}}), "free.design.amplification"),
+    (dict(free={"design.zeta_hat": {"lo": -1.0, "hi": 1.0, "scale": "log"}, "design.amplification": [1, 5]}),
+     "free.design.zeta_hat"),  # a negative bound of a positive gain
+    (dict(free={"design.no_such_gain": [1.0, 2.0]}), "free.design.no_such_gain"),
+    (dict(free=None), "free"),
+    (dict(constraints={"foo": 1.0}), "constraints.foo"),
+    (dict(constraints={"max_phase_excess_deg": -1.0}), "constraints.max_phase_excess_deg"),
+    (dict(constraints={"latency_margin_s": -1e-3}), "constraints.latency_margin_s"),
+    (dict(constraints=[]), "constraints"),
+    (dict(seed=-1), "seed"),
+    (dict(seed=True), "seed"),
+    (dict(budget=10), "budget"),
+    (dict(extra_key=1), "extra_key"),
+])
+def test_a_bad_entry_is_refused_naming_its_field(base, change, field):
+    with pytest.raises(ConfigError) as e:
+        load_optimize_spec(_spec(base, **change))
+    assert e.value.field == field
+
+
+def test_the_base_is_required_and_the_spec_must_be_a_mapping(base):
+    s = _spec(base)
+    del s["base"]
+    with pytest.raises(ConfigError) as e:
+        load_optimize_spec(s)
+    assert e.value.field == "base"
+    with pytest.raises(ConfigError):
+        load_optimize_spec(42)
