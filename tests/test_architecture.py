@@ -397,7 +397,8 @@ NO_TEST_FILE_YET = {
     "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff", "controllerfile.runtime",
     "controllerfile.schema", "controllerfile.sos", "controllerfile.target", "controllerfile.verdicts",
     "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
-    "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space", }
+    "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space",
+}
 
 
 def _own_test_file(mod: str) -> Path:
