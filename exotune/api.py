@@ -143,7 +143,7 @@ def design(source, *, plots=None) -> DesignSummary:
     with numpy_engine():
         r = design_report(cfg)
     if plots is not None:
-        from .analysis.nominal import design_bode_figures
+        from .analysis.design_summary import design_bode_figures
         from .jsonio import write_files
         from .plots.design import design_plots
 
@@ -458,15 +458,15 @@ def certify(source, *, precision: str | None = None, time_budget_s: float | str 
     (True, ())
     """
     from .controllerfile.certify import certify as _certify
-    from .controllerfile import checked_controller, load_controller
+    from .controllerfile import checked_controller_file, load_controller_file
     from .controllerfile.results import ExportedController
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
     if isinstance(source, (str, os.PathLike)):
-        doc = load_controller(source)
+        doc = load_controller_file(source)
     elif isinstance(source, Mapping):
-        doc = checked_controller(dict(source))  # validated as a file is
+        doc = checked_controller_file(dict(source))  # validated as a file is
     else:
         raise TypeError(f"expected a controller file path, a mapping or an ExportedController, got {type(source).__name__}")
     from .numerics.timebudget import check_budget_option, time_budget

@@ -1,4 +1,5 @@
-"""exotune.controllerfile: the runtime controller file — its format (:mod:`.schema`), consistency
+"""exotune.controllerfile: the runtime controller file — its format (:mod:`.schema`), its typed model
+(:class:`~.model.ControllerFile`, :mod:`.model`), consistency
 checks (:mod:`.checks`), reading and writing (:mod:`.fileio`), discretization to second-order
 sections (:mod:`.sos`), building it from a design (:mod:`.export`), the reference runtime
 (:mod:`.runtime`) and its sampled-data certification (:mod:`.certify`).
@@ -11,9 +12,11 @@ from .certify import position_feedback, sampled_analysis
 from .continuation import stable_intervals
 from .checks import MIN_GOLDEN_SAMPLES, check_controller_file
 from .export import build_export, check_sample_rate, design_at_rate, export_design, reflected_mapping
-from .fileio import checked_controller, discrete_from_file, load_controller, plant_from_file, schedule_entry_doc, write_controller
+from .fileio import (checked_controller, checked_controller_file, discrete_from_file, load_controller, load_controller_file,
+                     plant_from_file, schedule_entry_doc, write_controller)
+from .model import ControllerFile, as_controller_file
 from .runtime import Runtime, SosFilter
-from .schema import SCHEMA_VERSION, SIGNAL_UNITS, ControllerFile, json_schema, schema_path, validate_controller, write_schema
+from .schema import SCHEMA_VERSION, SIGNAL_UNITS, ControllerSchema, json_schema, schema_path, validate_controller, write_schema
 from .sos import sos_ss, tustin_sos
 
 __all__ = [
@@ -22,6 +25,8 @@ __all__ = [
     "SCHEMA_VERSION",
     "SIGNAL_UNITS",
     "ControllerFile",
+    "as_controller_file",
+    "ControllerSchema",
     "validate_controller",
     "json_schema",
     "write_schema",
@@ -31,7 +36,9 @@ __all__ = [
     "tustin_sos",
     "sos_ss",
     "load_controller",
+    "load_controller_file",
     "checked_controller",
+    "checked_controller_file",
     "write_controller",
     "discrete_from_file",
     "plant_from_file",

@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from ..sampled import Measured, controller_blocks, default_prewarp
+from .model import Controller, ControllerFile, as_controller_file
 from .schema import GAIN_UNITS, SIGNAL_UNITS, SIX_GAIN_UNITS
 from .sos import tustin_sos
 
@@ -144,7 +145,7 @@ def close(a: float, b: float, rtol: float) -> bool:
     return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-300)
 
 
-def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
+def implementation_mismatches(doc: ControllerFile | dict, rtol: float = 1e-9) -> list[str]:
     """Where the file's controllers (the main one and each gain-schedule entry's) differ from the
     ones its ``plant``, ``design`` and ``implementation`` sections build (static gains and every
     filter's sos, :func:`exotune.controllerfile.build.controller_section`), and whether the
@@ -153,8 +154,8 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
 
     Parameters
     ----------
-    doc : dict
-        The controller file's mapping (with its ``implementation`` section).
+    doc : ControllerFile or dict
+        The controller file (with its ``implementation`` section).
     rtol : float, optional
         Relative tolerance of the comparison.
 
@@ -169,37 +170,36 @@ def implementation_mismatches(doc: dict, rtol: float = 1e-9) -> list[str]:
         When the plant, design or implementation section does not validate.
     """
     from ..config import design_from_mapping
-    from .fileio import schedule_entry_doc
 
-    fs = float(doc["sample_rate_hz"]["value"])
-    impl = doc["implementation"]
+    cf = as_controller_file(doc)
+    fs = float(cf.sample_rate_hz)
+    impl = cf.implementation
     out = []
-    docs = [("", doc)] + [(f"gain_schedule.entries[{j}].", schedule_entry_doc(doc, e))
-                          for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries", []))]
-    for where, d in docs:
-        mapping = {"plant": {k: q["value"] for k, q in d["plant"].items()},
-                   "design": {k: q["value"] for k, q in doc["design"].items()},
-                   "implementation": impl, "humans": [_ANY_HUMAN], "environment": []}
+    views = [("", cf)] + [(f"gain_schedule.entries[{j}].", cf.entry_view(e)) for j, e in enumerate(cf.schedule_entries)]
+    for where, v in views:
+        mapping = {"plant": v.plant.values(), "design": cf.design.values(),
+                   "implementation": impl.mapping, "humans": [_ANY_HUMAN], "environment": []}
         gains, filters, _six = controller_section(design_from_mapping(mapping), fs)
-        have = d["controller"]
-        got_gains = {k: float(v["gain"]) for k, v in (have.get("gains") or {}).items()}
-        for sig in sorted(set(gains) | set(got_gains)):
-            if not close(got_gains.get(sig, 0.0), float(gains.get(sig, {"gain": 0.0})["gain"]), rtol):
+        have, built = v.controller, Controller.from_dict({"gains": gains, "filters": filters})
+        got_gains = {k: float(g) for k, g in have.gains.items()}
+        for sig in sorted(set(built.gains) | set(got_gains)):
+            if not close(got_gains.get(sig, 0.0), float(built.gain(sig)), rtol):
                 out.append(f"{where}controller.gains.{sig} is not the gain the implementation section builds")
-        names = [f["name"] for f in have.get("filters") or []]
-        if names != [f["name"] for f in filters]:
+        names = [f.name for f in have.filters]
+        if names != [f.name for f in built.filters]:
             out.append(f"{where}controller.filters are {names}, the implementation section builds "
-                       f"{[f['name'] for f in filters]}")
+                       f"{[f.name for f in built.filters]}")
             continue
-        for f_have, f_built in zip(have["filters"], filters):
-            a, b = np.asarray(f_have["sos"], float), np.asarray(f_built["sos"], float)
-            if (f_have["input"] != f_built["input"] or a.shape != b.shape
+        for f_have, f_built in zip(have.filters, built.filters):
+            a, b = np.asarray(f_have.sos, float), np.asarray(f_built.sos, float)
+            if (f_have.input != f_built.input or a.shape != b.shape
                     or not np.allclose(a, b, rtol=rtol, atol=rtol * max(float(np.max(np.abs(b))), 1e-300))):
-                out.append(f"{where}controller.filters[{f_have['name']}] is not the filter the implementation "
+                out.append(f"{where}controller.filters[{f_have.name}] is not the filter the implementation "
                            "section builds")
     # after design_from_mapping has validated the section (a non-number is a ConfigError naming its field)
     # (a missing or null value is NaN, never close; 0.0 is a value: a delay-free runtime)
-    timing = [f"implementation.{key} {impl.get(key)!r} is not the file's {key} {doc[key]['value']!r}"
-              for key in ("delay_s", "sample_rate_hz")
-              if not close(math.nan if impl.get(key) is None else float(impl[key]), float(doc[key]["value"]), rtol)]
+    timing = [f"implementation.{key} {given!r} is not the file's {key} {own!r}"
+              for key, given, own in (("delay_s", impl.delay_s, cf.delay_s), ("sample_rate_hz", impl.sample_rate_hz,
+                                                                               cf.sample_rate_hz))
+              if not close(math.nan if given is None else float(given), float(own), rtol)]
     return timing + out

@@ -41,6 +41,7 @@ from .cgolden import golden_program, golden_rows
 from .cheader import C_FLAGS, HeaderParts, c_table, controller_tables, header_text, source_head
 from .cstep import (BUMPLESS_TAU_S, CHECKS_C, FLUSH_BELOW, RETURN_CODES, SIGNALS, STEP_C, c_double,
                     controllers_of, layouts_of, state_maps)
+from .model import ControllerFile, as_controller_file
 from .precision import precision_of
 from .results import GeneratedC
 
@@ -73,7 +74,7 @@ def _tables(ctrls) -> dict:
     return {"gains": gains, "filters": filters, "sections": sections, "controllers": rows}
 
 
-def _trace(doc: dict, trace: dict | None) -> dict:
+def _trace(doc, trace: dict | None) -> dict:
     """The traceability constants: the file's sha256, the exotune version, the verdict."""
     t = {"sha256": "unknown (generated from a document, not a file)", "certified": False,
          "verdict": "NOT CHECKED", "reasons": ()}
@@ -81,9 +82,9 @@ def _trace(doc: dict, trace: dict | None) -> dict:
     return t
 
 
-def _parts64(doc: dict) -> HeaderParts:
+def _parts64(doc: ControllerFile) -> HeaderParts:
     """The float64 port's parts of the shared header (:func:`~exotune.controllerfile.cheader.header_text`)."""
-    fs = float(doc["sample_rate_hz"]["value"])
+    fs = float(doc.sample_rate_hz)
     decay = math.exp(-1.0 / (fs * BUMPLESS_TAU_S))
     constants = ("#define EXOTUNE_PRECISION_BITS 64  /* double arithmetic (the file's implementation.precision) */\n"
                  f"#define EXOTUNE_FLUSH_BELOW {c_double(FLUSH_BELOW)}  /* inputs and states below this magnitude are "
@@ -117,7 +118,7 @@ SWITCH64_H = """/* Run controller `controller` from the next step. mode EXOTUNE_
  * EXOTUNE_ERR_ARGUMENT or EXOTUNE_FAULT_OVERFLOW (state unchanged). */"""
 
 
-def _source(doc: dict, ctrls, t: dict, trace: dict) -> str:
+def _source(doc: ControllerFile, ctrls, t: dict, trace: dict) -> str:
     L = source_head(doc, trace, CHECKS_C) + [
          "/* per static gain: input signal (0 theta_m, 1 omega_m, 2 tau_s, 3 dtau_s, 4 tau_c), gain */",
          "typedef struct { int signal; double gain; } exo_gain;",
@@ -142,13 +143,13 @@ def _source(doc: dict, ctrls, t: dict, trace: dict) -> str:
     return "\n".join(L) + "\n"
 
 
-def c_sources(doc: dict, trace: dict | None = None) -> dict[str, str]:
+def c_sources(doc: ControllerFile | dict, trace: dict | None = None) -> dict[str, str]:
     """The C99 port of the runtime controller of a validated controller file.
 
     Parameters
     ----------
-    doc : dict
-        A controller file (:func:`exotune.controllerfile.load_controller`).
+    doc : ControllerFile or dict
+        A controller file (:func:`exotune.controllerfile.fileio.load_controller_file`, or its mapping).
     trace : dict, optional
         What the code says about its origin: ``sha256`` (of the file's bytes), ``certified``
         (bool), ``verdict`` (``"CERTIFIED"``, ``"UNCERTIFIED ..."``) and ``reasons``;
@@ -175,10 +176,10 @@ def c_sources(doc: dict, trace: dict | None = None) -> dict[str, str]:
     >>> sorted(files), "exotune_step" in files["exotune_controller.h"]
     (['exotune_controller.c', 'exotune_controller.h', 'exotune_golden_test.c'], True)
     """
-    return _generate(doc, _trace(doc, trace))[0]
+    return _generate(as_controller_file(doc), _trace(doc, trace))[0]
 
 
-def _generate(doc: dict, trace: dict) -> tuple[dict[str, str], int, int]:
+def _generate(doc: ControllerFile, trace: dict) -> tuple[dict[str, str], int, int]:
     """(files, number of controllers, number of sections): the float64 port, or the float32 port of
     a float32 file (:mod:`exotune.controllerfile.ccode32`)."""
     if precision_of(doc) == "float32":
@@ -230,9 +231,9 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
 
     from ..jsonio import write_files
     from .certify import certify, golden_problems
-    from .fileio import load_controller
+    from .fileio import load_controller_file
 
-    doc = load_controller(controller_file)
+    doc = load_controller_file(controller_file)
     problems, _n, _err = golden_problems(doc)
     if problems:
         raise ConfigError("golden", problems[0] + " (was the file edited? re-export it)")

@@ -46,6 +46,7 @@ from ..errors import ConfigError
 from .cgolden32 import controllers32, golden_program32, golden_rows32
 from .cheader import HeaderParts, c_table, controller_tables, header_text, source_head
 from .cstep import ANGLE_C, BUILD_INFO_C, FAST_MATH_C, RESTORE_C, SAVE_C, SCHEDULE_C, c_double, peek_clamp_c
+from .model import ControllerFile, as_controller_file
 from .precision import FLUSH32, INPUT_LIMIT32, step_order
 
 __all__ = ["c_float", "generate32", "RETURN_CODES32", "MIN_COEFFICIENT32", "FLUSH_BELOW32"]
@@ -272,7 +273,7 @@ def _tables32(ctrls) -> dict:
     return {"gains": gains, "filters": filters, "sections": sections, "controllers": rows}
 
 
-def _source32(doc: dict, ctrls, t: dict, trace: dict) -> str:
+def _source32(doc: ControllerFile, ctrls, t: dict, trace: dict) -> str:
     L = source_head(doc, trace, CHECKS32_C) + [
         "/* per static gain: input signal (0 theta_m, 1 omega_m, 2 tau_s, 3 dtau_s, 4 tau_c), gain */",
         "typedef struct { int signal; float gain; } exo_gain;",
@@ -293,14 +294,14 @@ def _source32(doc: dict, ctrls, t: dict, trace: dict) -> str:
     return "\n".join(L) + "\n"
 
 
-def generate32(doc: dict, trace: dict) -> tuple[dict[str, str], int, int]:
+def generate32(doc: ControllerFile | dict, trace: dict) -> tuple[dict[str, str], int, int]:
     """The float32 port of a float32 file: (files, number of controllers, number of sections), the
     files those of the float64 port (``exotune_controller.h``, ``.c``, ``exotune_golden_test.c``).
 
     Parameters
     ----------
-    doc : dict
-        The validated float32 controller file's mapping.
+    doc : ControllerFile or dict
+        The validated float32 controller file.
     trace : dict
         Where the code came from: ``sha256`` of the file, ``certified``, ``verdict`` and ``reasons``.
 
@@ -313,6 +314,7 @@ def generate32(doc: dict, trace: dict) -> tuple[dict[str, str], int, int]:
     sections : int
         Number of sections in the tables.
     """
+    doc = as_controller_file(doc)
     ctrls = controllers32(doc)
     t = _tables32(ctrls)
     max_sections = max([1] + [row[6] for row in t["controllers"]])

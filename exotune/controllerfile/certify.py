@@ -31,6 +31,7 @@ from .cellbound import loop_cell
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
 from .latency import requirement_problems, sampled_latency_margin
+from .model import ControllerFile, as_controller_file
 from .results import Certificate
 
 __all__ = ["POINTS", "sampled_analysis", "sampled_decision", "sampled_problems", "schedule_section", "stable_intervals", "position_feedback",
@@ -53,7 +54,7 @@ def _in_certify(parse, i, item):
 
 
 @one_blas_thread
-def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dict:
+def sampled_analysis(doc: ControllerFile | dict, points: int = POINTS, proof: bool = True) -> dict:
     """Free/locked verdicts and the stable intervals of every rational human family and every
     environment spring/mass range of the file's ``certify`` section, for the file's controller.
     Every accepted cell is proven stable (:func:`~exotune.controllerfile.cellbound.loop_cell`);
@@ -62,8 +63,8 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping.
+    doc : ControllerFile or dict
+        The validated controller file.
     points : int, optional
         Grid members per family range.
     proof : bool, optional
@@ -85,9 +86,10 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
     from ..config import parse_env, parse_human
     from .fileio import discrete_from_file, plant_from_file
 
-    plant = plant_from_file(doc)
-    ctrl = discrete_from_file(doc)
-    grounded = position_feedback(doc["controller"])
+    cf = as_controller_file(doc)
+    plant = plant_from_file(cf)
+    ctrl = discrete_from_file(cf)
+    grounded = position_feedback(cf.controller)
     spec = lambda human=None, env="free": loop_eigenvalues(plant, ctrl, grounded, human, env)  # noqa: E731
     specs = lambda humans, env="free": loop_spectra(plant, ctrl, grounded, humans, env)  # noqa: E731
     verdict = lambda human=None, env="free": loop_verdict(plant, ctrl, grounded, human, env)[0]  # noqa: E731
@@ -97,7 +99,7 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
     locked, rho_l, err_l = loop_verdict(plant, ctrl, grounded, env="locked")
     out = {
         "model": ("plant discretized exactly (zero-order hold, delay of "
-                  f"{doc['delay_s']['value'] * doc['sample_rate_hz']['value']:.6g} samples), the file's controller"),
+                  f"{cf.delay_s * cf.sample_rate_hz:.6g} samples), the file's controller"),
         "free_stable": free,  # None: inconclusive (the spectral radius is within rounding of 1)
         "free_spectral_radius": rho,
         "free_spectral_radius_rounding": err,
@@ -107,7 +109,7 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
         "humans": [],
         "environment": [],
     }
-    for i, item in enumerate(doc["certify"].get("humans") or []):
+    for i, item in enumerate(cf.certify.humans):
         fam, _ = _in_certify(parse_human, i, item)
         entry = {"kind": fam.kind, "parameter": fam.param, "unit": fam.unit, "range": [fam.lo, fam.hi]}
         if fam.kind == "complex_stiffness":
@@ -128,7 +130,7 @@ def sampled_analysis(doc: dict, points: int = POINTS, proof: bool = True) -> dic
                                      lambda vs, fam=fam: specs([_human_dict(fam, v) for v in vs]))
         entry.update(info, stable_intervals=ivs, robust=(ivs == [[fam.lo, fam.hi]] and not info["unresolved"]))
         out["humans"].append(entry)
-    for i, item in enumerate(doc["certify"].get("environment") or []):
+    for i, item in enumerate(cf.certify.environment):
         env, _ = _in_certify(parse_env, i, item)
         if env.kind not in ("spring", "mass"):
             continue
@@ -195,26 +197,26 @@ def _dc_gain(sos) -> float:
     return num / den if den != 0.0 else math.inf
 
 
-def _one_controller(design: dict, view: dict, where: str) -> list[str]:
+def _one_controller(design: dict, view: ControllerFile, where: str) -> list[str]:
     """Mismatches of one controller (its plant, six gains and filters) against the design."""
     from ..model.shaping import DesignParams, double_compliance_shaping
-    from .fileio import plant_from_file
 
-    plant = plant_from_file(view)
+    plant = view.plant.to_plant()
     ds = double_compliance_shaping(plant, DesignParams(**{k: np.asarray(v) for k, v in design.items()}))
     want = {k: float(np.ravel(getattr(ds.gains, k))[0]) for k in _SIX}
-    out = [f"{where}gains.{k}: the file has {view['gains'][k]['value']!r}, its design section and plant give {want[k]!r}"
-           for k in _SIX if not close(float(view["gains"][k]["value"]), want[k], _GAIN_RTOL)]
+    have = {k: getattr(view.gains, k) for k in _SIX}
+    out = [f"{where}gains.{k}: the file has {have[k]!r}, its design section and plant give {want[k]!r}"
+           for k in _SIX if not close(float(have[k]), want[k], _GAIN_RTOL)]
     dc = {"cuff_path": plant.J_m / float(np.ravel(ds.J_m_hat)[0]) * want["K2_hat"],
           "motor_position": -want["K1"], "spring_torque": want["K2"]}
-    for i, f in enumerate(view["controller"]["filters"]):
-        if f["name"] in dc and not close(_dc_gain(f["sos"]), dc[f["name"]], _DC_RTOL):
-            out.append(f"{where}controller.filters[{i}] ({f['name']}): DC gain {_dc_gain(f['sos']):.6g}, its design "
-                       f"section and plant give {dc[f['name']]:.6g}")
+    for i, f in enumerate(view.controller.filters):
+        if f.name in dc and not close(_dc_gain(f.sos), dc[f.name], _DC_RTOL):
+            out.append(f"{where}controller.filters[{i}] ({f.name}): DC gain {_dc_gain(f.sos):.6g}, its design "
+                       f"section and plant give {dc[f.name]:.6g}")
     return out
 
 
-def design_mismatches(doc: dict) -> list[str]:
+def design_mismatches(doc: ControllerFile | dict) -> list[str]:
     """Where the controller of a file differs from the one its design section and plant build.
 
     The six gains of double compliance shaping are recomputed from ``design`` and ``plant`` (and
@@ -225,7 +227,7 @@ def design_mismatches(doc: dict) -> list[str]:
 
     Parameters
     ----------
-    doc : dict
+    doc : ControllerFile or dict
         A validated controller file.
 
     Returns
@@ -238,27 +240,26 @@ def design_mismatches(doc: dict) -> list[str]:
     Paper §IV (double compliance shaping: the gains from α, Ĵ_m/α, B̂_m/α, ζ, ζ̂ and the plant);
     docs/controller-file.md (certify: the design check).
     """
-    from .fileio import schedule_entry_doc
-
-    design = {k: float(q["value"]) for k, q in doc["design"].items()}
-    out = _one_controller(design, doc, "")
-    for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries", [])):
-        out += _one_controller(design, schedule_entry_doc(doc, e), f"gain_schedule.entries[{j}].")
-    if doc.get("implementation") is not None:
+    cf = as_controller_file(doc)
+    design = {k: float(v) for k, v in cf.design.values().items()}
+    out = _one_controller(design, cf, "")
+    for j, e in enumerate(cf.schedule_entries):
+        out += _one_controller(design, cf.entry_view(e), f"gain_schedule.entries[{j}].")
+    if cf.implementation is not None:
         from .build import implementation_mismatches
 
-        out += implementation_mismatches(doc)
+        out += implementation_mismatches(cf)
     return out
 
 
-def hand_tuned(doc: dict) -> bool:
+def hand_tuned(doc: ControllerFile | dict) -> bool:
     """Whether the file declares a hand-tuned controller (``provenance.hand_tuned: true``); any
     other value than true/false is a ConfigError.
 
     Parameters
     ----------
-    doc : dict
-        The controller file's mapping.
+    doc : ControllerFile or dict
+        The controller file.
 
     Returns
     -------
@@ -272,19 +273,19 @@ def hand_tuned(doc: dict) -> bool:
     """
     from ..errors import ConfigError
 
-    v = (doc.get("provenance") or {}).get("hand_tuned", False)
+    v = as_controller_file(doc).provenance.hand_tuned
     if not isinstance(v, bool):
         raise ConfigError("provenance.hand_tuned", f"expected true or false, got {v!r}")
     return v
 
 
-def check_built_from_design(doc: dict) -> None:
+def check_built_from_design(doc: ControllerFile | dict) -> None:
     """Refuse (ConfigError) a file whose controller was not built from its design section and plant
     (:func:`design_mismatches`), unless it declares itself hand-tuned (:func:`hand_tuned`).
 
     Parameters
     ----------
-    doc : dict
+    doc : ControllerFile or dict
         A validated controller file.
 
     Raises
@@ -299,17 +300,18 @@ def check_built_from_design(doc: dict) -> None:
     """
     from ..errors import ConfigError
 
-    if hand_tuned(doc):
+    cf = as_controller_file(doc)
+    if hand_tuned(cf):
         return
     try:
-        bad = design_mismatches(doc)
+        bad = design_mismatches(cf)
     except (KeyError, TypeError, ValueError, ZeroDivisionError, FloatingPointError) as e:
         raise ConfigError("design", f"cannot rebuild the controller from the design section and plant ({type(e).__name__}: "
                                     f"{str(e)[:120]})") from None
     if not bad:
         return
-    alpha = float(doc["design"]["amplification"]["value"])
-    k2_hat = float(doc["gains"]["K2_hat"]["value"])
+    alpha = float(cf.design.amplification)
+    k2_hat = float(cf.gains.K2_hat)
     field = "implementation" if all("implementation" in b for b in bad) else "design"
     if not close(k2_hat + 1.0, alpha, _GAIN_RTOL):  # K̂2 = α − 1: the controller names the α it was built for
         field = "design.amplification"
@@ -329,7 +331,7 @@ _NO_IMPLEMENTATION_NOTE = ("no implementation section (a file written before exo
                            "not checked against the design, only their DC gains; ")
 
 
-def certify(doc: dict, precision: str | None = None) -> Certificate:
+def certify(doc: ControllerFile | dict, precision: str | None = None) -> Certificate:
     """Re-run the sampled-data analysis of a validated controller file and check its golden
     vectors and predictions (see the module docstring). An overflowing controller (e.g. a gain of
     1e308) fails on its verdicts and golden vectors, without numpy's warnings on the terminal.
@@ -350,8 +352,8 @@ def certify(doc: dict, precision: str | None = None) -> Certificate:
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping.
+    doc : ControllerFile or dict
+        The validated controller file.
     precision : str or None, optional
         ``"float64"`` or ``"float32"``; None for the file's own.
 
@@ -369,26 +371,27 @@ def certify(doc: dict, precision: str | None = None) -> Certificate:
     from .precision import precision_of
     from .target import with_precision
 
-    own = precision_of(doc)
+    cf = as_controller_file(doc)
+    own = precision_of(cf)
     asked = own if precision is None else precision
     if asked != own:
-        doc = with_precision(doc, asked)
+        cf = with_precision(cf, asked)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        check_built_from_design(doc)
-        rep = _certify(doc, predictions=asked == own)
+        check_built_from_design(cf)
+        rep = _certify(cf, predictions=asked == own)
     if asked == "float32":
-        _float32_section(doc, rep, asked != own)
-    if hand_tuned(doc):
+        _float32_section(cf, rep, asked != own)
+    if hand_tuned(cf):
         rep["scope"] = "controller only (hand-tuned: the design section is not checked against the controller)"
         rep["method"] = _HAND_TUNED_NOTE + rep["method"]
-    elif doc.get("implementation") is None:
+    elif cf.implementation is None:
         rep["scope"] = ("controller and its six gains; the filters only by their DC gains (no implementation section: "
                         "a file written before exotune 0.7.0; export it again to have every filter checked)")
         rep["method"] = _NO_IMPLEMENTATION_NOTE + rep["method"]
     return Certificate.from_report(rep)
 
 
-def refuse_excess_work(doc: dict, entries: int | None = None) -> None:
+def refuse_excess_work(doc: ControllerFile | dict, entries: int | None = None) -> None:
     """Inside a :func:`~exotune.numerics.timebudget.time_budget` (export, certify): refuse, before
     the sampled-data analysis starts, a file whose base work alone — ``POINTS`` eigenvalue
     problems per family, for the file and each of its ``entries`` gain-schedule entries (default:
@@ -400,25 +403,26 @@ def refuse_excess_work(doc: dict, entries: int | None = None) -> None:
     b = active_budget()
     if b is None:
         return
-    A, B, C = plant_ss(plant_from_file(doc), {"inertia": 1.0, "damping": 0.0, "stiffness": 1.0}, "free")
-    states = closed_loop_matrix(A, B, C, discrete_from_file(doc)).shape[0]
-    fams = sum(1 for h in (doc["certify"].get("humans") or [])
+    cf = as_controller_file(doc)
+    A, B, C = plant_ss(plant_from_file(cf), {"inertia": 1.0, "damping": 0.0, "stiffness": 1.0}, "free")
+    states = closed_loop_matrix(A, B, C, discrete_from_file(cf)).shape[0]
+    fams = sum(1 for h in cf.certify.humans  # design-file form (exotune.config.parse_human)
                if isinstance(h, dict) and h.get("kind") != "complex_stiffness")
-    fams += sum(1 for e in (doc["certify"].get("environment") or [])
+    fams += sum(1 for e in cf.certify.environment
                 if isinstance(e, dict) and e.get("kind") in ("spring", "mass"))
     if entries is None:
-        entries = len((doc.get("gain_schedule") or {}).get("entries") or [])
+        entries = len(cf.schedule_entries)
     refuse_if_over((1 + entries) * (2 + fams * POINTS), states, *b)
 
 
-def golden_problems(doc: dict) -> tuple[list[str], int, float]:
+def golden_problems(doc: ControllerFile | dict) -> tuple[list[str], int, float]:
     """(problems, samples, max error [N·m]) of the golden vectors through the reference runtime,
     for the file's controller and each gain-schedule entry's.
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping.
+    doc : ControllerFile or dict
+        The validated controller file.
 
     Returns
     -------
@@ -429,23 +433,22 @@ def golden_problems(doc: dict) -> tuple[list[str], int, float]:
     max_error : float
         Largest error of the nominal controller's commands [N·m].
     """
-    from .fileio import schedule_entry_doc
-
-    ins = {s: np.asarray(v["values"], float) for s, v in doc["golden"]["inputs"].items()}
-    ref = np.asarray(doc["golden"]["tau_cmd"]["values"], float)
+    cf = as_controller_file(doc)
+    ins = {s: np.asarray(v, float) for s, v in cf.golden.inputs.items()}
+    ref = np.asarray(cf.golden.tau_cmd, float)
     if len({len(v) for v in ins.values()} | {len(ref)}) != 1:
         return ["golden vectors have different lengths"], int(ref.size), math.inf
     problems = []
-    out = _run_golden(doc, ins, "controller")
+    out = _run_golden(cf, ins, "controller")
     err = float(np.max(np.abs(out - ref))) if ref.size else 0.0
     if not _golden_ok(out, ref):
         problems.append(f"the reference runtime does not reproduce the golden vectors (max error {err:.3g} N·m)")
-    for e in (doc.get("gain_schedule") or {}).get("entries", []):
-        ref_e = np.asarray(e["golden_tau_cmd"]["values"], float)
-        run_e = _run_golden(schedule_entry_doc(doc, e), ins, f"gain_schedule[{e['joint_angle_rad']:g} rad].controller")
+    for e in cf.schedule_entries:
+        ref_e = np.asarray(e.golden_tau_cmd, float)
+        run_e = _run_golden(cf.entry_view(e), ins, f"gain_schedule[{e.joint_angle_rad:g} rad].controller")
         if ref_e.size != ref.size or not _golden_ok(run_e, ref_e):
             problems.append("the reference runtime does not reproduce the golden vectors of the gain schedule "
-                            f"entry at {e['joint_angle_rad']:g} rad")
+                            f"entry at {e.joint_angle_rad:g} rad")
     return problems, int(ref.size), err
 
 
@@ -488,7 +491,7 @@ def sampled_problems(sa: dict) -> list[str]:
     return problems + _unresolved(sa, "")
 
 
-def sampled_decision(doc: dict, sa: dict | None = None) -> tuple[dict, dict, list[str]]:
+def sampled_decision(doc: ControllerFile | dict, sa: dict | None = None) -> tuple[dict, dict, list[str]]:
     """certify's sampled-data decision on a controller document: (its sampled-data analysis
     :func:`sampled_analysis`, its sampled-data latency margin
     :func:`~exotune.controllerfile.latency.sampled_latency_margin`, the problems that refuse it —
@@ -498,7 +501,7 @@ def sampled_decision(doc: dict, sa: dict | None = None) -> tuple[dict, dict, lis
 
     Parameters
     ----------
-    doc : dict
+    doc : ControllerFile or dict
         A controller document (a validated file, or one :func:`exotune.controllerfile.export.build_export` builds).
     sa : dict, optional
         Its :func:`sampled_analysis` when already computed.
@@ -507,20 +510,21 @@ def sampled_decision(doc: dict, sa: dict | None = None) -> tuple[dict, dict, lis
     -------
     (dict, dict, list of str)
     """
+    cf = as_controller_file(doc)
     if sa is None:
-        sa = sampled_analysis(doc)
-    lm = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), lambda d: sampled_analysis(d, proof=False))
+        sa = sampled_analysis(cf)
+    lm = sampled_latency_margin(cf, sa, position_feedback(cf.controller), lambda d: sampled_analysis(d, proof=False))
     return sa, lm, sampled_problems(sa) + requirement_problems(lm)
 
 
-def schedule_section(doc: dict) -> tuple[list, list[str], list[str]]:
+def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[str]]:
     """(report entries, problems, prediction mismatches) of the gain schedule's entries, each
     analysed as a controller of its own.
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping, with a gain schedule.
+    doc : ControllerFile or dict
+        The validated controller file, with a gain schedule.
 
     Returns
     -------
@@ -532,26 +536,25 @@ def schedule_section(doc: dict) -> tuple[list, list[str], list[str]]:
     mismatches : list of str
         Where an entry's ``predicted_sampled`` differs from the analysis.
     """
-    from .fileio import schedule_entry_doc
-
+    cf = as_controller_file(doc)
     entries, problems, mism = [], [], []
-    for e in doc["gain_schedule"]["entries"]:
-        sa_e = sampled_analysis(schedule_entry_doc(doc, e))
+    for e in cf.gain_schedule.entries:
+        sa_e = sampled_analysis(cf.entry_view(e))
         bad = [f"{h['kind']} {h['parameter']}" for h in sa_e["humans"] + sa_e["environment"]
                if "skipped" not in h and not h.get("robust")]
         bad += [k for k in ("free_stable", "locked_stable") if not sa_e[k]]
-        entries.append({"joint_angle_rad": e["joint_angle_rad"], "ratio": e["ratio"],
+        entries.append({"joint_angle_rad": e.joint_angle_rad, "ratio": e.ratio,
                         "robust": not bad, "not_robust": bad, "sampled": sa_e})
-        problems += _unresolved(sa_e, f"gain schedule at joint angle {e['joint_angle_rad']:g} rad: ")
+        problems += _unresolved(sa_e, f"gain schedule at joint angle {e.joint_angle_rad:g} rad: ")
         if bad:
-            problems.append(f"gain schedule at joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
+            problems.append(f"gain schedule at joint angle {e.joint_angle_rad:g} rad (ratio {e.ratio:g}): "
                             f"not stable for {', '.join(bad)}")
-        mism += _prediction_mismatches(e.get("predicted_sampled"), sa_e,
-                                       f"gain_schedule[{e['joint_angle_rad']:g} rad].predicted_sampled")
+        mism += _prediction_mismatches(e.predicted_sampled, sa_e,
+                                       f"gain_schedule[{e.joint_angle_rad:g} rad].predicted_sampled")
     return entries, problems, mism
 
 
-def _float32_section(doc: dict, rep: dict, asked: bool) -> None:
+def _float32_section(doc: ControllerFile, rep: dict, asked: bool) -> None:
     """The float32 part of the report: the realization checked against the file's sos and gains
     (a mismatch is an invalid file unless hand-tuned), and the rounding bound."""
     from ..errors import ConfigError
@@ -567,22 +570,22 @@ def _float32_section(doc: dict, rep: dict, asked: bool) -> None:
                                      "float32 realization (the file is unchanged; its predictions are not compared)")
 
 
-def _certify(doc: dict, predictions: bool = True) -> dict:
+def _certify(doc: ControllerFile, predictions: bool = True) -> dict:
     refuse_excess_work(doc)
-    rep = {"schema": doc["schema"], "sample_rate_hz": doc["sample_rate_hz"], "delay_s": doc["delay_s"]["value"],
-           "provenance": doc.get("provenance")}
+    rep = {"schema": doc.schema, "sample_rate_hz": doc.sample_rate.to_dict(), "delay_s": doc.delay_s,
+           "provenance": doc.provenance.to_dict()}
     problems, samples, err = golden_problems(doc)
     rep["golden"] = {"samples": samples, "max_abs_error": {"value": err, "unit": "N·m"}}
     rep["sampled"], rep["latency_margin"], decided = sampled_decision(doc)
     sa = rep["sampled"]
     problems += decided
     mism = []
-    if doc.get("gain_schedule"):
+    if doc.gain_schedule is not None:
         rep["gain_schedule"], sched_problems, mism = schedule_section(doc)
         problems += sched_problems
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the file names no rational human family to certify against (certify.humans)")
-    mism += _prediction_mismatches((doc.get("predicted") or {}).get("sampled"), sa, "predicted.sampled")
+    mism += _prediction_mismatches(doc.predicted.sampled, sa, "predicted.sampled")
     if not predictions:  # certify --precision: the predictions were made for the file's own precision
         mism = []
     if mism:
@@ -634,7 +637,7 @@ def _prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
     return out
 
 
-def _run_golden(doc: dict, ins: dict, where: str) -> np.ndarray:
+def _run_golden(doc: ControllerFile, ins: dict, where: str) -> np.ndarray:
     """The reference runtime on the golden inputs; a controller that overflows on them (a command
     too large for floating point) is a broken file: input error naming it."""
     from ..errors import ConfigError

@@ -41,6 +41,7 @@ import numpy as np
 
 from .cgolden import (OP_INIT, OP_STEP, OP_SWITCH, GoldenRow, fault_inputs, golden_program, lookup_rows)
 from .cstep import SIGNALS
+from .model import ControllerFile, Realization, as_controller_file
 from .precision import INPUT_LIMIT32, Float32Runtime
 
 __all__ = ["golden_rows32", "golden_program32", "controllers32", "TINY_INPUTS", "BIG_INPUTS"]
@@ -66,7 +67,7 @@ ABOUT32 = (" * Every controller of the float32 controller file through the float
            " * (tolerance 0). Exit 0 and 'OK': the build computes the certified float32 controller bit for bit.")
 
 
-def controllers32(doc: dict) -> list[tuple[str, float | None, dict]]:
+def controllers32(doc: ControllerFile | dict) -> list[tuple[str, float | None, Realization]]:
     """(label, joint angle [rad] or None, float32 realization): the nominal controller, then every
     gain-schedule entry (the C port's controller indices 0, 1, ...).
 
@@ -80,10 +81,10 @@ def controllers32(doc: dict) -> list[tuple[str, float | None, dict]]:
     list of tuple
         ``(label, joint angle [rad] or None, realization)`` per controller.
     """
-    out = [("nominal", None, doc["controller"]["realization"])]
-    for e in (doc.get("gain_schedule") or {}).get("entries", []):
-        out.append((f"joint angle {e['joint_angle_rad']!r} rad", float(e["joint_angle_rad"]),
-                    e["controller"]["realization"]))
+    cf = as_controller_file(doc)
+    out = [("nominal", None, cf.controller.realization)]
+    for e in cf.schedule_entries:
+        out.append((f"joint angle {e.joint_angle_rad!r} rad", float(e.joint_angle_rad), e.controller.realization))
     return out
 
 
@@ -106,7 +107,7 @@ def _on_each(values) -> list[list[float]]:
     return [[v if j == i else 0.0 for j in range(5)] for v in values for i in range(5)]
 
 
-def _controller_rows(doc: dict, c: int, angles: list, G, rng, scale) -> list[GoldenRow]:
+def _controller_rows(doc: ControllerFile, c: int, angles: list, G, rng, scale) -> list[GoldenRow]:
     """The three scenarios of controller ``c`` (the module docstring)."""
     n = len(angles)
     R1, R2, R3, R4, R5 = (rng.standard_normal((m, 5)) * scale for m in (40, 50, 30, 20, 20))
@@ -129,7 +130,7 @@ def _controller_rows(doc: dict, c: int, angles: list, G, rng, scale) -> list[Gol
     return rows + _run32(rt, R5)
 
 
-def golden_rows32(doc: dict, seed: int = 20250) -> list[GoldenRow]:
+def golden_rows32(doc: ControllerFile | dict, seed: int = 20250) -> list[GoldenRow]:
     """The golden table of a float32 controller file (the module docstring), rows as
     :func:`~exotune.controllerfile.cgolden.golden_rows`' with tolerance 0 (op 3: a switch).
 
@@ -145,8 +146,9 @@ def golden_rows32(doc: dict, seed: int = 20250) -> list[GoldenRow]:
     list of GoldenRow
         The table.
     """
-    ins = doc["golden"]["inputs"]
-    G = np.array([ins[s]["values"] for s in SIGNALS], dtype=float).T
+    doc = as_controller_file(doc)
+    ins = doc.golden.inputs
+    G = np.array([ins[s] for s in SIGNALS], dtype=float).T
     scale = np.array([max(float(np.max(np.abs(G[:, i]))), 1e-3) for i in range(5)])
     rng = np.random.default_rng(seed)
     angles = [a for _l, a, _r in controllers32(doc)]
@@ -159,7 +161,7 @@ def golden_rows32(doc: dict, seed: int = 20250) -> list[GoldenRow]:
     return rows
 
 
-def golden_program32(doc: dict, rows: list[GoldenRow]) -> str:
+def golden_program32(doc: ControllerFile | dict, rows: list[GoldenRow]) -> str:
     """``exotune_golden_test.c`` of the float32 port: the float64 port's program
     (:func:`~exotune.controllerfile.cgolden.golden_program`) on the float32 table, every tolerance 0.
 

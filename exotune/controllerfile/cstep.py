@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 from ..sampled import Measured
-from .fileio import schedule_entry_doc
+from .model import ControllerFile, as_controller_file
 from .runtime import Runtime
 
 __all__ = ["SIGNALS", "RETURN_CODES", "FLUSH_BELOW", "BUMPLESS_TAU_S", "c_double", "ascii_text", "controllers_of",
@@ -103,7 +103,7 @@ def ascii_text(s) -> str:
     return out.replace("*/", "* /").replace("\\", "/").replace('"', "'").replace("\n", " ")
 
 
-def controllers_of(doc: dict) -> list[tuple[str, float | None, Runtime]]:
+def controllers_of(doc: ControllerFile | dict) -> list[tuple[str, float | None, Runtime]]:
     """(label, joint angle [rad] or None, reference runtime): the nominal controller, then every
     gain-schedule entry, each as the reference runtime runs it (its gains, its sensed filters and
     its loop filters, in its order).
@@ -118,10 +118,10 @@ def controllers_of(doc: dict) -> list[tuple[str, float | None, Runtime]]:
     list of tuple
         ``(label, joint angle [rad] or None, Runtime)`` per controller.
     """
-    out = [("nominal", None, Runtime(doc))]
-    for e in (doc.get("gain_schedule") or {}).get("entries", []):
-        out.append((f"joint angle {e['joint_angle_rad']!r} rad", float(e["joint_angle_rad"]),
-                    Runtime(schedule_entry_doc(doc, e))))
+    cf = as_controller_file(doc)
+    out = [("nominal", None, Runtime(cf))]
+    for e in cf.schedule_entries:
+        out.append((f"joint angle {e.joint_angle_rad!r} rad", float(e.joint_angle_rad), Runtime(cf.entry_view(e))))
     return out
 
 

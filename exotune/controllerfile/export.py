@@ -20,7 +20,7 @@ the plant, the design, the delay it was designed for, the predicted metrics (con
 analysis and the sampled-data intervals that ``exotune certify`` recomputes from this file), the
 human/environment families to certify against, golden input/output vectors of the reference
 runtime, and provenance. Its JSON Schema ships as ``exotune/schemas/controller.schema.json``
-(generated from :class:`ControllerFile`; a test keeps them equal).
+(generated from :class:`~exotune.controllerfile.schema.ControllerSchema`; a test keeps them equal).
 """
 
 from __future__ import annotations

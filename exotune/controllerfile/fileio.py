@@ -10,11 +10,12 @@ import numpy as np
 
 from ..sampled import Measured, assemble
 from .checks import check_controller_file
+from .model import Controller, ControllerFile, as_controller_file
 from .schema import validate_controller
 from .sos import sos_ss
 
-__all__ = ["load_controller", "checked_controller", "check_file_limits", "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc",
-           "position_feedback"]
+__all__ = ["load_controller", "load_controller_file", "checked_controller", "checked_controller_file", "check_file_limits",
+           "write_controller", "discrete_from_file", "plant_from_file", "schedule_entry_doc", "position_feedback"]
 
 
 def load_controller(path) -> dict:
@@ -39,6 +40,34 @@ def load_controller(path) -> dict:
     from ..config import read_yaml
 
     return checked_controller(read_yaml(path), str(path))
+
+
+def load_controller_file(path) -> ControllerFile:
+    """Read and validate a controller file exactly as :func:`load_controller` does; returns its
+    typed model (:class:`~exotune.controllerfile.model.ControllerFile`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The controller file (YAML).
+
+    Returns
+    -------
+    ControllerFile
+        The validated file.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the file cannot be read or parsed, or fails a check.
+
+    References
+    ----------
+    docs/controller-file.md.
+    """
+    from ..config import read_yaml
+
+    return checked_controller_file(read_yaml(path), str(path))
 
 
 def checked_controller(doc, source: str = "<mapping>") -> dict:
@@ -68,16 +97,42 @@ def checked_controller(doc, source: str = "<mapping>") -> dict:
     ----------
     docs/controller-file.md.
     """
+    checked_controller_file(doc, source)
+    return doc
+
+
+def checked_controller_file(doc, source: str = "<mapping>") -> ControllerFile:
+    """Validate a controller document in memory as :func:`checked_controller` does (the kind, the
+    schema, then on the typed model the accepted ranges, the consistency checks and the precision);
+    returns the typed model.
+
+    Parameters
+    ----------
+    doc : Any
+        The controller document.
+    source : str, optional
+        What it is (a path), named by the errors.
+
+    Returns
+    -------
+    ControllerFile
+        The validated file (:meth:`~exotune.controllerfile.model.ControllerFile.to_dict` gives ``doc`` back).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        As :func:`checked_controller`.
+    """
     from ..config import refuse_other_kind
+    from .precision import precision_of
 
     refuse_other_kind(doc, "controller", source)
     validate_controller(doc, source)
-    check_file_limits(doc)
-    check_controller_file(doc)
-    from .precision import precision_of
-
-    precision_of(doc)  # implementation.precision valid, and a realization in every controller of a float32 file
-    return doc
+    cf = ControllerFile.from_dict(doc)
+    check_file_limits(cf)
+    check_controller_file(cf)
+    precision_of(cf)  # implementation.precision valid, and a realization in every controller of a float32 file
+    return cf
 
 
 def check_file_limits(doc: dict) -> None:
@@ -87,7 +142,7 @@ def check_file_limits(doc: dict) -> None:
 
     Parameters
     ----------
-    doc : dict
+    doc : ControllerFile or dict
         A controller file that passed :func:`exotune.controllerfile.schema.validate_controller`.
 
     Raises
@@ -102,17 +157,18 @@ def check_file_limits(doc: dict) -> None:
     from ..config import OVERRIDE_LIMITS, check_limit
     from ..errors import ConfigError
 
-    checks = [(f"{sec}.{k}.value", OVERRIDE_LIMITS.get(f"{sec}.{k}"), q)
-              for sec in ("plant", "design") for k, q in doc[sec].items()]
-    checks += [("sample_rate_hz.value", "frequency", doc["sample_rate_hz"]), ("delay_s.value", "delay", doc["delay_s"])]
-    for i, e in enumerate((doc.get("gain_schedule") or {}).get("entries", [])):
-        checks += [(f"gain_schedule.entries[{i}].plant.{k}.value", OVERRIDE_LIMITS.get(f"plant.{k}"), q)
-                   for k, q in e["plant"].items()]
-    for field, kind, q in checks:
+    cf = as_controller_file(doc)
+    checks = [(f"{sec}.{k}.value", OVERRIDE_LIMITS.get(f"{sec}.{k}"), v)
+              for sec, s in (("plant", cf.plant), ("design", cf.design)) for k, v in s.values().items()]
+    checks += [("sample_rate_hz.value", "frequency", cf.sample_rate_hz), ("delay_s.value", "delay", cf.delay_s)]
+    for i, e in enumerate(cf.schedule_entries):
+        checks += [(f"gain_schedule.entries[{i}].plant.{k}.value", OVERRIDE_LIMITS.get(f"plant.{k}"), v)
+                   for k, v in e.plant.values().items()]
+    for field, kind, v in checks:
         if kind is None:
             continue
         try:
-            check_limit(float(q["value"]), kind)
+            check_limit(float(v), kind)
         except ValueError as err:
             raise ConfigError(field, str(err)) from None
 
@@ -147,8 +203,8 @@ def discrete_from_file(doc: dict):
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping.
+    doc : ControllerFile or dict
+        The validated controller file.
 
     Returns
     -------
@@ -160,14 +216,15 @@ def discrete_from_file(doc: dict):
     ValueError
         When the DOB's algebraic loop is singular.
     """
-    c = doc["controller"]
-    if c.get("realization") is not None:
+    cf = as_controller_file(doc)
+    c = cf.controller
+    if c.realization is not None:
         from .precision import discrete_from_realization
 
-        return discrete_from_realization(c["realization"], doc["sample_rate_hz"]["value"], doc["delay_s"]["value"])
-    static = np.array([c["gains"].get(s, {"gain": 0.0})["gain"] for s in Measured], dtype=float)
-    blocks = [(sos_ss(f["sos"]), f["input"]) for f in c["filters"]]
-    return assemble(static, blocks, doc["sample_rate_hz"]["value"], doc["delay_s"]["value"])
+        return discrete_from_realization(c.realization, cf.sample_rate_hz, cf.delay_s)
+    static = np.array([c.gain(s) for s in Measured], dtype=float)
+    blocks = [(sos_ss(f.sos), f.input) for f in c.filters]
+    return assemble(static, blocks, cf.sample_rate_hz, cf.delay_s)
 
 
 def plant_from_file(doc: dict):
@@ -175,22 +232,21 @@ def plant_from_file(doc: dict):
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping.
+    doc : ControllerFile or dict
+        The validated controller file.
 
     Returns
     -------
     Plant
         Its plant (J_m [kg·m²], B_m [N·m·s/rad], K_s [N·m/rad], J_j [kg·m²], K_c [N·m/rad]).
     """
-    from ..model.plant import Plant
-
-    p = {k: v["value"] for k, v in doc["plant"].items()}
-    return Plant(p["motor_inertia"], p["motor_damping"], p["sea_stiffness"], p["joint_inertia"], p["cuff_stiffness"])
+    return as_controller_file(doc).plant.to_plant()
 
 
 def schedule_entry_doc(doc: dict, entry: dict) -> dict:
-    """The controller-file view of one gain-schedule entry (its plant, gains and controller).
+    """The controller-file view of one gain-schedule entry (its plant, gains and controller), as a
+    mapping: for the writer (``export`` builds the entries); the typed view is
+    :meth:`~exotune.controllerfile.model.ControllerFile.entry_view`.
 
     Parameters
     ----------
@@ -217,8 +273,8 @@ def position_feedback(controller: dict, rtol: float = 1e-12) -> bool:
 
     Parameters
     ----------
-    controller : dict
-        The file's ``controller`` section (or a schedule entry's).
+    controller : Controller or dict
+        The file's controller (or a schedule entry's).
     rtol : float, optional
         Relative size below which the total DC gain on θ_m counts as zero (also the rule for a
         section's zero at z = 1).
@@ -228,17 +284,18 @@ def position_feedback(controller: dict, rtol: float = 1e-12) -> bool:
     bool
         Whether the controller feeds back the motor position.
     """
-    if controller.get("realization") is not None:
+    c = Controller.of(controller)
+    if c.realization is not None:
         from .precision import realization_position_feedback
 
-        return realization_position_feedback(controller["realization"], rtol)
-    total = float(controller["gains"].get("theta_m", {"gain": 0.0})["gain"])
+        return realization_position_feedback(c.realization, rtol)
+    total = float(c.gain("theta_m"))
     scale = abs(total)
-    for f in controller["filters"]:
-        if f["input"] != "theta_m":
+    for f in c.filters:
+        if f.input != "theta_m":
             continue
         num, den = 1.0, 1.0
-        for b0, b1, b2, _a0, a1, a2 in f["sos"]:
+        for b0, b1, b2, _a0, a1, a2 in f.sos:
             sb = b0 + b1 + b2
             num *= 0.0 if abs(sb) <= rtol * (abs(b0) + abs(b1) + abs(b2)) else sb
             den *= 1.0 + a1 + a2

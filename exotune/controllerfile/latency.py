@@ -28,6 +28,7 @@ from ..numerics.threads import one_blas_thread
 from ..sampled import loop_eigenvalues
 from ..units import PARAM_UNITS
 from .fileio import discrete_from_file, plant_from_file
+from .model import ControllerFile, as_controller_file
 
 __all__ = ["REL", "SCAN", "sampled_latency_margin", "requirement_problems"]
 
@@ -52,29 +53,29 @@ def _num(x) -> float | None:
     return float(x) if ok else None
 
 
-def _hint(doc: dict):
+def _hint(cf: ControllerFile):
     """(ΔT_c [s], critical loop, critical member value) of the file's predicted continuous margin
     (untrusted: anything malformed is None)."""
-    pm = (doc.get("predicted") or {}).get("latency_margin")
+    pm = cf.predicted.latency_margin
     if not isinstance(pm, dict):
         return None, None, None
     crit = pm.get("critical") if isinstance(pm.get("critical"), dict) else {}
     return _num(pm.get("extra_delay_s")), crit.get("loop"), _num(crit.get("value"))
 
 
-def _families(doc: dict):
+def _families(cf: ControllerFile):
     """(loop name, builder v → (human, env), parameter, unit, lo, hi) of every checked family."""
     from ..config import parse_env, parse_human
 
     out = []
-    for i, item in enumerate(doc["certify"].get("humans") or []):
+    for i, item in enumerate(cf.certify.humans):
         fam, _ = parse_human(i, item)
         if fam.kind == "complex_stiffness" or fam.box:
             continue
         fixed = {k: v for k, v in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
         out.append((f"human{i}_{fam.kind}", lambda v, f=fixed, q=fam.param: ({**f, q: v}, "free"),
                     fam.param, fam.unit, fam.lo, fam.hi))
-    for i, item in enumerate(doc["certify"].get("environment") or []):
+    for i, item in enumerate(cf.certify.environment):
         env, _ = parse_env(i, item)
         if env.kind in ("spring", "mass"):
             out.append((f"env{i}_{env.kind}", lambda v, e=env: (None, {e.param: v, "damping": e.damping}),
@@ -82,10 +83,10 @@ def _families(doc: dict):
     return out
 
 
-def _probes(doc: dict, hint_loop, hint_value, scan: int) -> list[_Probe]:
+def _probes(cf: ControllerFile, hint_loop, hint_value, scan: int) -> list[_Probe]:
     """Probe loops: free, locked and, per family, its ends, ``scan`` interior members and the hinted member."""
     out = [_Probe("free"), _Probe("locked", env="locked")]
-    for name, build, q, unit, lo, hi in _families(doc):
+    for name, build, q, unit, lo, hi in _families(cf):
         vals = list(np.geomspace(lo, hi, scan + 2) if lo > 0 else np.linspace(lo, hi, scan + 2))
         if name == hint_loop and hint_value is not None and lo <= hint_value <= hi:
             vals.insert(0, hint_value)
@@ -95,9 +96,9 @@ def _probes(doc: dict, hint_loop, hint_value, scan: int) -> list[_Probe]:
     return out
 
 
-def _gap_probes(doc: dict, sa: dict) -> list[_Probe]:
+def _gap_probes(cf: ControllerFile, sa: dict) -> list[_Probe]:
     """Members in the unstable gaps of every family that ``sa`` finds not robust."""
-    fams = {name: (build, q, unit) for name, build, q, unit, _lo, _hi in _families(doc)}
+    fams = {name: (build, q, unit) for name, build, q, unit, _lo, _hi in _families(cf)}
     out = []
     names = [n for n in fams if n.startswith("human")] + [n for n in fams if n.startswith("env")]
     entries = [h for h in sa["humans"] if "skipped" not in h and "not_certifiable" not in h] + sa["environment"]
@@ -181,12 +182,12 @@ def _bisect(unstable, lo: float, hi: float | None, hint: float | None, Ts: float
 
 
 @one_blas_thread
-def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dict:
+def sampled_latency_margin(doc: ControllerFile | dict, sa: dict, grounded: bool, analysis) -> dict:
     """The sampled-data latency margin of a controller file (module docstring).
 
     Parameters
     ----------
-    doc : dict
+    doc : ControllerFile or dict
         A validated controller file.
     sa : dict
         Its sampled-data analysis at its own delay (``analysis(doc)``).
@@ -208,20 +209,21 @@ def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dic
     docs/controller-file.md#latency-margin; paper Fig. 5 (a delay in the actuator path destabilizes the
     amplification loop).
     """
-    fs, T = float(doc["sample_rate_hz"]["value"]), float(doc["delay_s"]["value"])
+    cf = as_controller_file(doc)
+    fs, T = float(cf.sample_rate_hz), float(cf.delay_s)
     Ts = 1.0 / fs
-    predicted, hint_loop, hint_value = _hint(doc)
+    predicted, hint_loop, hint_value = _hint(cf)
     hint = start = predicted if predicted else None  # a bracket start only when positive
-    req = (doc.get("requirements") or {}).get("latency_margin_s")
+    req = None if cf.requirements is None else cf.requirements.latency_margin_s
     out = {"extra_delay_s": 0.0, "extra_delay_samples": 0.0, "critical": None, "predicted_continuous_s": predicted,
            "required_s": req, "confirmed": None,
            "units": {"extra_delay_s": "s", "extra_delay_samples": "samples", "required_s": "s"}}
     if not _nominal_ok(sa):
         out["method"] = "not stable at the file's delay: margin 0"
         return out
-    plant, ctrl = plant_from_file(doc), discrete_from_file(doc)
-    probes = _probes(doc, hint_loop, hint_value, 0)  # free, locked, family ends, the predicted critical member
-    scan = _probes(doc, None, None, SCAN)
+    plant, ctrl = plant_from_file(cf), discrete_from_file(cf)
+    probes = _probes(cf, hint_loop, hint_value, 0)  # free, locked, family ends, the predicted critical member
+    scan = _probes(cf, None, None, SCAN)
     hot = [0]
     unstable = lambda dT, ps=probes, worst=False: _first_unstable(plant, ctrl, grounded, ps, T + dT, worst, hot)  # noqa: E731
     cap = MAX_SAMPLES * Ts - T
@@ -237,10 +239,10 @@ def sampled_latency_margin(doc: dict, sa: dict, grounded: bool, analysis) -> dic
         sa_lo = None
         p = unstable(x, scan, True)  # interior members of every family, then certify's full check
         if p is None:
-            sa_lo = analysis(dict(doc, delay_s={**doc["delay_s"], "value": T + x, "samples": (T + x) * fs}))
+            sa_lo = analysis(cf.with_delay(T + x))
             if _nominal_ok(sa_lo):
                 break
-        new = [p] if p is not None else _gap_probes(doc, sa_lo)
+        new = [p] if p is not None else _gap_probes(cf, sa_lo)
         if not new:
             break
         probes += new

@@ -48,6 +48,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..sampled import Measured
+from .model import Controller, ControllerFile, Realization, as_controller_file
 
 __all__ = ["PRECISIONS", "FORM", "FLUSH32", "INPUT_LIMIT32", "precision_of", "check_precision", "delta_row", "realization",
            "add_realizations", "realization_problems", "step_order", "Float32Runtime",
@@ -89,14 +90,14 @@ def check_precision(value, field: str = "implementation.precision") -> str:
     return value
 
 
-def precision_of(doc: dict) -> str:
+def precision_of(doc: ControllerFile | dict) -> str:
     """The file's target arithmetic: ``implementation.precision`` (absent or null: float64).
     A float32 file must carry a realization in every controller, a float64 file none.
 
     Parameters
     ----------
-    doc : dict
-        The controller file's mapping.
+    doc : ControllerFile or dict
+        The controller file.
 
     Returns
     -------
@@ -109,14 +110,13 @@ def precision_of(doc: dict) -> str:
         When the precision is invalid, or a controller's realization is missing (float32) or present
         (float64).
     """
-    impl = doc.get("implementation")
-    p = (impl or {}).get("precision") if isinstance(impl, dict) else None
+    cf = as_controller_file(doc)
+    p = None if cf.implementation is None else cf.implementation.precision
     p = "float64" if p is None else check_precision(p)
-    ctrls = [("controller", doc["controller"])] + [
-        (f"gain_schedule.entries[{j}].controller", e["controller"])
-        for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries") or [])]
+    ctrls = [("controller", cf.controller)] + [
+        (f"gain_schedule.entries[{j}].controller", e.controller) for j, e in enumerate(cf.schedule_entries)]
     for where, c in ctrls:
-        has = c.get("realization") is not None
+        has = c.realization is not None
         if has != (p == "float32"):
             raise ConfigError(f"{where}.realization",
                               "missing: a float32 file (implementation.precision) carries the float32 realization of "
@@ -158,13 +158,13 @@ def delta_row(row) -> tuple[list[float], bool]:
     return [b0, 2.0 * b0 + b1, beta2, 2.0 + a1, alpha2], unit_dc
 
 
-def realization(controller: Mapping, where: str = "controller") -> dict:
+def realization(controller: Controller | Mapping, where: str = "controller") -> dict:
     """The float32 realization of one controller section (its ``gains`` and ``filters``' sos):
     gains and δ-form sections rounded to float32, the loop divisor; every number a float32 value.
 
     Parameters
     ----------
-    controller : Mapping
+    controller : Controller or Mapping
         A controller section of the file (``gains`` and ``filters`` with their ``sos``).
     where : str, optional
         Its field path, named by the errors.
@@ -180,17 +180,18 @@ def realization(controller: Mapping, where: str = "controller") -> dict:
     exotune.errors.ConfigError
         When a coefficient does not fit in float32.
     """
-    gains = {s: _f32(v["gain"], f"{where}.gains.{s}") for s, v in controller["gains"].items()}
+    c = Controller.of(controller)
+    gains = {s: _f32(g, f"{where}.gains.{s}") for s, g in c.gains.items()}
     filters = []
-    for f in controller["filters"]:
+    for f in c.filters:
         secs = []
-        for k, row in enumerate(f["sos"]):
+        for k, row in enumerate(f.sos):
             d, unit_dc = delta_row(row)
-            r = [_f32(x, f"{where}.filters[{f['name']}].sos[{k}]") for x in d]
+            r = [_f32(x, f"{where}.filters[{f.name}].sos[{k}]") for x in d]
             if unit_dc:
                 r[2] = r[4]  # a unit DC gain (the Q filters: the DOB's integral action) kept exactly
             secs.append(r)
-        filters.append({"name": f["name"], "input": f["input"], "sections": secs})
+        filters.append({"name": f.name, "input": f.input, "sections": secs})
     g = 0.0
     for f in filters:
         if f["input"] == "tau_cmd":
@@ -220,14 +221,14 @@ def add_realizations(doc: dict) -> None:
         e["controller"]["realization"] = realization(e["controller"], f"gain_schedule.entries[{j}].controller")
 
 
-def realization_problems(doc: dict) -> list[str]:
+def realization_problems(doc: ControllerFile | dict) -> list[str]:
     """Where a float32 file's realizations differ from the ones its sos filters and gains give
     (:func:`realization`; exact comparison: both are float32 values).
 
     Parameters
     ----------
-    doc : dict
-        The controller file's mapping.
+    doc : ControllerFile or dict
+        The controller file.
 
     Returns
     -------
@@ -235,16 +236,18 @@ def realization_problems(doc: dict) -> list[str]:
         One problem per differing part (empty when every realization matches).
     """
     out = []
-    ctrls = [("controller", doc["controller"])] + [
-        (f"gain_schedule.entries[{j}].controller", {**doc["controller"], **e["controller"]})
-        for j, e in enumerate((doc.get("gain_schedule") or {}).get("entries") or [])]
+    cf = as_controller_file(doc)
+    ctrls = [("controller", cf.controller)] + [
+        (f"gain_schedule.entries[{j}].controller", cf.entry_view(e).controller) for j, e in enumerate(cf.schedule_entries)]
     for where, c in ctrls:
-        have = c.get("realization")
+        have = c.realization
         if have is None:
             continue
-        want = realization(c, where)
-        for k in ("precision", "form", "gains", "filters", "loop_divisor"):
-            if have.get(k) != want[k]:
+        want = Realization.from_dict(realization(c, where))
+        for k, a, b in (("precision", have.precision, want.precision), ("form", have.form, want.form),
+                        ("gains", have.gains, want.gains), ("filters", have.filters, want.filters),
+                        ("loop_divisor", have.loop_divisor, want.loop_divisor)):
+            if a != b:
                 out.append(f"{where}.realization.{k} is not the float32 realization of the file's {where} "
                            "(gains and sos)")
     return out
@@ -257,15 +260,16 @@ class _Compiled:
     """A realization as the step walks it: gains (signal index, g), sensed filters (signal index,
     sections), loop filters (sections), the divisor, the number of sections."""
 
-    def __init__(self, real: Mapping, cast=float):
-        self.names = [f["name"] for f in real["filters"] if f["input"] != "tau_cmd"]
-        self.names += [f["name"] for f in real["filters"] if f["input"] == "tau_cmd"]
-        self.gains = [(Measured.index(s), cast(g)) for s, g in real["gains"].items()]
-        self.sensed = [(Measured.index(f["input"]), [tuple(cast(x) for x in r) for r in f["sections"]])
-                       for f in real["filters"] if f["input"] != "tau_cmd"]
-        self.loop = [[tuple(cast(x) for x in r) for r in f["sections"]]
-                     for f in real["filters"] if f["input"] == "tau_cmd"]
-        self.divisor = cast(real["loop_divisor"])
+    def __init__(self, real, cast=float):
+        real = Realization.of(real)
+        self.names = [f.name for f in real.filters if f.input != "tau_cmd"]
+        self.names += [f.name for f in real.filters if f.input == "tau_cmd"]
+        self.gains = [(Measured.index(s), cast(g)) for s, g in real.gains.items()]
+        self.sensed = [(Measured.index(f.input), [tuple(cast(x) for x in r) for r in f.sections])
+                       for f in real.filters if f.input != "tau_cmd"]
+        self.loop = [[tuple(cast(x) for x in r) for r in f.sections]
+                     for f in real.filters if f.input == "tau_cmd"]
+        self.divisor = cast(real.loop_divisor)
         self.n_sections = sum(len(s) for _, s in self.sensed) + sum(len(s) for s in self.loop)
         if float(self.divisor) == 0.0:
             raise ValueError("the DOB's algebraic loop is singular (loop_divisor = 0)")
@@ -316,7 +320,7 @@ def _step(ar, K: _Compiled, z: list, v: list):
     return u
 
 
-def step_order(real: Mapping) -> dict:
+def step_order(real: Realization | Mapping) -> dict:
     """The realization as the step walks it, in its order (the float32 C port's tables):
     ``gains`` [(signal index, g)], ``sensed`` [(signal index, sections)] and ``loop``
     [sections] filters, ``names`` (sensed, then loop filters) and ``divisor``; float32 values as
@@ -324,7 +328,7 @@ def step_order(real: Mapping) -> dict:
 
     Parameters
     ----------
-    real : Mapping
+    real : Realization or Mapping
         A controller's ``realization`` section.
 
     Returns
@@ -383,15 +387,13 @@ class Float32Runtime:
     for the command). Inputs (after their conversion) and states below :data:`FLUSH32` (as float32)
     are zero."""
 
-    def __init__(self, doc: dict, limit_nm: float | None = None, joint_angle_rad: float | None = None):
-        c = doc["controller"]
-        sched = doc.get("gain_schedule")
-        if joint_angle_rad is not None and sched:
-            e = min(sched["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle_rad))
-            c = {**c, **e["controller"]}
-        self.K = _Compiled(c["realization"], np.float32)
+    def __init__(self, doc, limit_nm: float | None = None, joint_angle_rad: float | None = None):
+        cf = as_controller_file(doc)
+        if joint_angle_rad is not None and cf.schedule_entries:
+            cf = cf.entry_view(cf.gain_schedule.nearest(joint_angle_rad))
+        self.K = _Compiled(cf.controller.realization, np.float32)
         self.ar = _Float32(limit_nm)
-        self.sample_rate_hz = float(doc["sample_rate_hz"]["value"])
+        self.sample_rate_hz = float(cf.sample_rate_hz)
         self.reset()
 
     def reset(self) -> None:
@@ -467,7 +469,7 @@ class _Linear:
         return u
 
 
-def linearize(real: Mapping) -> dict:
+def linearize(real: Realization | Mapping) -> dict:
     """The realization's step as a linear map of [states z (n), inputs y (5, Measured order),
     rounding errors e (p)]: ``A, B, E`` (z⁺ = A z + B y + E e), ``C, D, F`` (τ_cmd = C z + D y + F e),
     and ``V`` (p × (n + 5 + p)): the exact value at each rounding point (the inputs' conversion to
@@ -476,7 +478,7 @@ def linearize(real: Mapping) -> dict:
 
     Parameters
     ----------
-    real : Mapping
+    real : Realization or Mapping
         A controller's ``realization`` section.
 
     Returns
@@ -505,13 +507,13 @@ def _run_linear(ar: _Linear, K: _Compiled, n: int, m: int):
     return [s for pair in z for s in pair], u
 
 
-def discrete_from_realization(real: Mapping, sample_rate_hz: float, delay_s: float):
+def discrete_from_realization(real: Realization | Mapping, sample_rate_hz: float, delay_s: float):
     """The float32 realization as one state space (:class:`exotune.sampled.DiscreteController`):
     the controller the certify analysis decides on, exactly as executed (:func:`linearize`).
 
     Parameters
     ----------
-    real : Mapping
+    real : Realization or Mapping
         A controller's ``realization`` section.
     sample_rate_hz : float
         Sample rate [Hz].
@@ -529,13 +531,13 @@ def discrete_from_realization(real: Mapping, sample_rate_hz: float, delay_s: flo
     return DiscreteController(L["A"], L["B"], L["C"], L["D"], float(sample_rate_hz), float(delay_s))
 
 
-def realization_position_feedback(real: Mapping, rtol: float = 1e-12) -> bool:
+def realization_position_feedback(real: Realization | Mapping, rtol: float = 1e-12) -> bool:
     """:func:`~exotune.controllerfile.fileio.position_feedback` of the realization: its θ_m gain
     and the DC gains β2/α2 of its sections on θ_m.
 
     Parameters
     ----------
-    real : Mapping
+    real : Realization or Mapping
         A controller's ``realization`` section.
     rtol : float, optional
         Relative size below which the total DC gain on θ_m counts as zero.
@@ -545,13 +547,14 @@ def realization_position_feedback(real: Mapping, rtol: float = 1e-12) -> bool:
     bool
         Whether the realization feeds back the motor position.
     """
-    total = float(real["gains"].get("theta_m", 0.0))
+    real = Realization.of(real)
+    total = float(real.gains.get("theta_m", 0.0))
     scale = abs(total)
-    for f in real["filters"]:
-        if f["input"] != "theta_m":
+    for f in real.filters:
+        if f.input != "theta_m":
             continue
         num, den = 1.0, 1.0
-        for _b0, _b1, b2, _a1, a2 in f["sections"]:
+        for _b0, _b1, b2, _a1, a2 in f.sections:
             num *= b2
             den *= a2
         if num == 0.0:

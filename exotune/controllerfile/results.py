@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..record import Record, Result
+from .model import as_controller_file
 
 __all__ = ["ExportedController", "Certificate", "GeneratedC"]
 
@@ -24,13 +25,13 @@ class ExportedController(Record):
     path: str | None = None
 
     @classmethod
-    def from_document(cls, doc: dict, path=None) -> "ExportedController":
+    def from_document(cls, doc, path=None) -> "ExportedController":
         """The typed view of a controller-file document ``doc`` written to ``path``.
 
         Parameters
         ----------
-        doc : dict
-            The controller file's mapping.
+        doc : dict or ControllerFile
+            The controller file (its mapping is kept as the record).
         path : str or os.PathLike, optional
             Where it was written; None for a document kept in memory.
 
@@ -39,7 +40,9 @@ class ExportedController(Record):
         ExportedController
             The view (its sample rate [Hz] read from ``doc``).
         """
-        return cls(doc, float(doc["sample_rate_hz"]["value"]), None if path is None else str(path))
+        cf = as_controller_file(doc)
+        return cls(doc if isinstance(doc, dict) else cf.to_dict(), float(cf.sample_rate_hz),
+                   None if path is None else str(path))
 
     def to_text(self) -> str:
         """The file's YAML text.

@@ -26,6 +26,7 @@ from typing import Mapping
 import numpy as np
 
 from ..sampled import Measured, assemble
+from .model import Controller, ControllerFile, as_controller_file
 from .precision import linearize
 from .schema import SIGNAL_UNITS
 from .sos import sos_ss
@@ -68,9 +69,9 @@ def impulse_l1(A, B, C, D, n: int, squares: bool = False):
     return (acc, sq) if squares else acc
 
 
-def _float64_controller(controller: Mapping):
-    static = np.array([controller["gains"].get(s, {"gain": 0.0})["gain"] for s in Measured], dtype=float)
-    blocks = [(sos_ss(f["sos"]), f["input"]) for f in controller["filters"]]
+def _float64_controller(controller: Controller):
+    static = np.array([controller.gain(s) for s in Measured], dtype=float)
+    blocks = [(sos_ss(f.sos), f.input) for f in controller.filters]
     return assemble(static, blocks, 1.0, 0.0)
 
 
@@ -85,8 +86,8 @@ def _difference_l1(L: dict, c64, n: int) -> np.ndarray:
     return impulse_l1(A, B, C, L["D"] - c64.Dc, n)[0]
 
 
-def roundoff_bound(doc: dict, amplitudes: Mapping[str, float] | None = None, horizon_samples: int | None = None,
-                   controller: Mapping | None = None) -> dict:
+def roundoff_bound(doc: ControllerFile | dict, amplitudes: Mapping[str, float] | None = None,
+                   horizon_samples: int | None = None, controller: Controller | Mapping | None = None) -> dict:
     """The rounding bound [N·m] of the file's float32 controller (``controller``: another of its
     controllers, e.g. a gain-schedule entry's), for inputs |y_i| ≤ ``amplitudes`` (default
     :data:`DEFAULT_AMPLITUDES`) over ``horizon_samples`` (default :data:`DEFAULT_HORIZON_S` at
@@ -94,14 +95,14 @@ def roundoff_bound(doc: dict, amplitudes: Mapping[str, float] | None = None, hor
 
     Parameters
     ----------
-    doc : dict
-        The validated float32 controller file's mapping.
+    doc : ControllerFile or dict
+        The validated float32 controller file.
     amplitudes : Mapping or None, optional
         Largest |input| per signal (θ_m [rad], θ̇_m [rad/s], τ_s [N·m], τ̇_s [N·m/s], τ_c [N·m]);
         None for :data:`DEFAULT_AMPLITUDES`.
     horizon_samples : int or None, optional
         The horizon [samples]; None for :data:`DEFAULT_HORIZON_S` at the file's rate.
-    controller : Mapping or None, optional
+    controller : Controller or Mapping or None, optional
         The controller (with its realization); None for the file's nominal one.
 
     Returns
@@ -111,12 +112,13 @@ def roundoff_bound(doc: dict, amplitudes: Mapping[str, float] | None = None, hor
         (per filter section: rounding points and their share, largest first), the amplitudes,
         the horizon and the method.
     """
-    c = controller if controller is not None else doc["controller"]
-    fs = float(doc["sample_rate_hz"]["value"])
+    cf = as_controller_file(doc)
+    c = Controller.of(controller) if controller is not None else cf.controller
+    fs = float(cf.sample_rate_hz)
     amp = dict(DEFAULT_AMPLITUDES if amplitudes is None else amplitudes)
     a = np.array([float(amp[s]) for s in Measured])
     n = int(horizon_samples) if horizon_samples is not None else max(1, int(round(DEFAULT_HORIZON_S * fs)))
-    L = linearize(c["realization"])
+    L = linearize(c.realization)
     ns, m = L["states"], len(Measured)
     V = L["V"]
     # ℓ1 over the horizon from each input to the value at each rounding point (exact system)
@@ -134,11 +136,11 @@ def roundoff_bound(doc: dict, amplitudes: Mapping[str, float] | None = None, hor
         g[0] += 1
         g[1] += float(b)
     arith = float(np.sum(per_point))
-    by = sorted(({"where": k, "points": v[0], "bound": {"value": v[1], "unit": "N·m"}} for k, v in groups.items()),
-                key=lambda e: -e["bound"]["value"])
+    by = [{"where": k, "points": v[0], "bound": {"value": v[1], "unit": "N·m"}}
+          for k, v in sorted(groups.items(), key=lambda kv: -kv[1][1])]
     return {
         "precision": "float32",
-        "form": c["realization"]["form"],
+        "form": c.realization.form,
         "input_amplitudes": {s: {"value": float(amp[s]), "unit": SIGNAL_UNITS[s]} for s in Measured},
         "horizon": {"samples": n, "seconds": n / fs},
         "unit_roundoff": UNIT_ROUNDOFF,

@@ -22,6 +22,7 @@ from typing import Mapping
 import numpy as np
 
 from ..sampled import Measured  # the runtime's input signals
+from .model import ControllerFile, as_controller_file
 
 __all__ = ["SosFilter", "Runtime", "loop_feedthrough"]
 
@@ -105,25 +106,25 @@ def loop_feedthrough(loop) -> float:
 
 
 class Runtime:
-    """Steps the controller of a validated controller-file mapping (see the module docstring)."""
+    """Steps the controller of a validated controller file (a :class:`~exotune.controllerfile.model.ControllerFile`
+    or its mapping; see the module docstring)."""
 
-    def __init__(self, doc: dict, limit_nm: float | None = None, joint_angle_rad: float | None = None):
-        c = doc["controller"]
-        sched = doc.get("gain_schedule")
+    def __init__(self, doc: ControllerFile | dict, limit_nm: float | None = None, joint_angle_rad: float | None = None):
+        cf = as_controller_file(doc)
         if joint_angle_rad is not None and not math.isfinite(joint_angle_rad):
             raise ValueError(f"joint_angle_rad must be a finite angle [rad], got {joint_angle_rad!r}")
         if limit_nm is not None and not (math.isfinite(limit_nm) and limit_nm > 0):
             raise ValueError(f"limit_nm must be a positive, finite torque [N·m], got {limit_nm!r}")
-        if joint_angle_rad is not None and sched:
+        if joint_angle_rad is not None and cf.schedule_entries:
             # the scheduled controller of the nearest joint angle (entries are complete controllers)
-            e = min(sched["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle_rad))
-            c = {**c, **e["controller"]}
+            cf = cf.entry_view(cf.gain_schedule.nearest(joint_angle_rad))
+        c = cf.controller
         self.limit_nm = limit_nm  # optional torque limit: the command is clamped before the DOB sees it
-        self.sample_rate_hz = float(doc["sample_rate_hz"]["value"])
-        self.delay_s = float(doc["delay_s"]["value"])
-        self.gains = {s: float(v["gain"]) for s, v in c["gains"].items()}
-        self.filters = [(f["input"], SosFilter(f["sos"])) for f in c["filters"] if f["input"] != "tau_cmd"]
-        self.loop = [SosFilter(f["sos"]) for f in c["filters"] if f["input"] == "tau_cmd"]
+        self.sample_rate_hz = float(cf.sample_rate_hz)
+        self.delay_s = float(cf.delay_s)
+        self.gains = {s: float(g) for s, g in c.gains.items()}
+        self.filters = [(f.input, SosFilter(f.sos)) for f in c.filters if f.input != "tau_cmd"]
+        self.loop = [SosFilter(f.sos) for f in c.filters if f.input == "tau_cmd"]
         self._all = [f for _, f in self.filters] + self.loop
         self.loop_feedthrough = loop_feedthrough(self.loop)
         if abs(1.0 - self.loop_feedthrough) < 1e-9:
@@ -132,9 +133,9 @@ class Runtime:
 
     @classmethod
     def from_file(cls, path) -> "Runtime":
-        from .fileio import load_controller
+        from .fileio import load_controller_file
 
-        return cls(load_controller(path))
+        return cls(load_controller_file(path))
 
     def reset(self) -> None:
         for _, f in self.filters:

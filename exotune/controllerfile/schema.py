@@ -1,5 +1,5 @@
 """The controller file's format (schema ``exotune.controller/1``): its units and its pydantic
-model :class:`ControllerFile`, whose JSON Schema ships as ``exotune/schemas/controller.schema.json``
+model :class:`ControllerSchema`, whose JSON Schema ships as ``exotune/schemas/controller.schema.json``
 (:func:`json_schema`, :func:`write_schema`; a test keeps them equal).
 
 Every number of the file carries its unit, and the units are fixed (:data:`SIGNAL_UNITS`,
@@ -27,7 +27,7 @@ __all__ = [
     "PLANT_UNITS",
     "DESIGN_UNITS",
     "SIX_GAIN_UNITS",
-    "ControllerFile",
+    "ControllerSchema",
     "validate_controller",
     "json_schema",
     "write_schema",
@@ -235,7 +235,9 @@ class Predicted(_Open):
     latency_margin: PredictedLatencyMargin | None = None
 
 
-class ControllerFile(_S):
+# the file's schema; the package reads a validated file through the typed model
+# exotune.controllerfile.model.ControllerFile (this docstring is the shipped schema's description)
+class ControllerSchema(_S):
     """The controller file (docs/controller-file.md). Extra keys are refused; numbers are finite."""
 
     schema_: Literal["exotune.controller/1"] = Field(alias="schema")
@@ -270,14 +272,14 @@ def schema_path() -> Path:
 
 
 def json_schema() -> dict:
-    """The JSON Schema (draft 2020-12) of a controller file, generated from :class:`ControllerFile`.
+    """The JSON Schema (draft 2020-12) of a controller file, generated from :class:`ControllerSchema`.
 
     Returns
     -------
     dict
         The schema.
     """
-    s = ControllerFile.model_json_schema(by_alias=True)
+    s = ControllerSchema.model_json_schema(by_alias=True)
     s["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     s["$id"] = "https://exotune.invalid/schemas/controller/1"
     s["title"] = "exotune runtime controller file (schema exotune.controller/1)"
@@ -297,7 +299,7 @@ def write_schema(path: Path | None = None) -> None:
     write_atomic(path or schema_path(), json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n")
 
 
-def validate_controller(doc: Any, source: str = "") -> ControllerFile:
+def validate_controller(doc: Any, source: str = "") -> ControllerSchema:
     """Validate a controller mapping; problems raise :class:`ConfigError` naming the field.
 
     Parameters
@@ -309,8 +311,8 @@ def validate_controller(doc: Any, source: str = "") -> ControllerFile:
 
     Returns
     -------
-    ControllerFile
-        The validated model.
+    ControllerSchema
+        The validated (pydantic) model.
 
     Raises
     ------
@@ -320,7 +322,7 @@ def validate_controller(doc: Any, source: str = "") -> ControllerFile:
     if not isinstance(doc, dict):
         raise ConfigError(source or "<controller>", "expected a mapping at the top level")
     try:
-        return ControllerFile.model_validate(doc)
+        return ControllerSchema.model_validate(doc)
     except ValidationError as e:
         err = e.errors()[0]
         loc = ".".join(str(x) for x in err["loc"]) or (source or "<controller>")

@@ -112,6 +112,7 @@ def design_verdicts(cfg, require_latency_margin_s: float | None = None, continuo
     """
     from .certify import sampled_decision, schedule_section
     from .export import build_export, latency_hint, predicted_latency_margin
+    from .model import ControllerFile
     from ..errors import ConfigError
 
     fs = cfg.implementation.sample_rate_hz
@@ -121,15 +122,16 @@ def design_verdicts(cfg, require_latency_margin_s: float | None = None, continuo
     doc = build_export(cfg, fs, require_latency_margin_s=require_latency_margin_s, analyses=False)
     doc["predicted"] = {"latency_margin": (predicted_latency_margin(cfg) if continuous_margin is None
                                            else latency_hint(continuous_margin))}
-    sa, lm, problems = sampled_decision(doc)
+    cf = ControllerFile.from_dict(doc)
+    sa, lm, problems = sampled_decision(cf)
     schedule = ()
-    if doc.get("gain_schedule"):
-        entries, sched_problems, _ = schedule_section(doc)
+    if cf.gain_schedule is not None:
+        entries, sched_problems, _ = schedule_section(cf)
         problems += sched_problems
         schedule = tuple({k: v for k, v in e.items()} for e in entries)
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the design names no rational human family to certify against (humans)")
-    return SampledVerdicts(fs, float(doc["delay_s"]["value"]), sa, lm, doc["requirements"], tuple(problems), schedule)
+    return SampledVerdicts(fs, float(cf.delay_s), sa, lm, cf.requirements.to_dict(), tuple(problems), schedule)
 
 
 def _disagreements(r, v: SampledVerdicts) -> list[str]:

@@ -22,14 +22,13 @@ holding τ_0).
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import replace
 from typing import Callable
 
 import numpy as np
 
-from ..controllerfile import Runtime
+from ..controllerfile import ControllerFile, Runtime, as_controller_file
 from .fastpath import NP, LinearLoop, runtime_state, set_runtime_state
 from .plant import JointPlant
 
@@ -101,36 +100,32 @@ def bumpless_start(rt: Runtime, y0: dict) -> tuple[float, str]:
     return tau0, "; ".join(sorted(set(note)))
 
 
-def strip_dob(doc: dict) -> dict:
+def strip_dob(doc: ControllerFile | dict) -> ControllerFile:
     """A copy of the controller file ``doc`` without the DOB (its filters and ``dob`` section).
 
     Parameters
     ----------
-    doc : dict
-        The controller file's mapping.
+    doc : ControllerFile or dict
+        The controller file.
 
     Returns
     -------
-    dict
-        A deep copy without the DOB's filters, ``dob`` set to None.
+    ControllerFile
+        A copy without the DOB's filters, ``dob`` null
+        (:meth:`~exotune.controllerfile.model.ControllerFile.without_dob`).
     """
-    doc = copy.deepcopy(doc)
-    names = set((doc.get("dob") or {}).get("filters") or [])
-    doc["controller"]["filters"] = [f for f in doc["controller"]["filters"]
-                                    if f["name"] not in names and not f["name"].startswith("dob_")]
-    doc["dob"] = None
-    return doc
+    return as_controller_file(doc).without_dob()
 
 
-def simulate(doc: dict, scenario, without_dob: bool = False, duration_s: float | None = None,
+def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, duration_s: float | None = None,
              start: str = "bumpless", clamp: bool = True,
              progress: Callable[[float], None] | None = None, fast: bool = True) -> dict:
     """Run ``scenario`` with the controller file ``doc``.
 
     Parameters
     ----------
-    doc : dict
-        A validated controller-file mapping.
+    doc : ControllerFile or dict
+        A validated controller file.
     scenario : Scenario
         What to run (:data:`exotune.simulation.SCENARIOS`).
     without_dob : bool
@@ -162,8 +157,7 @@ def simulate(doc: dict, scenario, without_dob: bool = False, duration_s: float |
     """
     if start not in STARTS:
         raise ValueError(f"start must be one of {', '.join(STARTS)}, got {start!r}")
-    if without_dob:
-        doc = strip_dob(doc)
+    doc = strip_dob(doc) if without_dob else as_controller_file(doc)
     sc = scenario if duration_s is None else replace(scenario, duration_s=float(duration_s))
     run = _Run(doc, sc, clamp)
     fast = fast and sc.reference_rad == 0.0  # the linear recursion has no reference input
@@ -199,15 +193,15 @@ def simulate(doc: dict, scenario, without_dob: bool = False, duration_s: float |
 class _Run:
     """The state of one run (plant state, runtime, delay line, records) and its two steppers."""
 
-    def __init__(self, doc: dict, sc, clamp: bool):
+    def __init__(self, doc: ControllerFile, sc, clamp: bool):
         self.doc, self.sc = doc, sc
-        self.fs = float(doc["sample_rate_hz"]["value"])
+        self.fs = float(doc.sample_rate_hz)
         self.Ts = 1.0 / self.fs
-        self.q = float(doc["delay_s"]["value"]) * self.fs
+        self.q = float(doc.delay_s) * self.fs
         self.d = int(math.floor(self.q + 1e-9))
         self.f = self.q - self.d if self.q - self.d > 1e-9 else 0.0
         self.sat = float(sc.nonlinear.saturation_nm)
-        self.plant = JointPlant({k: v["value"] for k, v in doc["plant"].items()}, sc.human, sc.locked, sc.nonlinear)
+        self.plant = JointPlant(doc.plant.values(), sc.human, sc.locked, sc.nonlinear)
         self.rt = Runtime(doc, limit_nm=self.sat if (clamp and math.isfinite(self.sat)) else None)
         self.x = np.zeros(6)
         self.x[4] = sc.theta_h0

@@ -60,14 +60,14 @@ def set_runtime_state(rt: Runtime, z: np.ndarray) -> None:
         off += k
 
 
-def runtime_matrices(doc: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def runtime_matrices(doc) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C, D) with z' = A z + B y, τ_cmd = C z + D y (y in ``SIGNALS`` order), read off one
     step of an unlimited reference runtime per unit state and unit input.
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping (float64).
+    doc : ControllerFile or dict
+        The validated controller file (float64).
 
     Returns
     -------
@@ -102,15 +102,15 @@ LONG_DELAY_LINE = 48  # loop states from which a run uses the compiled structure
 NP = 7  # plant part of w: the joint's six states and the constant 1 of the mode's constant torques
 
 
-def runtime_input_column(doc: dict) -> np.ndarray:
+def runtime_input_column(doc) -> np.ndarray:
     """The runtime's filter states after one step from zero with τ_cmd = 1 fed to the DOB's loop
     filters and every sensed signal 0 (the column of the command in the state update: a clamped
     runtime at its limit feeds the limit instead of its own command).
 
     Parameters
     ----------
-    doc : dict
-        The validated controller file's mapping (float64).
+    doc : ControllerFile or dict
+        The validated controller file (float64).
 
     Returns
     -------
@@ -134,7 +134,7 @@ class LinearLoop:
     ----------
     plant : JointPlant
         The joint.
-    doc : dict
+    doc : ControllerFile or dict
         The controller file (for :func:`runtime_matrices`).
     Ts, f : float
         Sample period [s] and fractional delay.
@@ -151,7 +151,7 @@ class LinearLoop:
         stretch stays at the limit.
     """
 
-    def __init__(self, plant, doc: dict, Ts: float, f: float, d: int, mode=(1, 0), saturated=None):
+    def __init__(self, plant, doc, Ts: float, f: float, d: int, mode=(1, 0), saturated=None):
         Ar, Br, Cr, Dr = runtime_matrices(doc)
         raw = (Dr, Cr)  # the unclamped command's rows (over [x; 1] through Cy, and over z)
         if saturated is not None and saturated[0] == "clamp":

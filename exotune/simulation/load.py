@@ -4,7 +4,7 @@ consistency checks), or a design file exported in memory at a sample rate."""
 from __future__ import annotations
 
 from ..config import read_yaml
-from ..controllerfile import build_export, checked_controller, design_at_rate, load_controller, schedule_entry_doc
+from ..controllerfile import ControllerFile, as_controller_file, build_export, checked_controller, design_at_rate, load_controller
 from ..controllerfile.certify import certify
 from ..errors import ConfigError
 from .plant import MIN_HUMAN_INERTIA
@@ -136,21 +136,21 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
     return build_export(cfg, fs, source=name, analyses=False)  # the runtime's sections only
 
 
-def at_joint_angle(doc: dict, joint_angle_rad: float) -> dict:
+def at_joint_angle(doc: ControllerFile | dict, joint_angle_rad: float) -> ControllerFile:
     """The controller document of the gain-schedule entry nearest ``joint_angle_rad`` [rad]: its
     plant and controller in place of the nominal ones (``simulate --joint-angle``).
 
     Parameters
     ----------
-    doc : dict
-        The controller file's mapping.
+    doc : ControllerFile or dict
+        The controller file.
     joint_angle_rad : float
         Joint angle [rad].
 
     Returns
     -------
-    dict
-        The entry's view of the document.
+    ControllerFile
+        The entry's view of the file (:meth:`~exotune.controllerfile.model.ControllerFile.entry_view`).
 
     Raises
     ------
@@ -161,7 +161,7 @@ def at_joint_angle(doc: dict, joint_angle_rad: float) -> dict:
     ----------
     docs/cli.md#simulate; paper §IV (the transmission's gain schedule).
     """
-    if not doc.get("gain_schedule"):
+    cf = as_controller_file(doc)
+    if cf.gain_schedule is None:
         raise ConfigError("--joint-angle", "the controller has no gain schedule (no transmission section)")
-    e = min(doc["gain_schedule"]["entries"], key=lambda e: abs(e["joint_angle_rad"] - joint_angle_rad))
-    return schedule_entry_doc(doc, e)
+    return cf.entry_view(cf.gain_schedule.nearest(joint_angle_rad))

@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..controllerfile import Runtime
+from ..controllerfile import ControllerFile, Runtime, as_controller_file
 from .engine import bumpless_start, simulate, strip_dob
 from .result import SimulationRun
 from .scenarios import SCENARIOS, Nonlinearities, Scenario
@@ -157,19 +157,19 @@ def _limit_cycle(sim: dict, sc: Scenario, verdict: str, linear: dict) -> dict:
                     f"above {LIMIT_CYCLE_NM:g} × max(|push|, 1 N·m)"}
 
 
-def dob_estimate(doc: dict, sim: dict) -> np.ndarray | None:
+def dob_estimate(doc: ControllerFile, sim: dict) -> np.ndarray | None:
     """The DOB's friction estimate per sample (the sum of its filters' outputs, which the runtime
     adds to its command), replayed from the run's signals with the runtime's filters."""
-    names = set((doc.get("dob") or {}).get("filters") or [])
+    names = set((doc.dob.filters if doc.dob is not None else None) or [])
     if not names:
         return None
     s = sim["series"]
     rt = Runtime(doc)
     if sim["start"].startswith("bumpless"):
         bumpless_start(rt, {k: float(s[k][0]) for k in ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")})
-    fl = doc["controller"]["filters"]
-    sensed = [f["name"] for f in fl if f["input"] != "tau_cmd"]
-    loop = [f["name"] for f in fl if f["input"] == "tau_cmd"]
+    fl = doc.controller.filters
+    sensed = [f.name for f in fl if f.input != "tau_cmd"]
+    loop = [f.name for f in fl if f.input == "tau_cmd"]
     used = [(s[inp], filt) for name, (inp, filt) in zip(sensed, rt.filters) if name in names]
     used += [(s["tau_cmd"], filt) for name, filt in zip(loop, rt.loop) if name in names]
     est = np.zeros(s["t"].size)
@@ -201,15 +201,15 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
                                         f"to {MAX_SAMPLES:.0e} samples (shorten --duration or lower the rate)")
 
 
-def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None = None,
+def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inertia: float | None = None,
                  duration_s: float | None = None, start: str = "bumpless",
                  progress: Callable[[float], None] | None = None) -> SimulationRun:
     """Run a scenario and summarize it.
 
     Parameters
     ----------
-    doc : dict
-        A validated controller-file mapping.
+    doc : ControllerFile or dict
+        A validated controller file.
     name : str or Scenario
         A key of :data:`SCENARIOS` or a :class:`Scenario`.
     human_inertia : float, optional
@@ -243,8 +243,9 @@ def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None 
         sc = replace(sc, human={**sc.human, "inertia": float(human_inertia)})
     if duration_s is not None:
         sc = replace(sc, duration_s=float(duration_s))
-    check_budget(float(doc["sample_rate_hz"]["value"]), sc.duration_s)
-    alpha = float(doc["design"]["amplification"]["value"])
+    doc = as_controller_file(doc)
+    check_budget(float(doc.sample_rate_hz), sc.duration_s)
+    alpha = float(doc.design.amplification)
     sim = simulate(doc, sc, start=start, progress=progress)
     rho = loop_spectral_radius(doc, sc.human, sc.locked)
     nl = sc.nonlinear
@@ -275,7 +276,7 @@ def run_scenario(doc: dict, name: "str | Scenario", human_inertia: float | None 
                                         "relative_error": _q(e / rms if rms > 0 else None, "1"),
                                         "note": "the DOB's estimate (the sum of its filters' outputs) against the "
                                                 "true friction F_c·tanh(θ̇_m/ε)"}
-    if sc.compare_without_dob and (doc.get("dob") or {}).get("filters"):
+    if sc.compare_without_dob and doc.dob is not None and doc.dob.filters:
         _friction_sensitivity(doc, sc, sim, rep, alpha, start)
     return SimulationRun.from_report(rep)
 

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from ..controllerfile import discrete_from_file, plant_from_file, position_feedback
+from ..controllerfile import ControllerFile, as_controller_file, discrete_from_file, plant_from_file, position_feedback
 from ..sampled import loop_eigenvalues
 
 __all__ = ["MARGINAL_TOL", "FIT_FRACTION", "FLOOR", "envelope_growth", "classify", "loop_spectral_radius",
@@ -118,14 +118,14 @@ def classify(growth: float | None, died, diverged: bool) -> str:
     return "growing" if growth > 0 else "decaying"
 
 
-def loop_spectral_radius(doc: dict, human: dict, locked: bool) -> float:
+def loop_spectral_radius(doc: ControllerFile | dict, human: dict, locked: bool) -> float:
     """Spectral radius of the linearized sampled-data loop (the file's plant and controller,
     ``human``, the output locked or free; the rigid-body z = 1 of an ungrounded loop excluded).
 
     Parameters
     ----------
-    doc : dict
-        The controller file's mapping.
+    doc : ControllerFile or dict
+        The controller file.
     human : dict
         The human: inertia [kg·m²], damping [N·m·s/rad], stiffness [N·m/rad] (any subset).
     locked : bool
@@ -140,7 +140,8 @@ def loop_spectral_radius(doc: dict, human: dict, locked: bool) -> float:
     ----------
     Paper §V; docs/method.md#sampled-data.
     """
-    lam = loop_eigenvalues(plant_from_file(doc), discrete_from_file(doc), position_feedback(doc["controller"]),
+    doc = as_controller_file(doc)
+    lam = loop_eigenvalues(plant_from_file(doc), discrete_from_file(doc), position_feedback(doc.controller),
                            {k: float(v) for k, v in human.items()}, "locked" if locked else "free")
     return float(np.max(np.abs(lam))) if lam.size else 0.0
 

@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
+from ..controllerfile.model import as_controller_file
 from .numbers import sampled_verdict_word
 
 __all__ = ["format_export"]
 
 
-def format_export(doc: dict, out) -> str:
+def format_export(doc, out) -> str:
     """One line: where the controller file went, its rate, filters and sampled-data verdicts.
 
     Parameters
     ----------
-    doc : dict
+    doc : ControllerFile or dict
         The exported controller document (:func:`exotune.controllerfile.export_design`).
     out : str or os.PathLike
         The path it was written to.
@@ -26,11 +27,12 @@ def format_export(doc: dict, out) -> str:
     ----------
     Paper §V (its stability predictions account for the discrete-time implementation); docs/cli.md#export.
     """
-    sa = doc["predicted"]["sampled"]
-    n = len(doc["controller"]["filters"])
-    lm = doc["predicted"].get("latency_margin")
-    slm = doc["predicted"].get("sampled_latency_margin")
-    req = (doc.get("requirements") or {}).get("latency_margin_s")
+    cf = as_controller_file(doc)
+    sa = cf.predicted.sampled
+    n = len(cf.controller.filters)
+    lm = cf.predicted.latency_margin
+    slm = cf.predicted.sampled_latency_margin
+    req = None if cf.requirements is None else cf.requirements.latency_margin_s
     ms = lambda m: "none" if m is None else f"{m * 1e3:.4g} ms"  # noqa: E731 (None: no extra delay destabilizes)
     margin = ""
     if slm is not None:
@@ -41,9 +43,9 @@ def format_export(doc: dict, out) -> str:
         margin += f" (required {req * 1e3:.4g} ms)"
     if lm is not None:
         margin += f"; continuous {ms(lm['extra_delay_s'])}"
-    bad = (doc.get("provenance") or {}).get("uncertified")
+    bad = cf.provenance.uncertified
     tail = (f"; WRITTEN UNCERTIFIED (--allow-uncertified): {'; '.join(bad)}" if bad
             else f"; run `exotune certify {out}`")
-    return (f"wrote {out}: {doc['sample_rate_hz']['value']:g} Hz, {n} sos filters, "
+    return (f"wrote {out}: {cf.sample_rate_hz:g} Hz, {n} sos filters, "
             f"sampled-data loop free {sampled_verdict_word(sa['free_stable'])}, "
             f"locked {sampled_verdict_word(sa['locked_stable'])}{margin}{tail}")
