@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from exotune.config import design_from_mapping, load_design
-from exotune.controllerfile import Runtime, as_controller_file, build_export
+from exotune.controllerfile import Runtime, build_export
 from exotune.simulation.fastpath import (NP, SIGNALS, LinearLoop, runtime_input_column, runtime_matrices,
                                          runtime_state, set_runtime_state)
 from exotune.simulation.plant import JointPlant
@@ -57,7 +57,8 @@ def test_input_column_is_the_dob_loop_response_to_a_unit_command(doc):
 
 
 def test_linear_stretch_is_the_same_recursion_on_both_engines(doc):
-    plant = JointPlant(as_controller_file(doc).plant.values(), {"inertia": 0.5, "damping": 2.0}, False, Nonlinearities())
+    plant = JointPlant({k: v["value"] for k, v in doc["plant"].items()}, {"inertia": 0.5, "damping": 2.0}, False,
+                       Nonlinearities())
     loop = LinearLoop(plant, doc, 1e-3, 0.5, 1)
     n = loop.M.shape[0]
     assert n == NP + loop.nz + loop.ns
