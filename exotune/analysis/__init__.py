@@ -16,6 +16,7 @@ The modules, lowest first (each imports only the ones above it):
 ``plant_margin``        the plant-uncertainty margin (certified lower, witnessed upper bound)
 ``kyp``                 KYP passivity certificates of the rational models of C7 (cvxpy)
 ``design``              the single-design report (``exotune analyze``), with its margins
+``design_summary``      the numbers of ``exotune design`` (nominal transfer functions as ``numerics.poly.Rational``)
 ``crosscheck``          an independent root search (Padé + Newton) on the verdicts
 """
 
@@ -26,7 +27,7 @@ from .charfun import CharTerms, amplification_qps, char_terms, strip_qps, trim_p
 from .counting import RootCounter, coupled_stable, free_stability, rhp_count
 from .crosscheck import pade_crosscheck, pade_stable
 from .design import METRIC_UNITS, VERIFY_POINTS, analyze_design, analyze_with_margins, kyp_certificates
-from .nominal import design_report
+from .design_summary import design_report
 from .dob import dob_margins
 from .intervals import MAX_FAMILY_PIECES, family_intervals
 from .latency_margin import LatencyMargin, LoopMargin, latency_margin

@@ -12,7 +12,8 @@ import math
 from ..units import SEA_UNITS  # re-exported
 from ..version import __version__
 from .results import SeaReport
-from .nominal import minimal, phase_extremum, poly_roots, resonance, root_entries
+from ..numerics.poly import Rational
+from .design_summary import phase_extremum, resonance, root_entries
 
 __all__ = ["sea_report", "SEA_UNITS"]
 
@@ -72,22 +73,22 @@ def sea_report(cfg) -> SeaReport:
     K_s, J_j = float(plant.K_s), float(plant.J_j)
     num2 = as_poly(K2t, B2t, 1.0)
     den1 = as_poly(K1t, B1t, 1.0)
-    c4 = minimal(num2, pscale(den1, K_s))
+    c4 = Rational(num2, pscale(den1, K_s)).minimal()
     s2 = as_poly(0.0, 0.0, 1.0)
     c5_den_full = padd(pscale(pmul(s2, num2), J_j), pscale(den1, K_s))
-    c5 = minimal(num2, c5_den_full)
+    c5 = Rational(num2, c5_den_full).minimal()
 
     # stiffness = 1/C4(0) = K_s K̃1/K̃2 (after cancelling common roots at 0)
-    n0, d0 = c4[0][0], c4[1][0]
+    n0, d0 = c4.num[0], c4.den[0]
     stiffness = math.inf if n0 == 0 else float(d0 / n0)
 
-    poles = poly_roots(c5[1])
-    rigid = bool(c5[1][0] == 0)  # exact pole at s = 0 (K1 = 0): rigid-body mode, not an instability
+    poles = c5.poles()
+    rigid = bool(c5.den[0] == 0)  # exact pole at s = 0 (K1 = 0): rigid-body mode, not an instability
     nonzero = poles[np.abs(poles) > 0] if rigid else poles
     stable = bool(np.all(nonzero.real < 0))
-    res_hz, res_peak = resonance(*c5)
-    max_ph, max_hz = phase_extremum(*c4, sign=+1)
-    min_ph, min_hz = phase_extremum(*c4, sign=-1)
+    res_hz, res_peak = resonance(c5)
+    max_ph, max_hz = phase_extremum(c4, sign=+1)
+    min_ph, min_hz = phase_extremum(c4, sign=-1)
     cond = sea_passivity_conditions(plant, gains)
     gt, gd = to_torque_units(plant, gains), to_deflection_units(plant, gains)
     notes = _notes(K1t, rigid, stable, res_hz, max_ph)

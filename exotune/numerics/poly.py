@@ -16,6 +16,8 @@ bits) when numba is available.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +36,9 @@ __all__ = [
     "degree",
     "leading",
     "strip_common_low_zeros",
+    "trim_high",
+    "poly_roots",
+    "root_grid",
     "Rational",
 ]
 
@@ -368,6 +373,127 @@ class Rational:
         n = np.broadcast_to(self.num, np.broadcast_shapes(self.num.shape[:-1], self.den.shape[:-1]) + self.num.shape[-1:])
         d = np.broadcast_to(self.den, n.shape[:-1] + self.den.shape[-1:])
         return Rational(n[idx], d[idx])
+
+    # one transfer function (a batch of one): the design report's toolbox ----------------------
+    def minimal(self) -> "Rational":
+        """This transfer function (one row) with the common exact roots at s = 0 of num and den
+        cancelled (structural, e.g. G_v with K̃1 = 0) and exactly-zero highest-order coefficients
+        dropped; ``num`` and ``den`` become 1-D.
+
+        Returns
+        -------
+        Rational
+            num/den with 1-D ascending coefficients.
+        """
+        _, (n, d) = strip_common_low_zeros(_flat(self.num)[None, :], _flat(self.den)[None, :])
+        return Rational(trim_high(n[0]), trim_high(d[0]))
+
+    def poles(self) -> np.ndarray:
+        """Roots of the denominator (one row) [rad/s], sorted by magnitude then imaginary part.
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex poles.
+        """
+        return poly_roots(self.den)
+
+    def zeros(self) -> np.ndarray:
+        """Roots of the numerator (one row) [rad/s], sorted by magnitude then imaginary part.
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex zeros.
+        """
+        return poly_roots(self.num)
+
+    def at_jw(self, w) -> np.ndarray:
+        """num(jω)/den(jω) of this transfer function (one row) at the angular frequencies ``w``.
+
+        Parameters
+        ----------
+        w : array_like
+            Angular frequencies [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex response, the shape of ``w``.
+        """
+        s = 1j * np.asarray(w)
+        return pval(_flat(self.num), s) / pval(_flat(self.den), s)
+
+
+def _flat(c) -> np.ndarray:
+    return np.asarray(c, dtype=float).reshape(-1)
+
+
+def trim_high(c) -> np.ndarray:
+    """Drop exactly-zero highest-order coefficients of one polynomial (ascending order).
+
+    Parameters
+    ----------
+    c : array_like
+        Ascending coefficients (flattened).
+
+    Returns
+    -------
+    numpy.ndarray
+        1-D coefficients, at least one (``[0.0]`` for the zero polynomial).
+    """
+    c = _flat(c)
+    nz = np.flatnonzero(c)
+    return c[: nz[-1] + 1] if nz.size else c[:1] * 0.0
+
+
+def poly_roots(c) -> np.ndarray:
+    """Roots of one ascending-coefficient polynomial, sorted by magnitude then imaginary part.
+
+    Parameters
+    ----------
+    c : array_like
+        Ascending coefficients (``np.roots`` wants descending order; this does the reversal).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex roots (empty for a constant).
+    """
+    c = trim_high(c)
+    if c.size <= 1:
+        return np.zeros(0, dtype=complex)
+    r = np.roots(c[::-1]).astype(complex)
+    return r[np.lexsort((r.imag, np.abs(r)))]
+
+
+def root_grid(*polys, per_decade: int = 400, span: float = 3.0) -> np.ndarray:
+    """Log grid of ω [rad/s] covering every non-zero root magnitude of ``polys`` ± ``span`` decades
+    (the frequency sets of the quasi-polynomial counts are :func:`exotune.numerics.quasipoly.log_grid`).
+
+    Parameters
+    ----------
+    *polys : array_like
+        Ascending-coefficient polynomials.
+    per_decade : int
+        Points per decade.
+    span : float
+        Decades below the smallest and above the largest root magnitude.
+
+    Returns
+    -------
+    numpy.ndarray
+        Angular frequencies [rad/s] (10⁻² … 10⁴ when no polynomial has a non-zero root).
+    """
+    mags = []
+    for p in polys:
+        r = np.abs(poly_roots(p))
+        mags.extend(r[r > 0].tolist())
+    if mags:
+        lo, hi = math.log10(min(mags)) - span, math.log10(max(mags)) + span
+    else:
+        lo, hi = -2.0, 4.0
+    return np.logspace(lo, hi, int((hi - lo) * per_decade) + 1)
 
 
 def descending(c) -> np.ndarray:

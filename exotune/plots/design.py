@@ -1,5 +1,5 @@
 """Bode plots of ``exotune design --plots DIR``: the nominal C4, C5, Ĉ5, C7 and G_v, and C5 against
-the virtual motor Ĉ5. The numbers come from :func:`exotune.analysis.nominal.design_bode_figures`;
+the virtual motor Ĉ5. The numbers come from :func:`exotune.analysis.design_summary.design_bode_figures`;
 this module only draws them (magnitude in dB, phase in deg vs Hz) and renders PNG bytes in memory.
 """
 
@@ -16,7 +16,7 @@ def bode_png(curves, title: str, ylabel: str) -> bytes:
     Parameters
     ----------
     curves : list of (label, f_hz, magnitude_db, phase_deg)
-        As returned by :func:`exotune.analysis.nominal.bode_curves`.
+        As returned by :func:`exotune.analysis.design_summary.bode_curves`.
     title : str
         Figure title.
     ylabel : str
@@ -54,7 +54,7 @@ def design_plots(figures) -> dict[str, bytes]:
     ----------
     figures : dict
         ``{file name: (title, unit, curves)}`` as computed by
-        :func:`exotune.analysis.nominal.design_bode_figures` (this module only draws them).
+        :func:`exotune.analysis.design_summary.design_bode_figures` (this module only draws them).
 
     Returns
     -------

@@ -15,7 +15,7 @@ def format_roots(entries) -> list[str]:
     Parameters
     ----------
     entries : list of dict
-        Roots as given by :func:`exotune.analysis.nominal.root_entries`.
+        Roots as given by :func:`exotune.analysis.design_summary.root_entries`.
 
     Returns
     -------
@@ -45,7 +45,7 @@ def format_design(rep: dict) -> str:
     Parameters
     ----------
     rep : dict
-        The result of :func:`exotune.analysis.nominal.design_report`.
+        The result of :func:`exotune.analysis.design_summary.design_report`.
 
     Returns
     -------

@@ -1,10 +1,11 @@
 """Numbers of ``exotune design``: gains, compliance shape, poles and zeros of the nominal transfer
 functions and the validity of the low-frequency approximation Ĉ5 ≈ C5 (paper §IV).
 
-Also the small toolbox on one rational transfer function num(s)/den(s) (ascending coefficients,
-the :mod:`exotune.numerics.poly` convention) shared with :mod:`exotune.analysis.sea` and the
-design plots: exact cancellation of common roots at s = 0, sorted roots, frequency responses on a
-log grid, the phase extremum and the resonance peak (both refined with ``minimize_scalar``).
+Every transfer function here is the one rational type :class:`exotune.numerics.poly.Rational` (a
+batch of one: its ``minimal()``, ``poles()``, ``zeros()`` and ``at_jw(ω)``, frequencies on
+:func:`exotune.numerics.poly.root_grid`); this module adds what the report needs of one: the phase
+extremum and the resonance peak (both refined with ``minimize_scalar``), Bode data, the validity of
+the approximation, shared with :mod:`exotune.analysis.sea` and the design plots.
 
 Conventions of the numbers: gains in torque units, poles and zeros in rad/s with natural
 frequencies in Hz (docs/method.md#controller).
@@ -16,6 +17,7 @@ import math
 
 import numpy as np
 
+from ..numerics.poly import Rational, root_grid, trim_high
 from ..version import __version__
 from .results import DesignSummary
 
@@ -25,11 +27,7 @@ __all__ = [
     "GAIN_CONVENTION_NOTE",
     "design_report",
     "design_bode_figures",
-    "minimal",
-    "poly_roots",
     "root_entries",
-    "freq_response",
-    "log_grid",
     "bode_curves",
     "phase_extremum",
     "resonance",
@@ -53,68 +51,6 @@ GAIN_CONVENTION_NOTE = (
     "τ_c, so K2, K2_hat are dimensionless and B2, B2_hat are in s; the paper's eq. (9) gives K2, "
     "B2 as spring-deflection gains, which are K_s times larger"
 )
-
-
-# ---------------------------------------------------------------------------------------------
-# One rational transfer function (ascending-coefficient polynomials, exotune.numerics.poly)
-# ---------------------------------------------------------------------------------------------
-def _flat(c):
-    return np.asarray(c, dtype=float).reshape(-1)
-
-
-def _trim(c):
-    """Drop exactly-zero highest-order coefficients (ascending order)."""
-    c = _flat(c)
-    nz = np.flatnonzero(c)
-    return c[: nz[-1] + 1] if nz.size else c[:1] * 0.0
-
-
-def minimal(num, den):
-    """Cancel the common exact roots at s = 0 of num/den.
-
-    Parameters
-    ----------
-    num, den : array_like
-        Ascending coefficients of the numerator and the denominator.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``(num, den)`` without their common roots at s = 0 (structural, e.g. G_v with K̃1 = 0),
-        exactly-zero highest-order coefficients dropped.
-
-    References
-    ----------
-    Paper §IV (G_v); docs/method.md#controller.
-    """
-    from ..numerics.poly import strip_common_low_zeros
-
-    _, (n, d) = strip_common_low_zeros(_flat(num)[None, :], _flat(den)[None, :])
-    return _trim(n[0]), _trim(d[0])
-
-
-def poly_roots(c):
-    """Roots of an ascending-coefficient polynomial, sorted by magnitude then imaginary part.
-
-    Parameters
-    ----------
-    c : array_like
-        Ascending coefficients (``np.roots`` wants descending order; this does the reversal).
-
-    Returns
-    -------
-    numpy.ndarray
-        Complex roots (empty for a constant).
-
-    References
-    ----------
-    docs/method.md#controller.
-    """
-    c = _trim(c)
-    if c.size <= 1:
-        return np.zeros(0, dtype=complex)
-    r = np.roots(c[::-1]).astype(complex)
-    return r[np.lexsort((r.imag, np.abs(r)))]
 
 
 def root_entries(roots) -> list[dict]:
@@ -149,70 +85,13 @@ def root_entries(roots) -> list[dict]:
     return out
 
 
-def freq_response(num, den, w):
-    """num(jω)/den(jω) at the angular frequencies ``w`` [rad/s].
-
-    Parameters
-    ----------
-    num, den : array_like
-        Ascending coefficients.
-    w : numpy.ndarray
-        Angular frequencies [rad/s].
-
-    Returns
-    -------
-    numpy.ndarray
-        Complex response, same shape as ``w``.
-
-    References
-    ----------
-    docs/method.md#controller.
-    """
-    from ..numerics.poly import pval
-
-    s = 1j * w
-    return pval(_flat(num), s) / pval(_flat(den), s)
-
-
-def log_grid(*polys, per_decade=400, span=3.0):
-    """Log grid of ω [rad/s] covering every non-zero root magnitude of ``polys`` ± ``span`` decades.
-
-    Parameters
-    ----------
-    *polys : array_like
-        Ascending-coefficient polynomials.
-    per_decade : int
-        Points per decade.
-    span : float
-        Decades below the smallest and above the largest root magnitude.
-
-    Returns
-    -------
-    numpy.ndarray
-        Angular frequencies [rad/s] (10⁻² … 10⁴ when no polynomial has a non-zero root).
-
-    References
-    ----------
-    docs/method.md#controller.
-    """
-    mags = []
-    for p in polys:
-        r = np.abs(poly_roots(p))
-        mags.extend(r[r > 0].tolist())
-    if mags:
-        lo, hi = math.log10(min(mags)) - span, math.log10(max(mags)) + span
-    else:
-        lo, hi = -2.0, 4.0
-    return np.logspace(lo, hi, int((hi - lo) * per_decade) + 1)
-
-
 def bode_curves(curves) -> list[tuple]:
     """Bode data of transfer functions on one common grid (for plots).
 
     Parameters
     ----------
-    curves : list of (label, num, den)
-        Labelled transfer functions (ascending coefficients).
+    curves : list of (label, Rational)
+        Labelled transfer functions (one row each).
 
     Returns
     -------
@@ -224,18 +103,18 @@ def bode_curves(curves) -> list[tuple]:
     ----------
     Paper §IV; docs/method.md#controller.
     """
-    w = log_grid(*[p for _, n, d in curves for p in (n, d)], per_decade=150, span=1.5)
+    w = root_grid(*[p for _, tf in curves for p in (tf.num, tf.den)], per_decade=150, span=1.5)
     out = []
-    for label, num, den in curves:
-        H = freq_response(num, den, w)
+    for label, tf in curves:
+        H = tf.at_jw(w)
         f = w / (2 * math.pi)
         out.append((label, f, 20 * np.log10(np.abs(H)), np.degrees(np.unwrap(np.angle(H)))))
     return out
 
 
-def _phase_limit(num, den, at_infinity: bool) -> float:
+def _phase_limit(tf: Rational, at_infinity: bool) -> float:
     """Exact phase [deg] of num(jω)/den(jω) as ω → ∞ (or → 0+), modulo 360°."""
-    n, d = _trim(num), _trim(den)
+    n, d = trim_high(tf.num), trim_high(tf.den)
     if at_infinity:
         i, j = n.size - 1, d.size - 1
     else:
@@ -243,7 +122,7 @@ def _phase_limit(num, den, at_infinity: bool) -> float:
     return math.degrees(math.atan2(0.0, n[i] / d[j])) + 90.0 * (i - j)
 
 
-def phase_extremum(num, den, sign: int = +1):
+def phase_extremum(tf: Rational, sign: int = +1):
     """Max (sign=+1) or min (sign=−1) over ω > 0 of the continuous phase of num(jω)/den(jω).
 
     A dense log grid locates the extremum, ``minimize_scalar`` (bounded, on log ω) refines it. When
@@ -251,8 +130,8 @@ def phase_extremum(num, den, sign: int = +1):
 
     Parameters
     ----------
-    num, den : array_like
-        Ascending coefficients.
+    tf : Rational
+        One transfer function.
     sign : {+1, -1}
         Maximum or minimum.
 
@@ -267,19 +146,19 @@ def phase_extremum(num, den, sign: int = +1):
     """
     from scipy.optimize import minimize_scalar
 
-    w = log_grid(num, den)
-    H = freq_response(num, den, w)
+    w = root_grid(tf.num, tf.den)
+    H = tf.at_jw(w)
     ph = np.degrees(np.unwrap(np.angle(H)))
     i = int(np.argmax(sign * ph))
     if i == len(w) - 1 or i == 0:
         at_inf = i == len(w) - 1
-        lim = _phase_limit(num, den, at_inf)
+        lim = _phase_limit(tf, at_inf)
         lim += 360.0 * round((ph[i] - lim) / 360.0)
         return lim, (math.inf if at_inf else 0.0)
     ref_H, ref_ph = H[i], ph[i]
 
     def f(x):
-        h = freq_response(num, den, np.array([math.exp(x)]))[0]
+        h = tf.at_jw(np.array([math.exp(x)]))[0]
         return -sign * (ref_ph + math.degrees(np.angle(h / ref_H)))
 
     res = minimize_scalar(f, bounds=(math.log(w[i - 1]), math.log(w[i + 1])), method="bounded", options={"xatol": 1e-12})
@@ -289,7 +168,7 @@ def phase_extremum(num, den, sign: int = +1):
     return float(ph[i]), w[i] / (2 * math.pi)
 
 
-def resonance(num, den):
+def resonance(tf: Rational):
     """Largest interior peak of |H(jω)| (ω > 0).
 
     Candidates: the imaginary parts of the poles and the local maxima of a dense log grid; each
@@ -298,8 +177,8 @@ def resonance(num, den):
 
     Parameters
     ----------
-    num, den : array_like
-        Ascending coefficients.
+    tf : Rational
+        One transfer function.
 
     Returns
     -------
@@ -312,19 +191,19 @@ def resonance(num, den):
     """
     from scipy.optimize import minimize_scalar
 
-    w = log_grid(num, den)
-    mag = np.abs(freq_response(num, den, w))
+    w = root_grid(tf.num, tf.den)
+    mag = np.abs(tf.at_jw(w))
     brackets = []
     for i in range(1, len(w) - 1):
         if mag[i] >= mag[i - 1] and mag[i] >= mag[i + 1] and (mag[i] > mag[i - 1] or mag[i] > mag[i + 1]):
             brackets.append((w[i - 1], w[i + 1]))
-    for p in poly_roots(den):
+    for p in tf.poles():
         if p.imag > 0:
             d = min(0.5, max(0.02, 2.0 * abs(p.real) / abs(p)))
             brackets.append((p.imag * (1 - d), p.imag * (1 + d)))
 
     def negmag(x):
-        return -float(np.abs(freq_response(num, den, np.array([math.exp(x)]))[0]))
+        return -float(np.abs(tf.at_jw(np.array([math.exp(x)]))[0]))
 
     best = (None, None)
     for a, b in brackets:
@@ -341,17 +220,17 @@ def resonance(num, den):
     return best
 
 
-def _describe_tf(name, num, den):
-    n, d = minimal(num, den)
+def _describe_tf(name, tf: Rational):
+    m = tf.minimal()
     sym, text, unit = TF_INFO[name]
     return {
         "transfer": sym,
         "description": text,
         "units": unit,
-        "num_ascending": n.tolist(),
-        "den_ascending": d.tolist(),
-        "poles": root_entries(poly_roots(d)),
-        "zeros": root_entries(poly_roots(n)),
+        "num_ascending": m.num.tolist(),
+        "den_ascending": m.den.tolist(),
+        "poles": root_entries(m.poles()),
+        "zeros": root_entries(m.zeros()),
     }
 
 
@@ -377,13 +256,14 @@ def approximation_limit_hz(tfs) -> float:
     from scipy.optimize import brentq
 
     C5, C5h = tfs["C5"], tfs["C5_hat"]
-    num = np.convolve(_flat(C5.num)[::-1], _flat(C5h.den)[::-1])[::-1]
-    den = np.convolve(_flat(C5.den)[::-1], _flat(C5h.num)[::-1])[::-1]
-    num, den = minimal(num, den)
-    w = log_grid(num, den, span=4.0)
+    flat = lambda c: np.asarray(c, dtype=float).reshape(-1)  # noqa: E731
+    num = np.convolve(flat(C5.num)[::-1], flat(C5h.den)[::-1])[::-1]
+    den = np.convolve(flat(C5.den)[::-1], flat(C5h.num)[::-1])[::-1]
+    ratio = Rational(num, den).minimal()
+    w = root_grid(ratio.num, ratio.den, span=4.0)
 
     def err(x):
-        return np.abs(freq_response(num, den, np.atleast_1d(x)) - 1.0) - APPROX_TOL
+        return np.abs(ratio.at_jw(np.atleast_1d(x)) - 1.0) - APPROX_TOL
 
     e = err(w)
     bad = np.flatnonzero(e >= 0)
@@ -441,7 +321,7 @@ def design_report(cfg) -> DesignSummary:
         "gain_convention_note": GAIN_CONVENTION_NOTE,
         "shape": shape,
         "shape_units": dict(SHAPE_UNITS),
-        "transfer_functions": {name: _describe_tf(name, tf.num, tf.den) for name, tf in tfs.items()},
+        "transfer_functions": {name: _describe_tf(name, tf) for name, tf in tfs.items()},
         "transfer_function_notes": (
             "nominal: zero delay, no filters, no DOB (docs/method.md#double-compliance-shaping); poles and zeros in rad/s "
             "(re, im), natural_frequency_hz = |p|/2π, damping_ratio = −re/|p| (null for a root at 0); "
@@ -482,13 +362,10 @@ def design_bode_figures(cfg) -> dict[str, tuple]:
     tfs = nominal_transfer_functions(cfg.plant, cfg.design, ds)
     out = {}
     for name, tf in tfs.items():
-        n, d = minimal(tf.num, tf.den)
         sym, text, unit = TF_INFO[name]
-        out[f"bode_{name}.png"] = (f"{name} = {sym} (nominal)", unit, bode_curves([(name, n, d)]))
-    c5 = minimal(tfs["C5"].num, tfs["C5"].den)
-    c5h = minimal(tfs["C5_hat"].num, tfs["C5_hat"].den)
+        out[f"bode_{name}.png"] = (f"{name} = {sym} (nominal)", unit, bode_curves([(name, tf.minimal())]))
     out["bode_C5_vs_C5_hat.png"] = (
         "C5 vs the virtual motor Ĉ5 (low-frequency approximation)", "rad/(N·m)",
-        bode_curves([("C5", *c5), ("Ĉ5", *c5h)]),
+        bode_curves([("C5", tfs["C5"].minimal()), ("Ĉ5", tfs["C5_hat"].minimal())]),
     )
     return out
