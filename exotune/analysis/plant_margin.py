@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.plant import Plant
+from ..numerics.engine import cached_engine
 from .counting import RootCounter
 from .plant_margin_box import PLANT_FIELDS, PLANT_SYMBOLS, LoopModel, certify_loop, strip_rows
 
@@ -272,7 +273,7 @@ def _search_unstable_many(jobs):
         D, members = _search_points(lp, k, w, extra)
         h = lp.model.submit(counter, lp.model.q0[None, :] * (1.0 + D), members)
         queued.append((lp, D, members, h))
-    counter.run()
+    counter.run(engine=cached_engine(counter.n))
     out = []
     for lp, D, members, h in queued:
         N, r, ok = counter.result(h)

@@ -4,8 +4,10 @@
 verdicts (the tests compare them with relative tolerances). Work on a single design runs inside
 :func:`numpy_engine`: compiling the kernels (about half a minute on a fresh machine) pays only for
 batches, so ``exotune design/analyze/export/certify/simulate`` never wait on the JIT
-(docs/architecture.md#engines). Sweeps and optimization use the compiled kernels; the command line
-says so once while they compile for the first time (:func:`kernels_cached`).
+(docs/architecture.md#engines); the one exception is a large batch of counts inside single-design
+work, which loads the kernels when they are already cached (:func:`cached_engine`). Sweeps and
+optimization use the compiled kernels; the command line says so once while they compile for the
+first time (:func:`kernels_cached`).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import contextvars
 import os
 from pathlib import Path
 
-__all__ = ["compiled", "resolve_engine", "numpy_engine", "kernels_cached", "worth_compiling"]
+__all__ = ["compiled", "resolve_engine", "numpy_engine", "kernels_cached", "worth_compiling", "cached_engine"]
 
 _PREFERRED: contextvars.ContextVar[str | None] = contextvars.ContextVar("exotune_engine", default=None)
 
@@ -107,7 +109,36 @@ def kernels_cached() -> bool:
     """
     if not compiled():
         return False
+    return _cache_present()
+
+
+def _cache_present() -> bool:
     env = os.environ.get("NUMBA_CACHE_DIR")
     # numba keeps its cache under NUMBA_CACHE_DIR when set, else beside the kernel modules
     place = Path(env) if env else Path(__file__).resolve().parent / "kernels" / "__pycache__"
     return place.is_dir() and any(place.rglob("phase.*.nbi"))
+
+
+def cached_engine(work: float, threshold: float = 2e3) -> str | None:
+    """The engine for one large batch of root counts inside single-design work: "numba" when the
+    compiled kernels are allowed (numba installed, ``EXOTUNE_NUMPY_ONLY`` unset) and already in
+    the on-disk cache (loading them takes about a second; compiling them is never waited for
+    here), and the batch holds at least ``threshold`` counts; else None (the engine in force).
+
+    Parameters
+    ----------
+    work : float
+        Number of counts in the batch.
+    threshold : float, optional
+        Smallest batch worth loading the kernels for.
+
+    Returns
+    -------
+    str or None
+        "numba" or None.
+    """
+    if os.environ.get("EXOTUNE_NUMPY_ONLY") or work < threshold or not _cache_present():
+        return None
+    from . import kernels
+
+    return "numba" if kernels.AVAILABLE else None

@@ -23,8 +23,11 @@ def test_numpy_engine_context_is_scoped():
     assert engine.compiled() == before
 
 
-def test_single_design_command_compiles_no_kernel():
-    """`exotune analyze` (in-process) leaves every numba dispatcher without a compiled signature."""
+def test_single_design_command_compiles_no_kernel(tmp_path):
+    """`exotune analyze` (in-process) leaves every numba dispatcher without a compiled signature
+    when nothing is in numba's cache (an empty ``NUMBA_CACHE_DIR``): single designs never wait on
+    the JIT (with a cache, the plant margin's large count batches load the cached kernels:
+    :func:`exotune.numerics.engine.cached_engine`)."""
     pytest.importorskip("numba")
     code = (
         "import sys\n"
@@ -39,9 +42,39 @@ def test_single_design_command_compiles_no_kernel():
         "assert not compiled, compiled\n"
     )
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=600,
-                       env={**__import__("os").environ, "EXOTUNE_NUMPY_ONLY": ""})
+                       env={**__import__("os").environ, "EXOTUNE_NUMPY_ONLY": "", "NUMBA_CACHE_DIR": str(tmp_path)})
     assert p.returncode == 0, p.stderr[-2000:]
     assert "Margins:" in p.stdout
+
+
+def test_cached_engine_only_for_cached_kernels_and_large_batches(monkeypatch):
+    monkeypatch.setattr(engine, "_cache_present", lambda: True)
+    monkeypatch.delenv("EXOTUNE_NUMPY_ONLY", raising=False)
+    from exotune.numerics import kernels
+
+    assert engine.cached_engine(1e6) == ("numba" if kernels.AVAILABLE else None)
+    assert engine.cached_engine(10) is None  # a small batch: not worth loading the kernels
+    monkeypatch.setenv("EXOTUNE_NUMPY_ONLY", "1")
+    assert engine.cached_engine(1e6) is None
+    monkeypatch.delenv("EXOTUNE_NUMPY_ONLY")
+    monkeypatch.setattr(engine, "_cache_present", lambda: False)
+    assert engine.cached_engine(1e6) is None  # never compiled for a single design
+
+
+def test_plant_margin_same_on_both_engines(monkeypatch):
+    """The plant-uncertainty margin's witness search gives the same bounds and witness whether its
+    count batches run on the cached kernels or on numpy."""
+    pytest.importorskip("numba")
+    import exotune
+    from exotune.analysis import plant_uncertainty_margin
+
+    cfg = exotune.load_design(ROOT / "examples" / "scheduled.yaml")
+    out = {}
+    for name, present in (("numba", True), ("numpy", False)):
+        monkeypatch.setattr(engine, "_cache_present", lambda present=present: present)
+        with engine.numpy_engine():
+            out[name] = plant_uncertainty_margin(cfg, families=["free", "human0_mass"], rel_tol=0.05).to_dict()
+    assert out["numba"] == out["numpy"]
 
 
 def test_kernels_cached_is_false_on_numpy():
