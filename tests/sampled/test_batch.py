@@ -2,18 +2,18 @@
 exotune.sampled.loop (same spectral radii up to rounding), and expm_stack against scipy."""
 
 import copy
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.linalg
 
-from exotune.config import batch_config, design_from_mapping, load_design
+from exotune.config import batch_config, design_from_mapping
 from exotune.model.controller import build_controller
 from exotune.sampled.loop import default_prewarp, sampled_verdict
 from exotune.sampled.batch import BatchLoops, Loop, expm_stack
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_design
+
 FS = 1000.0
 
 
@@ -40,9 +40,7 @@ def test_loop_structure_and_grounding():
 
 @pytest.fixture(scope="module")
 def batch():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=FS)
-    cfg = design_from_mapping(raw)
+    cfg = paper_design(sample_rate_hz=FS)
     amps, delays = np.array([2.0, 8.0, 15.0]), np.array([0.0005, 0.001, 0.0023])
     return cfg, batch_config(cfg, {"design.amplification": amps, "implementation.delay_s": delays}), amps, delays
 

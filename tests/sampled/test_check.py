@@ -1,28 +1,24 @@
 """exotune.sampled.check: the sampled-data check of a design against given continuous intervals
 (verdicts at log-spaced members, disagreements, the sampled boundary near each interval end)."""
 
-import copy
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from exotune.config import design_from_mapping, load_design
 from exotune.model.controller import build_controller
 from exotune.sampled.check import CHECK_POINTS, Boundary, Disagreement, SampledFamilyCheck, check_design
 from exotune.sampled.loop import default_prewarp, sampled_stable
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_design
+
 FS = 1000.0
 
 
 @pytest.fixture(scope="module")
 def cfg():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=FS)
-    raw["environment"] = [{"kind": "locked"}, {"kind": "spring", "stiffness": [10.0, 1000.0]}]
-    return design_from_mapping(raw)
+    return paper_design(environment=[{"kind": "locked"}, {"kind": "spring", "stiffness": [10.0, 1000.0]}],
+                        sample_rate_hz=FS)
 
 
 @pytest.fixture(scope="module")

@@ -3,27 +3,25 @@ margin of a batch, against point-wise bisection on the loop model of exotune.sam
 
 import copy
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from exotune.config import batch_config, design_from_mapping, load_design
+from exotune.config import batch_config, design_from_mapping
 from exotune.model.controller import build_controller
 from exotune.sampled.batch import BatchLoops, Loop
 from exotune.sampled.families import family_check, latency_margin
 from exotune.sampled.loop import default_prewarp, sampled_stable, sampled_verdict
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_design
+
 FS = 1000.0
 MASS = Loop("h", human={"damping": 0.0}, param="inertia")
 
 
 @pytest.fixture(scope="module")
 def design():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=FS)
-    return design_from_mapping(raw)
+    return paper_design(sample_rate_hz=FS)
 
 
 def _stable(cfg, human=None, env="free", extra_delay=0.0):

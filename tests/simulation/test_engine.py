@@ -1,25 +1,19 @@
 """exotune.simulation.engine: a run of a controller file — the fast linear stretches equal stepping
 the runtime, a bumpless start is a steady state, the DOB stripped, the options checked."""
 
-import copy
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from exotune.config import design_from_mapping, load_design
-from exotune.controllerfile import Runtime, build_export
+from exotune.controllerfile import Runtime
 from exotune.simulation.engine import STARTS, bumpless_start, simulate, strip_dob
-from exotune.simulation.scenarios import SCENARIOS, Nonlinearities
+from exotune.simulation.scenarios import SCENARIOS
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_controller
 
 
 @pytest.fixture(scope="module")
 def doc():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=1000.0, delay_s=0.0015)
-    return build_export(design_from_mapping(raw), 1000.0)
+    return paper_controller(1000.0, delay_s=0.0015)
 
 
 @pytest.mark.parametrize("name", ["locked-output", "light-mass"])

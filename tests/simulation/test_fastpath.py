@@ -2,27 +2,21 @@
 reference runtime (superposition over random states and inputs), and a fast linear stretch is
 the same recursion whichever engine runs it."""
 
-import copy
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from exotune.config import design_from_mapping, load_design
-from exotune.controllerfile import Runtime, build_export
+from exotune.controllerfile import Runtime
 from exotune.simulation.fastpath import (NP, SIGNALS, LinearLoop, runtime_input_column, runtime_matrices,
                                          runtime_state, set_runtime_state)
 from exotune.simulation.plant import JointPlant
 from exotune.simulation.scenarios import Nonlinearities
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_controller
 
 
 @pytest.fixture(scope="module")
 def doc():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=1000.0, delay_s=0.0015)
-    return build_export(design_from_mapping(raw), 1000.0)
+    return paper_controller(1000.0, delay_s=0.0015)
 
 
 def test_state_vector_round_trip(doc):

@@ -1,21 +1,18 @@
 """exotune.simulation.report: a run's summary on hand-made series (verdict, metrics by their
 definitions, null metrics with the reason for a growing run), the run budget, run_scenario."""
 
-import copy
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from exotune.config import design_from_mapping, load_design
-from exotune.controllerfile import build_export
 from exotune.errors import ConfigError
 from exotune.simulation.report import check_budget, run_scenario, summarize
 from exotune.simulation.result import SimulationRun
 from exotune.simulation.scenarios import SCENARIOS
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_controller
+
 FS = 1000.0
 T = np.arange(0.0, 4.0, 1 / FS)
 
@@ -67,9 +64,7 @@ def test_the_run_budget():
 
 
 def test_run_scenario_returns_the_typed_run():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=FS)
-    doc = build_export(design_from_mapping(raw), FS)
+    doc = paper_controller(FS)
     run = run_scenario(doc, "locked-output", duration_s=1.0)
     assert isinstance(run, SimulationRun) and run.scenario == "locked-output"
     rep = run.to_dict()

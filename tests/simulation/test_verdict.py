@@ -1,19 +1,16 @@
 """exotune.simulation.verdict: the envelope growth rate of a run (against signals of known
 growth), the verdict, the dominant frequency and the linearized loop's spectral radius."""
 
-import copy
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from exotune.config import design_from_mapping, load_design
-from exotune.controllerfile import build_export
 from exotune.simulation.verdict import (FLOOR, MARGINAL_TOL, classify, dominant_frequency, envelope_growth,
                                         loop_spectral_radius)
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_controller
+
 T = np.arange(0.0, 10.0, 1e-3)
 
 
@@ -72,9 +69,7 @@ def test_dominant_frequency_within_a_fraction_of_a_bin(f0):
 
 @pytest.fixture(scope="module")
 def doc():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=1000.0, delay_s=0.001)
-    return build_export(design_from_mapping(raw), 1000.0)
+    return paper_controller(1000.0, delay_s=0.001)
 
 
 def test_spectral_radius_follows_the_certified_light_mass_boundary(doc):

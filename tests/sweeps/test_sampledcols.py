@@ -4,29 +4,26 @@ point-wise sampled-data loop (exotune.sampled.loop), and the refusals of the spe
 import copy
 import math
 from dataclasses import replace
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from exotune.config import batch_config, design_from_mapping, design_row, load_design
+from exotune.config import batch_config, design_from_mapping, design_row
 from exotune.model.controller import build_controller
 from exotune.sampled.loop import default_prewarp, sampled_stable
 from exotune.sweeps.sampledcols import sampled_columns, sampled_refusal
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_design
+
 FS = 1000.0
 
 
 @pytest.fixture(scope="module")
 def base():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=FS)
-    raw["humans"] = [{"kind": "mass", "inertia": [0.05, 1.0]}, {"kind": "complex_stiffness", "stiffness": [10.0, 1000.0],
-                                                                  "eta": 0.2}]
-    raw["environment"] = [{"kind": "locked"}]
-    return design_from_mapping(raw)
+    return paper_design(humans=[{"kind": "mass", "inertia": [0.05, 1.0]},
+                                {"kind": "complex_stiffness", "stiffness": [10.0, 1000.0], "eta": 0.2}],
+                        environment=[{"kind": "locked"}], sample_rate_hz=FS)
 
 
 def _stable(cfg, human=None, env="free", extra=0.0):

@@ -3,22 +3,17 @@ the path, the rate and the numbers it states, each with its unit, read back from
 
 import copy
 import re
-from pathlib import Path
 
 import pytest
 
-from exotune.config import design_from_mapping, load_design
-from exotune.controllerfile import build_export
 from exotune.text.export import format_export
 
-ROOT = Path(__file__).resolve().parents[2]
+from paper_design import paper_controller
 
 
 @pytest.fixture(scope="module")
 def doc():
-    raw = copy.deepcopy(load_design(ROOT / "examples" / "paper.yaml").raw)
-    raw["implementation"].update(sample_rate_hz=1000.0)
-    return build_export(design_from_mapping(raw), 1000.0)
+    return paper_controller(1000.0)
 
 
 def test_the_export_line(doc):
