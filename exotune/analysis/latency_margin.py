@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..record import Result
 from .latency import design_loops, loop_latency_margins, member_latency_margins
 
 __all__ = ["LoopMargin", "LatencyMargin", "latency_margin", "latency_boundaries", "LatencyBoundary"]
@@ -48,7 +49,7 @@ ABOVE_REL = (VERIFY_REL, 1e-5, 1e-4)  # relative steps above the margin where a 
 
 
 @dataclass(frozen=True)
-class LoopMargin:
+class LoopMargin(Result):
     """The latency margin of one loop: ``extra_delay_s`` (inf when no extra delay destabilizes it,
     0 when it is not stable at the nominal delay), the crossing ``frequency_hz`` and, for a family,
     the critical member ``value`` of ``parameter``."""
@@ -66,7 +67,7 @@ class LoopMargin:
 
 
 @dataclass(frozen=True)
-class LatencyMargin:
+class LatencyMargin(Result):
     """Design latency margin: the minimum over its loops, with the critical loop and the per-loop list."""
 
     extra_delay_s: float
@@ -94,6 +95,18 @@ class LatencyMargin:
             "note": self.note,
             "units": {"extra_delay_s": "s", "extra_delay_samples": "samples", "frequency_hz": "Hz"},
         }
+
+    def to_text(self) -> str:
+        """The latency lines of ``exotune analyze``'s margins section.
+
+        Returns
+        -------
+        str
+            The text.
+        """
+        from ..text.margins import format_margins
+
+        return "\n".join(format_margins({"latency": self.to_dict()}))
 
     def __repr__(self) -> str:
         c = self.critical

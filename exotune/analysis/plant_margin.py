@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.plant import Plant
+from ..record import Result
 from ..numerics.engine import cached_engine
 from .counting import RootCounter
 from .plant_margin_box import PLANT_FIELDS, PLANT_SYMBOLS, LoopModel, certify_loop, strip_rows
@@ -57,7 +58,7 @@ MEMBER_GRID = 33
 
 
 @dataclass(frozen=True)
-class PlantWitness:
+class PlantWitness(Result):
     """An unstable (plant, member) pair at the relative uncertainty level ``k``: the plant
     parameters [SI units of :attr:`Plant.UNITS`], their relative deviations, the loop and member,
     and the rightmost root found by the independent root finder (``confirmed``)."""
@@ -84,7 +85,7 @@ class PlantWitness:
 
 
 @dataclass(frozen=True)
-class LoopPlantMargin:
+class LoopPlantMargin(Result):
     """One loop: ``lower`` is a certified level for it — the design's certified level when the
     design is robust at the nominal plant (every loop is certified there; a loop's own margin may
     be larger), its own certified bound otherwise, 0 when the loop is not stable/robust at the
@@ -103,7 +104,7 @@ class LoopPlantMargin:
 
 
 @dataclass(frozen=True)
-class PlantMargin:
+class PlantMargin(Result):
     """The plant-uncertainty margin of a design: certified ``lower`` ≤ k* ≤ ``upper`` (multiples of
     the relative uncertainty ``weights``), the witness of the upper bound, the per-loop detail,
     the interval ``evaluations`` spent by the certification and the wall time ``seconds`` (not in
@@ -130,6 +131,18 @@ class PlantMargin:
                 "loops": [m.to_dict() for m in self.loops], "weights": dict(self.weights), "note": self.note,
                 "evaluations": self.evaluations,
                 "units": {"lower": UNIT_K, "upper": UNIT_K, "weights": "1 (relative)"}}
+
+    def to_text(self) -> str:
+        """The plant-uncertainty lines of ``exotune analyze``'s margins section.
+
+        Returns
+        -------
+        str
+            The text.
+        """
+        from ..text.margins import format_margins
+
+        return "\n".join(format_margins({"plant_uncertainty": self.to_dict()}))
 
     def __repr__(self) -> str:
         w = self.witness

@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING, Any, Mapping
 from ..record import Record, Result, opt_float
 if TYPE_CHECKING:  # the sampled-data model imports scipy.signal (a second): only for the annotation
     from ..sampled import SampledCheck
+    from .latency_margin import LatencyMargin
+    from .plant_margin import PlantMargin
 from .kyp import certificates_dict
 from ..units import GAIN_UNITS_TORQUE, METRIC_UNITS
 
@@ -362,7 +364,7 @@ class DesignAnalysis(Result):
     warnings: tuple[str, ...] = ()
     sampled_data: SampledCheck | None = field(default=None, repr=False, compare=False)
     gain_schedule: tuple[ScheduleEntry, ...] | None = field(default=None, repr=False, compare=False)
-    margins: tuple[Any, Any] | None = None
+    margins: tuple["LatencyMargin", "PlantMargin"] | None = None
     cross_check: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
     config: Any = field(default=None, repr=False, compare=False)
     sampled: Any = field(default=None, repr=False, compare=False)

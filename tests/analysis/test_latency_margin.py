@@ -221,3 +221,24 @@ def test_margin_at_a_high_rate_probes_delays_beyond_the_sampled_model():
     ref = latency_margin(design_from_mapping(_robust_mapping()))
     assert m.verified is True and m.extra_delay_s == pytest.approx(ref.extra_delay_s, rel=1e-9)
     assert m.extra_delay_samples == pytest.approx(m.extra_delay_s * 1e5, rel=1e-12)
+
+
+def test_margins_are_typed_results_with_their_views():
+    """LatencyMargin and PlantMargin are Result types: to_dict/to_json with units, to_text the
+    lines of analyze's margins section (str() is the text)."""
+    import json
+
+    from exotune.analysis import LatencyMargin, PlantMargin, analyze_with_margins
+    from exotune.record import Result
+
+    from exotune.config import load_design
+
+    rec = analyze_with_margins(load_design(EXAMPLES / "scheduled.yaml"), sampled_check=False)
+    lm, pm = rec.margins
+    assert isinstance(lm, LatencyMargin) and isinstance(pm, PlantMargin)
+    assert isinstance(lm, Result) and isinstance(pm, Result)
+    assert json.loads(lm.to_json())["extra_delay_s"] == pytest.approx(lm.extra_delay_s)
+    assert json.loads(pm.to_json())["units"]["lower"].startswith("1")
+    text = str(lm)
+    assert text.startswith("Margins:") and "latency margin:" in text and " ms" in text
+    assert "plant-uncertainty margin:" in str(pm)
