@@ -1,0 +1,97 @@
+"""exotune.analysis.amplification_ratio: the DC value and first −3 dB frequency of the strength
+amplification C6/C5 against a dense frequency sweep of C6/C5 built by the paper's system algebra
+(exotune.model.plant.seven_systems on the implemented blocks, designs without DOB) or of the
+quasi-polynomial ratio (designs with DOB)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from exotune.analysis.amplification_ratio import amplification, dc_and_bandwidth
+from exotune.analysis.charfun import amplification_qps
+from exotune.model.controller import build_controller
+from exotune.model.plant import Tf, seven_systems
+from tests.paper_design import paper_design
+
+F = np.geomspace(1e-3, 1e4, 200_001)
+
+
+def _cfg(dob, **design):
+    cfg = paper_design() if dob else paper_design(dob=None)
+    return dataclasses.replace(cfg, design=dataclasses.replace(cfg.design, **design)) if design else cfg
+
+
+def _sweep(cfg, f=F):
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    w = 2 * np.pi * f
+    if cfg.implementation.dob is None:
+        tf = lambda r: Tf.rational(np.atleast_2d(r.num)[0], np.atleast_2d(r.den)[0])  # noqa: E731
+        S = seven_systems(cfg.plant, tf(cs.motor_position), tf(cs.spring_torque), tf(cs.cuff_torque),
+                          delay_s=float(cfg.implementation.delay_s))
+        return np.abs(np.ravel(S["S6"].C(1j * w)) / np.ravel(S["S5"].C(1j * w)))
+    num, den = amplification_qps(cfg.plant, cs, 1)
+    rows = np.zeros(w.size, int)
+    return np.abs(num.eval(rows, w, deriv=False)[0] / den.eval(rows, w, deriv=False)[0])
+
+
+def _first_crossing_hz(mag, dc, f=F):
+    below = np.nonzero(mag <= dc / np.sqrt(2))[0]
+    return np.inf if below.size == 0 else f[below[0]]
+
+
+@pytest.mark.parametrize("dob,design", [(False, {}), (False, {"amplification": 3.0, "zeta_hat": 0.5}),
+                                        (True, {}), (True, {"amplification": 20.0})])
+def test_dc_and_bandwidth_against_a_dense_sweep(dob, design):
+    cfg = _cfg(dob, **design)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    a = amplification(cfg.plant, cs, 1)
+    mag = _sweep(cfg)
+    assert a["dc"][0] == pytest.approx(mag[0], rel=1e-6)
+    bw = float(a["bandwidth_hz"][0])
+    ref = _first_crossing_hz(mag, a["dc"][0])
+    assert np.isfinite(bw) and np.isfinite(ref)
+    assert bw == pytest.approx(ref, rel=2e-4)  # the sweep's spacing is 8e-5 relative
+    assert a["locked_stable"][0] and a["conclusive"][0]
+    # the DC value is the paper design's amplification (the design target, paper §II-D)
+    assert a["dc"][0] == pytest.approx(float(cfg.design.amplification), rel=1e-6)
+
+
+def test_a_ratio_that_never_falls_has_an_infinite_bandwidth():
+    from exotune.numerics.quasipoly import QP
+
+    one = QP(np.array([[2.0, 1.0]]), np.zeros((1, 1)), 0.0)
+    dc, bw = dc_and_bandwidth(one, one)
+    assert dc[0] == pytest.approx(1.0) and bw[0] == np.inf
+
+
+@settings(max_examples=20, deadline=None)
+@given(k=st.floats(0.5, 20.0), p=st.floats(0.1, 100.0))
+def test_a_first_order_ratio_has_its_pole_as_bandwidth(k, p):
+    """num/den = k p/(s + p): dc = k, −3 dB at ω = p."""
+    from exotune.numerics.quasipoly import QP
+
+    num = QP(np.array([[k * p]]), np.zeros((1, 1)), 0.0)
+    den = QP(np.array([[p, 1.0]]), np.zeros((1, 1)), 0.0)
+    dc, bw = dc_and_bandwidth(num, den)
+    assert dc[0] == pytest.approx(k, rel=1e-9)
+    assert bw[0] == pytest.approx(p / (2 * np.pi), rel=1e-6)
+
+
+def test_batched_verdicts_equal_single_designs():
+    cfg = _cfg(True)
+    alphas = np.array([3.0, 10.0, 30.0])
+    d = dataclasses.replace(cfg.design, amplification=alphas)
+    cs, _ = build_controller(cfg.plant, d, cfg.implementation)
+    batch = amplification(cfg.plant, cs, 3)
+    for i, al in enumerate(alphas):
+        cs1, _ = build_controller(cfg.plant, dataclasses.replace(cfg.design, amplification=al), cfg.implementation)
+        one = amplification(cfg.plant, cs1, 1)
+        for k in ("dc", "bandwidth_hz"):
+            assert batch[k][i] == pytest.approx(one[k][0], rel=1e-9)
+        for k in ("minimum_phase", "locked_stable", "conclusive"):
+            assert batch[k][i] == one[k][0]
