@@ -393,8 +393,8 @@ NO_TEST_FILE_YET = {
     "analysis.responses", 
     "controllerfile.build", "controllerfile.cellbound", "controllerfile.certify",
     "controllerfile.cgolden32", "controllerfile.cheader", "controllerfile.continuation",
-    "controllerfile.cstep", "controllerfile.fileio", "controllerfile.latency", "controllerfile.results",
-    "controllerfile.roundoff", "controllerfile.schema", "controllerfile.target", "controllerfile.verdicts",
+    "controllerfile.cstep", "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff",
+    "controllerfile.target", "controllerfile.verdicts",
     "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
     "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space",
 }
