@@ -390,7 +390,6 @@ def test_batch_columns_are_read_through_the_typed_analysis():
 # set only shrinks: a module listed here that has its test file (or no longer exists) fails too.
 NO_TEST_FILE_YET = {
     "analysis.batch", "analysis.plant_margin_box", "analysis.plot_data",
-    "analysis.responses", 
     "controllerfile.cellbound", "controllerfile.certify", "controllerfile.cgolden32",
     "controllerfile.cheader", "controllerfile.continuation", "controllerfile.cstep",
     "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff", "controllerfile.target",
