@@ -395,7 +395,7 @@ NO_TEST_FILE_YET = {
     "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff", "controllerfile.target",
     "controllerfile.verdicts",
     "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
-    "optimization.runner", "optimization.sampled", "optimization.search", "optimization.space",
+    "optimization.runner", "optimization.sampled", "optimization.search",
 }
 
 
