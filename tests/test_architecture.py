@@ -394,7 +394,7 @@ NO_TEST_FILE_YET = {
     "controllerfile.cheader", "controllerfile.continuation", "controllerfile.cstep",
     "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff", "controllerfile.target",
     "controllerfile.verdicts",
-    "optimization.diagnose", "optimization.evaluate", "optimization.peak", "optimization.result",
+    "optimization.diagnose", "optimization.evaluate", "optimization.result",
     "optimization.runner", "optimization.sampled", "optimization.search",
 }
 
