@@ -392,8 +392,7 @@ NO_TEST_FILE_YET = {
     "analysis.batch", "analysis.plant_margin_box", "analysis.plot_data",
     "controllerfile.cellbound", "controllerfile.certify", "controllerfile.cgolden32",
     "controllerfile.cheader", "controllerfile.continuation", "controllerfile.cstep",
-    "controllerfile.latency", "controllerfile.results", "controllerfile.roundoff", "controllerfile.target",
-    "controllerfile.verdicts",
+    "controllerfile.latency", "controllerfile.verdicts",
     "optimization.diagnose", "optimization.evaluate", "optimization.result",
     "optimization.runner", "optimization.sampled", "optimization.search",
 }
