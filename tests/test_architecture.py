@@ -312,7 +312,7 @@ FAMILY_SUFFIXES = ("_robust", "_stable", "_conclusive", "_stable_intervals", "_c
                    "_verification_mismatches")
 # the modules that get a BatchAnalysis (analyze_batch's callers and the functions they pass it to)
 BATCH_CONSUMERS = {"analysis.design", "analysis.latency_margin", "analysis.plant_margin", "analysis.latency",
-                   "analysis.crosscheck", "sweeps.compute", "sweeps.sampledcols", "optimization.evaluate",
+                   "analysis.crosscheck", "sweeps.compute", "sweeps.sampledcols", 
                    "optimization.diagnose", "optimization.search"}
 
 
