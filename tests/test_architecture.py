@@ -394,7 +394,7 @@ NO_TEST_FILE_YET = {
     "controllerfile.cheader", "controllerfile.continuation", "controllerfile.latency",
     "controllerfile.verdicts",
     "optimization.diagnose", "optimization.evaluate", "optimization.result",
-    "optimization.runner", "optimization.sampled", "optimization.search",
+    "optimization.sampled", "optimization.search",
 }
 
 

@@ -1,0 +1,65 @@
+"""exotune.optimization.runner: ``exotune optimize`` writes a design file that loads and holds the
+optimum (with a header naming objective, constraints and seed), the Pareto front as CSV, and
+nothing when no design is feasible."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exotune.config import load_design
+from exotune.optimization.runner import run_optimize
+
+BASE = copy.deepcopy(load_design(Path(__file__).resolve().parents[2] / "examples" / "paper.yaml").raw)
+BASE["humans"] = [{"kind": "mass", "inertia": [0.01, 1.0], "damping": 0.0},
+                  {"kind": "spring", "stiffness": [1.0, 10000.0], "damping": 0.0}]
+
+
+def _spec(**constraints):
+    return {"base": copy.deepcopy(BASE), "objective": "amplification", "budget": 50, "seed": 1,
+            "free": {"design.amplification": [1.5, 60.0]},
+            "constraints": {"latency_margin_s": 0.0, **constraints}}
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("opt")
+    out, csv = d / "best.yaml", d / "front.csv"
+    return run_optimize(_spec(max_phase_excess_deg=20.0), out, pareto_csv=csv), out, csv
+
+
+def test_the_written_design_loads_and_holds_the_optimum(run):
+    res, out, _ = run
+    assert res.feasible and res.path == str(out)
+    cfg = load_design(out)
+    assert float(cfg.design.amplification) == pytest.approx(res.objective_value, rel=1e-12)
+    assert 1.5 <= res.objective_value <= 60.0
+    head = out.read_text().splitlines()[0]
+    assert head.startswith("# exotune optimize: amplification = ")
+    assert "maximized" in head and "seed 1" in head and "latency margin" in head
+
+
+def test_the_pareto_front_is_written_as_csv(run):
+    res, _, csv = run
+    lines = csv.read_text().splitlines()
+    assert lines[0] == "objective,robust_fraction,design.amplification"
+    rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
+    assert len(rows) == len(res.to_dict()["pareto"]) >= 1
+    np.testing.assert_array_equal(rows[:, 0], rows[:, 2])  # the objective is α
+    assert np.all((rows[:, 1] >= 0) & (rows[:, 1] <= 1))
+
+
+def test_the_seed_argument_overrides_the_spec(tmp_path):
+    res = run_optimize(_spec(max_phase_excess_deg=20.0), tmp_path / "a.yaml", seed=5)
+    assert "seed 5" in (tmp_path / "a.yaml").read_text().splitlines()[0]
+    assert res.to_dict()["feasible"]
+
+
+def test_an_infeasible_problem_writes_nothing(tmp_path):
+    out = tmp_path / "none.yaml"
+    res = run_optimize(_spec(amplification_bandwidth_hz=1e6), out)
+    assert not res.feasible and res.path is None
+    assert not out.exists()
