@@ -392,7 +392,7 @@ NO_TEST_FILE_YET = {
     "analysis.batch", "analysis.plant_margin_box", "analysis.plot_data",
     "controllerfile.cellbound", "controllerfile.certify", "controllerfile.cgolden32",
     "controllerfile.continuation", "controllerfile.latency", "controllerfile.verdicts",
-    "optimization.diagnose", "optimization.evaluate", "optimization.result",
+    "optimization.diagnose", "optimization.evaluate",
     "optimization.sampled", "optimization.search",
 }
 
