@@ -312,7 +312,7 @@ FAMILY_SUFFIXES = ("_robust", "_stable", "_conclusive", "_stable_intervals", "_c
                    "_verification_mismatches")
 # the modules that get a BatchAnalysis (analyze_batch's callers and the functions they pass it to)
 BATCH_CONSUMERS = {"analysis.design", "analysis.latency_margin", "analysis.plant_margin", "analysis.latency",
-                   "analysis.crosscheck", "sweeps.compute", "sweeps.sampledcols", 
+                   "analysis.crosscheck", "sweeps.compute", "sweeps.sampledcols", "optimization.evaluate",
                    "optimization.diagnose", "optimization.search"}
 
 
@@ -392,7 +392,7 @@ NO_TEST_FILE_YET = {
     "analysis.plant_margin_box", "analysis.plot_data",
     "controllerfile.cellbound", "controllerfile.certify", "controllerfile.cgolden32",
     "controllerfile.continuation", "controllerfile.latency", "controllerfile.verdicts",
-    "optimization.diagnose", "optimization.evaluate",
+    "optimization.diagnose",
     "optimization.sampled", "optimization.search",
 }
 
