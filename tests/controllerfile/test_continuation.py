@@ -1,0 +1,73 @@
+"""exotune.controllerfile.continuation: stable intervals of a one-parameter family by eigenvalue
+continuation. On families whose spectral radius is known in closed form, the interval ends are the
+roots of ρ(v) = 1 (to the bisection's 1e-10 relative), a narrow window of instability between two
+grid values is found, and a family stable over its whole range gives the whole range."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from exotune.controllerfile.continuation import POINTS, stable_intervals
+
+
+def _pair(r: float, th: float = 0.7) -> np.ndarray:
+    return np.array([r * np.exp(1j * th), r * np.exp(-1j * th), 0.3])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(0.8, 3.0))
+def test_the_end_is_the_root_of_the_spectral_radius(c):
+    """ρ(v) = v / c: stable exactly for v < c on [0.5, 4]."""
+    ivs, info = stable_intervals(lambda v: _pair(v / c), 0.5, 4.0)
+    assert len(ivs) == 1
+    a, b = ivs[0]
+    assert a == pytest.approx(0.5, rel=1e-12)
+    assert b == pytest.approx(c, rel=1e-9)
+    assert info["points"] == POINTS and not info["unresolved"]
+
+
+def test_a_window_of_instability_is_cut_out_at_its_roots():
+    """ρ(v) = 0.5 + 0.6·exp(−(ln(v/1.5)/w)²): unstable where the bump exceeds 0.5, i.e.
+    |ln(v/1.5)| < w·sqrt(ln 1.2); with w = 0.2 the window is ≈ 17 % wide (a few grid cells).
+    (A window narrower than a cell is step control's blind spot; the cell proof finds it:
+    tests/controllerfile/test_certify_rigorous.py.)"""
+    w = 0.2
+    rho = lambda v: 0.5 + 0.6 * math.exp(-((math.log(v / 1.5) / w) ** 2))  # noqa: E731
+    ivs, info = stable_intervals(lambda v: _pair(rho(v)), 0.2, 20.0)
+    half = w * math.sqrt(math.log(1.2))
+    lo, hi = 1.5 * math.exp(-half), 1.5 * math.exp(half)
+    assert len(ivs) == 2
+    assert ivs[0][0] == pytest.approx(0.2, rel=1e-12) and ivs[1][1] == pytest.approx(20.0, rel=1e-12)
+    assert ivs[0][1] == pytest.approx(lo, rel=1e-8)
+    assert ivs[1][0] == pytest.approx(hi, rel=1e-8)
+
+
+def test_a_stable_family_is_stable_over_its_range():
+    ivs, _ = stable_intervals(lambda v: _pair(0.9 - 0.5 / (1 + v)), 0.1, 10.0)
+    assert ivs == [[pytest.approx(0.1), pytest.approx(10.0)]]
+
+
+def test_an_unstable_family_has_no_interval():
+    ivs, _ = stable_intervals(lambda v: _pair(1.2 + 0.1 * v), 0.1, 10.0)
+    assert ivs == []
+
+
+def test_batched_spectra_give_the_same_result():
+    f = lambda v: _pair(v / 2.0)  # noqa: E731
+    one, _ = stable_intervals(f, 0.5, 4.0)
+    many, _ = stable_intervals(f, 0.5, 4.0, spectra=lambda vs: [f(v) for v in vs])
+    assert np.allclose(one, many, rtol=1e-12)
+
+
+def test_a_cell_bound_that_refuses_leaves_cells_unproven():
+    """With a cell bound that never proves, no stable cell is accepted on step control alone."""
+    ivs, info = stable_intervals(lambda v: _pair(0.5), 1.0, 2.0, points=8, cell_bound=lambda a, b: (False, -1.0))
+    assert info["proof"] == "cell bound"
+    assert ivs == [] or info["unresolved"]
+    ok, info2 = stable_intervals(lambda v: _pair(0.5), 1.0, 2.0, points=8, cell_bound=lambda a, b: (True, 0.5))
+    assert ok == [[pytest.approx(1.0), pytest.approx(2.0)]] and info2["proven_cells"] >= 1
