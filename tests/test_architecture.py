@@ -390,7 +390,6 @@ def test_batch_columns_are_read_through_the_typed_analysis():
 # set only shrinks: a module listed here that has its test file (or no longer exists) fails too.
 NO_TEST_FILE_YET = {
     "analysis.plant_margin_box", "analysis.plot_data",
-    "controllerfile.verdicts",
     "optimization.diagnose",
     "optimization.sampled", "optimization.search",
 }
