@@ -385,9 +385,8 @@ def test_batch_columns_are_read_through_the_typed_analysis():
 
 
 # Every module has a test file named after it: tests/<package>/test_<module>.py (issue 24 item 3).
-# The modules still without one — to be emptied: analysis/, controllerfile/, numerics/kernels/ and
-# optimization/ are pending other work (being restructured); the rest wait for their file. The
-# set only shrinks: a module listed here that has its test file (or no longer exists) fails too.
+# The modules still without one: none left. The set only shrinks: a module listed here that has
+# its test file (or no longer exists) fails too.
 NO_TEST_FILE_YET: set[str] = set()
 
 
