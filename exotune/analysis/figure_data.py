@@ -233,7 +233,7 @@ def analysis_figures(cfg, analysis) -> AnalysisFigures:
 
     References
     ----------
-    docs/cli.md#analyze; paper Figs. 4 and 5.
+    docs/cli.md#analyze; paper Fig. 4 (the DOB loop and its Q filter) and Fig. 5 (the amplification at two delays).
     """
     from .latency_margin import latency_boundaries
     from .plot_data import amplification_at_delays, compliance_responses, human_loops
