@@ -52,5 +52,6 @@ def latency_boundary_figure(boundaries, margin_s: float | None = None, ax=None):
     if boundaries:
         ax.set_title(f"latency boundary of the human families (T = {boundaries[0].delay_s * 1e3:.3g} ms)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    if ax.get_legend_handles_labels()[0]:  # nothing drawn (no human family, no margin): no empty legend
+        ax.legend(fontsize=7)
     return fig

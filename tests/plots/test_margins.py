@@ -40,5 +40,9 @@ def test_no_margin_line_and_a_new_figure():
     assert isinstance(fig, Figure)
     (ax,) = fig.axes
     assert len(ax.get_lines()) == 1  # all stable at the nominal delay, no finite margin: the curve alone
-    empty = latency_boundary_figure([], margin_s=None)
-    assert empty.axes[0].get_title() == ""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing to draw: no empty-legend warning either
+        empty = latency_boundary_figure([], margin_s=None)
+    assert empty.axes[0].get_title() == "" and empty.axes[0].get_legend() is None
