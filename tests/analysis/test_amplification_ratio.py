@@ -13,10 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exotune.analysis.amplification_ratio import amplification, dc_and_bandwidth
-from exotune.analysis.charfun import amplification_qps
 from exotune.model.controller import build_controller
-from exotune.model.plant import Tf, seven_systems
 from tests.paper_design import paper_design
+from tests.system_algebra import amplification_magnitude
 
 F = np.geomspace(1e-3, 1e4, 200_001)
 
@@ -27,16 +26,7 @@ def _cfg(dob, **design):
 
 
 def _sweep(cfg, f=F):
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    w = 2 * np.pi * f
-    if cfg.implementation.dob is None:
-        tf = lambda r: Tf.rational(np.atleast_2d(r.num)[0], np.atleast_2d(r.den)[0])  # noqa: E731
-        S = seven_systems(cfg.plant, tf(cs.motor_position), tf(cs.spring_torque), tf(cs.cuff_torque),
-                          delay_s=float(cfg.implementation.delay_s))
-        return np.abs(np.ravel(S["S6"].C(1j * w)) / np.ravel(S["S5"].C(1j * w)))
-    num, den = amplification_qps(cfg.plant, cs, 1)
-    rows = np.zeros(w.size, int)
-    return np.abs(num.eval(rows, w, deriv=False)[0] / den.eval(rows, w, deriv=False)[0])
+    return amplification_magnitude(cfg, f)
 
 
 def _first_crossing_hz(mag, dc, f=F):

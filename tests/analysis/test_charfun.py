@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 
 from exotune.analysis.charfun import amplification_qps, char_terms, design_column, strip_qps, trim_poly
 from exotune.model.controller import build_controller
-from exotune.model.plant import Tf, seven_systems
 from exotune.numerics.quasipoly import QP
 from tests.paper_design import paper_design
+from tests.system_algebra import implemented_systems
 
 W = np.geomspace(0.1, 2e4, 300)
 
@@ -33,9 +33,7 @@ def _at(qp: QP, w=W, row=0):
 
 def _systems(cfg):
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    tf = lambda r: Tf.rational(np.atleast_2d(r.num)[0], np.atleast_2d(r.den)[0])  # noqa: E731
-    return cs, seven_systems(cfg.plant, tf(cs.motor_position), tf(cs.spring_torque), tf(cs.cuff_torque),
-                             delay_s=float(cfg.implementation.delay_s))
+    return cs, implemented_systems(cfg)
 
 
 @pytest.mark.parametrize("design", [{}, {"amplification": 3.0, "zeta_hat": 0.5}, {"felt_inertia": 0.1}])

@@ -24,7 +24,8 @@ from exotune.analysis import analyze_batch, c7_response, char_terms
 from exotune.config import load_design
 from exotune.config.yamlio import read_yaml
 from exotune.model.controller import build_controller
-from exotune.model.plant import Tf, seven_systems
+
+from tests.system_algebra import implemented_systems
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "paper.yaml"
 
@@ -51,11 +52,7 @@ def test_c7_equals_the_papers_system_algebra(tmp_path, design):
     cfg = _unfiltered(tmp_path, **design)
     w = np.geomspace(0.1, 2e4, 400)
     ours = _c7(cfg, w)
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    tf = lambda r: Tf.rational(np.atleast_2d(r.num)[0], np.atleast_2d(r.den)[0])  # noqa: E731
-    systems = seven_systems(cfg.plant, tf(cs.motor_position), tf(cs.spring_torque), tf(cs.cuff_torque),
-                            delay_s=float(cfg.implementation.delay_s))
-    ref = systems["S7"].C(1j * w)
+    ref = implemented_systems(cfg)["S7"].C(1j * w)
     np.testing.assert_allclose(ours, np.ravel(ref), rtol=1e-8)
 
 

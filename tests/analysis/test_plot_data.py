@@ -18,13 +18,10 @@ from exotune.analysis.plot_data import (amplification_at_delays, compliance_resp
                                         freq_grid_hz, phase_deg, second_delay)
 from exotune.config import design_from_mapping, load_design
 from exotune.model.controller import build_controller
-from exotune.model.plant import Tf, seven_systems
+
+from tests.system_algebra import implemented_systems
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "paper.yaml"
-
-
-def _tf(r):
-    return Tf.rational(np.atleast_2d(r.num)[0], np.atleast_2d(r.den)[0])
 
 
 @pytest.fixture(scope="module")
@@ -47,9 +44,7 @@ def test_c7_equals_the_papers_system_algebra(no_dob):
     f = r["f"]
     assert np.all(np.diff(f) > 0)
     np.testing.assert_array_equal(f, freq_grid_hz(res))
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    S = seven_systems(cfg.plant, _tf(cs.motor_position), _tf(cs.spring_torque), _tf(cs.cuff_torque),
-                      delay_s=float(cfg.implementation.delay_s))
+    S = implemented_systems(cfg)
     np.testing.assert_allclose(r["C7"], np.ravel(S["S7"].C(2j * np.pi * f)), rtol=1e-8)
 
 

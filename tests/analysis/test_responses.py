@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 
 from exotune.analysis.responses import c7_frequency_response, nominal_frequency_responses
-from exotune.model.controller import build_controller
-from exotune.model.plant import Tf, seven_systems
 from tests.paper_design import paper_design
+from tests.system_algebra import implemented_systems
 
 
 def test_the_default_grid_spans_0p01_hz_to_1_khz():
@@ -29,9 +28,7 @@ def test_c7_equals_the_papers_system_algebra(delay):
     f = np.geomspace(0.05, 2000.0, 200)
     f_out, H = c7_frequency_response(cfg, f)
     np.testing.assert_array_equal(f_out, f)
-    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-    tf = lambda r: Tf.rational(np.atleast_2d(r.num)[0], np.atleast_2d(r.den)[0])  # noqa: E731
-    S = seven_systems(cfg.plant, tf(cs.motor_position), tf(cs.spring_torque), tf(cs.cuff_torque), delay_s=delay)
+    S = implemented_systems(cfg, delay)
     np.testing.assert_allclose(H, np.ravel(S["S7"].C(2j * np.pi * f)), rtol=1e-8)
 
 
