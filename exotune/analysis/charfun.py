@@ -30,7 +30,11 @@ from ..model.plant import Plant
 from ..numerics.poly import as_poly, padd, pmul, pscale, psub, strip_common_low_zeros
 from ..numerics.quasipoly import QP
 
-__all__ = ["CharTerms", "char_terms", "amplification_qps", "trim_poly", "strip_qps", "design_column"]
+__all__ = ["CharTerms", "KEYS", "char_terms", "controller_polys", "amplification_qps", "trim_poly", "strip_qps",
+           "design_column"]
+
+#: the four characteristic terms Δ00, Δ10, Δ01, Δ11 (human and environment impedance exponents)
+KEYS = ("00", "10", "01", "11")
 
 
 @dataclass(frozen=True)
@@ -78,9 +82,22 @@ def _blocks(cs: ControllerStructure, N: int):
     return out
 
 
-def _controller_polys(cs: ControllerStructure, N: int):
+def controller_polys(cs: ControllerStructure, N: int):
     """Common-denominator form of the controller: d = Π d_x, w_x = n_x · d/d_x for the blocks on
-    θ_m, τ_s, τ_c, and the DOB filter Q = n_q/d_q (n_q = 0, d_q = 1 without a DOB)."""
+    θ_m, τ_s, τ_c, and the DOB filter Q = n_q/d_q (n_q = 0, d_q = 1 without a DOB).
+
+    Parameters
+    ----------
+    cs : ControllerStructure
+        The controller blocks and the DOB filter Q.
+    N : int
+        Number of designs (rows).
+
+    Returns
+    -------
+    tuple of ndarray
+        (d, w_θm, w_τs, w_τc, n_q, d_q), ascending coefficients, N rows each.
+    """
     (nth, dth), (nts, dts), (ntc, dtc) = _blocks(cs, N)
     d_all = pmul(pmul(dth, dts), dtc)
     w_th = pmul(nth, pmul(dts, dtc))
@@ -94,7 +111,8 @@ def _controller_polys(cs: ControllerStructure, N: int):
     return d_all, w_th, w_ts, w_tc, nq, dq
 
 
-def char_terms(plant: Plant, cs: ControllerStructure, N: int, *, dob_model=None) -> CharTerms:
+def char_terms(plant: Plant, cs: ControllerStructure, N: int, *, dob_model=None, keys=KEYS,
+               controller=None) -> CharTerms:
     """Build Δ00, Δ10, Δ01, Δ11 for N designs (see module docstring).
 
     Plant (grounded form, exact structural zeros): with A = J_m s² + B_m s + K_s, M = J_m s² + B_m s,
@@ -123,11 +141,17 @@ def char_terms(plant: Plant, cs: ControllerStructure, N: int, *, dob_model=None)
         Number of designs.
     dob_model : tuple of (float or ndarray), optional
         (J_m0 [kg·m²], B_m0 [N·m·s/rad]), the DOB's nominal motor model; None: the plant's own.
+    keys : tuple of str, optional
+        The terms to build (default all four); a loop that needs only some of them (the
+        plant-uncertainty margin's models) saves the others' products.
+    controller : tuple of ndarray, optional
+        :func:`controller_polys` ``(cs, N)`` if already computed (the same arrays the call would
+        build: the result is unchanged).
 
     Returns
     -------
     CharTerms
-        Δ00, Δ10, Δ01, Δ11 (ascending coefficients, one row per design) and the delays T [s].
+        Δ00, Δ10, Δ01, Δ11 (those of ``keys``; ascending coefficients, one row per design) and the delays T [s].
 
     References
     ----------
@@ -160,13 +184,13 @@ def char_terms(plant: Plant, cs: ControllerStructure, N: int, *, dob_model=None)
         "11": (-Ks)[:, None],
     }
     Ntc = {"00": zero[:, None], "10": (-Ks * Kc)[:, None], "01": zero[:, None], "11": zero[:, None]}
-    d_all, w_th, w_ts, w_tc, nq, dq = _controller_polys(cs, N)
+    d_all, w_th, w_ts, w_tc, nq, dq = controller_polys(cs, N) if controller is None else controller
     dmn = psub(dq, nq)
     T = design_column(cs.delay_s, N)
     terms = {}
     if dob_model is not None:
         M0 = as_poly(zero, design_column(dob_model[1], N), design_column(dob_model[0], N))
-    for key in ("00", "10", "01", "11"):
+    for key in keys:
         dd = pmul(det[key], d_all)
         S = padd(padd(pmul(w_th, Nth[key]), pmul(w_ts, Nts[key])), pmul(w_tc, Ntc[key]))
         P0 = pmul(dd, dmn)
@@ -222,7 +246,7 @@ def amplification_qps(plant: Plant, cs: ControllerStructure, N: int) -> tuple[QP
     """
     Ks, Jm, Bm = (design_column(v, N) for v in (plant.K_s, plant.J_m, plant.B_m))
     A = as_poly(Ks, Bm, Jm)
-    d_all, w_th, w_ts, w_tc, nq, dq = _controller_polys(cs, N)
+    d_all, w_th, w_ts, w_tc, nq, dq = controller_polys(cs, N)
     T = design_column(cs.delay_s, N)
     Ad = pmul(A, d_all)
     P0 = pmul(Ad, psub(dq, nq))

@@ -276,19 +276,36 @@ def _search_points(lp: _Loop, k: float, w: np.ndarray, extra=()):
     return np.concatenate(pts), members
 
 
-def _search_unstable_many(jobs):
+def _job_size(lp: _Loop, k: float, w: np.ndarray, extra=()) -> int:
+    """Number of counts of :func:`_search_points` (points × members) for one job."""
+    D, members = _search_points(lp, k, w, extra)
+    return D.shape[0] * (1 if members is None else members.size)
+
+
+def _search_unstable_many(jobs, rows=None, engine=None, index: bool = False):
     """:func:`_search_unstable` for several (loop, k, w, extra) jobs, every count in one
     :class:`~exotune.analysis.counting.RootCounter` run (one vectorized call instead of one per
-    loop): a list of hits (δ, p) or None, in the order of ``jobs``."""
+    loop): a list of hits (δ, p) or None, in the order of ``jobs``.
+
+    ``rows[j]`` (optional, an int or None) restricts job j to that one search point (row-major
+    index point × member); ``engine`` overrides the engine chosen for the batch size (so that a
+    restricted search counts exactly as the full one would); ``index`` appends the hit's index to
+    each hit: (δ, p, i)."""
     counter = RootCounter()
     queued = []
-    for lp, k, w, extra in jobs:
+    for j, (lp, k, w, extra) in enumerate(jobs):
         D, members = _search_points(lp, k, w, extra)
+        m = 1 if members is None else members.size
+        base = 0
+        if rows is not None and rows[j] is not None:
+            base = int(rows[j])
+            D = D[base // m:base // m + 1]
+            members = None if members is None else members[base % m:base % m + 1]
         h = lp.model.submit(counter, lp.model.q0[None, :] * (1.0 + D), members)
-        queued.append((lp, D, members, h))
-    counter.run(engine=cached_engine(counter.n))
+        queued.append((lp, D, members, h, base))
+    counter.run(engine=engine if engine is not None else cached_engine(counter.n))
     out = []
-    for lp, D, members, h in queued:
+    for lp, D, members, h, base in queued:
         N, r, ok = counter.result(h)
         bad = ~(ok & (N == 0) & (r <= lp.r0))
         if not bad.any():
@@ -296,7 +313,8 @@ def _search_unstable_many(jobs):
             continue
         i = int(np.nonzero(bad)[0][0])
         m = 1 if members is None else members.size
-        out.append((D[i // m], (None if members is None else float(members[i % m]))))
+        hit = (D[i // m], (None if members is None else float(members[i % m])))
+        out.append((*hit, base + i) if index else hit)
     return out
 
 
@@ -309,21 +327,48 @@ def _search_unstable(lp: _Loop, k: float, w: np.ndarray, extra=()):
 def _loops_upper(lps, w: np.ndarray, rel_tol: float, k_hi: float) -> dict:
     """Each loop's smallest level k ≤ k_hi with an unstable vertex point (bisection on k), the
     loops' bisections run in lockstep so that every step is one counting call: {name: (k, δ, p) or
-    None}. Each loop's bisection is exactly the one it would run alone."""
+    None}. Each loop's bisection is exactly the one it would run alone.
+
+    A step first counts, for each loop, only the vertex point × member that was unstable at the
+    loop's last unstable level (the vertices keep their order from level to level): when it is
+    unstable again, the level is unstable without the full search (half the steps, usually). The
+    hit recorded is the first unstable point of the full search, so the full search runs once at
+    the final level of such a loop; the engine is the one the full step would have used. Results
+    are those of a full search at every step."""
+    nvert = _vertex_deltas(1.0, w).shape[0]
     state = {}
-    for lp, hit in zip(lps, _search_unstable_many([(lp, k_hi, w, ()) for lp in lps])):
+    jobs = [(lp, k_hi, w, ()) for lp in lps]
+    eng = cached_engine(sum(_job_size(*j) for j in jobs))
+    for lp, hit in zip(lps, _search_unstable_many(jobs, engine=eng, index=True)):
         if hit is not None:
-            state[lp.name] = [lp, 0.0, k_hi, (k_hi, *hit)]
+            # [loop, lo, hi, hit (k, δ, p) at hi or None while pending, index of the hit, engine]
+            state[lp.name] = [lp, 0.0, k_hi, (k_hi, *hit[:2]), hit[2], eng]
     while True:
         active = [st for st in state.values() if st[2] - st[1] > 0.125 * rel_tol * st[2]]
         if not active:
             break
-        mids = [0.5 * (st[1] + st[2]) for st in active]
-        for st, mid, hit in zip(active, mids, _search_unstable_many([(st[0], m, w, ()) for st, m in zip(active, mids)])):
-            if hit is None:
+        jobs = [(st[0], 0.5 * (st[1] + st[2]), w, ()) for st in active]
+        eng = cached_engine(sum(_job_size(*j) for j in jobs))
+        m = [1 if st[0].members is None else st[0].members.size for st in active]
+        rows = [st[4] if st[4] < nvert * mm else None for st, mm in zip(active, m)]
+        quick = [None] * len(active)
+        ask = [a for a, r in enumerate(rows) if r is not None]
+        for a, hit in zip(ask, _search_unstable_many([jobs[a] for a in ask], [rows[a] for a in ask], eng, True)):
+            quick[a] = hit
+        full = [a for a in range(len(active)) if quick[a] is None]
+        hits = dict(zip(full, _search_unstable_many([jobs[a] for a in full], engine=eng, index=True)))
+        for a, (st, job) in enumerate(zip(active, jobs)):
+            mid = job[1]
+            if quick[a] is not None:
+                st[2], st[3], st[5] = mid, None, eng  # unstable; its first unstable point later
+            elif hits[a] is None:
                 st[1] = mid
             else:
-                st[2], st[3] = mid, (mid, *hit)
+                st[2], st[3], st[4], st[5] = mid, (mid, *hits[a][:2]), hits[a][2], eng
+    pending = [st for st in state.values() if st[3] is None]
+    for st in pending:  # the full search at the final level, on the engine of that step
+        hit = _search_unstable_many([(st[0], st[2], w, ())], engine=st[5])[0]
+        st[3] = (st[2], *hit)
     for st in state.values():
         st[0].found.append(st[3])
     return {lp.name: (state[lp.name][3] if lp.name in state else None) for lp in lps}

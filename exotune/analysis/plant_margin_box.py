@@ -26,7 +26,7 @@ import numpy as np
 from ..model.humans import family_split
 from ..model.plant import Plant
 from ..numerics.poly import pad_cols, padd, pmul
-from .charfun import char_terms, trim_poly
+from .charfun import char_terms, controller_polys, trim_poly
 from .counting import RootCounter
 
 __all__ = ["PLANT_FIELDS", "PLANT_SYMBOLS", "LoopModel", "certify_loop", "hull_distance", "CertifyResult", "strip_rows"]
@@ -64,6 +64,8 @@ class LoopModel:
             self.z0 = self.phi = None
             self.factor = 1.0 + 0j
         self.complex = bool(self.factor.imag != 0)
+        self._keys = (key0,) if key1 is None else (key0, key1)
+        self._controller = {}
 
     @property
     def ndim(self) -> int:
@@ -80,7 +82,10 @@ class LoopModel:
         ``real_twin``: the hysteretic family's real twin (factor 1 instead of 1 + jη)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         n = q.shape[0]
-        ct = char_terms(self.plants(q), self.cs, n, dob_model=(self.q0[0], self.q0[1]))
+        if n not in self._controller:  # the controller is fixed: its polynomials once per row count
+            self._controller[n] = controller_polys(self.cs, n)
+        ct = char_terms(self.plants(q), self.cs, n, dob_model=(self.q0[0], self.q0[1]), keys=self._keys,
+                        controller=self._controller[n])
         if self.fam is None:
             t = ct.qp(self.key0)
             return t.p0, t.p1

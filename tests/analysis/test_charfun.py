@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import exotune
 from exotune.analysis.charfun import amplification_qps, char_terms, design_column, strip_qps, trim_poly
 from exotune.model.controller import build_controller
 from exotune.numerics.quasipoly import QP
@@ -121,3 +122,25 @@ def test_strip_qps_divides_out_exactly_the_common_zero_roots(r, a, b, T):
     s = 1j * np.array([0.3, 2.0, 7.0])
     full = _at(QP(p0, p1, T), w=s.imag)
     np.testing.assert_allclose(_at(q, w=s.imag) * s**r, full, rtol=1e-12)
+
+
+@pytest.mark.parametrize("dob_model", [False, True])
+def test_a_subset_of_keys_and_precomputed_controller_polynomials_change_nothing(dob_model):
+    """``keys`` builds only the terms asked for and ``controller`` reuses controller_polys: the
+    coefficients are bit for bit those of the full call (the plant-uncertainty margin relies on it)."""
+    from exotune.analysis.charfun import KEYS, controller_polys
+    from exotune.model.plant import Plant
+
+    cfg = exotune.load_design("examples/scheduled.yaml")
+    cs = build_controller(cfg.plant, cfg.design, cfg.implementation)[0]
+    plants = Plant(np.array([0.44, 0.3, 0.6]), np.array([17.9, 10.0, 25.0]), np.array([1180.0, 900.0, 1500.0]),
+                   np.array([0.29, 0.2, 0.4]), np.array([300.0, 200.0, 400.0]))
+    kw = {"dob_model": (0.4, 15.0)} if dob_model else {}
+    full = char_terms(plants, cs, 3, **kw)
+    assert KEYS == ("00", "10", "01", "11")
+    for keys in (("00",), ("00", "10"), ("01",), ("11", "01")):
+        part = char_terms(plants, cs, 3, keys=keys, controller=controller_polys(cs, 3), **kw)
+        assert set(part.terms) == set(keys)
+        for key in keys:
+            assert np.array_equal(part.qp(key).p0, full.qp(key).p0)
+            assert np.array_equal(part.qp(key).p1, full.qp(key).p1)
