@@ -30,9 +30,10 @@ q1 = 1/K_c for C7):
    passive; d* > 0 is the admittance the compliance lacks: a damper of damping 1/d* in series with
    the cuff would make it passive (admittances add in series, paper Proposition 2).
 3. Conditioning: the frequency is scaled (s = ω0 ŝ, ω0 the geometric mean of the pole magnitudes),
-   Y_p is realized (``scipy.signal.tf2ss``) and balanced (square-root method from the two
-   Gramians); Hankel singular values below 1e−12 of the largest are truncated and the truncation
-   bound 2 Σ σ_dropped is reported and added to the verdict's tolerance.
+   Y_p is realized (:func:`exotune.numerics.statespace.tf2ss`, scipy's controllable canonical
+   form) and balanced (square-root method from the two Gramians); Hankel singular values below
+   1e−12 of the largest are truncated and the truncation bound 2 Σ σ_dropped is reported and added
+   to the verdict's tolerance.
 4. The returned P is checked independently in numpy: the largest eigenvalue of the LMI matrix at
    (P, d*) relative to its norm is the ``certificate_residual``.
 
@@ -48,6 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..numerics.statespace import tf2ss
 from .kyp_verify import lmi_holds, positive_on_axis
 
 __all__ = ["KypCertificate", "admittance_certificate", "compliance_certificate", "operator_certificates",
@@ -269,8 +271,6 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
     ----------
     Paper §IV-A (passivity of the operator compliance); docs/method.md#passivity-of-the-operator-compliance.
     """
-    import scipy.signal
-
     num, den = _trim(num), _trim(den)
     if not np.any(den):
         raise ValueError("zero denominator")
@@ -311,9 +311,7 @@ def admittance_certificate(num, den, model: str = "", tol: float = TOL) -> KypCe
         return KypCertificate(passive=None, shortage=float("nan"), relative_shortage=float("nan"),
                               reason="Y has poles on the imaginary axis (besides the cancelled rigid-body pole): "
                                      "not decided by this certificate", **base)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", scipy.signal.BadCoefficients)
-        A, B, C, _ = scipy.signal.tf2ss(r, dS[::-1])
+    A, B, C, _ = tf2ss(r, dS[::-1])  # not scipy.signal's: importing it takes a second
     Ab, Bb, Cb, hsv, bound, ill = _balanced(A, B, C)
     if hsv.size == 0:  # Y_p vanishes numerically: Y = q1 s + q0
         return _polynomial_only(q0, tol, "the strictly proper part vanishes numerically", base)

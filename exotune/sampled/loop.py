@@ -33,7 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
+
+from ..numerics.statespace import tf2ss
 
 __all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
            "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "loop_spectra", "tustin", "prewarped",
@@ -205,7 +206,9 @@ def tustin(num_asc, den_asc, Ts: float, prewarp_hz: float | None):
     num, den = prewarped(num, den, Ts, prewarp_hz)
     if den.size == 1:
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[0] / den[0]]])
-    A, B, C, D = scipy.signal.tf2ss(num[::-1], den[::-1])
+    import scipy.signal  # here: importing it costs a second, and a continuous design never needs it
+
+    A, B, C, D = tf2ss(num[::-1], den[::-1])  # scipy.signal.tf2ss's realization (numerics.statespace)
     # the companion realization of a block prewarped near Nyquist is badly scaled (coefficients
     # ~1e10): scipy's solve warns about rcond ~1e-26, yet the discrete response matches
     # H(K (z−1)/(z+1)) to ~1e-11 (tests/test_sampled.py); the warning is noise for the user

@@ -2,7 +2,7 @@
 the prewarped bilinear transform (:func:`tustin_sos`) and the state space of a cascade as the
 runtime runs it (:func:`sos_ss`, direct form II transposed).
 
-One implementation for the exported file (:mod:`exotune.controllerfile`, which re-exports these)
+One implementation for the exported file (:mod:`exotune.controllerfile.sos` re-exports these)
 and the batched sampled-data columns of a sweep (:mod:`exotune.sampled.batch`): the controller a
 sweep judges is the one ``exotune export`` writes, by construction.
 """
@@ -10,7 +10,6 @@ sweep judges is the one ``exotune export`` writes, by construction.
 from __future__ import annotations
 
 import numpy as np
-import scipy.signal
 
 from .loop import prewarped
 
@@ -40,6 +39,8 @@ def tustin_sos(num_asc, den_asc, sample_rate_hz: float, prewarp_hz: float | None
     ValueError
         When the block is improper (numerator of higher degree than the denominator).
     """
+    import scipy.signal  # here: importing it costs a second, and only a design with a sample rate needs it
+
     num = np.trim_zeros(np.atleast_1d(np.asarray(num_asc, dtype=float)), "b")
     den = np.trim_zeros(np.atleast_1d(np.asarray(den_asc, dtype=float)), "b")
     if num.size > den.size:
@@ -101,7 +102,7 @@ def bilinear_batch(num_asc: np.ndarray, den_asc: np.ndarray, sample_rate_hz: flo
     (K,) or None. Returns (b (K, p, m+1), a (K, m+1)), descending powers of z, a[:, 0] = 1.
 
     The same transfer function as :func:`tustin_sos` (s ← c (z−1)/(z+1), c = 2 f_s after the
-    prewarp scaling of :func:`exotune.sampled.prewarped`), by the polynomial substitution
+    prewarp scaling of :func:`exotune.sampled.loop.prewarped`), by the polynomial substitution
     Σ_k x_k c^k (z−1)^k (z+1)^(m−k) instead of zeros and poles (no per-block root finding).
 
     Parameters
