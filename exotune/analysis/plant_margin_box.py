@@ -152,8 +152,10 @@ def strip_rows(P0: np.ndarray, P1: np.ndarray):
 def _horner(c: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Rows of ascending coefficients ``c`` (R, n) evaluated at ``s`` (W,) → (W, R)."""
     out = np.zeros((s.size, c.shape[0]), dtype=complex)
-    for k in range(c.shape[1] - 1, -1, -1):
-        out = out * s[:, None] + c[None, :, k]
+    sc = s[:, None]
+    for k in range(c.shape[1] - 1, -1, -1):  # in place: the same products and sums, no temporaries
+        out *= sc
+        out += c[None, :, k]
     return out
 
 
@@ -315,8 +317,10 @@ def _abs_rows(c: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Σ_k |c_k| w^k per row of ``c`` (R, n) at the points ``w`` (W,) → (W, R)."""
     a = np.abs(c)
     out = np.zeros((w.size, c.shape[0]))
-    for k in range(c.shape[1] - 1, -1, -1):
-        out = out * w[:, None] + a[None, :, k]
+    wc = w[:, None]
+    for k in range(c.shape[1] - 1, -1, -1):  # in place: the same products and sums, no temporaries
+        out *= wc
+        out += a[None, :, k]
     return out
 
 
