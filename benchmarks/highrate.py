@@ -40,7 +40,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import exotune  # noqa: E402
-from exotune.controllerfile import build_export, design_at_rate, discrete_from_file, plant_from_file  # noqa: E402
+from exotune.controllerfile import build_export, design_at_rate  # noqa: E402
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file  # noqa: E402
 from exotune.config import load_design  # noqa: E402
 from exotune.sampled.loop import closed_loop_matrix, plant_ss  # noqa: E402
 from exotune.simulation.scenarios import SCENARIOS  # noqa: E402

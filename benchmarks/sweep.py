@@ -65,7 +65,8 @@ def main() -> None:
     from _percontrol import measure_rate, per_design
     from _percontrol_full import per_design_full
     from exotune.config import batch_config
-    from exotune.sweeps import TqdmProgress, chunk_points, load_results, load_spec, run_sweep
+    from exotune.sweeps import TqdmProgress, load_results, load_spec, run_sweep
+    from exotune.sweeps.plan import chunk_points
 
     n = max(2, math.ceil(args.points ** 0.25))
     spec = {

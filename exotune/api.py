@@ -266,7 +266,7 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     ----------
     docs/sweep-spec.md.
     """
-    from .config import spec_base
+    from .config.yamlio import spec_base
     from .sweeps import run_sweep
 
     check_outputs([spec, spec_base(spec)], out_dirs={"-o": out})
@@ -352,7 +352,7 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     ----------
     docs/optimize-spec.md.
     """
-    from .config import spec_base
+    from .config.yamlio import spec_base
     from .optimization import run_optimize
 
     check_outputs([spec, spec_base(spec)], outputs={"-o": out, "--pareto": pareto_csv})
@@ -723,7 +723,8 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     ('decaying', 8.0)
     """
     from .controllerfile.results import ExportedController
-    from .simulation import at_joint_angle, check_human_inertia, load_for_simulation, run_scenario
+    from .simulation import at_joint_angle, load_for_simulation, run_scenario
+    from .simulation.load import check_human_inertia
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()

@@ -8,7 +8,7 @@ draws, ``plot(ax=None)``. The text and plot views import their layers only when 
 
 Two kinds of result share this base:
 
-- a result built from typed fields (:class:`exotune.analysis.DesignAnalysis` and its parts)
+- a result built from typed fields (:class:`exotune.analysis.results.DesignAnalysis` and its parts)
   assembles ``to_dict`` from those fields;
 - a :class:`Record` is a document that is itself the product — a controller file, a sweep
   manifest, a certificate, an optimization or simulation report — and keeps it whole next to the

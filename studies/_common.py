@@ -30,7 +30,8 @@ import numpy as np  # noqa: E402
 
 from exotune.jsonio import write_atomic  # noqa: E402
 from exotune.plots.sweep_report import make_report  # noqa: E402
-from exotune.sweeps import TqdmProgress, load_manifest, load_results, run_sweep, value_runs  # noqa: E402
+from exotune.sweeps import TqdmProgress, load_manifest, load_results, run_sweep  # noqa: E402
+from exotune.sweeps.summary import value_runs  # noqa: E402
 
 
 def parse_args(name: str, doc: str):

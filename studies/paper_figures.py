@@ -36,7 +36,10 @@ import matplotlib  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
-from exotune.analysis import amplification, char_terms, dob_margins, free_stability  # noqa: E402
+from exotune.analysis.amplification_ratio import amplification  # noqa: E402
+from exotune.analysis.charfun import char_terms  # noqa: E402
+from exotune.analysis.counting import free_stability  # noqa: E402
+from exotune.analysis.dob import dob_margins  # noqa: E402
 from exotune.analysis.plot_data import dob_loop, phase_deg  # noqa: E402
 from exotune.analysis.responses import c7_frequency_response  # noqa: E402
 from exotune.api import analyze, design, load_design, simulate  # noqa: E402
@@ -261,7 +264,7 @@ gives no numbers for Q or T in the text.
 
 **What exotune gets.** The same three lines (`exotune.analysis.plot_data.dob_loop`) for the
 example design's Q (second order, 60 Hz, ζ = 0.7, T = 1 ms — the tuning in examples/paper.yaml)
-and for two bad tunings the paper warns about; margins from `exotune.analysis.dob_margins`
+and for two bad tunings the paper warns about; margins from `exotune.analysis.dob.dob_margins`
 (exact gain crossover, delay margin = min PM/ω_c):
 
 | Q filter | DOB loop stable | gain crossover [Hz] | phase margin [deg] | gain margin [dB] | delay margin [ms] | peak \\|L/(1+L)\\| |
@@ -397,7 +400,7 @@ number of 1 + (α−1)F e^{{−jωT}}:
 
 Right: exotune's analysis of the paper design, the operator compliance C7 with the implemented
 filters, DOB and exact delay (`exotune.analysis.responses.c7_frequency_response`), at the design
-delay and at 5 ms; verdicts from `exotune.analysis.amplification` and `free_stability`:
+delay and at 5 ms; verdicts from `exotune.analysis.amplification_ratio.amplification` and `free_stability`:
 
 | delay T [ms] | free exoskeleton stable | output-locked stable | C6/C5 minimum phase | amplification bandwidth [Hz] |
 |---|---|---|---|---|

@@ -26,7 +26,8 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from exotune.optimization import evaluate, load_optimize_spec, optimize  # noqa: E402
+from exotune.optimization import load_optimize_spec, optimize  # noqa: E402
+from exotune.optimization.evaluate import evaluate  # noqa: E402
 from exotune.optimization.sampled import verdicts_at  # noqa: E402
 from exotune.starter import template_text  # noqa: E402
 

@@ -56,6 +56,26 @@ def test_public_names_and_cheap_import():
     assert out.strip() == "[]"
 
 
+HEAVY = ("scipy.signal", "control", "matplotlib", "pyarrow", "pandas", "exotune.sampled", "exotune.controllerfile.ccode",
+         "exotune.controllerfile.ccode32", "exotune.controllerfile.cgolden", "exotune.controllerfile.cgolden32",
+         "exotune.controllerfile.cstep")
+
+
+@pytest.mark.parametrize("fn, also", [("analyze", ()), ("design", ("cvxpy",))])
+def test_a_continuous_design_imports_nothing_heavy(fn, also):
+    """``exotune analyze`` and ``exotune design`` of a design without a sample rate (issue 24):
+    no scipy.signal (a second to import: tf2ss is exotune.numerics.statespace's), python-control,
+    matplotlib, pyarrow/pandas, sampled-data model or C code generator (the package namespaces
+    are lazy: exotune.controllerfile.verdicts used to import them all). cvxpy solves the KYP
+    certificates of analyze; design does not import it."""
+    heavy = HEAVY + also
+    code = (f"import json, sys, exotune.api; exotune.api.{fn}('examples/paper.yaml'); "
+            f"print(json.dumps(sorted(m for m in sys.modules if m.startswith({tuple(h + '.' for h in heavy)!r}) "
+            f"or m in {heavy!r})))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
+    assert json.loads(out) == []
+
+
 def test_load_design_accepts_path_mapping_and_object():
     import yaml
 

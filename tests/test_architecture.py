@@ -2,7 +2,9 @@
 print in the library (docs/architecture.md).
 
 Every ``import``/``from … import`` statement of every module under ``exotune/`` is parsed with
-:mod:`ast` (function-level imports included, since a lazy import is still a dependency).
+:mod:`ast` (function-level imports included, since a lazy import is still a dependency), and so is
+the lazy table of every package ``__init__`` (``attach(__name__, {name: submodule})``,
+:mod:`exotune.lazy`): each entry is an edge from the package to the submodule that defines the name.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ PKG = Path(__file__).resolve().parent.parent / "exotune"
 
 # Lower layers never import higher ones; a layer may import its own package and any lower layer.
 LAYERS = [
-    {"version", "errors"},
+    {"version", "errors", "lazy"},
     {"jsonio", "units", "starter", "options"},  # may raise errors.ConfigError (jsonio.write_files)
     {"record"},  # the base of the typed results (to_json uses jsonio)
     {"numerics"},
@@ -84,6 +86,24 @@ def _resolve(mod: str, node: ast.ImportFrom) -> list[tuple[str, str | None]]:
     return out
 
 
+def _is_attach(node) -> bool:
+    """A package's lazy table: ``attach(__name__, {"name": "submodule", …})`` (exotune.lazy)."""
+    return (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "attach"
+            and len(node.args) == 2 and isinstance(node.args[1], ast.Dict))
+
+
+def lazy_tables() -> dict[str, dict[str, str]]:
+    """Package → its lazy table {public name: submodule}, read from the ``__init__`` sources."""
+    out = {}
+    for mod, path in MODULES.items():
+        if mod.endswith(".__init__"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if _is_attach(node):
+                    out[mod.removesuffix(".__init__")] = {k.value: v.value for k, v in zip(node.args[1].keys,
+                                                                                          node.args[1].values)}
+    return out
+
+
 VIEW_METHODS = {"plot", "to_text", "__str__", "summary"}  # a result's views: late-bound, see test_imports_point_downward
 
 
@@ -108,6 +128,11 @@ def _edges():
             if isinstance(node, ast.ImportFrom):
                 for tgt, name in _resolve(mod, node):
                     edges.append((mod, tgt, name, node.lineno, func_of(node)))
+            elif mod.endswith(".__init__") and _is_attach(node):
+                pkg = mod.removesuffix(".__init__")
+                for key, value in zip(node.args[1].keys, node.args[1].values):
+                    sub = f"{pkg}.{value.value}"
+                    edges.append((mod, sub if sub in MODULES else sub + ".__init__", key.value, node.lineno, None))
             elif isinstance(node, ast.Import):
                 for a in node.names:
                     if a.name.startswith("exotune."):
@@ -141,6 +166,32 @@ def test_imports_point_downward():
             continue
         if LEVEL[b] > LEVEL[a] or (LEVEL[b] == LEVEL[a] and a != b):
             bad.append(f"{src}:{line} imports {tgt} ({a} → {b})")
+    assert not bad, "\n".join(bad)
+
+
+# Package namespaces (docs/architecture.md#public-names): every package __init__ is its lazy table
+# of public names (exotune.lazy.attach) and imports nothing else, so that importing a package or a
+# submodule never imports the sibling submodules. The exception: the compiled kernels' namespace,
+# imported whole by the modules that run them.
+EAGER_PACKAGES = {"numerics.kernels"}
+
+
+def test_package_inits_are_lazy_tables():
+    tables = lazy_tables()
+    bad = []
+    for mod, path in MODULES.items():
+        pkg = mod.removesuffix(".__init__")
+        if not mod.endswith(".__init__") or pkg in EAGER_PACKAGES:
+            continue
+        if pkg not in tables:
+            bad.append(f"{pkg}: no attach(__name__, {{name: submodule}}) table")
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import) or (isinstance(node, ast.ImportFrom) and not (
+                    node.module == "lazy" and node.level == pkg.count(".") + 2 or node.module == "__future__")):
+                bad.append(f"{pkg}:{node.lineno} imports at import time (list the name in the lazy table)")
+        for name, sub in tables.get(pkg, {}).items():
+            if f"{pkg}.{sub}" not in MODULES:
+                bad.append(f"{pkg}: {name} from the missing submodule {sub}")
     assert not bad, "\n".join(bad)
 
 

@@ -39,7 +39,8 @@ from hypothesis import strategies as st
 import exotune.controllerfile.export as export_mod
 from exotune.cli import cli
 from exotune.errors import ConfigError
-from exotune.controllerfile import json_schema, schema_path, sos_ss, tustin_sos, validate_controller
+from exotune.controllerfile import json_schema, schema_path, tustin_sos, validate_controller
+from exotune.controllerfile.sos import sos_ss
 from exotune.controllerfile.runtime import SosFilter
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -20,7 +20,7 @@ import yaml
 from click.testing import CliRunner
 
 from exotune.cli import cli
-from exotune.config import MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES
+from exotune.config.yamlio import MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"

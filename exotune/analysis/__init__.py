@@ -18,72 +18,33 @@ The modules, lowest first (each imports only the ones above it):
 ``design``              the single-design report (``exotune analyze``), with its margins
 ``design_summary``      the numbers of ``exotune design`` (nominal transfer functions as ``numerics.poly.Rational``)
 ``crosscheck``          an independent root search (Padé + Newton) on the verdicts
+
+The package exports (lazily) the drivers that take a design and their typed results; the building
+blocks (``char_terms``, ``RootCounter``, ``family_intervals``, …) are imported from their modules
+(docs/architecture.md#public-names).
 """
 
-from .amplification_ratio import amplification
-from .batch import GAIN_NAMES, analyze_batch
-from .batch_result import BatchAnalysis
-from .charfun import CharTerms, amplification_qps, char_terms, strip_qps, trim_poly
-from .counting import RootCounter, coupled_stable, free_stability, rhp_count
-from .crosscheck import pade_crosscheck, pade_stable
-from .design import METRIC_UNITS, VERIFY_POINTS, analyze_design, analyze_with_margins, kyp_certificates
-from .design_summary import design_report
-from .dob import dob_margins
-from .intervals import MAX_FAMILY_PIECES, family_intervals
-from .latency_margin import LatencyMargin, LoopMargin, latency_margin
-from .plant_margin import LoopPlantMargin, PlantMargin, PlantWitness, plant_loops, plant_uncertainty_margin
-from .kyp import (
-    KypCertificate,
-    admittance_certificate,
-    certificates_dict,
-    compliance_certificate,
-    nominal_shortage,
-    operator_certificates,
-)
-from .operator_passivity import BAND_MIN_EXCESS_DEG, c7_response, passivity
-from .sea import sea_report
+from ..lazy import attach
 
-__all__ = [
-    "LoopPlantMargin",
-    "PlantMargin",
-    "PlantWitness",
-    "plant_loops",
-    "plant_uncertainty_margin",
-    "LatencyMargin",
-    "LoopMargin",
-    "analyze_with_margins",
-    "latency_margin",
-    "CharTerms",
-    "char_terms",
-    "amplification_qps",
-    "trim_poly",
-    "strip_qps",
-    "RootCounter",
-    "rhp_count",
-    "free_stability",
-    "coupled_stable",
-    "family_intervals",
-    "MAX_FAMILY_PIECES",
-    "passivity",
-    "c7_response",
-    "BAND_MIN_EXCESS_DEG",
-    "dob_margins",
-    "amplification",
-    "analyze_batch",
-    "BatchAnalysis",
-    "GAIN_NAMES",
-    "analyze_design",
-    "kyp_certificates",
-    "METRIC_UNITS",
-    "VERIFY_POINTS",
-    "KypCertificate",
-    "admittance_certificate",
-    "certificates_dict",
-    "compliance_certificate",
-    "operator_certificates",
-    "nominal_shortage",
-    "pade_crosscheck",
-    "pade_stable",
-    "design_report",
-    "sea_report",
-]
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        "analyze_design": "design",
+        "analyze_with_margins": "design",
+        "kyp_certificates": "design",
+        "analyze_batch": "batch",
+        "BatchAnalysis": "batch_result",
+        "GAIN_NAMES": "batch_result",
+        "LatencyMargin": "latency_margin",
+        "LoopMargin": "latency_margin",
+        "plant_uncertainty_margin": "plant_margin",
+        "PlantMargin": "plant_margin",
+        "PlantWitness": "plant_margin",
+        "LoopPlantMargin": "plant_margin",
+        "operator_certificates": "kyp",
+        "KypCertificate": "kyp",
+        "pade_crosscheck": "crosscheck",
+        "design_report": "design_summary",
+        "sea_report": "sea",
+    },
+)

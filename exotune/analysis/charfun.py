@@ -11,8 +11,8 @@ and the DOB enter through the single delayed actuator path). :func:`char_terms` 
 coefficient arrays for a batch of designs, in "grounded" form so that the rigid-body root at
 s = 0 of the free exoskeleton (K1 = 0) is an *exact* zero coefficient that is divided out
 structurally — never a rounding decision. C7(jω) = Δ10/Δ00 is the operator-side compliance
-(:mod:`exotune.analysis.passivity`); :func:`amplification_qps` gives the output-locked ratio C6/C5
-(paper §II-D), with the DOB-modified delay.
+(:func:`exotune.analysis.operator_passivity.passivity`); :func:`amplification_qps` gives the
+output-locked ratio C6/C5 (paper §II-D), with the DOB-modified delay.
 
 References
 ----------

@@ -119,7 +119,7 @@ def _sampled_check(cfg, res: BatchAnalysis, humans, env, warnings: list):
 def _analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
     from ..model.shaping import double_compliance_shaping
 
-    from ..config import check_analysis_filters
+    from ..config.validate import check_analysis_filters
 
     check_analysis_filters(cfg.implementation)
     res = analyze_batch(cfg, verify=VERIFY_POINTS)

@@ -124,7 +124,7 @@ def _all_ok(res, t: int) -> bool:
 
 
 def _analyze_delays(cfg, delays):
-    from ..config import batch_config, continuous
+    from ..config.batch import batch_config, continuous
     from .batch import analyze_batch
 
     # the continuous analysis: probing delays may exceed the sampled model's delay-state limit

@@ -7,50 +7,32 @@ sections (:mod:`.sos`), building it from a design (:mod:`.export`), the referenc
 (The function ``certify`` is not re-exported here: ``exotune.controllerfile.certify`` is the
 module.)"""
 
-from .ccode import c_sources, write_c_sources
-from .certify import position_feedback, sampled_analysis
-from .continuation import stable_intervals
-from .checks import MIN_GOLDEN_SAMPLES, check_controller_file
-from .export import build_export, check_sample_rate, design_at_rate, export_design, reflected_mapping
-from .fileio import (checked_controller, checked_controller_file, discrete_from_file, load_controller, load_controller_file,
-                     plant_from_file, schedule_entry_doc, write_controller)
-from .model import ControllerFile, as_controller_file
-from .runtime import Runtime, SosFilter
-from .schema import SCHEMA_VERSION, SIGNAL_UNITS, ControllerSchema, json_schema, schema_path, validate_controller, write_schema
-from .sos import sos_ss, tustin_sos
+from ..lazy import attach
 
-__all__ = [
-    "c_sources",
-    "write_c_sources",
-    "SCHEMA_VERSION",
-    "SIGNAL_UNITS",
-    "ControllerFile",
-    "as_controller_file",
-    "ControllerSchema",
-    "validate_controller",
-    "json_schema",
-    "write_schema",
-    "schema_path",
-    "check_controller_file",
-    "MIN_GOLDEN_SAMPLES",
-    "tustin_sos",
-    "sos_ss",
-    "load_controller",
-    "load_controller_file",
-    "checked_controller",
-    "checked_controller_file",
-    "write_controller",
-    "discrete_from_file",
-    "plant_from_file",
-    "schedule_entry_doc",
-    "build_export",
-    "export_design",
-    "design_at_rate",
-    "check_sample_rate",
-    "reflected_mapping",
-    "sampled_analysis",
-    "stable_intervals",
-    "position_feedback",
-    "Runtime",
-    "SosFilter",
-]
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        "SCHEMA_VERSION": "schema",
+        "ControllerSchema": "schema",
+        "validate_controller": "schema",
+        "json_schema": "schema",
+        "write_schema": "schema",
+        "schema_path": "schema",
+        "ControllerFile": "model",
+        "as_controller_file": "model",
+        "check_controller_file": "checks",
+        "load_controller": "fileio",
+        "load_controller_file": "fileio",
+        "checked_controller": "fileio",
+        "checked_controller_file": "fileio",
+        "write_controller": "fileio",
+        "tustin_sos": "sos",
+        "build_export": "export",
+        "export_design": "export",
+        "design_at_rate": "export",
+        "Runtime": "runtime",
+        "SosFilter": "runtime",
+        "c_sources": "ccode",
+        "write_c_sources": "ccode",
+    },
+)

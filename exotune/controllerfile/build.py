@@ -15,7 +15,8 @@ import math
 
 import numpy as np
 
-from ..sampled import Measured, controller_blocks, default_prewarp
+from ..sampled import Measured, controller_blocks
+from ..sampled.loop import default_prewarp
 from .model import Controller, ControllerFile, as_controller_file
 from .schema import GAIN_UNITS, SIGNAL_UNITS, SIX_GAIN_UNITS
 from .sos import tustin_sos

@@ -67,7 +67,7 @@ def check_controller_file(doc) -> None:
     exotune.errors.ConfigError
         At the first problem, naming its field.
     """
-    from ..config import check_delay_samples
+    from ..config.validate import check_delay_samples
 
     cf = as_controller_file(doc)
     fs, T = cf.sample_rate_hz, cf.delay_s

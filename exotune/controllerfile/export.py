@@ -11,7 +11,7 @@ with every filter a cascade of second-order sections in scipy's ``sos`` conventi
 affine in its input, y = g·x + h (g = Π b0 of its sections, h its output for x = 0), so the runtime
 solves τ_cmd = (rest + h)/(1 − g) and then advances the cascade with x = τ_cmd
 (:mod:`exotune.runtime`). The blocks are those of :func:`exotune.sampled.controller_blocks`, each
-discretized by the bilinear transform prewarped at its cutoff (:func:`exotune.sampled.default_prewarp`),
+discretized by the bilinear transform prewarped at its cutoff (:func:`exotune.sampled.loop.default_prewarp`),
 here through zeros/poles (``scipy.signal.bilinear_zpk`` → ``zpk2sos``); the analysis side
 (:func:`exotune.sampled.discretize`) goes through state space, and the tests check that both agree.
 
@@ -138,8 +138,9 @@ def _predicted(cfg) -> dict:
 
 
 def predicted_latency_margin(cfg) -> dict:
-    """The continuous latency margin of the design as exported (:func:`exotune.analysis.latency_margin`,
-    exact delay, at the export rate for the sample count), for ``predicted.latency_margin``.
+    """The continuous latency margin of the design as exported
+    (:func:`exotune.analysis.latency_margin.latency_margin`, exact delay, at the export rate for the
+    sample count), for ``predicted.latency_margin``.
 
     Parameters
     ----------
@@ -156,7 +157,7 @@ def predicted_latency_margin(cfg) -> dict:
     ----------
     docs/method.md#latency-margin; docs/controller-file.md#latency-margin.
     """
-    from ..analysis import latency_margin
+    from ..analysis.latency_margin import latency_margin
 
     return latency_hint(latency_margin(cfg))
 

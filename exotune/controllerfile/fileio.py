@@ -123,7 +123,7 @@ def checked_controller_file(doc, source: str = "<mapping>") -> ControllerFile:
     exotune.errors.ConfigError
         As :func:`checked_controller`.
     """
-    from ..config import refuse_other_kind
+    from ..config.design import refuse_other_kind
     from .precision import precision_of
 
     refuse_other_kind(doc, "controller", source)
@@ -154,7 +154,8 @@ def check_file_limits(doc: dict) -> None:
     ----------
     docs/design-file.md#input-limits-and-accepted-ranges.
     """
-    from ..config import OVERRIDE_LIMITS, check_limit
+    from ..config.batch import OVERRIDE_LIMITS
+    from ..config.validate import check_limit
     from ..errors import ConfigError
 
     cf = as_controller_file(doc)

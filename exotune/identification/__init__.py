@@ -12,12 +12,23 @@ numerically.
 ``excite``    the excitation command for the rig (Schroeder-phased multisine, ``exotune excite``)
 """
 
-from .data import COLUMNS, MeasuredLog, log_from_columns, read_log
-from .estimate import identify_file, identify_plant
-from .excite import Excitation, schroeder_multisine, write_excitation
-from .result import ParameterEstimate, PlantEstimate
-from .validate import validate_plant
-from .validresult import Validation
+from ..lazy import attach
 
-__all__ = ["COLUMNS", "MeasuredLog", "read_log", "log_from_columns", "identify_plant", "identify_file", "ParameterEstimate", "PlantEstimate", "validate_plant", "Validation",
-           "Excitation", "schroeder_multisine", "write_excitation"]
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        "COLUMNS": "data",
+        "MeasuredLog": "data",
+        "read_log": "data",
+        "log_from_columns": "data",
+        "identify_plant": "estimate",
+        "identify_file": "estimate",
+        "ParameterEstimate": "result",
+        "PlantEstimate": "result",
+        "validate_plant": "validate",
+        "Validation": "validresult",
+        "Excitation": "excite",
+        "schroeder_multisine": "excite",
+        "write_excitation": "excite",
+    },
+)

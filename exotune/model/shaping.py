@@ -372,7 +372,7 @@ def table_ii(plant: Plant, design: DesignParams, delay_s: float = 0.0) -> dict:
     """Paper Table II (S1…S7 and Ŝ5) for a double-compliance-shaping design with the *nominal*
     (unfiltered) cuff path G_c = G_v (K̂2 + B̂2 s) and the exact delay e^{−sT} in H1.
 
-    Returns the :class:`~exotune.model.CompliancePair` of each system, evaluable at any array of
+    Returns the :class:`~exotune.model.plant.CompliancePair` of each system, evaluable at any array of
     complex s. (The implemented, filtered controller is analysed by :mod:`exotune.analysis`.)
     """
     from .plant import Tf, seven_systems

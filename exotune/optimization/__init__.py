@@ -70,11 +70,17 @@ References
 docs/optimize-spec.md; paper §IV (coupled stability with the human), §IV-A (passivity), §II-D (amplification).
 """
 
-from .evaluate import evaluate
-from .peak import amplification_peak
-from .runner import run_optimize
-from .search import optimize
-from .spec import CONSTRAINTS, OBJECTIVES, OptimizeSpec, load_optimize_spec, optimized_design_mapping
+from ..lazy import attach
 
-__all__ = ["OBJECTIVES", "CONSTRAINTS", "OptimizeSpec", "load_optimize_spec", "evaluate", "optimize",
-           "run_optimize", "optimized_design_mapping", "amplification_peak"]
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        "OBJECTIVES": "spec",
+        "CONSTRAINTS": "spec",
+        "OptimizeSpec": "spec",
+        "load_optimize_spec": "spec",
+        "optimize": "search",
+        "run_optimize": "runner",
+        "optimized_design_mapping": "spec",
+    },
+)

@@ -136,7 +136,7 @@ def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tupl
         The batch analysis of the n·L designs.
     """
     from ..analysis import analyze_batch
-    from ..config import batch_config, continuous
+    from ..config.batch import batch_config, continuous
 
     X = np.atleast_2d(X)
     extra = np.asarray(extra, float).reshape(X.shape[0], -1)
@@ -305,9 +305,9 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
 
 
 def _nominal_shortage(c, n):
-    """Closed-form nominal passivity shortage of a batch (:func:`exotune.analysis.nominal_shortage`)
+    """Closed-form nominal passivity shortage of a batch (:func:`exotune.analysis.kyp.nominal_shortage`)
     and its normalization B̂_m/(Ĵ_m K_c) (the shortage when ζ̂ = 0)."""
-    from ..analysis import nominal_shortage
+    from ..analysis.kyp import nominal_shortage
 
     d, pl = c.design, c.plant
     short = nominal_shortage(d.amplification, d.felt_inertia, d.felt_damping, pl.K_c, d.zeta_hat)

@@ -70,7 +70,7 @@ def amplification_peak(cfg) -> tuple[np.ndarray, np.ndarray]:
     ----------
     Paper §II-D; docs/method.md#amplification.
     """
-    from ..analysis import amplification_qps
+    from ..analysis.charfun import amplification_qps
     from ..model.controller import build_controller
     from ..numerics.quasipoly import omega_max
 

@@ -259,7 +259,8 @@ def _infeasible(ar: Archive, spec: OptimizeSpec) -> dict:
 
 
 def _certificates(spec, out) -> None:
-    from ..analysis import certificates_dict, kyp_certificates
+    from ..analysis import kyp_certificates
+    from ..analysis.kyp import certificates_dict
     from ..config import design_from_mapping
 
     opt_cfg = design_from_mapping(optimized_design_mapping(spec, out))

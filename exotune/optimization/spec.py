@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import number_field
+from ..config.validate import number_field
 from ..errors import ConfigError
 
 __all__ = ["OBJECTIVES", "CONSTRAINTS", "DEFAULT_LATENCY_MARGIN_S", "LATENCY_CHECKS", "OptimizeSpec",
@@ -217,7 +217,7 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     ----------
     docs/optimize-spec.md; paper §IV (coupled stability).
     """
-    from ..sweeps import load_base
+    from ..sweeps.spec import load_base
 
     mapping, root, source = _read(spec)
     cfg, _ = load_base(mapping["base"], root)

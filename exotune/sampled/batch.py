@@ -3,7 +3,7 @@ docs/sweep-spec.md#sampled-data-columns).
 
 Per design, the controller is the one ``exotune export`` writes: the blocks of
 :func:`exotune.sampled.controller_blocks`, each discretized to second-order sections by
-:func:`exotune.sampled.sos.tustin_sos` (prewarped at :func:`exotune.sampled.default_prewarp`) and
+:func:`exotune.sampled.sos.tustin_sos` (prewarped at :func:`exotune.sampled.loop.default_prewarp`) and
 realized by :func:`exotune.sampled.sos.sos_ss`, assembled by :func:`exotune.sampled.assemble` —
 the very functions behind ``controller_section`` and ``discrete_from_file``, so the state space is
 bit for bit the one ``certify`` rebuilds from the exported file. The plant (+ human, + environment)
@@ -347,7 +347,7 @@ class BatchLoops:
         return A, B, C
 
     def zoh(self, A: np.ndarray, B: np.ndarray, f: np.ndarray):
-        """Stacks (Φ, Γ0, Γ1) of :func:`exotune.sampled.zoh_fractional` (fractions ``f`` per job)."""
+        """Stacks (Φ, Γ0, Γ1) of :func:`exotune.sampled.loop.zoh_fractional` (fractions ``f`` per job)."""
         k, n = B.shape
         M = np.zeros((k, n + 1, n + 1))
         M[:, :n, :n] = A
@@ -455,7 +455,7 @@ def _pad(k: int) -> np.ndarray:
 
 
 def _rounding_verdict(M: np.ndarray, lam: np.ndarray) -> np.ndarray:
-    """:func:`exotune.sampled.spectral_verdict` is True, on a stack (eigenvalues ``lam``, the
+    """:func:`exotune.sampled.loop.spectral_verdict` is True, on a stack (eigenvalues ``lam``, the
     rigid-body one already set to 0): every |λ| plus its rounding estimate (ten times its largest
     move under ``ROUNDING_TRIALS`` relative 8ε perturbations of the entries, the same
     pseudo-random ones as certify's; at least 4Nε) below 1."""

@@ -7,13 +7,19 @@ linearized sampled-data loop's spectral radius beside it (:mod:`.verdict`); the 
 (:mod:`.scenarios`) each measure what they name (:mod:`.report`).
 """
 
-from .engine import STARTS, bumpless_start, simulate
-from .load import at_joint_angle, check_consistent, check_human_inertia, load_for_simulation
-from .plant import MIN_HUMAN_INERTIA, JointPlant
-from .report import dob_estimate, run_scenario, summarize
-from .scenarios import SCENARIOS, Nonlinearities, Scenario, deadzone
-from .verdict import MARGINAL_TOL, classify, envelope_growth, loop_spectral_radius
+from ..lazy import attach
 
-__all__ = ["Nonlinearities", "Scenario", "SCENARIOS", "deadzone", "simulate", "run_scenario", "summarize",
-           "bumpless_start", "STARTS", "JointPlant", "load_for_simulation", "at_joint_angle", "check_consistent", "MARGINAL_TOL",
-           "classify", "envelope_growth", "loop_spectral_radius", "dob_estimate", "check_human_inertia", "MIN_HUMAN_INERTIA"]
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        "simulate": "engine",
+        "run_scenario": "report",
+        "Scenario": "scenarios",
+        "SCENARIOS": "scenarios",
+        "Nonlinearities": "scenarios",
+        "STARTS": "engine",
+        "JointPlant": "plant",
+        "load_for_simulation": "load",
+        "at_joint_angle": "load",
+    },
+)

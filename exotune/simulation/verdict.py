@@ -23,7 +23,9 @@ import math
 
 import numpy as np
 
-from ..controllerfile import ControllerFile, as_controller_file, discrete_from_file, plant_from_file, position_feedback
+from ..controllerfile import ControllerFile, as_controller_file
+from ..controllerfile.certify import position_feedback
+from ..controllerfile.fileio import discrete_from_file, plant_from_file
 from ..sampled import loop_eigenvalues
 
 __all__ = ["MARGINAL_TOL", "FIT_FRACTION", "FLOOR", "envelope_growth", "classify", "loop_spectral_radius",

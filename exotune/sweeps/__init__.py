@@ -111,49 +111,24 @@ the report itself are views: :mod:`exotune.plots.sweep` (heatmaps, profiles) and
 :func:`exotune.plots.sweep_report.make_report` (``exotune report``, :func:`exotune.report`).
 """
 
-from .compute import chunk_task, compute_table
-from .manifest import engine_hash, load_manifest
-from .metrics import AXIS_UNITS, derived_metrics, interval_ends, robust_mask
-from .plan import SweepPlan, chunk_points
-from .progress import LineProgress, SweepProgress, TqdmProgress
-from .result import SweepReport, SweepResult
-from .run import SweepError, run_sweep
-from .spec import DEFAULT_CHUNK_SIZE, load_base, load_spec
-from .dataset import load_results, read_tables, verified_manifest
-from .integrity import scan_chunks, sha256_file
-from .backends import check_dask_address
-from .store import nested_float_lists, np_arrow
-from .summary import display_path, value_runs
+from ..lazy import attach
 
-__all__ = [
-    "run_sweep",
-    "SweepResult",
-    "SweepReport",
-    "SweepError",
-    "SweepProgress",
-    "TqdmProgress",
-    "LineProgress",
-    "load_spec",
-    "load_base",
-    "SweepPlan",
-    "chunk_points",
-    "DEFAULT_CHUNK_SIZE",
-    "load_manifest",
-    "load_results",
-    "read_tables",
-    "verified_manifest",
-    "scan_chunks",
-    "sha256_file",
-    "check_dask_address",
-    "engine_hash",
-    "compute_table",
-    "chunk_task",
-    "np_arrow",
-    "nested_float_lists",
-    "derived_metrics",
-    "robust_mask",
-    "interval_ends",
-    "value_runs",
-    "display_path",
-    "AXIS_UNITS",
-]
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        "run_sweep": "run",
+        "SweepResult": "result",
+        "SweepReport": "result",
+        "SweepError": "run",
+        "SweepProgress": "progress",
+        "TqdmProgress": "progress",
+        "LineProgress": "progress",
+        "load_spec": "spec",
+        "SweepPlan": "plan",
+        "DEFAULT_CHUNK_SIZE": "spec",
+        "load_manifest": "manifest",
+        "load_results": "dataset",
+        "robust_mask": "metrics",
+        "derived_metrics": "metrics",
+    },
+)

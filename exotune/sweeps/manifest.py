@@ -12,7 +12,7 @@ import datetime as _dt
 import os
 
 from ..version import __version__
-from ..config import hash_mapping
+from ..config.design import hash_mapping
 from ..errors import ConfigError
 from ..jsonio import to_jsonable, write_atomic
 from .plan import SweepPlan
@@ -58,7 +58,7 @@ def load_manifest(out_dir) -> dict:
     exotune.errors.ConfigError
         When the directory holds no readable, intact manifest of a sweep.
     """
-    from ..config import read_json_guarded
+    from ..config.yamlio import read_json_guarded
 
     path = os.path.join(os.fspath(out_dir), MANIFEST)
     if os.path.islink(path):

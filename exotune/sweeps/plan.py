@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..config import design_from_mapping, hash_mapping
+from ..config import design_from_mapping
+from ..config.design import hash_mapping
 
 __all__ = ["SweepPlan", "chunk_points"]
 

@@ -12,7 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from ..config import batch_config, check_analysis_filters, design_from_mapping, number_field, read_yaml
+from ..config import batch_config, design_from_mapping, read_yaml
+from ..config.validate import check_analysis_filters, number_field
 from ..errors import ConfigError
 from .plan import SweepPlan
 

@@ -16,7 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 import pytest
 
-from exotune.analysis import char_terms, coupled_stable
+from exotune.analysis.charfun import char_terms
+from exotune.analysis.counting import coupled_stable
 from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
 from exotune.model.plant import Plant
 from exotune.model.shaping import DesignParams

@@ -29,15 +29,11 @@ from hypothesis import strategies as st
 from numpy.polynomial import polynomial as P
 from scipy.optimize import brentq
 
-from exotune.analysis import (
-    amplification,
-    amplification_qps,
-    analyze_batch,
-    analyze_design,
-    c7_response,
-    char_terms,
-    dob_margins,
-)
+from exotune.analysis import analyze_batch, analyze_design
+from exotune.analysis.amplification_ratio import amplification
+from exotune.analysis.charfun import amplification_qps, char_terms
+from exotune.analysis.operator_passivity import c7_response
+from exotune.analysis.dob import dob_margins
 from exotune.config import batch_config, design_from_mapping, load_design, read_yaml
 from exotune.model.controller import FirstOrderFilter, Implementation, SecondOrderFilter, build_controller
 from exotune.model.plant import Plant, Tf, seven_systems

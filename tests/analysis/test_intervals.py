@@ -8,7 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from exotune.analysis import analyze_batch, char_terms, coupled_stable
+from exotune.analysis import analyze_batch
+from exotune.analysis.charfun import char_terms
+from exotune.analysis.counting import coupled_stable
 from exotune.config import batch_config, load_design
 from exotune.model.controller import build_controller
 from exotune.model.humans import EnvModel, HumanFamily

@@ -14,10 +14,12 @@ import sympy as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from exotune.analysis import analyze_batch, analyze_design, char_terms
+from exotune.analysis import analyze_batch, analyze_design
+from exotune.analysis.charfun import char_terms
 from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.model.controller import build_controller
-from exotune.analysis import admittance_certificate, compliance_certificate, nominal_shortage, operator_certificates
+from exotune.analysis import operator_certificates
+from exotune.analysis.kyp import admittance_certificate, compliance_certificate, nominal_shortage
 from exotune.numerics.poly import padd
 from exotune.model.shaping import double_compliance_shaping
 

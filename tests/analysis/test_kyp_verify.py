@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import exotune.analysis.kyp as kyp
-from exotune.analysis import admittance_certificate, operator_certificates
+from exotune.analysis import operator_certificates
+from exotune.analysis.kyp import admittance_certificate
 from exotune.analysis.kyp_verify import lmi_holds, positive_on_axis
 from exotune.config import load_design
 

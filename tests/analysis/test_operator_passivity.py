@@ -2,7 +2,7 @@
 §IV-A), checked independently:
 
 1. C7 from the characteristic function (Δ10/Δ00) against C7 built by the paper's system algebra
-   (Table II: Propositions 1–4 composed as exact frequency responses, exotune.model.seven_systems)
+   (Table II: Propositions 1–4 composed as exact frequency responses, exotune.model.plant.seven_systems)
    from the implemented controller blocks, for designs without DOB (where both describe the same
    loop);
 2. the maximum phase excess and the non-passive bands against a dense frequency sweep of that C7;
@@ -20,7 +20,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exotune.analysis import analyze_batch, c7_response, char_terms
+from exotune.analysis import analyze_batch
+from exotune.analysis.operator_passivity import c7_response
+from exotune.analysis.charfun import char_terms
 from exotune.config import load_design
 from exotune.config.yamlio import read_yaml
 from exotune.model.controller import build_controller

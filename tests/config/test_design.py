@@ -21,11 +21,11 @@ from exotune.config import (
     DesignConfig,
     batch_config,
     design_from_mapping,
-    hash_mapping,
     load_design,
     load_sea,
     sea_from_mapping,
 )
+from exotune.config.design import hash_mapping
 from exotune.errors import ConfigError
 from exotune.model.humans import EnvModel, HumanFamily
 from exotune.jsonio import to_jsonable, write_atomic
@@ -658,7 +658,8 @@ def test_alias_bomb_and_recursion_refused_fast(tmp_path):
 
 
 def test_depth_limits_name_the_path(tmp_path):
-    from exotune.config import MAX_DEPTH, read_json_guarded, read_yaml
+    from exotune.config import read_yaml
+    from exotune.config.yamlio import MAX_DEPTH, read_json_guarded
 
     p = tmp_path / "d.yaml"
     p.write_text("plant: " + "{a: " * 3000 + "1" + "}" * 3000)
@@ -679,7 +680,8 @@ def test_depth_limits_name_the_path(tmp_path):
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
 def test_non_regular_files_refused_without_reading(tmp_path):
-    from exotune.config import read_json_guarded, read_yaml
+    from exotune.config import read_yaml
+    from exotune.config.yamlio import read_json_guarded
 
     f = tmp_path / "f.yaml"
     os.mkfifo(f)

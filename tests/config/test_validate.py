@@ -1,5 +1,5 @@
 """One number validator, one wording: a design file, a sweep spec and an optimize spec refuse the
-same bad number with the same reason (:func:`exotune.config.number_field`)."""
+same bad number with the same reason (:func:`exotune.config.validate.number_field`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from exotune.config import design_from_mapping, load_design, number_field
+from exotune.config import design_from_mapping, load_design
+from exotune.config.validate import number_field
 from exotune.errors import ConfigError
 from exotune.optimization.spec import load_optimize_spec
 from exotune.sweeps.spec import load_spec

@@ -10,7 +10,7 @@ import copy
 import numpy as np
 import pytest
 
-from exotune.controllerfile import discrete_from_file, plant_from_file
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
 from exotune.controllerfile.certify import (certify, check_built_from_design, design_mismatches, position_feedback,
                                             sampled_analysis, sampled_problems)
 from exotune.errors import ConfigError

@@ -12,9 +12,11 @@ import numpy as np
 import pytest
 
 import exotune
-from exotune.controllerfile import discrete_from_file, load_controller, plant_from_file
+from exotune.controllerfile import load_controller
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
 from exotune.controllerfile.certify import position_feedback
-from exotune.sampled import closed_loop_matrix, loop_verdict, plant_ss, spectral_verdict
+from exotune.sampled import closed_loop_matrix, loop_verdict, plant_ss
+from exotune.sampled.loop import spectral_verdict
 from exotune.starter import template_text
 
 FS = 20000.0

@@ -1,7 +1,7 @@
 """The latency margins of the controller file (docs/controller-file.md#latency-margin):
 
 * ``predicted.latency_margin`` is the continuous margin of the design as exported
-  (:func:`exotune.analysis.latency_margin`), ``requirements.latency_margin_s`` defaults to one sample;
+  (:func:`exotune.analysis.latency_margin.latency_margin`), ``requirements.latency_margin_s`` defaults to one sample;
 * certify's sampled-data margin is ≥ 0, below the continuous one by about half a sample (the
   zero-order hold) or less, and checked against an independent sampled-data model written here
   (plant from the physical equations, ZOH and fractional delay by ``scipy.signal.cont2discrete``,
@@ -24,7 +24,7 @@ import scipy.signal
 import yaml
 from click.testing import CliRunner
 
-from exotune.analysis import latency_margin
+from exotune.analysis.latency_margin import latency_margin
 from exotune.cli import cli
 from exotune.config import read_yaml
 from exotune.controllerfile import design_at_rate, export_design, load_controller, validate_controller

@@ -14,7 +14,8 @@ import scipy.linalg
 from numpy.polynomial import Polynomial
 
 import exotune
-from exotune.controllerfile import discrete_from_file, load_controller, plant_from_file
+from exotune.controllerfile import load_controller
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
 from exotune.controllerfile.cellbound import disc_test, loop_cell, taylor_expm
 from exotune.controllerfile.certify import position_feedback, sampled_analysis
 from exotune.controllerfile.continuation import stable_intervals

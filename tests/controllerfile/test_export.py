@@ -28,7 +28,8 @@ from exotune.analysis import analyze_design
 from exotune.controllerfile.certify import certify, sampled_analysis
 from exotune.config import design_from_mapping, load_design
 from exotune.model.controller import build_controller
-from exotune.controllerfile import build_export, discrete_from_file, export_design, load_controller, plant_from_file
+from exotune.controllerfile import build_export, export_design, load_controller
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
 from exotune.controllerfile.runtime import Runtime
 from exotune.errors import ConfigError
 from exotune.sampled.loop import Measured, default_prewarp, discretize, plant_ss, zoh_fractional
@@ -324,7 +325,7 @@ def test_gain_schedule_recomputes_gains_from_the_reflected_plant():
 
 
 def test_runtime_follows_the_schedule_and_certify_checks_every_entry():
-    from exotune.controllerfile import schedule_entry_doc
+    from exotune.controllerfile.fileio import schedule_entry_doc
 
     raw, doc = _scheduled(ratios=(1.0, 2.0), mass_lo=0.006)
     ins = {s: np.asarray(v["values"]) for s, v in doc["golden"]["inputs"].items()}
@@ -376,7 +377,7 @@ def test_transmission_section_is_validated(tr, field):
 
 
 def test_no_transmission_keeps_the_mapping_and_its_hash():
-    from exotune.config import hash_mapping
+    from exotune.config.design import hash_mapping
 
     cfg = load_design(PAPER)
     assert "transmission" not in cfg.raw  # sweep spec hashes of existing runs are unchanged
@@ -388,7 +389,7 @@ def test_no_transmission_keeps_the_mapping_and_its_hash():
 def test_analyze_checks_every_scheduled_angle_like_export():
     """analyze's continuous check of the schedule (one batch over the angles) agrees with the
     single-design analysis of each reflected design, and its gains with the export's entries."""
-    from exotune.controllerfile import reflected_mapping
+    from exotune.controllerfile.export import reflected_mapping
 
     raw = copy.deepcopy(load_design(PAPER).raw)
     raw["humans"] = [{"kind": "mass", "inertia": [0.0048, 1.0], "damping": 0.0}]

@@ -11,7 +11,7 @@ import copy
 import numpy as np
 import pytest
 
-from exotune.controllerfile import discrete_from_file, plant_from_file
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
 from exotune.controllerfile.certify import position_feedback, sampled_analysis
 from exotune.controllerfile.latency import REL, requirement_problems, sampled_latency_margin
 from exotune.sampled import closed_loop_matrix, plant_ss

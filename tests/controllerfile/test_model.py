@@ -18,8 +18,9 @@ import yaml
 
 from exotune.config import read_yaml
 from exotune.controllerfile import (ControllerFile, Runtime, as_controller_file, build_export, checked_controller,
-                                    checked_controller_file, design_at_rate, discrete_from_file, export_design,
-                                    load_controller, load_controller_file, schedule_entry_doc, write_controller)
+                                    checked_controller_file, design_at_rate, export_design, load_controller,
+                                    load_controller_file, write_controller)
+from exotune.controllerfile.fileio import discrete_from_file, schedule_entry_doc
 from exotune.controllerfile.certify import check_built_from_design, golden_problems
 from exotune.errors import ConfigError
 

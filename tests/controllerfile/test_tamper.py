@@ -53,7 +53,7 @@ def set_plant(key, value):
 def alpha_with_consistent_summary(d):
     """α edited and the six-gain summary and static gains rewritten to match it: only the cuff
     filter (built for α = 8) still betrays the edit."""
-    from exotune.controllerfile import plant_from_file
+    from exotune.controllerfile.fileio import plant_from_file
 
     d["design"]["amplification"]["value"] = 20.0
     des = {k: np.asarray(q["value"]) for k, q in d["design"].items()}

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from exotune.config import read_yaml
-from exotune.controllerfile import build_export, design_at_rate, discrete_from_file, plant_from_file
+from exotune.controllerfile import build_export, design_at_rate
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
 from exotune.controllerfile.certify import certify
 from exotune.controllerfile.verdicts import SampledVerdicts, analyze_of_record, design_verdicts
 from exotune.errors import ConfigError

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from exotune.numerics import kernels as _fastphase
-from exotune.analysis import RootCounter, amplification_qps, char_terms
+from exotune.analysis.counting import RootCounter
+from exotune.analysis.charfun import amplification_qps, char_terms
 from exotune.analysis.intervals import FamilySide
 from exotune.config import batch_config, load_design
 from exotune.model.controller import build_controller

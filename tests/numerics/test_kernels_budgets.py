@@ -14,7 +14,8 @@ import numpy as np
 import yaml
 
 from exotune.numerics import kernels as _fastphase
-from exotune.analysis import analyze_batch, char_terms
+from exotune.analysis import analyze_batch
+from exotune.analysis.charfun import char_terms
 from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.model.controller import build_controller
 from exotune.numerics.quasipoly import adaptive_leaves, leaves_pair, log_grid, omega_max
@@ -114,7 +115,8 @@ def test_pathological_design_report_ends_with_a_warning():
 def test_optimizer_treats_a_budget_exhausted_design_as_infeasible():
     """A design whose analysis spent its budget (NaN passivity metric, inconclusive verdicts) is
     infeasible for ``exotune optimize``, while the same spec's normal design is feasible."""
-    from exotune.optimization import evaluate, load_optimize_spec
+    from exotune.optimization import load_optimize_spec
+    from exotune.optimization.evaluate import evaluate
 
     import exotune.analysis as analysis
 
@@ -177,7 +179,7 @@ def test_family_with_thousands_of_critical_values_is_inconclusive():
     """A degenerate design (α = 1, 1e-9 kg·m² felt inertia, 1e9 N·m/rad cuff, 0.2 s delay) has
     ~10⁴ critical inertias: it used to queue 10⁴ budget-spending counts (10 minutes). Past
     MAX_FAMILY_PIECES it is inconclusive at once, and never robust."""
-    from exotune.analysis import MAX_FAMILY_PIECES
+    from exotune.analysis.intervals import MAX_FAMILY_PIECES
 
     cfg = unchecked(load_design(PAPER), design__amplification=1.0, design__felt_inertia=1e-9,
                     design__felt_damping=1e-12, plant__cuff_stiffness=1e9, implementation__delay_s=0.2)

@@ -14,7 +14,8 @@ import pytest
 from exotune.analysis import analyze_design
 from exotune.analysis.latency_margin import latency_margin
 from exotune.config import design_from_mapping, load_design
-from exotune.optimization import evaluate, load_optimize_spec
+from exotune.optimization import load_optimize_spec
+from exotune.optimization.evaluate import evaluate
 from exotune.optimization.diagnose import at_bounds, exact_latency_margin, violations
 
 ROOT = Path(__file__).resolve().parents[2]

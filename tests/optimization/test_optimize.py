@@ -23,8 +23,9 @@ from exotune.cli import cli
 from exotune.config import batch_config, design_from_mapping, load_design
 from exotune.errors import ConfigError
 from exotune.text.optimize import format_optimize
-from exotune.optimization import (amplification_peak, evaluate, load_optimize_spec, optimize,
-                              optimized_design_mapping)
+from exotune.optimization import load_optimize_spec, optimize, optimized_design_mapping
+from exotune.optimization.evaluate import evaluate
+from exotune.optimization.peak import amplification_peak
 
 ROOT = Path(__file__).resolve().parents[2]
 

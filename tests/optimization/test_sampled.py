@@ -17,7 +17,8 @@ import pytest
 
 from exotune.config import design_from_mapping, load_design
 from exotune.controllerfile.verdicts import design_verdicts
-from exotune.optimization import evaluate, load_optimize_spec, optimize, optimized_design_mapping
+from exotune.optimization import load_optimize_spec, optimize, optimized_design_mapping
+from exotune.optimization.evaluate import evaluate
 from exotune.optimization.sampled import POLISH_REL, verdicts_at
 
 ROOT = Path(__file__).resolve().parents[2]

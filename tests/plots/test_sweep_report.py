@@ -16,7 +16,8 @@ from click.testing import CliRunner
 from exotune.cli import cli
 from exotune.errors import ConfigError
 from exotune.plots.sweep_report import make_report
-from exotune.sweeps import interval_ends, load_results, run_sweep
+from exotune.sweeps import load_results, run_sweep
+from exotune.sweeps.metrics import interval_ends
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -153,7 +154,7 @@ def test_report_errors(tmp_path):
 def test_report_paths_are_not_machine_paths(tmp_path, monkeypatch):
     """Reports get committed: paths below the working directory are shown relative to it, others
     by their last two components only."""
-    from exotune.sweeps import display_path
+    from exotune.sweeps.summary import display_path
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "studies").mkdir()

@@ -5,7 +5,7 @@
   against the continuous controller of docs/method.md#controller through the exact Tustin frequency identity
   H_d(e^{jωT_s}) = H(j (2/T_s) tan(ωT_s/2));
 * its verdicts: at a high sample rate the sampled-data loop agrees with the continuous exact-delay
-  analysis (exotune.analysis.coupled_stable) on random designs, humans and environments, and the
+  analysis (exotune.analysis.counting.coupled_stable) on random designs, humans and environments, and the
   light-inertia boundary of the §9 design converges to the continuous one.
 """
 
@@ -21,7 +21,8 @@ import scipy.signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exotune.analysis import analyze_design, coupled_stable
+from exotune.analysis import analyze_design
+from exotune.analysis.counting import coupled_stable
 from exotune.config import load_design
 from exotune.model.controller import build_controller
 from exotune.sampled.loop import Measured, closed_loop_matrix, discretize, plant_ss, sampled_stable, zoh_fractional
@@ -130,7 +131,7 @@ def test_badly_scaled_block_prewarped_near_nyquist_is_accurate_and_quiet():
     response still equals H(K (z−1)/(z+1)) to ~1e-11, and no warning reaches the user."""
     import warnings
 
-    from exotune.sampled import tustin
+    from exotune.sampled.loop import tustin
 
     num = np.array([2.17411924e10, 1.02444596e10, 7.44571640e8, 8.40258869e6, 1.01233488e5])
     den = np.array([2.47059005e10, 6.22682763e9, 1.26081987e7, 5.02175179e3, 1.0])
@@ -317,7 +318,7 @@ def test_zoh_and_prewarped_tustin_match_python_control():
     responses on the unit circle."""
     import control
 
-    from exotune.sampled import tustin
+    from exotune.sampled.loop import tustin
 
     A, B, C = plant_ss(BASE.plant, {"inertia": 0.1, "damping": 2.0, "stiffness": 30.0}, "free")
     Ts = 1e-3
@@ -351,7 +352,7 @@ def _similar(moduli, seed):
 @settings(max_examples=40)
 @given(n=st.integers(2, 12), delta=st.floats(1e-9, 1e-3), sign=st.sampled_from([-1.0, 1.0]), seed=st.integers(0, 10_000))
 def test_spectral_verdict_is_right_when_the_margin_exceeds_rounding(n, delta, sign, seed):
-    from exotune.sampled import spectral_verdict
+    from exotune.sampled.loop import spectral_verdict
 
     moduli = [0.3 + 0.6 * k / n for k in range(n - 1)] + [1.0 + sign * delta]
     stable, rho, err = spectral_verdict(_similar(moduli, seed))
@@ -362,7 +363,7 @@ def test_spectral_verdict_is_right_when_the_margin_exceeds_rounding(n, delta, si
 @settings(max_examples=20)
 @given(n=st.integers(2, 12), seed=st.integers(0, 10_000))
 def test_spectral_verdict_on_the_unit_circle_is_inconclusive(n, seed):
-    from exotune.sampled import spectral_verdict
+    from exotune.sampled.loop import spectral_verdict
 
     moduli = [0.3 + 0.6 * k / n for k in range(n - 1)] + [1.0]
     stable, rho, err = spectral_verdict(_similar(moduli, seed))
@@ -370,7 +371,7 @@ def test_spectral_verdict_on_the_unit_circle_is_inconclusive(n, seed):
 
 
 def test_spectral_verdict_drops_the_rigid_body_mode_only_when_asked():
-    from exotune.sampled import spectral_verdict
+    from exotune.sampled.loop import spectral_verdict
 
     M = np.diag([0.5, 1.0])
     assert spectral_verdict(M)[0] is None

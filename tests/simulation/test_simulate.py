@@ -21,10 +21,12 @@ from hypothesis import strategies as st
 
 from exotune.cli import cli
 from exotune.config import design_from_mapping, load_design
-from exotune.controllerfile import build_export, discrete_from_file, plant_from_file
+from exotune.controllerfile import build_export
+from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
 from exotune.sampled import closed_loop_matrix, plant_ss
-from exotune.simulation import (MARGINAL_TOL, SCENARIOS, Nonlinearities, deadzone, loop_spectral_radius, run_scenario,
-                              simulate)
+from exotune.simulation import SCENARIOS, Nonlinearities, run_scenario, simulate
+from exotune.simulation.verdict import MARGINAL_TOL, loop_spectral_radius
+from exotune.simulation.scenarios import deadzone
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -149,7 +151,7 @@ def test_delay_sample_limit_in_design_and_controller_files(tmp_path):
     files (certify), with the field named."""
     import yaml
 
-    from exotune.config import MAX_DELAY_SAMPLES
+    from exotune.config.validate import MAX_DELAY_SAMPLES
     from exotune.errors import ConfigError
 
     raw = yaml.safe_load((ROOT / "examples" / "paper.yaml").read_text())

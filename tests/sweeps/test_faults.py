@@ -17,7 +17,8 @@ import yaml
 
 from exotune.errors import ConfigError
 from exotune.plots.sweep_report import make_report
-from exotune.sweeps import load_manifest, load_results, run_sweep, verified_manifest
+from exotune.sweeps import load_manifest, load_results, run_sweep
+from exotune.sweeps.dataset import verified_manifest
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"

@@ -19,8 +19,10 @@ from click.testing import CliRunner
 from exotune.cli import cli
 from exotune.errors import ConfigError
 from exotune.plots.sweep_report import make_report
-from exotune.sweeps import (SweepError, check_dask_address, load_manifest, load_results, run_sweep, sha256_file,
-                            verified_manifest)
+from exotune.sweeps import SweepError, load_manifest, load_results, run_sweep
+from exotune.sweeps.backends import check_dask_address
+from exotune.sweeps.integrity import sha256_file
+from exotune.sweeps.dataset import verified_manifest
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"

@@ -450,7 +450,7 @@ def test_sampling_deterministic_uniform_without_replacement():
     assert sorted(full.tolist()) == list(range(total)) and not np.array_equal(full, np.arange(total))
     # chunks are generated independently: any chunk equals the slice of the whole
     plan, whole = idx(500, 1, chunk_size=37)
-    from exotune.sweeps import chunk_points
+    from exotune.sweeps.plan import chunk_points
 
     g, vals = chunk_points(plan, 5)
     assert np.array_equal(g, whole[5 * 37: 6 * 37])
@@ -575,7 +575,7 @@ def test_nested_list_column_equals_pyarrow_conversion(rows):
     conversion of the nested Python lists (values, empties, inf)."""
     import pyarrow as pa
 
-    from exotune.sweeps import nested_float_lists
+    from exotune.sweeps.store import nested_float_lists
 
     ref = pa.array(rows, type=pa.list_(pa.list_(pa.float64())))
     assert nested_float_lists(rows).equals(ref)
@@ -605,7 +605,7 @@ def test_numpy_to_arrow_matches_pa_array(xs, step):
     for float (NaN kept as a value), int64 and bool columns, strided inputs included."""
     import pyarrow as pa
 
-    from exotune.sweeps import np_arrow
+    from exotune.sweeps.store import np_arrow
 
     f = np.array(xs, dtype=float)[::step]
     ints = np.arange(f.size, dtype=np.int64)[::-1] * 7 - 3
@@ -625,7 +625,8 @@ def test_chunk_task_does_not_import_pandas(tmp_path):
     """A worker's chunk (analysis, Arrow table, Parquet) never imports pandas (~1 s of start-up)."""
     spec = tmp_path / "s.yaml"
     spec.write_text(yaml.safe_dump({"base": str(PAPER), "axes": {"design.amplification": [2.0, 4.0]}}))
-    code = ("import sys; from exotune.sweeps import load_spec, chunk_task; p = load_spec(sys.argv[1]); "
+    code = ("import sys; from exotune.sweeps import load_spec; from exotune.sweeps.compute import chunk_task; "
+            "p = load_spec(sys.argv[1]); "
             "r = chunk_task(p.spec, p.hash, 0, None); assert r['error'] is None and r['rows'] == 2, r; "
             "print('pandas' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code, str(spec)], capture_output=True, text=True, timeout=300)
