@@ -50,7 +50,7 @@ from .counting import RootCounter
 from .plant_margin_box import PLANT_FIELDS, PLANT_SYMBOLS, LoopModel, certify_loop, strip_rows
 
 __all__ = ["PlantWitness", "LoopPlantMargin", "PlantMargin", "plant_loops", "plant_uncertainty_margin",
-           "loop_counts_at"]
+           "loop_counts_at", "vertex_upper_bounds"]
 
 UNIT_K = "1 (multiple of the relative weights)"
 K_CAP = 0.999  # k·max(w) < 1 keeps every parameter positive
@@ -324,7 +324,7 @@ def _search_unstable(lp: _Loop, k: float, w: np.ndarray, extra=()):
     return _search_unstable_many([(lp, k, w, extra)])[0]
 
 
-def _loops_upper(lps, w: np.ndarray, rel_tol: float, k_hi: float) -> dict:
+def _loops_upper(lps, w: np.ndarray, rel_tol: float, k_hi: float, shortcut: bool = True) -> dict:
     """Each loop's smallest level k ≤ k_hi with an unstable vertex point (bisection on k), the
     loops' bisections run in lockstep so that every step is one counting call: {name: (k, δ, p) or
     None}. Each loop's bisection is exactly the one it would run alone.
@@ -334,7 +334,7 @@ def _loops_upper(lps, w: np.ndarray, rel_tol: float, k_hi: float) -> dict:
     unstable again, the level is unstable without the full search (half the steps, usually). The
     hit recorded is the first unstable point of the full search, so the full search runs once at
     the final level of such a loop; the engine is the one the full step would have used. Results
-    are those of a full search at every step."""
+    are those of a full search at every step (``shortcut=False``)."""
     nvert = _vertex_deltas(1.0, w).shape[0]
     state = {}
     jobs = [(lp, k_hi, w, ()) for lp in lps]
@@ -350,7 +350,7 @@ def _loops_upper(lps, w: np.ndarray, rel_tol: float, k_hi: float) -> dict:
         jobs = [(st[0], 0.5 * (st[1] + st[2]), w, ()) for st in active]
         eng = cached_engine(sum(_job_size(*j) for j in jobs))
         m = [1 if st[0].members is None else st[0].members.size for st in active]
-        rows = [st[4] if st[4] < nvert * mm else None for st, mm in zip(active, m)]
+        rows = [st[4] if shortcut and st[4] < nvert * mm else None for st, mm in zip(active, m)]
         quick = [None] * len(active)
         ask = [a for a, r in enumerate(rows) if r is not None]
         for a, hit in zip(ask, _search_unstable_many([jobs[a] for a in ask], [rows[a] for a in ask], eng, True)):
@@ -543,17 +543,11 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
     ----------
     docs/method.md#plant-uncertainty-margin; paper §II (the plant), §III (the DOB).
     """
-    from ..model.controller import build_controller
-    from .batch import analyze_batch
-
     t0 = time.perf_counter()
     w = _weights(weights)
     k_cap = K_CAP / float(np.max(w))
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        cols = nominal if nominal is not None else analyze_batch(cfg)
-        cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
-        loops = [_Loop(name, fam, LoopModel(cs, cfg.plant, fam, key0, key1), _nominal_ok(cols, name))
-                 for name, fam, key0, key1 in plant_loops(cfg) if families is None or name in families]
+        loops = _make_loops(cfg, families, nominal)
         notes = []
         if cfg.raw.get("transmission") is not None:
             notes.append("the transmission schedule is not applied: nominal plant = the plant section")
@@ -583,6 +577,55 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
     wd = {s: float(x) for s, x in zip(PLANT_SYMBOLS, w)}
     return PlantMargin(float(lower), float(upper), witness, tuple(out), wd, "; ".join(notes), int(used),
                        time.perf_counter() - t0)
+
+
+def _make_loops(cfg, families, nominal) -> list:
+    """The loops of :func:`plant_loops` (those named in ``families``), their controller designed on
+    the nominal plant, each with its nominal robust verdict."""
+    from ..model.controller import build_controller
+    from .batch import analyze_batch
+
+    cols = nominal if nominal is not None else analyze_batch(cfg)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    return [_Loop(name, fam, LoopModel(cs, cfg.plant, fam, key0, key1), _nominal_ok(cols, name))
+            for name, fam, key0, key1 in plant_loops(cfg) if families is None or name in families]
+
+
+def vertex_upper_bounds(cfg, weights=None, *, families=None, rel_tol: float = 0.01, shortcut: bool = True) -> dict:
+    """Each loop's witnessed upper bound before any certification: the smallest level k (bisected
+    to ``rel_tol``/8 relative) at which a vertex of the box × a member of the family's grid is
+    unstable — the first stage of :func:`plant_uncertainty_margin`.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design (its ``plant`` section is the nominal plant).
+    weights : None, sequence of 5 floats or mapping
+        Relative uncertainty per parameter, as in :func:`plant_uncertainty_margin`.
+    families : iterable of str, optional
+        Restrict to these loop names.
+    rel_tol : float
+        Relative gap target (the bisection stops at rel_tol/8).
+    shortcut : bool
+        True (default): each bisection step first re-counts only the vertex point that was unstable
+        at the loop's last unstable level; False: the full vertex × member search at every step (the
+        reference; the results are the same).
+
+    Returns
+    -------
+    dict
+        Loop name → (k [1], δ (relative deviations of J_m, B_m, K_s, J_j, K_c), member or None), or
+        None when no vertex point is unstable up to k·max(w) = 0.999; loops that are not robust at
+        the nominal plant are left out.
+
+    References
+    ----------
+    docs/method.md#plant-uncertainty-margin.
+    """
+    w = _weights(weights)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        robust = [lp for lp in _make_loops(cfg, families, None) if lp.ok]
+        return _loops_upper(robust, w, rel_tol, K_CAP / float(np.max(w)), shortcut)
 
 
 def _not_robust(loops, ups, w, k_cap, rel_tol, budget):

@@ -275,45 +275,37 @@ def test_random_design_bounds_against_sampling(seed):
         assert not loop_counts_at(model, pts, members, int(np.min(r))).any(), name
 
 
-def _plain_upper(lp, w, rel_tol, k_hi):
-    """The reference bisection of _loops_upper: a full vertex × member search at every level, one
-    loop at a time (no shortcut)."""
-    from exotune.analysis.plant_margin import _search_unstable
-
-    hit = _search_unstable(lp, k_hi, w)
-    if hit is None:
-        return None
-    lo, hi, best = 0.0, k_hi, (k_hi, *hit)
-    while hi - lo > 0.125 * rel_tol * hi:
-        mid = 0.5 * (lo + hi)
-        hit = _search_unstable(lp, mid, w)
-        if hit is None:
-            lo = mid
-        else:
-            hi, best = mid, (mid, *hit)
-    return best
-
 
 @pytest.mark.parametrize("path,weights", [(SCHEDULED, None), (SCHEDULED, {"K_c": 3.0, "J_m": 0.5}),
                                           ("examples/paper.yaml", None)])
-def test_lockstep_upper_bisection_equals_the_plain_full_search(path, weights):
-    """_loops_upper first re-counts only the last unstable vertex point at each level; its levels and
-    witnesses (the first unstable point of the full search) are exactly the plain bisection's."""
-    from exotune.analysis.plant_margin import K_CAP, _Loop, _loops_upper, _nominal_ok, _weights
-    from exotune.analysis.batch import analyze_batch
+def test_upper_bisection_shortcut_equals_the_full_search(path, weights):
+    """The upper-bound bisection re-counts only the last unstable vertex point at each level; its
+    levels and witnesses (the first unstable point of the full search) are exactly those of the full
+    vertex × member search at every level."""
+    from exotune.analysis.plant_margin import vertex_upper_bounds
 
     cfg = exotune.load_design(path)
-    w = _weights(weights)
-    k_cap = K_CAP / float(np.max(w))
-    cols = analyze_batch(cfg)
-    cs = _cs(cfg)
-    make = lambda: [_Loop(n, f, LoopModel(cs, cfg.plant, f, k0, k1), _nominal_ok(cols, n))  # noqa: E731
-                    for n, f, k0, k1 in plant_loops(cfg)]
-    fast = _loops_upper([lp for lp in make() if lp.ok], w, 0.01, k_cap)
-    plain = {lp.name: _plain_upper(lp, w, 0.01, k_cap) for lp in make() if lp.ok}
+    fast = vertex_upper_bounds(cfg, weights)
+    plain = vertex_upper_bounds(cfg, weights, shortcut=False)
     assert fast.keys() == plain.keys() and fast
     for name in plain:
         a, b = fast[name], plain[name]
         assert (a is None) == (b is None), name
         if a is not None:
             assert a[0] == b[0] and np.array_equal(a[1], b[1]) and a[2] == b[2], name
+            # the witness is unstable: an independent check of the level's meaning
+            p = None if a[2] is None else np.array([a[2]])
+            name_, fam, k0, k1 = next(x for x in plant_loops(cfg) if x[0] == name)
+            model = LoopModel(_cs(cfg), cfg.plant, fam, k0, k1)
+            r0 = int(np.min(model.counts(model.q0[None, :], None if fam is None else np.array([fam.lo, fam.hi]))[1]))
+            assert loop_counts_at(model, a[1][None, :], p, r0).all(), name
+
+
+def test_plant_margin_upper_is_at_most_the_vertex_bound(sched):
+    """plant_uncertainty_margin's upper bound is the vertex bisection's (or lower, when a stalled
+    certification found an unstable point below it)."""
+    from exotune.analysis.plant_margin import vertex_upper_bounds
+
+    cfg, pm = sched
+    ups = [v[0] for v in vertex_upper_bounds(cfg).values() if v is not None]
+    assert ups and pm.upper <= min(ups)
