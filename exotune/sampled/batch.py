@@ -10,6 +10,10 @@ bit for bit the one ``certify`` rebuilds from the exported file. The plant (+ hu
 is discretized exactly with the zero-order hold and the fractional delay (Φ, Γ0, Γ1 of
 :mod:`exotune.sampled.loop`), and the loop matrix is :func:`exotune.sampled.closed_loop_matrix`'s.
 
+A batch of one may instead carry a given discrete controller (:meth:`BatchLoops.of_controller`:
+a controller file's own realization, for ``exotune certify``'s latency margin, which runs on the
+engine of :mod:`exotune.sampled.families`).
+
 What is batched: the plant matrices of many (design, member, delay) jobs are built as stacks, their
 matrix exponentials computed on stacks, the loop matrices assembled on stacks of equal size, and the
 eigenvalues found by one ``numpy.linalg.eigvals`` call per stack. The rigid-body eigenvalue z = 1 of
@@ -294,6 +298,29 @@ class BatchLoops:
         self.delay = _vec(cfg.implementation.delay_s, n)
         self.Ac, self.Bc, self.Cc, self.Dc, self.nz, self.position_feedback, self.fixed = batch_controller(cfg, self.fs, n)
 
+    @classmethod
+    def of_controller(cls, plant, ctrl, position_feedback: bool) -> BatchLoops:
+        """A batch of one design: the loop of ``plant`` with the given discrete controller ``ctrl``
+        (:class:`~exotune.sampled.loop.DiscreteController`, e.g. a controller file's own
+        realization), at its rate and delay; nothing is left out of the realization (``fixed`` 0).
+        Its loop matrices are :func:`exotune.sampled.closed_loop_matrix`'s (less the unread oldest
+        command of a whole-sample delay): the eigenvalues of :func:`exotune.sampled.loop_eigenvalues`."""
+        self = cls.__new__(cls)
+        self.fs = float(ctrl.sample_rate_hz)
+        self.Ts = 1.0 / self.fs
+        self.n = 1
+        self.Jm, self.Bm, self.Ks, self.Jj, self.Kc = (np.ravel(np.asarray(getattr(plant, q), float))[:1].copy()
+                                                       for q in ("J_m", "B_m", "K_s", "J_j", "K_c"))
+        self.delay = np.array([float(ctrl.delay_s)])
+        nz = int(np.shape(ctrl.Ac)[0])
+        self.Ac = np.asarray(ctrl.Ac, dtype=float).reshape(1, nz, nz)
+        self.Bc = np.asarray(ctrl.Bc, dtype=float).reshape(1, nz, len(Measured))
+        self.Cc = np.asarray(ctrl.Cc, dtype=float).reshape(1, nz)
+        self.Dc = np.asarray(ctrl.Dc, dtype=float).reshape(1, len(Measured))
+        self.nz, self.position_feedback = np.array([nz]), np.array([bool(position_feedback)])
+        self.fixed = np.zeros((1, 2))
+        return self
+
     # ---- plant ---------------------------------------------------------------------------
     def plant(self, des: np.ndarray, loop: Loop, v: np.ndarray):
         """Stacks (A, B, C) of :func:`exotune.sampled.plant_ss` for designs ``des`` and members
@@ -421,6 +448,9 @@ class BatchLoops:
         ``stable`` is radius < 1, except within ``NEAR_UNIT`` of 1 where certify's rounding
         estimate decides (:func:`_rounding_verdict`; inconclusive is not stable) — unless
         ``rounding`` is False (the latency margin's probes: certify decides them on the radius alone)."""
+        from ..numerics.timebudget import check_time
+
+        check_time()  # inside export/certify's time budget (a no-op elsewhere)
         des = np.asarray(des, dtype=np.int64)
         v = np.zeros(des.size) if v is None else np.asarray(v, dtype=float)
         delay = self.delay[des] if delay is None else np.asarray(delay, dtype=float)

@@ -16,29 +16,34 @@ Critical member of a family: the member with the largest spectral radius among t
 evaluated (grid, refinements, edges) — nearest to instability in a robust family, the most
 unstable one otherwise; located to the grid's resolution.
 
-Latency margin: the largest extra delay ΔT ≥ 0 for which free, locked, every environment range and
-every rational human family over its whole range stay stable (as ``exotune certify`` defines it).
-Probe loops (free, locked, each family's ends and critical member) are evaluated at ΔT_c − T_s/2
-and ΔT_c (ΔT_c the continuous margin: the zero-order hold costs about half a sample; else growing
-from half a sample); the probe that crosses first is followed alone by the Illinois method on
-ρ − 1 to ``MARGIN_REL`` relative, then all probes are checked at the result (another probe unstable
-there is followed in turn). The family check above then runs at ΔT (1 − ``CONFIRM``): a gap found
-there gives its critical member as a new probe; otherwise its member of largest spectral radius
-(located by the check's step control, which refines where ρ is near 1) is evaluated at ΔT, and
-becomes a probe when it is unstable there by more than a ``NEGLIGIBLE`` relative change of the
-margin (judged with the followed probe's dρ/dΔT). With a new probe the search goes on (at most
-``ROUNDS`` times).
+Latency margin — the one sampled-data latency-margin engine, that of the sweep's columns and of
+``exotune certify`` (which runs it on a batch of one design, the controller file's own realization,
+:meth:`~exotune.sampled.batch.BatchLoops.of_controller`, and then confirms the result with its full
+family check, :mod:`exotune.controllerfile.latency`): the largest extra delay ΔT ≥ 0 for which free,
+locked, every environment range and every rational human family over its whole range stay stable.
+Probe loops (free, locked, each family's ends and critical member, any extra probes) are evaluated at
+ΔT_c − T_s/2 and ΔT_c (ΔT_c the continuous margin: the zero-order hold costs about half a sample;
+else growing from half a sample, doubling); the probe that crosses first is followed alone by the
+Illinois method on ρ − 1 to ``MARGIN_REL`` relative, then all probes are checked at the result
+(another probe unstable there is followed in turn) — :func:`first_crossing`. The family check above
+then runs at ΔT (1 − ``CONFIRM``): a gap found there gives its critical member as a new probe;
+otherwise its member of largest spectral radius (located by the check's step control, which refines
+where ρ is near 1) is evaluated at ΔT, and becomes a probe when it is unstable there by more than a
+``NEGLIGIBLE`` relative change of the margin (judged with the followed probe's dρ/dΔT). With a new
+probe the search goes on from the last margin (at most ``ROUNDS`` times).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .batch import BatchLoops, Loop
 
-__all__ = ["POINTS", "MARGIN_REL", "family_check", "latency_margin"]
+__all__ = ["POINTS", "MARGIN_REL", "MAX_SAMPLES", "Margin", "Probes", "family_check", "family_loops", "first_crossing",
+           "latency_margin"]
 
 POINTS = 8  # base grid per family (certify: 96)
 CERTIFY_POINTS = 96
@@ -47,6 +52,7 @@ _FD = 1e-7
 CHORD = 1.0
 BISECT_REL = 1e-10
 MARGIN_REL = 1e-9
+ILLINOIS_STEPS = 200
 CONFIRM = 1e-3
 NEGLIGIBLE = 1e-6  # relative change of the margin below which a member of largest ρ is not followed
 ROUNDS = 4
@@ -276,41 +282,83 @@ def family_check(bl: BatchLoops, des, loop: Loop, lo: float, hi: float, delay=No
     return out
 
 
-class _Probes:
-    """Probe loops of the latency margin: [(loop, member per design (n,) or None)]; a NaN member
-    is no probe for that design."""
+def family_loops(humans, environment) -> list:
+    """The checked families of a design or a controller file's ``certify`` section, as loops: the
+    one list behind the sweep's sampled-data columns and ``exotune certify``'s latency margin.
 
-    def __init__(self, bl: BatchLoops, des: np.ndarray, probes: list):
-        self.bl, self.des, self.probes = bl, des, probes
+    Parameters
+    ----------
+    humans : sequence of HumanFamily
+        The human families (:func:`exotune.config.parse_human`).
+    environment : sequence
+        The environments (:func:`exotune.config.parse_env`).
+
+    Returns
+    -------
+    list of tuple
+        ``(loop, lo, hi)``: the :class:`~exotune.sampled.batch.Loop` named ``human{i}_{kind}`` of
+        every rational one-parameter human family (hysteretic humans and boxes of several uncertain
+        parameters have none), then ``env{i}_{kind}`` of every environment spring or mass range,
+        with the range of the varied parameter.
+    """
+    out = []
+    for i, fam in enumerate(humans):
+        if fam.kind == "complex_stiffness" or fam.box:
+            continue
+        fixed = {k: v for k, v in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
+        out.append((Loop(f"human{i}_{fam.kind}", human=fixed, param=fam.param), fam.lo, fam.hi))
+    for i, env in enumerate(environment):
+        if env.kind in ("spring", "mass"):
+            out.append((Loop(f"env{i}_{env.kind}", env_param=env.param, env_damping=env.damping), env.lo, env.hi))
+    return out
+
+
+class Probes:
+    """The probe loops of the latency margin of the designs ``des`` of ``bl``: ``loops``, a list of
+    (:class:`~exotune.sampled.batch.Loop`, member per design (n,) or None); a NaN member is no
+    probe for that design. A probe's verdict is its spectral radius ρ < 1 (the rigid-body z = 1 of
+    an ungrounded loop set aside; no rounding estimate: certify decides the probes on ρ alone)."""
+
+    def __init__(self, bl: BatchLoops, des, loops: list):
+        self.bl, self.des, self.loops = bl, np.asarray(des, dtype=np.int64), list(loops)
+
+    def __len__(self) -> int:
+        return len(self.loops)
 
     def all(self, idx: np.ndarray, x: np.ndarray):
-        """(ρ, stable) (len(idx), probes) at extra delays ``x`` [s]."""
-        R = np.zeros((idx.size, len(self.probes)))
-        S = np.ones((idx.size, len(self.probes)), bool)
-        for q in range(len(self.probes)):
-            R[:, q], S[:, q] = self.one(idx, np.full(idx.size, q), x)
-        return R, S
+        """(ρ, stable) (len(idx), probes) of designs ``idx`` (positions in ``des``) at extra delays ``x`` [s]."""
+        P = len(self.loops)
+        r, s = self.one(np.repeat(idx, P), np.tile(np.arange(P), idx.size), np.repeat(x, P))
+        return r.reshape(idx.size, P), s.reshape(idx.size, P)
 
     def one(self, idx: np.ndarray, which: np.ndarray, x: np.ndarray):
-        """(ρ, stable) (len(idx),) of probe ``which[j]`` of design ``idx[j]`` at extra delay ``x[j]``."""
+        """(ρ, stable) (len(idx),) of probe ``which[j]`` of design ``idx[j]`` at extra delay ``x[j]``;
+        the probes of one loop (a family's members) in one batch."""
         r, s = np.zeros(idx.size), np.ones(idx.size, bool)
-        for q in np.unique(which):
-            loop, v = self.probes[q]
-            j = np.nonzero(which == q)[0]
-            if v is not None:
-                j = j[np.isfinite(v[idx[j]])]
+        groups: dict = {}
+        for q in np.unique(which).tolist():
+            groups.setdefault(id(self.loops[q][0]), []).append(q)
+        for qs in groups.values():
+            loop = self.loops[qs[0]][0]
+            j = np.nonzero(np.isin(which, qs))[0]
+            v = None
+            if self.loops[qs[0]][1] is not None:
+                v = np.full(j.size, np.nan)
+                for q in qs:
+                    k = which[j] == q
+                    v[k] = self.loops[q][1][idx[j[k]]]
+                j, v = j[np.isfinite(v)], v[np.isfinite(v)]
             if j.size:
                 d = self.des[idx[j]]
-                r[j], _e, s[j] = self.bl.spectra(d, loop, None if v is None else v[idx[j]], self.bl.delay[d] + x[j],
-                                                 rounding=False)
+                r[j], _e, s[j] = self.bl.spectra(d, loop, v, self.bl.delay[d] + x[j], rounding=False)
         return r, s
 
 
-def _illinois(pr: _Probes, idx, which, lo, glo, hi, ghi):
-    """Narrow [lo, hi] (probe ``which`` stable at lo, not at hi; g = ρ − 1) to ``MARGIN_REL``."""
+def _illinois(pr, idx, which, lo, glo, hi, ghi, rel: float):
+    """Narrow [lo, hi] (probe ``which`` stable at lo, not at hi; g = ρ − 1) to hi − lo ≤ ``rel``·lo."""
     side = np.zeros(idx.size, np.int64)
-    for it in range(100):
-        act = np.nonzero(hi - lo > MARGIN_REL * hi)[0]
+    for it in range(ILLINOIS_STEPS):
+        act = np.nonzero(hi - lo > rel * lo)[0]
         if not act.size:
             break
         x = _illinois_point(lo[act], glo[act], hi[act], ghi[act], it % 5 == 4)
@@ -319,17 +367,17 @@ def _illinois(pr: _Probes, idx, which, lo, glo, hi, ghi):
     return lo, hi
 
 
-def _bracket(pr: _Probes, n: int, hint, Ts: float, cap: np.ndarray):
-    """(lo, hi, ρ at hi (n, probes)): every probe stable at lo, some unstable at hi (hi = inf when
-    none is up to ``cap``), from ΔT_c − T_s/2 and ΔT_c, else growing from half a sample."""
-    P = len(pr.probes)
+def _bracket(pr, idx, hint, Ts: float, cap: np.ndarray):
+    """(lo, hi, ρ at hi (len(idx), probes)): every probe stable at lo, some unstable at hi (hi = inf
+    when none is up to ``cap``), from ΔT_c − T_s/2 and ΔT_c, else growing from half a sample."""
+    n = idx.size
     lo, hi = np.zeros(n), np.full(n, np.inf)
-    Rhi = np.zeros((n, P))
+    Rhi = np.zeros((n, len(pr)))
     h = np.asarray(hint, float) if hint is not None else np.full(n, np.nan)
     for trial in (h - 0.5 * Ts, h):  # the zero-order hold costs about half a sample
         act = np.nonzero(np.isinf(hi) & np.isfinite(trial) & (trial > lo) & (trial < cap))[0]
         if act.size:
-            R, S = pr.all(act, trial[act])
+            R, S = pr.all(idx[act], trial[act])
             un = ~S.all(axis=1)
             hi[act[un]], Rhi[act[un]] = trial[act[un]], R[un]
             lo[act[~un]] = trial[act[~un]]
@@ -338,32 +386,78 @@ def _bracket(pr: _Probes, n: int, hint, Ts: float, cap: np.ndarray):
         if not act.size:
             break
         x = np.minimum(lo[act] + np.maximum(0.5 * Ts, lo[act]), cap[act])
-        R, S = pr.all(act, x)
+        R, S = pr.all(idx[act], x)
         un = ~S.all(axis=1)
         hi[act[un]], Rhi[act[un]] = x[un], R[un]
         lo[act[~un]] = x[~un]
     return lo, hi, Rhi
 
 
-def _follow(pr: _Probes, idx, lo, hi, Rhi):
-    """The first crossing: follow the probe of largest ρ at hi alone (Illinois), check all probes
-    at the result, follow another one unstable there; returns (the crossing's stable end, dρ/dΔT
-    of the probe followed, over the bracket) per design."""
-    which = np.argmax(Rhi, axis=1)
+def _follow(pr, idx, lo, hi, Rhi, rel: float):
+    """Narrow the brackets to the first crossing: follow the probe of largest ρ at hi alone
+    (Illinois), check all probes at its stable end, follow another one unstable there; returns
+    (lo, hi, dρ/dΔT of the probe followed last, over its bracket) per design."""
+    lo, hi, Rhi = lo.copy(), hi.copy(), Rhi.copy()
     slope = np.zeros(idx.size)
-    for _ in range(len(pr.probes)):
-        glo = pr.one(idx, which, lo)[0] - 1.0
-        ghi = Rhi[np.arange(idx.size), which] - 1.0
-        slope = (ghi - glo) / (hi - lo)
-        a, b = _illinois(pr, idx, which, lo.copy(), glo, hi.copy(), ghi)
-        R, S = pr.all(idx, a)
+    act = np.arange(idx.size)
+    for _ in range(len(pr)):  # a probe followed once is stable below the brackets that follow
+        if not act.size:
+            break
+        which = np.argmax(Rhi[act], axis=1)
+        glo = pr.one(idx[act], which, lo[act])[0] - 1.0
+        ghi = Rhi[act, which] - 1.0
+        slope[act] = (ghi - glo) / (hi[act] - lo[act])
+        a, b = _illinois(pr, idx[act], which, lo[act].copy(), glo, hi[act].copy(), ghi, rel)
+        R, S = pr.all(idx[act], a)
         un = ~S.all(axis=1)
-        hi = np.where(un, a, b)
-        if not un.any():
-            return a, slope
-        Rhi = np.where(un[:, None], R, Rhi)
-        which = np.where(un, np.argmax(R, axis=1), which)
-    return lo, slope
+        lo[act[~un]], hi[act[~un]] = a[~un], b[~un]
+        hi[act[un]], Rhi[act[un]] = a[un], R[un]
+        act = act[un]
+    return lo, hi, slope
+
+
+def first_crossing(probes, idx, hint, Ts: float, cap, rel: float = MARGIN_REL):
+    """The bracketing of the sampled-data latency margin (module docstring), on any probe set: per
+    design, the first extra delay at which some probe turns unstable, bracketed from ΔT_c − T_s/2
+    and ΔT_c (else growing from half a sample, doubling, up to ``cap``) and narrowed by the
+    Illinois method on one probe's ρ − 1 at a time (the verdicts keep the bracket).
+
+    Parameters
+    ----------
+    probes : Probes
+        Or any object with ``len(probes)`` probes, ``probes.all(idx, x)`` → (ρ, stable), each
+        (len(idx), len(probes)), of designs ``idx`` at extra delays ``x`` [s], and
+        ``probes.one(idx, which, x)`` → (ρ, stable) (len(idx),) of probe ``which[j]`` of design
+        ``idx[j]``.
+    idx : numpy.ndarray
+        The designs to search (int, as ``probes`` numbers them).
+    hint : array_like or None
+        Continuous latency margin [s] per design of ``idx`` (NaN: none); None for none.
+    Ts : float
+        Sample period [s].
+    cap : array_like
+        Largest extra delay [s] searched, per design of ``idx``.
+    rel : float, optional
+        Relative resolution: hi − lo ≤ ``rel``·lo.
+
+    Returns
+    -------
+    lo : numpy.ndarray
+        Per design, an extra delay [s] at which every probe is stable (``cap`` when none turns
+        unstable up to it).
+    hi : numpy.ndarray
+        An extra delay [s] at which some probe is unstable (inf: none up to ``cap``).
+    slope : numpy.ndarray
+        dρ/dΔT [1/s] of the probe followed last, over its bracket (0 without a crossing).
+    """
+    idx = np.asarray(idx, dtype=np.int64)
+    cap = np.asarray(cap, dtype=float)
+    lo, hi, Rhi = _bracket(probes, idx, hint, Ts, cap)
+    slope = np.zeros(idx.size)
+    act = np.nonzero(np.isfinite(hi))[0]
+    if act.size:
+        lo[act], hi[act], slope[act] = _follow(probes, idx[act], lo[act], hi[act], Rhi[act], rel)
+    return lo, hi, slope
 
 
 def _unstable_members(bl: BatchLoops, des, families: list, a: np.ndarray, slope: np.ndarray) -> list:
@@ -392,10 +486,22 @@ def _unstable_members(bl: BatchLoops, des, families: list, a: np.ndarray, slope:
     return new
 
 
-def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray:
-    """Sampled-data latency margin [s] of the designs ``des`` (module docstring); 0 is not
-    returned here — call it on designs stable at their own delay. ``families``:
-    [(loop, lo, hi, critical member per design)]; ``hint``: the continuous margins [s].
+@dataclass(frozen=True)
+class Margin:
+    """The sampled-data latency margin of a batch (:func:`latency_margin`): ``extra_delay_s`` [s]
+    per design (every probe stable there; ``inf`` where none turns unstable up to ``MAX_SAMPLES``
+    samples of total delay) and the :class:`Probes` at the end — free, locked, each family's ends
+    and critical member, the extra probes given, and the members the family checks added."""
+
+    extra_delay_s: np.ndarray
+    probes: Probes
+
+
+def latency_margin(bl: BatchLoops, des, families: list, hint=None, probes=()) -> Margin:
+    """The sampled-data latency margin of the designs ``des`` (module docstring): the one engine
+    of the sweep's ``sampled_latency_margin_samples`` and of ``exotune certify`` (on a batch of
+    one, :meth:`~exotune.sampled.batch.BatchLoops.of_controller`). Call it on designs stable at
+    their own delay (0 is not returned here).
 
     Parameters
     ----------
@@ -405,33 +511,37 @@ def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray
         Indices of the designs, each stable at its own delay.
     families : list of tuple
         ``(loop, lo, hi, critical)`` per family: the :class:`~exotune.sampled.batch.Loop`, its
-        range and its critical member per design.
+        range and its critical member per design (NaN: none).
     hint : array_like or None, optional
-        Continuous latency margins [s] per design, where the search starts; None to grow from half
-        a sample.
+        Continuous latency margins [s] per design, where the search starts (NaN: none); None to
+        grow from half a sample.
+    probes : sequence of tuple, optional
+        Extra probes ``(loop, member per design)`` (NaN: none for that design).
 
     Returns
     -------
-    numpy.ndarray
-        Latency margin [s] per design; ``inf`` where no extra delay up to ``MAX_SAMPLES`` samples
-        destabilizes a loop.
+    Margin
+        ``extra_delay_s`` [s] per design (to ``MARGIN_REL`` relative of the first crossing of a
+        probe; ``inf`` where no extra delay up to ``MAX_SAMPLES`` samples destabilizes one) and the
+        probes at the end.
     """
     des = np.asarray(des, dtype=np.int64)
     n = des.size
     cap = MAX_SAMPLES * bl.Ts - bl.delay[des]
-    probes = [(Loop("free"), None), (Loop("locked", env="locked"), None)]
+    loops = [(Loop("free"), None), (Loop("locked", env="locked"), None)]
     for loop, lo, hi, crit in families:
-        probes += [(loop, np.full(n, float(lo))), (loop, np.full(n, float(hi))), (loop, np.asarray(crit, float))]
-    pr = _Probes(bl, des, probes)
-    lo, hi, Rhi = _bracket(pr, n, hint, bl.Ts, cap)
+        loops += [(loop, np.full(n, float(lo))), (loop, np.full(n, float(hi))), (loop, np.asarray(crit, float))]
+    pr = Probes(bl, des, loops + list(probes))
+    h = np.full(n, np.nan) if hint is None else np.array(hint, dtype=float)
     out = np.full(n, math.inf)
-    act = np.nonzero(np.isfinite(hi))[0]
-    base = lo.copy()  # every original probe is stable there
+    act = np.arange(n)
     for _ in range(ROUNDS):
+        lo, hi, slope = first_crossing(pr, act, h[act], bl.Ts, cap[act])
+        found = np.isfinite(hi)
+        out[act] = np.where(found, lo, math.inf)
+        act, a, slope = act[found], lo[found], slope[found]
         if not act.size:
             break
-        a, slope = _follow(pr, act, lo[act], hi[act], Rhi[act])
-        out[act] = a
         new = _unstable_members(bl, des[act], families, a, slope)
         redo = ~np.all([np.isnan(c) for c in new], axis=0)
         if not redo.any():
@@ -440,12 +550,7 @@ def latency_margin(bl: BatchLoops, des, families: list, hint=None) -> np.ndarray
             if np.any(~np.isnan(new[k])):
                 col = np.full(n, np.nan)
                 col[act] = new[k]
-                probes.append((loop, col))
+                pr.loops.append((loop, col))
         act = act[redo]
-        Rhi = np.concatenate([Rhi, np.zeros((n, len(probes) - Rhi.shape[1]))], axis=1)
-        hi[act] = out[act]
-        Rhi[act] = pr.all(act, hi[act])[0]
-        lo[act] = base[act]
-        stable = pr.all(act, lo[act])[1].all(axis=1)
-        lo[act[~stable]] = 0.0
-    return out
+        h[act] = out[act]  # the search goes on from the last margin, where a new probe is unstable
+    return Margin(out, pr)

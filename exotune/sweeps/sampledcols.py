@@ -33,23 +33,6 @@ def sampled_refusal(cfg) -> str | None:
     return None
 
 
-def _families(cfg):
-    """(column prefix, Loop, lo, hi) of every rational human family and environment range."""
-    from ..sampled.batch import Loop
-
-    out = []
-    for i, fam in enumerate(cfg.humans):
-        if fam.kind == "complex_stiffness":
-            continue  # not rational: no finite-dimensional sampled-data model (certify skips it too)
-        fixed = {k: v for k, v in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
-        out.append((f"sampled_human{i}_{fam.kind}", Loop(f"human{i}", human=fixed, param=fam.param), fam.lo, fam.hi))
-    for i, env in enumerate(cfg.environment):
-        if env.kind in ("spring", "mass"):
-            out.append((f"sampled_env{i}_{env.kind}", Loop(f"env{i}", env_param=env.param, env_damping=env.damping),
-                        env.lo, env.hi))
-    return out
-
-
 def sampled_columns(cfg, res) -> dict:
     """The sampled-data columns of a batch of designs ``cfg`` (:func:`exotune.config.batch_config`).
 
@@ -75,7 +58,7 @@ def sampled_columns(cfg, res) -> dict:
     """
     from ..numerics.threads import one_blas_thread
     from ..sampled.batch import BatchLoops, Loop
-    from ..sampled.families import family_check, latency_margin
+    from ..sampled.families import family_check, family_loops, latency_margin
 
     @one_blas_thread
     def run():
@@ -89,7 +72,8 @@ def sampled_columns(cfg, res) -> dict:
             out[f"sampled_{name}_stable"] = stable
             ok &= stable
         fams = []
-        for prefix, loop, lo, hi in _families(cfg):
+        for loop, lo, hi in family_loops(cfg.humans, cfg.environment):
+            prefix = f"sampled_{loop.name}"
             chk = family_check(bl, des, loop, lo, hi)
             out[f"{prefix}_robust"] = chk["robust"]
             out[f"{prefix}_stable_intervals"] = chk["stable_intervals"]
@@ -102,7 +86,7 @@ def sampled_columns(cfg, res) -> dict:
         rows = np.nonzero(ok)[0]
         if rows.size:
             hint = None if res.latency_margin_s is None else np.asarray(res.latency_margin_s, float)[rows]
-            margin[rows] = latency_margin(bl, rows, [(lp, lo, hi, c[rows]) for lp, lo, hi, c in fams], hint)
+            margin[rows] = latency_margin(bl, rows, [(lp, lo, hi, c[rows]) for lp, lo, hi, c in fams], hint).extra_delay_s
         out["sampled_latency_margin_samples"] = margin * bl.fs
         return out
 

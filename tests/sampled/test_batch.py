@@ -2,6 +2,7 @@
 exotune.sampled.loop (same spectral radii up to rounding), and expm_stack against scipy."""
 
 import copy
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ import scipy.linalg
 
 from exotune.config import batch_config, design_from_mapping
 from exotune.model.controller import build_controller
-from exotune.sampled.loop import default_prewarp, sampled_verdict
+from exotune.sampled.loop import default_prewarp, discretize, loop_eigenvalues, sampled_verdict
 from exotune.sampled.batch import BatchLoops, Loop, expm_stack
 
 from paper_design import paper_design
@@ -78,3 +79,29 @@ def test_split_delay_in_whole_samples_and_a_fraction(batch):
     d, f = bl.split_delay(np.array([0.0005, 0.001, 0.0023]))
     assert d.tolist() == [0, 1, 2]
     assert np.allclose(f, [0.5, 0.0, 0.3])
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.001, 0.0013])
+@pytest.mark.parametrize("human, env, loop, v", [
+    (None, "free", Loop("free"), None),
+    (None, "locked", Loop("locked", env="locked"), None),
+    ({"inertia": 0.02, "damping": 0.0}, "free", Loop("h", human={"damping": 0.0}, param="inertia"), 0.02),
+    (None, {"stiffness": 400.0, "damping": 1.0}, Loop("e", env_param="stiffness", env_damping=1.0), 400.0),
+])
+def test_a_batch_of_one_given_controller_has_its_loop_eigenvalues(delay, human, env, loop, v):
+    """BatchLoops.of_controller (the latency margin of a controller file): the spectra of
+    loop_eigenvalues on the same plant and discrete controller, whole and fractional delays, the
+    rigid-body eigenvalue set aside as it does (no position feedback declared here)."""
+    cfg = paper_design(sample_rate_hz=FS)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ctrl = replace(discretize(cs, cfg.plant, FS, default_prewarp(cfg.implementation)), delay_s=delay)
+    for grounded in (True, False):
+        bl = BatchLoops.of_controller(cfg.plant, ctrl, grounded)
+        assert bl.n == 1 and bl.delay.tolist() == [delay] and bl.Ts == 1.0 / FS
+        rho, eig, _st = bl.spectra(np.array([0]), loop, None if v is None else np.array([v]), rounding=False)
+        want = loop_eigenvalues(cfg.plant, ctrl, grounded, human, env)
+        assert rho[0] == pytest.approx(np.max(np.abs(want)), rel=1e-9)
+        got, want = eig[0][np.abs(eig[0]) > 1e-6], want[np.abs(want) > 1e-6]  # the unread command's 0 aside
+        assert got.size == want.size  # the same spectrum (repeated DOB poles: to rounding's ε^(1/3))
+        assert np.max(np.min(np.abs(got[:, None] - want[None, :]), axis=1)) < 1e-6
+        assert np.max(np.min(np.abs(want[:, None] - got[None, :]), axis=1)) < 1e-6
