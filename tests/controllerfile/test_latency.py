@@ -2,11 +2,13 @@
 (examples/scheduled.yaml at 1 kHz, tests/controllerfile/conftest.py) against loop matrices built
 here (exotune.sampled.closed_loop_matrix at the total delay T + ΔT(1 ∓ 1e-3)): every checked loop
 stable just below the margin, the critical member unstable just above, and an independent bisection
-of that member's spectral radius in the delay landing on the same margin; the requirement check."""
+of that member's spectral radius in the delay landing on the same margin; the requirement check;
+the file's margin is the sweep's engine (exotune.sampled.families) on the file's own realization."""
 
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -81,3 +83,36 @@ def test_requirement_problems():
     assert requirement_problems({**lm, "extra_delay_s": 0.002}) == []
     assert requirement_problems({**lm, "required_s": None}) == []
     assert requirement_problems({**lm, "extra_delay_s": None}) == []
+
+
+@pytest.mark.parametrize("impl", [{}, {"delay_s": 0.0013}, {"precision": "float32"},
+                                  {"precision": "float32", "delay_s": 0.00072, "sample_rate_hz": 2000.0}])
+def test_the_file_margin_is_the_sweeps_engine_on_the_files_realization(impl, monkeypatch):
+    """One engine: certify's margin of an exported file (its own rounded coefficients; a float32
+    file's float32 realization; a fractional-sample delay) and the sweep's sampled column of the
+    same design both run exotune.sampled.families.first_crossing, and agree within REL."""
+    from exotune.analysis.batch import analyze_batch
+    from exotune.config.batch import batch_config
+    from exotune.config.yamlio import read_yaml
+    from exotune.controllerfile.export import build_export, design_at_rate
+    import exotune.sampled.families as families
+    from exotune.sweeps.sampledcols import sampled_columns
+
+    calls = []
+    engine = families.first_crossing
+    monkeypatch.setattr(families, "first_crossing", lambda *a, **k: calls.append(1) or engine(*a, **k))
+    raw = read_yaml(Path(__file__).resolve().parents[2] / "examples" / "scheduled.yaml")
+    raw.pop("transmission")
+    raw["implementation"].update(impl)
+    fs = float(raw["implementation"]["sample_rate_hz"])
+    cfg = design_at_rate(raw, fs)
+    doc = build_export(cfg, fs, analyses=False)
+    sa = sampled_analysis(doc)
+    lm = sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
+    assert calls and lm["confirmed"] is True
+    n_file = len(calls)
+    b = batch_config(cfg, {})
+    sc = sampled_columns(b, analyze_batch(b, latency=True))
+    assert len(calls) > n_file
+    assert sc["sampled_latency_margin_samples"][0] == pytest.approx(lm["extra_delay_samples"], rel=REL)
+    assert lm["extra_delay_samples"] == pytest.approx(lm["extra_delay_s"] * fs, rel=1e-12)

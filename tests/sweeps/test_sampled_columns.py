@@ -7,9 +7,9 @@
   spectral radius lies within 1e-6 of 1 are excluded), interval ends within 1e-6 relative
   (certify's intervals computed directly by ``exotune.controllerfile.certify.sampled_analysis`` on
   the exported file);
-* the latency margin within 1e-4 relative of certify's margin recomputed with its bisection
-  tightened to 1e-6 (``exotune.controllerfile.latency.REL`` patched: certify's default 1e-3
-  guarantees only 5e-4); the reference runs in two processes;
+* the latency margin within 1e-4 relative of certify's margin of the exported file (the same
+  engine, exotune.sampled.families.latency_margin, on the file's own realization, to 1e-9 relative
+  of its probes' first crossing, then certify's full check); the reference runs in two processes;
 * the spec key is refused without a sample rate, and a sweep with it writes the columns and a
   report that maps them.
 """
@@ -26,10 +26,10 @@ import yaml
 
 from exotune.analysis import analyze_batch
 from exotune.config import batch_config, design_from_mapping, load_design
-from exotune.controllerfile import latency as certify_latency
 from exotune.controllerfile.certify import sampled_analysis
 from exotune.controllerfile.export import build_export
 from exotune.controllerfile.fileio import discrete_from_file, position_feedback
+from exotune.controllerfile.latency import sampled_latency_margin
 from exotune.errors import ConfigError
 from exotune.sampled.batch import BatchLoops
 from exotune.plots.sweep_report import make_report
@@ -92,10 +92,9 @@ def _near(x: float, tol: float = 1e-6) -> bool:
 
 def _certify_row(args):
     raw, axes, i = args
-    certify_latency.REL = 1e-6  # a tighter reference than certify's 1e-3 (in the worker process)
     doc = _row_doc(raw, axes, i)
     sa = sampled_analysis(doc)
-    return sa, certify_latency.sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
+    return sa, sampled_latency_margin(doc, sa, position_feedback(doc["controller"]), sampled_analysis)
 
 
 N_RANDOM = 50
