@@ -243,9 +243,11 @@ def _first_delay(P0, P1, w, T):
 def _member_margin(loop: _Loop, p: float, w, vals, T):
     """Per row, the smallest ΔT over the crossings of member p found on the grid ``w`` (N, G) and
     its crossing frequency ω [rad/s] (NaN: none), and those crossings as (rows, log ω, grid index)
-    (sign changes refined by bisection, grazing points)."""
+    (sign changes refined by bisection, grazing points). ``p`` may hold one member per row."""
     A0, A1, B0, B1 = vals
-    P0, P1 = A0 + p * B0, A1 + p * B1
+    per_row = np.ndim(p) > 0  # one member per row (member_latency_margins)
+    pg = np.asarray(p, dtype=float)[:, None] if per_row else p
+    P0, P1 = A0 + pg * B0, A1 + pg * B1
     m0, m1 = np.abs(P0) ** 2, np.abs(P1) ** 2
     F = m0 - m1
     N = w.shape[0]
@@ -256,10 +258,11 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
     if r.size:
         lo_l, hi_l = np.log(w[r, i]), np.log(w[r, i + 1])
         f_lo = np.signbit(F[r, i])
+        pr = np.asarray(p, dtype=float)[r] if per_row else p
 
         def Fp(lw):
             a0, a1, b0, b1 = loop.values(np.exp(lw), r)
-            return np.abs(a0 + p * b0) ** 2 - np.abs(a1 + p * b1) ** 2
+            return np.abs(a0 + pr * b0) ** 2 - np.abs(a1 + pr * b1) ** 2
 
         for _ in range(BISECTION_ITERATIONS):
             mid = 0.5 * (lo_l + hi_l)
@@ -269,7 +272,7 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
         lx = 0.5 * (lo_l + hi_l)
         x = np.exp(lx)
         a0, a1, b0, b1 = loop.values(x, r)
-        dT = _first_delay(a0 + p * b0, a1 + p * b1, x, T[r])
+        dT = _first_delay(a0 + pr * b0, a1 + pr * b1, x, T[r])
         _take_min(best, (best_w,), r, dT, (x,))
         rows.append(r)
         logs.append(lx)
@@ -549,12 +552,25 @@ def member_latency_margins(ct, row: int, fam: HumanFamily, key: str, members) ->
     extra_delay_s, omega : ndarray
         Per member: ΔT [s] (``inf``: no crossing) and the crossing frequency ω [rad/s] (NaN: none).
     """
-    terms = _Terms(ct, np.array([int(row)]))
+    ps = np.atleast_1d(np.asarray(members, dtype=float)).ravel()
+    if ps.size == 0:
+        return np.zeros(0), np.zeros(0)
+    # one row per member (the design's terms repeated): each member on the grid of its own tail
+    # bound, exactly as the single-member loop _Loop(..., p, p) would compute it, in one pass
+    terms = _Terms(ct, np.full(ps.size, int(row)))
     z0, phi, factor = family_split(fam.kind, fam.param, fam.fixed(), fam.eta)
-    ps = np.atleast_1d(np.asarray(members, dtype=float))
-    loops = [_Loop(terms, 0, PAIRS.index(key), z0, phi, factor, p, p) for p in ps]
-    T = np.asarray(ct.T, dtype=float)[[int(row)]]
-    dT, om, _ = (np.concatenate([a.ravel() for a in x]) for x in zip(*(_loop_margins(terms, [lp], T, lp.wmax()) for lp in loops)))
+    loop = _Loop(terms, 0, PAIRS.index(key), z0, phi, factor)
+    a0, a1, b0, b1 = loop.coefficients()
+    n0, n1 = max(a0.shape[1], b0.shape[1]), max(a1.shape[1], b1.shape[1])
+    a0, b0, a1, b1 = pad_cols(a0, n0), pad_cols(b0, n0), pad_cols(a1, n1), pad_cols(b1, n1)
+    # the single-member loop's tail members: p, p and the 9 points of geomspace/linspace(p, p)
+    sample = np.geomspace(ps, ps, 9) if np.all(ps > 0) else np.array([np.geomspace(p, p, 9) if p > 0
+                                                                        else np.linspace(p, p, 9) for p in ps]).T
+    t = np.max([tail_bound(a0 + q[:, None] * b0, a1 + q[:, None] * b1) for q in (ps, *sample)], axis=0)
+    wmax = np.where(np.isfinite(t), 4.0 * t, NEUTRAL_TAIL)
+    T = np.full(ps.size, float(np.asarray(ct.T, dtype=float)[int(row)]))
+    w = _grid(wmax)
+    dT, om, _ = _member_margin(loop, ps, w, loop.values(w), T)
     return dT, om
 
 

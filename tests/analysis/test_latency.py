@@ -170,3 +170,40 @@ def test_box_edge_minimum_between_sampled_members_is_found_by_both():
     s = latency_margin(_single(mp, vals, 4))
     assert s.verified is True and s.critical.loop.startswith("human0_msd_edge")
     assert m == pytest.approx(s.extra_delay_s, rel=1e-9)
+
+
+@pytest.mark.parametrize("base", ["scheduled", "paper"])
+def test_member_margins_in_one_pass_equal_each_member_as_a_family_of_one(base):
+    """member_latency_margins (every member a row of one pass, each on its own tail bound's grid)
+    against family_latency_margin on the range [p, p] built from the family's own polynomials
+    A = Δ00 + z0 Δ10, B = f φ Δ10 (products of coefficients, where the pass combines values at jω):
+    the same margins and crossing frequencies to rounding; and a member alone gives what it gives
+    among others (the rows are independent)."""
+    from exotune.analysis.charfun import char_terms
+    from exotune.analysis.latency import family_latency_margin, member_latency_margins
+    from exotune.model.controller import build_controller
+    from exotune.model.humans import family_split
+    from exotune.numerics.poly import padd, pmul
+
+    cfg = design_from_mapping(SCHEDULED if base == "scheduled" else PAPER)
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    ct = char_terms(cfg.plant, cs, 1)
+    T = float(ct.T[0])
+    d00, d10 = ct.qp("00"), ct.qp("10")
+    for fam in cfg.humans:
+        ps = np.geomspace(fam.lo, fam.hi, 9) if fam.lo > 0 else np.linspace(fam.lo, fam.hi, 9)
+        dT, om = member_latency_margins(ct, 0, fam, "10", ps)
+        assert dT.shape == om.shape == ps.shape
+        z0, phi, f = family_split(fam.kind, fam.param, fam.fixed(), fam.eta)
+        a0, a1 = padd(d00.p0, pmul(d10.p0, z0[None, :])), padd(d00.p1, pmul(d10.p1, z0[None, :]))
+        b0, b1 = pmul(d10.p0, phi[None, :]) * f, pmul(d10.p1, phi[None, :]) * f
+        for k, p in enumerate(ps):
+            ref, w_ref, _ = family_latency_margin(a0, a1, b0, b1, p, p, T, factor=1.0) if np.isrealobj(b0) else \
+                family_latency_margin(a0, a1, np.real(b0 / f), np.real(b1 / f), p, p, T, factor=f)
+            if math.isinf(ref):
+                assert math.isinf(dT[k]) and math.isnan(om[k])
+            else:
+                assert dT[k] == pytest.approx(ref, rel=1e-9) and om[k] == pytest.approx(w_ref, rel=1e-9)
+            alone = member_latency_margins(ct, 0, fam, "10", [p])
+            assert np.array_equal(alone[0], dT[k:k + 1]) and np.array_equal(alone[1], om[k:k + 1], equal_nan=True)
+        assert np.isfinite(dT).any() or base == "paper"
