@@ -179,7 +179,9 @@ def _unresolved(sa: dict, where: str) -> list[str]:
                    "spent: a high sample rate puts every eigenvalue near the unit circle; certify at a lower rate"
                    if h.get("budget_spent") else
                    "at the finest step: an eigenvalue within a hair of the unit circle and moving fast, a marginal design")
-            out.append(f"{where}{h['kind']} {h['parameter']}: eigenvalue paths not resolved in {len(cells)} cell(s), "
+            count = h.get("unresolved_cells", len(cells))
+            count = count if isinstance(count, int) and count >= len(cells) else len(cells)
+            out.append(f"{where}{h['kind']} {h['parameter']}: eigenvalue paths not resolved in {count} cell(s), "
                        f"first [{a:.6g}, {b:.6g}] {h['unit']} ({why})")
     return out
 

@@ -167,7 +167,8 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     intervals : list of [a, b]
         The stable intervals (|λ| < 1 for every eigenvalue).
     info : dict
-        ``points``, ``refined_points``, ``unresolved`` cells, ``refinement_budget``,
+        ``points``, ``refined_points``, ``unresolved`` cells (the first ``MAX_LISTED``; their number
+        in ``unresolved_cells``), ``refinement_budget``,
         ``budget_spent``, ``loop_states``, ``stable_points``, ``inconclusive`` values, ``proof``
         ("cell bound" or "step control only"), ``proven_cells`` (the proofs that succeeded).
 
@@ -289,7 +290,10 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     if start is not None:
         ivs.append([start, hi])
     base = set(vals)
-    return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved),
+    # at most MAX_LISTED cells listed (an exhausted budget leaves ~20 000: a controller file that
+    # lists them all outgrows the size certify reads), their number in ``unresolved_cells``
+    return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved)[:MAX_LISTED],
+                 "unresolved_cells": len(unresolved),
                  "inconclusive": sorted(inconclusive)[:MAX_LISTED],
                  "refinement_budget": max_refined, "budget_spent": budget_spent, "loop_states": n,
                  "proof": "step control only" if cell_bound is None else "cell bound", "proven_cells": proven,

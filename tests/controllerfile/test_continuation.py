@@ -71,3 +71,16 @@ def test_a_cell_bound_that_refuses_leaves_cells_unproven():
     assert ivs == [] or info["unresolved"]
     ok, info2 = stable_intervals(lambda v: _pair(0.5), 1.0, 2.0, points=8, cell_bound=lambda a, b: (True, 0.5))
     assert ok == [[pytest.approx(1.0), pytest.approx(2.0)]] and info2["proven_cells"] >= 1
+
+
+def test_unresolved_cells_are_listed_up_to_a_cap_and_counted():
+    """A family whose eigenvalue sits on the unit circle's edge everywhere leaves every cell
+    unresolved: the info lists the first MAX_LISTED of them and counts all (an exported controller
+    file must stay within the size certify reads)."""
+    from exotune.controllerfile.continuation import MAX_LISTED
+
+    # |λ| = 1 − 1e-9 over the whole range, moving fast along the circle: no cell resolves
+    ivs, info = stable_intervals(lambda v: np.array([(1 - 1e-9) * np.exp(1j * 40.0 * v)]), 1.0, 2.0, points=48)
+    assert info["unresolved_cells"] > MAX_LISTED
+    assert len(info["unresolved"]) == MAX_LISTED
+    assert info["unresolved"] == sorted(info["unresolved"])
