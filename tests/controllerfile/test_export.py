@@ -447,4 +447,4 @@ def test_certify_refinement_budget_reports_unresolved_cells(monkeypatch):
     monkeypatch.setattr(C, "MAX_REFINED", 300)
     ivs, info = C.stable_intervals(spectrum, 1.0, 10.0)
     assert ivs == [[1.0, 10.0]] and info["refined_points"] <= 300 + C.MAX_DEPTH
-    assert len(info["unresolved"]) >= C.POINTS - 1
+    assert info["unresolved_cells"] >= C.POINTS - 1 and len(info["unresolved"]) == C.MAX_LISTED
