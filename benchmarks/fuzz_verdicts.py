@@ -1,7 +1,8 @@
 """Independent, adversarial cross-check of exotune's stability verdicts (docs/benchmarks.md,
 "Independent verdict campaign").
 
-    python benchmarks/fuzz_verdicts.py --designs 300 --seed 1 [--sampled 40] [--hostile] [--json OUT]
+    python benchmarks/fuzz_verdicts.py --designs 300 --sampled 40 --seed 2026 [--only continuous|sampled]
+        [--no-hostile] [--json OUT] [--records OUT.jsonl] [--emit-cases OUT]
 
 Random designs far beyond the shipped examples (amplification 1.1–60, ζ and ζ̂ 0.05–2, felt
 inertia and damping over decades, delays 0–12 ms that are not whole samples, DOB on/off with
@@ -25,11 +26,12 @@ either side of every end of exotune's stable intervals):
 * Newton's method on the exact h(s) from every near-axis Padé root: a converged right-half-plane
   root is a witness of instability that needs no contour.
 
-The reference verdict is the exact count when it is conclusive; where it is not, the Padé verdict
-when both orders agree and no frequency where the two Padé models differ in phase carries loop
-gain ≥ 0.5 (Padé adequate); otherwise "inconclusive". Members within 0.1 % (relative, in the
-member's parameter) of an end of one of exotune's intervals are counted as boundary members and
-not compared (the reference decides them too, but a 1e-3 relative boundary is not a verdict).
+The reference verdict: unstable when Newton's method converged to a right-half-plane root of the
+exact h; else the argument-principle count when it is conclusive; else the Padé verdict when both
+orders agree and no frequency where Padé errs (|R(jx) − e^{−jx}| > 1e-3) carries loop gain ≥ 0.5
+(Padé adequate); otherwise "inconclusive". Members within 1e-4 (relative) of an end of one of
+exotune's intervals are not compared (the probes at ±1e-3 are). A member whose rightmost known
+root lies within 1e-10 (relative) of the axis is flagged ``float_resolution`` and counted apart.
 
 Sampled-data loops: ``exotune.export`` (``--allow-uncertified``, no latency requirement) then
 ``exotune.certify`` against a discrete-time reference built from the controller YAML alone
@@ -1353,7 +1355,17 @@ def main(argv=None):
     ap.add_argument("--no-hostile", action="store_true")
     ap.add_argument("--json", default=None, help="write every record here")
     ap.add_argument("--emit-cases", default=None, help="write the most adversarial decided cases (JSON) here")
+    ap.add_argument("--records", default=None, help="append every design's record to this JSON-lines file as it is done")
+    ap.add_argument("--only", choices=("all", "continuous", "sampled"), default="all",
+                    help="compare one part only; the continuous designs are still drawn (the same random stream, "
+                         "about 3 min), so a split run gives the records of the whole run")
     args = ap.parse_args(argv)
+    records = open(args.records, "a") if args.records else None
+
+    def keep(kind, rec):
+        if records:
+            records.write(json.dumps(_jsonable(dict(kind=kind, **rec))) + "\n")
+            records.flush()
     global PADE_X_OK
     pc = pade_check()
     PADE_X_OK = min(pc[8]["x_ok"], pc[14]["x_ok"])
@@ -1378,22 +1390,26 @@ def main(argv=None):
                 regime = "wide"
             else:
                 m = mb
+        if args.only == "sampled":
+            continue
         rec = compare_continuous(m, args.grid)
         rec.update(index=i, regime=regime)
         cont.append(rec)
+        keep("continuous", rec)
         _report(f"[{i:4d}] {regime:14s}", rec)
     samp = []
-    if args.sampled:
+    if args.sampled and args.only != "continuous":
         with tempfile.TemporaryDirectory() as td:
             for i in range(args.sampled):
                 m = draw_sampled_design(rng, candidates=8 if rng.uniform() < 0.7 else 1)
                 rec = compare_sampled(m, Path(td), f"s{i}", boundary_rng=rng if rng.uniform() < 0.35 else None)
                 rec.update(index=i)
                 samp.append(rec)
+                keep("sampled", rec)
                 imp = m["implementation"]
                 _report(f"[s{i:3d}] {imp['sample_rate_hz']:6.0f} Hz {imp['delay_s'] * imp['sample_rate_hz']:7.3f} samples", rec)
     hostile = []
-    if not args.no_hostile:
+    if not args.no_hostile and args.only != "sampled":
         with tempfile.TemporaryDirectory() as td:
             hostile = hostile_campaign(Path(td))
         for h in hostile:
