@@ -9,7 +9,7 @@ inertia and damping over decades, delays 0–12 ms that are not whole samples, D
 5–400 Hz cutoffs, human masses down to 1e-8 kg·m² on stiff and soft cuffs, designs placed on a
 stability boundary) are analysed by exotune and by references written here from the equations of
 the method pages alone (docs/method.md; the paper §II–§IV). Nothing of ``exotune.analysis``, ``exotune.model`` or
-``exotune.controllerfile`` is imported by the references: the gains are re-derived from SPEC §4,
+``exotune.controllerfile`` is imported by the references: the gains are re-derived from docs/method.md#double-compliance-shaping,
 the controller is assembled with python-control, the plant is written from the physical equations.
 
 Continuous loops (exotune: ``exotune.analysis.batch.analyze_batch`` on a
@@ -79,12 +79,12 @@ ROOT = Path(__file__).resolve().parents[1]
 TWO_PI = 2.0 * math.pi
 
 # ============================================================================================
-# Part 1. The independent reference (SPEC §2–§4), continuous time
+# Part 1. The independent reference (docs/method.md: physical model, controller, double compliance shaping), continuous time
 # ============================================================================================
 
 
 def spec_gains(plant: dict, design: dict) -> dict:
-    """Double compliance shaping, SPEC §4 (torque units), written out here."""
+    """Double compliance shaping, docs/method.md#double-compliance-shaping (torque units), written out here."""
     a = float(design["amplification"])
     Jh = a * float(design["felt_inertia"])
     Bh = a * float(design["felt_damping"])
@@ -101,7 +101,7 @@ def _tf_ss(num, den) -> control.StateSpace:
 
 
 def continuous_controller(plant: dict, design: dict, impl: dict) -> control.StateSpace:
-    """The continuous controller of SPEC §3 (default structure) as one python-control system.
+    """The continuous controller of docs/method.md#controller (default structure) as one python-control system.
 
     Inputs ``[w_m, tau_s, dtau_s, tau_c]`` (θ̇_m and τ̇_s ideal plant states; θ_m is not needed:
     K1 = 0 and the DOB's Q·(J_m s² + B_m s) θ_m is Q·(J_m s + B_m) θ̇_m), output ``tau_cmd``:
@@ -150,7 +150,7 @@ def continuous_controller(plant: dict, design: dict, impl: dict) -> control.Stat
 
 
 def plant_matrices(plant: dict, human: dict | None, env, outputs=("w_m", "tau_s", "dtau_s", "tau_c")):
-    """The plant of SPEC §2 with a human impedance on the cuff and an environment on the joint.
+    """The plant of docs/method.md#physical-model with a human impedance on the cuff and an environment on the joint.
 
     Coordinates: θ_m (absolute), ω_m, θ_s = θ_j − θ_m, ω_j, θ_c = θ_h − θ_j, ω_h (those that
     exist). human: None (cuff free) or {m, b, k} (m = 0: massless node, first order if b > 0,
@@ -221,7 +221,7 @@ def loop_matrices(plant, K: control.StateSpace, human, env):
 
     When nothing grounds the structure (K1 = 0, no stiffness to ground) the absolute position θ_m
     is a cyclic coordinate (its column is exactly zero): it is removed, which removes the
-    rigid-body root s = 0 exactly (SPEC §4)."""
+    rigid-body root s = 0 exactly (docs/method.md#errata-and-traps-in-the-paper-text)."""
     outs = ("w_m", "tau_s", "dtau_s", "tau_c")
     if env == "locked_amp":   # the zeros of C6/C5: the cuff input of the controller reads τ_s
         env, outs = "locked", ("w_m", "tau_s", "dtau_s", "tau_s")
@@ -540,7 +540,7 @@ PADE_X_OK = 3.0  # set from pade_check() at start-up (x where the (8, 8) Padé e
 
 
 def min_phase_verdict(plant, K, T):
-    """Minimum phase of the amplification C6/C5 (SPEC §5): with the output locked,
+    """Minimum phase of the amplification C6/C5 (docs/method.md#amplification): with the output locked,
     C6/C5 = −τ_env/τ_c = 1 − τ_s/τ_c, so its zeros are the roots of the locked loop in which the
     controller's cuff input reads τ_s instead of τ_c (positive unity feedback of τ_s/τ_c).
     Returns the member verdict of that fictitious loop (ref True: no zero in the closed RHP)."""
