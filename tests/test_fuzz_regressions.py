@@ -2,7 +2,7 @@
 docs/benchmarks.md#independent-verdict-campaign).
 
 The campaign compared exotune's verdicts on random designs far beyond the shipped examples with
-references that share no code with exotune's analysis: the gains re-derived from SPEC §4, the
+references that share no code with exotune's analysis: the gains re-derived from the method page's double compliance shaping, the
 controller assembled with python-control, the plant written from the physical equations; the
 continuous loops decided by an argument-principle count of my own on the exact delay (plus
 Newton's method on the exact characteristic function, and Padé 8/14 eigenvalues), the sampled
@@ -13,8 +13,10 @@ delay split inside the period) of the controller file read with ``yaml.safe_load
   rightmost exact root at |Re s|/|s| ≈ 1e-8 … 1e-3: light masses whose cuff resonance is almost
   undamped, designs placed on the free-stability boundary, stiff environments), per loop kind.
 * ``SAMPLED_CASES``: sampled-data members nearest |z| = 1 with fractional delays (ρ − 1 ≈ ±1e-7).
-* The xfail(strict) tests are a defect the campaign found; they fail today. The last test guards
-  a second one, fixed since (6044f09).
+* Two defects the campaign found, both fixed and kept as regressions: the stable side of an
+  interval end was not checked (an unstable window inside a reported stable interval; certify's
+  intervals and the sweep's sampled columns), and an exported file certify could not read
+  (6044f09).
 
 Run time: about 10 s, plus 30 s for the export → certify round trip.
 """
@@ -328,7 +330,7 @@ def test_hostile_design_values_are_refused_naming_the_field(path, value):
 
 
 # ------------------------------------------------------------------------------------------------
-# Defects found by the campaign (strict xfail: each fails today; remove the mark with the fix)
+# Defects found by the campaign, fixed: regressions
 # ------------------------------------------------------------------------------------------------
 S35 = dict(plant=[0.03760420940634334, 45.156003120192196, 6541.456245922774, 1.4381450148880408, 15671.88492792514],
            design=[4.926324027846725, 0.008594721227271462, 0.02963281613602793, 0.7678830336312729, 0.4768965716712872],
@@ -338,9 +340,6 @@ S35 = dict(plant=[0.03760420940634334, 45.156003120192196, 6541.456245922774, 1.
 S35_UNSTABLE_MEMBER = 1.2354633845290227e-05   # ρ = 1 + 3.68e-7 by exotune's own loop_verdict and the reference
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="certify's stable_intervals accept the stable part of a cell whose end "
-                   "verdicts differ after bisecting ONE crossing, without step control or a cell proof: an unstable "
-                   "window inside such a cell is reported stable (exotune/controllerfile/continuation.py)")
 def test_certify_intervals_exclude_a_member_its_own_model_finds_unstable():
     """Campaign design s35 (seed 2026): 500 Hz, 5.159 samples of delay, an undamped light mass on
     a stiff cuff; its mass family [1e-7, 7.12e-5] was reported stable on [1.16645e-5, 1.26388e-5]
@@ -360,10 +359,26 @@ def test_certify_intervals_exclude_a_member_its_own_model_finds_unstable():
     assert st_ex is False and st_ref is False and rho_ex > 1 + 3e-7 and rho_ref > 1 + 3e-7
     h = sampled_analysis(doc, points=2)["humans"][0]
     assert not any(a <= S35_UNSTABLE_MEMBER <= b for a, b in h["stable_intervals"]), h["stable_intervals"]
+    assert h["edge_cells"] > 0 and h["stable_intervals"] and not h["robust"]
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="continuation.stable_intervals bisects a verdict-change cell to one edge and "
-                   "reports the stable side as stable without checking it (no step control, no cell proof)")
+def test_sweep_sampled_intervals_exclude_the_same_member():
+    """The sweep's batched engine (exotune.sampled.families, the ``sampled: true`` columns) on the
+    same reduced family: its march over the stable side of the interval end finds the window too."""
+    from exotune.config import batch_config, design_from_mapping
+    from exotune.sampled.batch import BatchLoops, Loop
+    from exotune.sampled.families import family_check
+
+    mapping, _ = _design(S35)
+    cfg = design_from_mapping(mapping)
+    bl = BatchLoops(batch_config(cfg, {}), S35["impl"]["sample_rate_hz"])
+    lo, hi = 1.1798108014659946e-05, 1.2642665110334118e-05
+    chk = family_check(bl, [0], Loop("h", human={"damping": 0.0}, param="inertia"), lo, hi, points=2)
+    (ivs,) = chk["stable_intervals"]
+    assert ivs and not any(a <= S35_UNSTABLE_MEMBER <= b for a, b in ivs), ivs
+    assert not chk["robust"][0]
+
+
 def test_stable_intervals_check_the_stable_side_of_a_verdict_change():
     """The root cause of the test above on a one-eigenvalue family: |λ(v)| = 0.5 except an
     unstable window (1.45, 1.47) and v ≥ 1.9; the grid [1, √2, 2] has the verdict change in

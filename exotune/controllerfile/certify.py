@@ -599,7 +599,8 @@ def _certify(doc: ControllerFile, predictions: bool = True) -> dict:
                      f"(cells halved ≤ {MAX_DEPTH} times until every eigenvalue moves less than its distance to the "
                      "unit circle) proposes the cells, and each accepted span is proven stable as a whole (a Taylor "
                      "model of the loop matrix over the span and Gershgorin discs, docs/method.md#guarantees; an "
-                     "unproven cell is unresolved); every verdict change bisected to 1e-10 relative; hysteretic "
+                     "unproven cell is unresolved); every verdict change bisected to 1e-10 relative and the stable side of "
+                     "each interval end proven up to 1e-6 relative of it; hysteretic "
                      "humans are not rational and are skipped")
     return rep
 

@@ -14,7 +14,12 @@ hide inside a cell on an eigenvalue path much longer than its resolved chord and
 unresolved at the finest step (≈ 2e-5 relative: an eigenvalue within a hair of the circle and
 moving fast), or when the refinement budget (``MAX_REFINED`` values per family, fewer for loops of
 more than ``REF_STATES`` states) is spent, fails
-the certification.
+the certification. The stable side of every interval end is checked as well: from the last stable
+value before the end, cells that double after an acceptance and halve after a refusal march toward
+the bisected end and stop ``EDGE_SLIVER`` (relative) short of it; an unstable member met on the way
+is a window, which becomes the interval's end (the stable part beyond it is not claimed). So every
+member of a reported interval is accepted (proven, with a ``cell_bound``) except those within
+``EDGE_SLIVER`` of its ends.
 
 References
 ----------
@@ -27,7 +32,7 @@ import math
 
 import numpy as np
 
-__all__ = ["POINTS", "MAX_DEPTH", "stable_intervals"]
+__all__ = ["POINTS", "MAX_DEPTH", "EDGE_SLIVER", "stable_intervals"]
 
 POINTS = 96
 NEAR_UNIT = 1e-6  # |ρ − 1| below which a member's verdict is decided with its rounding estimate
@@ -48,6 +53,8 @@ FD_CELL = 1e-3
 _BISECT = 48
 SPAN = 8  # grid cells the rigorous pass tries to prove at once first (its span adapts: ×2 on success, ½ on failure)
 MAX_SPAN = 64
+EDGE_SLIVER = 1e-6  # an interval end's stable side is checked up to this distance (relative) from the bisected end
+MARCH_STEPS = 2000  # cells tried per family on the stable sides of its interval ends
 PROOFS = 1000  # cell proofs tried per family (scaled like MAX_REFINED for big loops, at least 200); past it, unresolved
 
 
@@ -181,6 +188,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     cache = {}
     log = lo > 0
     coord = (lambda v: math.log(v)) if log else (lambda v: v)
+    inv = math.exp if log else (lambda u: u)
 
     inconclusive = []
     ahead: dict = {}  # spectra computed in advance (the base grid and its derivative steps)
@@ -265,20 +273,73 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
         extra, proven, spent = _prove(grid, [at(v)[0] for v in grid], unresolved, cell_bound, refine, proofs)
         budget_spent = budget_spent or spent
         grid = sorted(set(grid) | set(extra))
-    st = [at(v)[0] for v in grid]
-    edges = []  # (position, stable after)
-    for i in range(len(grid) - 1):
-        if st[i] != st[i + 1]:
-            a, b = grid[i], grid[i + 1]
-            for _ in range(_BISECT):
-                if b - a <= 1e-10 * b:
+    marched: dict = {}
+    march_calls = [0]
+
+    def accept(x, y):
+        """Whether the cell between stable values x, y is accepted (proven with a cell bound,
+        else resolved by step control)."""
+        x, y = min(x, y), max(x, y)
+        if cell_bound is not None:
+            return bool(cell_bound(x, y)[0])
+        return _cell_resolved(at(x)[1], at(y)[1], coord(y) - coord(x),
+                              lambda: (with_derivative(x)[1], with_derivative(y)[1]))
+
+    def march(s, t):
+        """Check the stable side of an interval end: the cell from the stable value ``s`` (a grid
+        value) to the stable bisection end ``t`` next to the edge, by cells that grow ×2 after an
+        acceptance and halve after a refusal, up to ``EDGE_SLIVER`` (relative) from ``t``. Returns
+        an unstable value found on the way (a window: a new change of verdict), else None; a cell
+        that stays unaccepted is appended to ``unresolved``."""
+        nonlocal refined, budget_spent
+        if (s, t) in marched:
+            return marched[(s, t)]
+        us, ut = coord(s), coord(t)
+        sliver = EDGE_SLIVER * (1.0 if log else (abs(t) or spacing))
+        pv, w, out = s, 0.5 * (ut - us), None  # pv: the value up to which the side is accepted
+        while abs(ut - coord(pv)) > sliver:
+            pos = coord(pv)
+            w = math.copysign(min(abs(w), abs(ut - pos)), ut - us)
+            y = t if abs(ut - pos - w) <= 0.0 else inv(pos + w)
+            if refined >= max_refined or march_calls[0] >= MARCH_STEPS or abs(w) < sliver * 1e-3:
+                budget_spent = budget_spent or refined >= max_refined
+                unresolved.append(sorted([pv, t]))
+                break
+            refined += 1
+            march_calls[0] += 1
+            if not at(y)[0]:
+                out = y
+                break
+            if accept(pv, y):
+                pv, w = y, 2.0 * w
+            else:
+                w = 0.5 * w
+        marched[(s, t)] = out
+        return out
+
+    while True:  # windows found by a march become grid values, and the edges are bisected again
+        grid = sorted(set(grid))
+        st = [at(v)[0] for v in grid]
+        edges = []  # (position, stable after)
+        window = None
+        for i in range(len(grid) - 1):
+            if st[i] != st[i + 1]:
+                a, b = grid[i], grid[i + 1]
+                for _ in range(_BISECT):
+                    if b - a <= 1e-10 * b:
+                        break
+                    m = mid(a, b)
+                    if at(m)[0] == st[i]:
+                        a = m
+                    else:
+                        b = m
+                window = march(grid[i], a) if st[i] else march(grid[i + 1], b)
+                if window is not None:
                     break
-                m = mid(a, b)
-                if at(m)[0] == st[i]:
-                    a = m
-                else:
-                    b = m
-            edges.append((0.5 * (a + b), st[i + 1]))
+                edges.append((0.5 * (a + b), st[i + 1]))
+        if window is None:
+            break
+        grid.append(window)
     ivs = []
     start = lo if st[0] else None
     for x, after in edges:
@@ -293,7 +354,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     # at most MAX_LISTED cells listed (an exhausted budget leaves ~20 000: a controller file that
     # lists them all outgrows the size certify reads), their number in ``unresolved_cells``
     return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved)[:MAX_LISTED],
-                 "unresolved_cells": len(unresolved),
+                 "unresolved_cells": len(unresolved), "edge_cells": march_calls[0],
                  "inconclusive": sorted(inconclusive)[:MAX_LISTED],
                  "refinement_budget": max_refined, "budget_spent": budget_spent, "loop_states": n,
                  "proof": "step control only" if cell_bound is None else "cell bound", "proven_cells": proven,

@@ -57,6 +57,8 @@ CONFIRM = 1e-3
 NEGLIGIBLE = 1e-6  # relative change of the margin below which a member of largest ρ is not followed
 ROUNDS = 4
 MAX_SAMPLES = 200.0
+EDGE_SLIVER = 1e-6  # certify's: an interval end's stable side is checked up to this distance (relative)
+MARCH_STEPS = 2000  # cells tried on the stable sides of the interval ends (rounds of one batch)
 
 
 def _greedy_match(la: np.ndarray, lb: np.ndarray) -> np.ndarray:
@@ -181,9 +183,10 @@ def _refine(fam: _Family, a: np.ndarray, b: np.ndarray, depth: int) -> list:
     return unresolved
 
 
-def _edges(fam: _Family) -> tuple[np.ndarray, list]:
-    """(points sorted by design then member, [(design, position, stable after)]): every change
-    of verdict narrowed to ``BISECT_REL`` by the Illinois method on ρ − 1 (bracket kept by the verdicts)."""
+def _edges(fam: _Family) -> tuple[np.ndarray, list, tuple]:
+    """(points sorted by design then member, [(design, position, stable after)], sides): every change
+    of verdict narrowed to ``BISECT_REL`` by the Illinois method on ρ − 1 (bracket kept by the verdicts).
+    ``sides`` = (design, stable neighbour's point index, stable end of the bracket, unstable end) per edge."""
     order = np.lexsort((fam.v, fam.owner))
     o, st = fam.owner[order], fam.st[order]
     j = np.nonzero((o[:-1] == o[1:]) & (st[:-1] != st[1:]))[0]
@@ -199,7 +202,50 @@ def _edges(fam: _Family) -> tuple[np.ndarray, list]:
         p = fam.eval(own[act], fam.from_u(x))
         _illinois_move(ua, ga, ub, gb, side, act, x, fam.rho[p] - 1.0, fam.st[p] == left[act])
     a, b = fam.from_u(ua), fam.from_u(ub)
-    return order, [(int(i), float(0.5 * (x + y)), not bool(s)) for i, x, y, s in zip(own, a, b, left)]
+    sides = (own, np.where(left, order[j], order[j + 1]), np.where(left, a, b), np.where(left, b, a))
+    return order, [(int(i), float(0.5 * (x + y)), not bool(s)) for i, x, y, s in zip(own, a, b, left)], sides
+
+
+def _march(fam: _Family, own, spt, t, bad, unresolved: list) -> bool:
+    """The stable sides of interval ends (:func:`exotune.controllerfile.continuation.stable_intervals`'s
+    march, step control only): from the stable point ``spt`` toward the bracket's stable end ``t``
+    by cells that double after a resolved one and halve after an unresolved one, up to
+    ``EDGE_SLIVER`` (relative) from ``t``. An unstable member on the way is a window: the points
+    from it to the edge's unstable end ``bad`` are set unstable (the stable part beyond a window is
+    not claimed) and True is returned (the edges are narrowed again); cells left are appended to
+    ``unresolved``."""
+    ut = fam.u(t)
+    sliver = EDGE_SLIVER * (np.ones_like(t) if fam.log else np.maximum(np.abs(t), 1e-300))
+    pos, sign = spt.copy(), np.sign(ut - fam.u(fam.v[spt]))
+    w = 0.5 * (ut - fam.u(fam.v[spt]))
+    act = np.nonzero(np.abs(ut - fam.u(fam.v[pos])) > sliver)[0]
+    window = False
+    for _ in range(MARCH_STEPS):
+        pu = fam.u(fam.v[pos[act]])
+        w[act] = sign[act] * np.minimum(np.abs(w[act]), np.abs(ut[act] - pu))
+        tiny = np.abs(w[act]) < sliver[act] * 1e-3
+        unresolved += [(int(own[k]), *sorted((float(fam.v[pos[k]]), float(t[k])))) for k in act[tiny]]
+        act = act[~tiny]
+        if not act.size:
+            break
+        pu = fam.u(fam.v[pos[act]])
+        y = np.where(np.abs(ut[act] - pu - w[act]) <= 0.0, t[act], fam.from_u(pu + w[act]))
+        p = fam.eval(fam.owner[pos[act]], y)
+        unst = ~fam.st[p]
+        for k, q in zip(act[unst], p[unst]):  # a window: the members beyond it are not claimed
+            lo, hi = sorted((fam.v[q], bad[k]))
+            fam.st[(fam.owner == fam.owner[q]) & (fam.v > lo) & (fam.v < hi)] = False
+            window = True
+        act, p = act[~unst], p[~unst]
+        ok = fam.resolved(pos[act], p) if act.size else np.zeros(0, bool)
+        pos[act[ok]] = p[ok]
+        w[act] *= np.where(ok, 2.0, 0.5)
+        act = act[np.abs(ut[act] - fam.u(fam.v[pos[act]])) > sliver[act]]
+        if not act.size:
+            break
+    else:
+        unresolved += [(int(own[k]), *sorted((float(fam.v[pos[k]]), float(t[k])))) for k in act]
+    return window
 
 
 def _illinois_point(lo, glo, hi, ghi, bisect: bool) -> np.ndarray:
@@ -260,7 +306,13 @@ def family_check(bl: BatchLoops, des, loop: Loop, lo: float, hi: float, delay=No
     grid = fam.eval(np.repeat(np.arange(nd), points), np.tile(vals, nd)).reshape(nd, points)
     depth = 12 + max(0, math.ceil(math.log2((CERTIFY_POINTS - 1) / max(points - 1, 1))))  # certify's finest cell
     unresolved = _refine(fam, grid[:, :-1].ravel(), grid[:, 1:].ravel(), depth)
-    order, edges = _edges(fam)
+    marched: set = set()
+    while True:  # the stable side of every interval end is checked; a window found moves that end
+        order, edges, (own, spt, t, bad) = _edges(fam)
+        new = np.array([(int(i), x) not in marched for i, x, _ in edges], bool)
+        marched |= {(int(i), x) for i, x, _ in edges}
+        if not (new.any() and _march(fam, fam.owner[spt[new]], spt[new], t[new], bad[new], unresolved)):
+            break
     out = {"stable_intervals": [], "robust": np.zeros(nd, bool), "critical": np.zeros(nd),
            "critical_radius": np.zeros(nd), "unresolved": [[] for _ in range(nd)], "evaluations": fam.v.size,
            "points": (fam.owner, fam.v, fam.rho)}

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exotune.controllerfile.continuation import POINTS, stable_intervals
+from exotune.controllerfile.continuation import EDGE_SLIVER, POINTS, stable_intervals
 
 
 def _pair(r: float, th: float = 0.7) -> np.ndarray:
@@ -84,3 +84,45 @@ def test_unresolved_cells_are_listed_up_to_a_cap_and_counted():
     assert info["unresolved_cells"] > MAX_LISTED
     assert len(info["unresolved"]) == MAX_LISTED
     assert info["unresolved"] == sorted(info["unresolved"])
+
+
+def _windows_family(windows, edge):
+    """One eigenvalue, 0.5 (stable) except 1.5 inside the open windows (c, c + w) and for v ≥ ``edge``;
+    the cell bound is an honest oracle (proven exactly when the cell holds no unstable member)."""
+    def unstable(v):
+        return any(c < v < c + w for c, w in windows) or (edge is not None and v >= edge)
+
+    def cell_bound(a, b):
+        return (not any(a < c + w and b > c for c, w in windows) and (edge is None or b < edge), 0.5)
+
+    return unstable, (lambda v: np.array([1.5 if unstable(v) else 0.5])), cell_bound
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(1.0, 4.9), st.floats(1e-4, 0.3)), max_size=4),
+       st.one_of(st.none(), st.floats(1.2, 4.9)), st.integers(2, 12))
+def test_no_unstable_member_inside_a_reported_interval(windows, edge, points):
+    """Soundness with an honest cell proof, whatever the grid: every unstable member inside a
+    reported stable interval lies in a listed unresolved cell or within EDGE_SLIVER (relative)
+    of the interval's end — windows between a stable grid value and an interval end included
+    (the stable side of every end is checked; docs/controller-file.md#certification)."""
+    unstable, spectrum, cell_bound = _windows_family(windows, edge)
+    ivs, info = stable_intervals(spectrum, 1.0, 5.0, points=points, cell_bound=cell_bound)
+    assert info["unresolved_cells"] <= len(info["unresolved"])  # (never capped here) all listed
+    probes = [c + f * w for c, w in windows for f in (1e-3, 0.5, 1 - 1e-3)] + list(np.geomspace(1.0, 5.0, 4001))
+    for v in (v for v in probes if unstable(v)):
+        for a, b in ivs:
+            if a <= v <= b:
+                near_end = min(v - a, b - v) <= EDGE_SLIVER * v
+                in_cell = any(x <= v <= y for x, y in info["unresolved"])
+                assert near_end or in_cell, (v, ivs, info["unresolved"])
+
+
+def test_a_window_between_a_grid_value_and_an_interval_end_is_found():
+    """The grid [1, √2, 2] sees stable, stable, unstable; the end bisected in [√2, 2] is 1.9 and
+    the window (1.45, 1.47) lies between √2 and it: the march over the end's stable side finds
+    it, and the interval ends at the window (the stable part beyond it is not claimed)."""
+    _, spectrum, cell_bound = _windows_family([(1.45, 0.02)], 1.9)
+    ivs, info = stable_intervals(spectrum, 1.0, 2.0, points=3, cell_bound=cell_bound)
+    assert len(ivs) == 1 and ivs[0][0] == 1.0 and ivs[0][1] == pytest.approx(1.45, rel=1e-9)
+    assert info["edge_cells"] > 0 and not info["unresolved"]
