@@ -58,7 +58,7 @@ NEGLIGIBLE = 1e-6  # relative change of the margin below which a member of large
 ROUNDS = 4
 MAX_SAMPLES = 200.0
 EDGE_SLIVER = 1e-6  # certify's: an interval end's stable side is checked up to this distance (relative)
-MARCH_STEPS = 2000  # cells tried on the stable sides of the interval ends (rounds of one batch)
+MARCH_STEPS = 96  # rounds (one batch each) of cells tried on the stable sides of the interval ends; the rest is left unresolved
 
 
 def _greedy_match(la: np.ndarray, lb: np.ndarray) -> np.ndarray:
@@ -116,9 +116,15 @@ class _Family:
     def spectra(self, owner: np.ndarray, v: np.ndarray, delay=None):
         return self.bl.spectra(self.des[owner], self.loop, v, self.delay[owner] if delay is None else delay, self.width)
 
-    def eval(self, owner: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Evaluate members ``v`` of local designs ``owner``; returns their point indices."""
-        rho, eig, st = self.spectra(owner, v)
+    def eval(self, owner: np.ndarray, v: np.ndarray, derivative: bool = False) -> np.ndarray:
+        """Evaluate members ``v`` of local designs ``owner``; returns their point indices. With
+        ``derivative`` their dλ/du too, in the same batch (:meth:`derivatives`' forward difference)."""
+        if derivative:
+            h = self.step(v)
+            rho, eig, st = self.spectra(np.concatenate([owner, owner]), np.concatenate([v, v + h]))
+            eh, (rho, eig, st) = eig[v.size:], (rho[:v.size], eig[:v.size], st[:v.size])
+        else:
+            rho, eig, st = self.spectra(owner, v)
         start = self.v.size
         self.v = np.concatenate([self.v, v])
         self.owner = np.concatenate([self.owner, owner])
@@ -126,8 +132,25 @@ class _Family:
         self.st = np.concatenate([self.st, st])
         self.eig = np.concatenate([self.eig, eig])
         self.der = np.concatenate([self.der, np.zeros_like(eig)])
-        self.has_der = np.concatenate([self.has_der, np.zeros(v.size, bool)])
-        return np.arange(start, start + v.size)
+        self.has_der = np.concatenate([self.has_der, np.full(v.size, derivative)])
+        pts = np.arange(start, start + v.size)
+        if derivative:
+            self._set_derivatives(pts, h, eh)
+        return pts
+
+    def step(self, v: np.ndarray) -> np.ndarray:
+        """The forward-difference step at the members ``v`` (certify's)."""
+        if self.log:
+            return v * max(_FD, FD_CELL * self.fd_spacing)
+        return np.maximum(_FD * np.where(v != 0, np.abs(v), max(abs(self.hi), 1.0)), FD_CELL * self.fd_spacing)
+
+    def _set_derivatives(self, pts: np.ndarray, h: np.ndarray, eh: np.ndarray) -> None:
+        v = self.v[pts]
+        perm = _greedy_match(self.eig[pts], eh)
+        du = self.u(v + h) - self.u(v)
+        with np.errstate(invalid="ignore"):
+            self.der[pts] = (np.take_along_axis(eh, perm, 1) - self.eig[pts]) / du[:, None]
+        self.has_der[pts] = True
 
     def derivatives(self, pts: np.ndarray) -> None:
         """dλ/du at the points ``pts`` (certify's forward difference, eigenvalues matched)."""
@@ -135,18 +158,9 @@ class _Family:
         pts = pts[~self.has_der[pts]]
         if not pts.size:
             return
-        v = self.v[pts]
-        if self.log:
-            h = v * max(_FD, FD_CELL * self.fd_spacing)
-        else:
-            h = np.maximum(_FD * np.where(v != 0, np.abs(v), max(abs(self.hi), 1.0)), FD_CELL * self.fd_spacing)
-        _rho, eh, _st = self.spectra(self.owner[pts], v + h)
-        la = self.eig[pts]
-        perm = _greedy_match(la, eh)
-        du = self.u(v + h) - self.u(v)
-        with np.errstate(invalid="ignore"):
-            self.der[pts] = (np.take_along_axis(eh, perm, 1) - la) / du[:, None]
-        self.has_der[pts] = True
+        h = self.step(self.v[pts])
+        _rho, eh, _st = self.spectra(self.owner[pts], self.v[pts] + h)
+        self._set_derivatives(pts, h, eh)
 
     def resolved(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Step control of the cells (point indices ``a``, ``b``, both stable)."""
@@ -206,31 +220,47 @@ def _edges(fam: _Family) -> tuple[np.ndarray, list, tuple]:
     return order, [(int(i), float(0.5 * (x + y)), not bool(s)) for i, x, y, s in zip(own, a, b, left)], sides
 
 
+def _predicted_cell(fam: _Family, pts: np.ndarray) -> np.ndarray:
+    """The widest cell (in u) from the points ``pts`` that step control is expected to resolve:
+    0.9 × min over eigenvalues of distance to the unit circle / (|dλ/du| + |d|λ|/du|) (the chord
+    and the first-order motion each stay below the distance, which shrinks at the normal speed)."""
+    fam.derivatives(pts)
+    lam, d = fam.eig[pts], fam.der[pts]
+    dist = np.abs(1.0 - np.abs(lam))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        normal = np.abs(np.real(np.conj(lam) * d)) / np.maximum(np.abs(lam), 1e-300)
+        w = np.min(dist / (np.abs(d) + normal), axis=1)
+    return 0.9 * np.where(np.isfinite(w), w, np.inf)
+
+
 def _march(fam: _Family, own, spt, t, bad, unresolved: list) -> bool:
     """The stable sides of interval ends (:func:`exotune.controllerfile.continuation.stable_intervals`'s
     march, step control only): from the stable point ``spt`` toward the bracket's stable end ``t``
-    by cells that double after a resolved one and halve after an unresolved one, up to
-    ``EDGE_SLIVER`` (relative) from ``t``. An unstable member on the way is a window: the points
-    from it to the edge's unstable end ``bad`` are set unstable (the stable part beyond a window is
-    not claimed) and True is returned (the edges are narrowed again); cells left are appended to
-    ``unresolved``."""
+    by cells (half the way first, then the width step control is predicted to resolve after each
+    resolved cell, :func:`_predicted_cell`), halved after an unresolved one, up to ``EDGE_SLIVER`` (relative) from ``t``, at most ``MARCH_STEPS``
+    rounds. An unstable member on the way is a window: the points from it to the edge's unstable
+    end ``bad`` are set unstable (the stable part beyond a window is not claimed) and True is
+    returned (the edges are narrowed again); cells left are appended to ``unresolved``."""
     ut = fam.u(t)
     sliver = EDGE_SLIVER * (np.ones_like(t) if fam.log else np.maximum(np.abs(t), 1e-300))
     pos, sign = spt.copy(), np.sign(ut - fam.u(fam.v[spt]))
-    w = 0.5 * (ut - fam.u(fam.v[spt]))
+    w = 0.5 * np.abs(ut - fam.u(fam.v[spt]))  # the first cell: half the way (a window far from the end is met at once)
     act = np.nonzero(np.abs(ut - fam.u(fam.v[pos])) > sliver)[0]
+    fresh = act[:0]  # edges whose next cell is predicted from their new position
     window = False
     for _ in range(MARCH_STEPS):
+        if fresh.size:
+            w[fresh] = _predicted_cell(fam, pos[fresh])
         pu = fam.u(fam.v[pos[act]])
-        w[act] = sign[act] * np.minimum(np.abs(w[act]), np.abs(ut[act] - pu))
-        tiny = np.abs(w[act]) < sliver[act] * 1e-3
+        w[act] = np.minimum(np.abs(w[act]), np.abs(ut[act] - pu))
+        tiny = w[act] < sliver[act] * 1e-3
         unresolved += [(int(own[k]), *sorted((float(fam.v[pos[k]]), float(t[k])))) for k in act[tiny]]
         act = act[~tiny]
         if not act.size:
             break
         pu = fam.u(fam.v[pos[act]])
-        y = np.where(np.abs(ut[act] - pu - w[act]) <= 0.0, t[act], fam.from_u(pu + w[act]))
-        p = fam.eval(fam.owner[pos[act]], y)
+        y = np.where(np.abs(ut[act] - pu) <= w[act], t[act], fam.from_u(pu + sign[act] * w[act]))
+        p = fam.eval(fam.owner[pos[act]], y, derivative=True)
         unst = ~fam.st[p]
         for k, q in zip(act[unst], p[unst]):  # a window: the members beyond it are not claimed
             lo, hi = sorted((fam.v[q], bad[k]))
@@ -239,8 +269,10 @@ def _march(fam: _Family, own, spt, t, bad, unresolved: list) -> bool:
         act, p = act[~unst], p[~unst]
         ok = fam.resolved(pos[act], p) if act.size else np.zeros(0, bool)
         pos[act[ok]] = p[ok]
-        w[act] *= np.where(ok, 2.0, 0.5)
+        w[act[~ok]] *= 0.5
+        fresh = act[ok]
         act = act[np.abs(ut[act] - fam.u(fam.v[pos[act]])) > sliver[act]]
+        fresh = np.intersect1d(fresh, act)
         if not act.size:
             break
     else:
