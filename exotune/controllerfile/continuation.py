@@ -54,7 +54,7 @@ _BISECT = 48
 SPAN = 8  # grid cells the rigorous pass tries to prove at once first (its span adapts: ×2 on success, ½ on failure)
 MAX_SPAN = 64
 EDGE_SLIVER = 1e-6  # an interval end's stable side is checked up to this distance (relative) from the bisected end
-MARCH_STEPS = 2000  # cells tried per family on the stable sides of its interval ends
+MARCH_STEPS = 600  # cells tried per family on the stable sides of its interval ends (out of the refinement and proof budgets)
 PROOFS = 1000  # cell proofs tried per family (scaled like MAX_REFINED for big loops, at least 200); past it, unresolved
 
 
@@ -84,7 +84,7 @@ def _cell_resolved(la: np.ndarray, lb: np.ndarray, length: float, derivatives) -
     return bool(np.all(length * np.maximum(np.abs(da[r]), np.abs(db[c])) <= CHORD * dist))
 
 
-def _prove(grid: list, stable: list, unresolved: list, cell_bound, refine, budget: int) -> tuple[list, int, bool]:
+def _prove(grid: list, stable: list, unresolved: list, cell_bound, refine, budget: int) -> tuple[list, int, int]:
     """The rigorous pass (:mod:`exotune.controllerfile.cellbound`): every run of stable grid values
     that step control resolved is proven cell by cell — ``cell_bound(x, y)`` → (proven, margin)
     on spans of ``SPAN`` grid cells first, the span halved where the proof fails (the span
@@ -92,7 +92,7 @@ def _prove(grid: list, stable: list, unresolved: list, cell_bound, refine, budge
     ``MAX_DEPTH`` times. ``refine`` returns the midpoint's verdict (a new value of the grid: an
     unstable midpoint is a window step control missed, its edges bisected afterwards) or None when
     the refinement budget is spent; at most ``budget`` proofs are tried. Returns (new grid values,
-    cells proven, proof budget spent); cells still unproven are appended to ``unresolved``
+    cells proven, proofs tried — more than ``budget``: the budget is spent); cells still unproven are appended to ``unresolved``
     (certify then fails).
     """
     bad = {(x, y) for x, y in unresolved}
@@ -136,7 +136,7 @@ def _prove(grid: list, stable: list, unresolved: list, cell_bound, refine, budge
             i, size = j, min(2 * size, MAX_SPAN)
         else:
             size = max((j - i) // 2, 1)
-    return new, proven, calls[0] > budget
+    return new, proven, calls[0]
 
 
 def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdict=None,
@@ -270,17 +270,24 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
             return m, at(m)[0]
 
         proofs = PROOFS if n <= REF_STATES else max(200, int(PROOFS * (REF_STATES / n) ** 3))
-        extra, proven, spent = _prove(grid, [at(v)[0] for v in grid], unresolved, cell_bound, refine, proofs)
-        budget_spent = budget_spent or spent
+        extra, proven, tried = _prove(grid, [at(v)[0] for v in grid], unresolved, cell_bound, refine, proofs)
+        budget_spent = budget_spent or tried > proofs
+        march_proofs = max(proofs - tried, 0)  # the march's proofs come out of the same budget
         grid = sorted(set(grid) | set(extra))
     marched: dict = {}
     march_calls = [0]
+    if cell_bound is None:
+        march_proofs = 0
 
     def accept(x, y):
         """Whether the cell between stable values x, y is accepted (proven with a cell bound,
-        else resolved by step control)."""
+        else resolved by step control); None when the proof budget is spent."""
+        nonlocal march_proofs
         x, y = min(x, y), max(x, y)
         if cell_bound is not None:
+            if march_proofs <= 0:
+                return None
+            march_proofs -= 1
             return bool(cell_bound(x, y)[0])
         return _cell_resolved(at(x)[1], at(y)[1], coord(y) - coord(x),
                               lambda: (with_derivative(x)[1], with_derivative(y)[1]))
@@ -310,7 +317,12 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
             if not at(y)[0]:
                 out = y
                 break
-            if accept(pv, y):
+            ok = accept(pv, y)
+            if ok is None:
+                budget_spent = True
+                unresolved.append(sorted([pv, t]))
+                break
+            if ok:
                 pv, w = y, 2.0 * w
             else:
                 w = 0.5 * w
