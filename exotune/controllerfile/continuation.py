@@ -17,9 +17,10 @@ more than ``REF_STATES`` states) is spent, fails
 the certification. The stable side of every interval end is checked as well: from the last stable
 value before the end, cells that double after an acceptance and halve after a refusal march toward
 the bisected end and stop ``EDGE_SLIVER`` (relative) short of it; an unstable member met on the way
-is a window, which becomes the interval's end (the stable part beyond it is not claimed). So every
-member of a reported interval is accepted (proven, with a ``cell_bound``) except those within
-``EDGE_SLIVER`` of its ends.
+is a window, which becomes the interval's end (the stable part beyond it is not claimed); a side
+whose check stops on a budget is an unresolved cell, and the interval ends where the check ended.
+So every member of a reported interval is accepted (proven, with a ``cell_bound``) except those
+within ``EDGE_SLIVER`` of its ends and those in unresolved cells inside it.
 
 References
 ----------
@@ -54,7 +55,8 @@ _BISECT = 48
 SPAN = 8  # grid cells the rigorous pass tries to prove at once first (its span adapts: ×2 on success, ½ on failure)
 MAX_SPAN = 64
 EDGE_SLIVER = 1e-6  # an interval end's stable side is checked up to this distance (relative) from the bisected end
-MARCH_STEPS = 600  # cells tried per family on the stable sides of its interval ends (out of the refinement and proof budgets)
+MARCH_STEPS = 600  # proven cells tried per family on the stable sides of its interval ends (out of the proof budget);
+# step control alone (no cell bound) is bounded by the refinement budget
 PROOFS = 1000  # cell proofs tried per family (scaled like MAX_REFINED for big loops, at least 200); past it, unresolved
 
 
@@ -297,20 +299,23 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
         value) to the stable bisection end ``t`` next to the edge, by cells that grow ×2 after an
         acceptance and halve after a refusal, up to ``EDGE_SLIVER`` (relative) from ``t``. Returns
         an unstable value found on the way (a window: a new change of verdict), else None; a cell
-        that stays unaccepted is appended to ``unresolved``."""
+        that stays unaccepted is appended to ``unresolved`` and the value up to which the side was
+        accepted is returned as ``cut``: (window, cut), each None when there is none."""
         nonlocal refined, budget_spent
         if (s, t) in marched:
             return marched[(s, t)]
         us, ut = coord(s), coord(t)
         sliver = EDGE_SLIVER * (1.0 if log else (abs(t) or spacing))
-        pv, w, out = s, 0.5 * (ut - us), None  # pv: the value up to which the side is accepted
+        pv, w, out, cut = s, 0.5 * (ut - us), None, None  # pv: the value up to which the side is accepted
         while abs(ut - coord(pv)) > sliver:
             pos = coord(pv)
             w = math.copysign(min(abs(w), abs(ut - pos)), ut - us)
             y = t if abs(ut - pos - w) <= 0.0 else inv(pos + w)
-            if refined >= max_refined or march_calls[0] >= MARCH_STEPS or abs(w) < sliver * 1e-3:
+            if (refined >= max_refined or abs(w) < sliver * 1e-3
+                    or (cell_bound is not None and march_calls[0] >= MARCH_STEPS)):
                 budget_spent = budget_spent or refined >= max_refined
                 unresolved.append(sorted([pv, t]))
+                cut = pv
                 break
             refined += 1
             march_calls[0] += 1
@@ -321,13 +326,14 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
             if ok is None:
                 budget_spent = True
                 unresolved.append(sorted([pv, t]))
+                cut = pv
                 break
             if ok:
                 pv, w = y, 2.0 * w
             else:
                 w = 0.5 * w
-        marched[(s, t)] = out
-        return out
+        marched[(s, t)] = (out, cut)
+        return out, cut
 
     while True:  # windows found by a march become grid values, and the edges are bisected again
         grid = sorted(set(grid))
@@ -345,10 +351,11 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
                         a = m
                     else:
                         b = m
-                window = march(grid[i], a) if st[i] else march(grid[i + 1], b)
+                window, cut = march(grid[i], a) if st[i] else march(grid[i + 1], b)
                 if window is not None:
                     break
-                edges.append((0.5 * (a + b), st[i + 1]))
+                # a side not checked to the end: the interval ends where the check ended
+                edges.append((0.5 * (a + b) if cut is None else cut, st[i + 1]))
         if window is None:
             break
         grid.append(window)

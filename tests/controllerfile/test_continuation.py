@@ -127,3 +127,17 @@ def test_a_window_between_a_grid_value_and_an_interval_end_is_found():
     ivs, info = stable_intervals(spectrum, 1.0, 2.0, points=3, cell_bound=cell_bound)
     assert len(ivs) == 1 and ivs[0][0] == 1.0 and ivs[0][1] == pytest.approx(1.45, rel=1e-9)
     assert info["edge_cells"] > 0 and not info["unresolved"]
+
+
+def test_an_end_whose_side_is_not_checked_ends_where_the_check_ended(monkeypatch):
+    """With no march budget left, the stable side of the end (between √2 and the end 1.9) is
+    not claimed: the interval ends at the last accepted value, √2, and the side is an
+    unresolved cell."""
+    import exotune.controllerfile.continuation as cont
+
+    monkeypatch.setattr(cont, "MARCH_STEPS", 0)
+    _, spectrum, cell_bound = _windows_family([], 1.9)
+    ivs, info = stable_intervals(spectrum, 1.0, 2.0, points=3, cell_bound=cell_bound)
+    assert ivs == [[1.0, pytest.approx(math.sqrt(2.0), rel=1e-15)]]
+    assert len(info["unresolved"]) == 1 and info["unresolved"][0][0] == pytest.approx(math.sqrt(2.0))
+    assert info["unresolved"][0][1] == pytest.approx(1.9, rel=1e-9)
