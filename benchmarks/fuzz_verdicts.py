@@ -1169,6 +1169,21 @@ def _hostile_ok(path, rc, out, err) -> tuple[bool, str]:
     return ok, first[:200]
 
 
+def _hostile_runs(kind: str, doc0: dict, cases, command: str, workdir: Path) -> list:
+    """Each case (path, value) set in a copy of ``doc0``, written to a file and run through
+    ``exotune <command>``: one record per case."""
+    res = []
+    for i, (path, value) in enumerate(cases):
+        doc = copy.deepcopy(doc0)
+        _set(doc, path, value)
+        f = workdir / f"hostile_{kind}{i}.yaml"
+        f.write_text(yaml.safe_dump(doc, sort_keys=False))
+        rc, out, err = _cli([command, str(f)])
+        ok, first = _hostile_ok(path, rc, out, err)
+        res.append(dict(kind=kind, path=path, value=repr(value), rc=rc, ok=ok, message=first))
+    return res
+
+
 def hostile_campaign(workdir: Path) -> list:
     """Every hostile input through the command line: exit 2, one line naming the field, no
     traceback, no verdict. Returns one record per case."""
@@ -1176,31 +1191,13 @@ def hostile_campaign(workdir: Path) -> list:
     base["humans"].append(dict(kind="msd", inertia=[1e-3, 1.0], damping=0.5, stiffness=20.0))
     base["humans"][2:3] = [dict(kind="complex_stiffness", stiffness=[10.0, 1000.0], eta=0.2)]
     base["environment"].append(dict(kind="spring", stiffness=[10.0, 1e4], damping=1.0))
-    res = []
-    for i, (path, value) in enumerate(HOSTILE_DESIGN):
-        doc = copy.deepcopy(base)
-        if path.startswith("implementation.sample_rate_hz") or path.startswith("humans[0].inertia"):
-            pass
-        _set(doc, path, value)
-        f = workdir / f"hostile{i}.yaml"
-        f.write_text(yaml.safe_dump(doc, sort_keys=False))
-        rc, out, err = _cli(["analyze", str(f)])
-        ok, first = _hostile_ok(path, rc, out, err)
-        res.append(dict(kind="design", path=path, value=repr(value), rc=rc, ok=ok, message=first))
+    res = _hostile_runs("design", base, HOSTILE_DESIGN, "analyze", workdir)
     # a controller file: export the paper design at 1 kHz, then break it
     ctrl = workdir / "hostile_ctrl.yaml"
-    rc, out, err = _cli(["export", str(ROOT / "examples" / "paper.yaml"), "--sample-rate-hz", "1000", "-o", str(ctrl),
-                         "--allow-uncertified", "--require-latency-margin-s", "0"])
+    _cli(["export", str(ROOT / "examples" / "paper.yaml"), "--sample-rate-hz", "1000", "-o", str(ctrl),
+          "--allow-uncertified", "--require-latency-margin-s", "0"])
     cdoc = yaml.safe_load(ctrl.read_text())
-    for i, (path, value) in enumerate(HOSTILE_CONTROLLER):
-        doc = copy.deepcopy(cdoc)
-        _set(doc, path, value)
-        f = workdir / f"hostile_ctrl{i}.yaml"
-        f.write_text(yaml.safe_dump(doc, sort_keys=False))
-        rc, out, err = _cli(["certify", str(f)])
-        ok, first = _hostile_ok(path, rc, out, err)
-        res.append(dict(kind="controller", path=path, value=repr(value), rc=rc, ok=ok, message=first))
-    return res
+    return res + _hostile_runs("controller", cdoc, HOSTILE_CONTROLLER, "certify", workdir)
 
 
 # ============================================================================================
