@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..numerics.engine import compiled
 from .loop import NEAR_UNIT as ROUND_NEAR
 from .loop import ROUNDING_TRIALS, Measured, split_delay
 from .sos import bilinear_batch, df2t_batch, sos_ss_batch, tustin_sections_batch
@@ -242,14 +243,10 @@ def batch_controller(cfg, fs: float, n: int):
     return Ac, Bc, Cc, Dc, nzs, pf, fixed
 
 
-_PADE13 = (64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353796428800.0, 129060195264000.0,
-           10559470521600.0, 670442572800.0, 33522128640.0, 1323241920.0, 40840800.0, 960960.0, 16380.0, 182.0, 1.0)
-
-
 def expm_stack(M: np.ndarray) -> np.ndarray:
-    """e^M of a stack (k, n, n) in one vectorized pass: Padé (13, 13) with scaling and squaring
-    (Higham 2005, the approximant of ``scipy.linalg.expm``), each matrix scaled by its own power
-    of two; no Python loop over the stack.
+    """e^M of a stack (k, n, n): with the compiled engine one compiled loop, balancing then Padé
+    (13, 13) with scaling and squaring (:func:`exotune.numerics.kernels.expm.expm_stack`); on the
+    numpy engine, and for a matrix the kernel does not finish, ``scipy.linalg.expm`` per matrix.
 
     Parameters
     ----------
@@ -264,21 +261,22 @@ def expm_stack(M: np.ndarray) -> np.ndarray:
     k, n, _ = M.shape
     if not k:
         return M.copy()
-    norm = np.max(np.sum(np.abs(M), axis=1), axis=1)
-    s = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / 5.371920351148152))).astype(np.int64)
-    A = M * (2.0 ** -s)[:, None, None]
-    b = _PADE13
-    eye = np.broadcast_to(np.eye(n), A.shape)
-    A2 = A @ A
-    A4 = A2 @ A2
-    A6 = A4 @ A2
-    U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2) + b[7] * A6 + b[5] * A4 + b[3] * A2 + b[1] * eye)
-    V = A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2) + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * eye
-    E = np.linalg.solve(V - U, V + U)
-    for j in range(int(s.max())):
-        sq = s > j
-        E[sq] = E[sq] @ E[sq]
-    return E
+    if compiled() and n:
+        from ..numerics.kernels.expm import expm_stack as compiled_expm
+
+        E, ok = compiled_expm(M)
+        if not ok.all():
+            E[~ok] = _expm_numpy(M[~ok])
+        return E
+    return _expm_numpy(M)
+
+
+def _expm_numpy(M: np.ndarray) -> np.ndarray:
+    """:func:`expm_stack` by ``scipy.linalg.expm``, matrix by matrix (the numpy engine, and any
+    matrix the compiled kernel does not finish)."""
+    import scipy.linalg
+
+    return np.stack([scipy.linalg.expm(m) for m in M])
 
 
 class BatchLoops:
@@ -503,9 +501,22 @@ def _rounding_verdict(M: np.ndarray, lam: np.ndarray) -> np.ndarray:
 
 
 def _eigvals_or_inf(M: np.ndarray) -> np.ndarray:
-    """Eigenvalues of a stack whose non-finite matrices (an overflowing controller) get +inf."""
+    """Eigenvalues of a stack whose non-finite matrices (an overflowing controller) get +inf.
+
+    With the compiled engine (:func:`exotune.numerics.engine.compiled`, batches such as the sweep's)
+    the stack goes through the compiled kernel :func:`exotune.numerics.kernels.eig.eigvals_stack`
+    (the same balancing, Hessenberg reduction and double-shift QR as LAPACK's ``dgeev``, without its
+    per-call overhead); a matrix it does not finish is solved by ``numpy.linalg.eigvals``, as every
+    matrix is on the numpy engine (certify, export)."""
     ok = np.all(np.isfinite(M), axis=(1, 2))
     lam = np.full(M.shape[:2], np.inf, dtype=complex)
-    if ok.any():
-        lam[ok] = np.linalg.eigvals(M[ok])
+    todo = ok
+    if compiled() and M.shape[1] > 0:
+        from ..numerics.kernels.eig import eigvals_stack
+
+        fast, done = eigvals_stack(M)
+        lam[done] = fast[done]
+        todo = ok & ~done
+    if todo.any():
+        lam[todo] = np.linalg.eigvals(M[todo])
     return lam

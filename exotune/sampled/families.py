@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..numerics.engine import compiled
 from .batch import BatchLoops, Loop
 
 __all__ = ["POINTS", "MARGIN_REL", "MAX_SAMPLES", "Margin", "Probes", "family_check", "family_loops", "first_crossing",
@@ -64,7 +65,12 @@ MARCH_STEPS = 96  # rounds (one batch each) of cells tried on the stable sides o
 def _greedy_match(la: np.ndarray, lb: np.ndarray) -> np.ndarray:
     """perm (c, N): a one-to-one matching of the eigenvalues ``la`` (c, N) to ``lb`` (c, N),
     nearest pairs first (where every eigenvalue's nearest partner is a different one, that is
-    the matching; the other rows are matched pair by pair)."""
+    the matching; the other rows are matched pair by pair). The compiled engine runs the same
+    rule in :func:`exotune.numerics.kernels.eig.match_spectra`."""
+    if compiled():
+        from ..numerics.kernels.eig import match_spectra
+
+        return match_spectra(la, lb)
     c, N = la.shape
     with np.errstate(invalid="ignore"):
         D = np.nan_to_num(np.abs(la[:, :, None] - lb[:, None, :]), nan=1e300, posinf=1e300)

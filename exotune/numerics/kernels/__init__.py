@@ -10,7 +10,11 @@ One module per kernel family:
   crossing classification and sub-sampling of leaves);
 - :mod:`.bounds`: frequency tail bounds and batched polynomial products;
 - :mod:`.latency`: the latency margin of every design of a batch (the sweep column);
-- :mod:`.shiftloop`: the linear recursion of a simulated run with a long delay line.
+- :mod:`.shiftloop`: the linear recursion of a simulated run with a long delay line;
+- :mod:`.eig`: eigenvalues of stacks of small real matrices (the sampled-data loops) and the
+  matching of two spectra; reference: LAPACK (``numpy.linalg.eigvals``);
+- :mod:`.expm`: matrix exponentials of stacks of small matrices (the zero-order holds);
+  reference: ``scipy.linalg.expm``.
 
 Which engine runs is decided in one place, :mod:`exotune.numerics.engine`. The kernels are
 compiled with ``cache=True``: numba keys each cached kernel on its own module's file only, so after
