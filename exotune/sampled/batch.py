@@ -272,11 +272,11 @@ def expm_stack(M: np.ndarray) -> np.ndarray:
 
 
 def _expm_numpy(M: np.ndarray) -> np.ndarray:
-    """:func:`expm_stack` by ``scipy.linalg.expm``, matrix by matrix (the numpy engine, and any
-    matrix the compiled kernel does not finish)."""
+    """:func:`expm_stack` by ``scipy.linalg.expm`` on the stack (the numpy engine, and any matrix the
+    compiled kernel does not finish)."""
     import scipy.linalg
 
-    return np.stack([scipy.linalg.expm(m) for m in M])
+    return scipy.linalg.expm(M)
 
 
 class BatchLoops:
