@@ -3,7 +3,7 @@ the sampled-data loops (:meth:`exotune.sampled.batch.BatchLoops.zoh`).
 
 Each matrix is first balanced (a diagonal similarity by powers of two, exact:
 e^M = D e^{D⁻¹MD} D⁻¹), then exponentiated by Padé (13, 13) with scaling and squaring (Higham 2005),
-scaled by its own power of two chosen from its balanced 1-norm. Balancing matters for the plant
+scaled by its own power of two chosen from the 1-norm of the balanced matrix. Balancing matters for the plant
 blocks: a spring over a light rotor has entries of 1e7 next to 1, and scaling by the unbalanced
 norm (1e4 at 1 kHz) costs eleven squarings that amplify rounding to 1e-8 relative; balanced, the
 result agrees with ``scipy.linalg.expm`` (the numpy reference, and the point-wise model's) to about
