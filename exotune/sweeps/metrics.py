@@ -109,8 +109,26 @@ def _family_info(manifest: dict, side: str, i: int):
     return None
 
 
+def _checked_column(table, name: str):
+    """The interval column ``name`` less the unresolved cells of its ``…_unresolved_cells`` column,
+    when it has one (the sampled-data families: :func:`~exotune.sweeps.sampledcols.checked_intervals`)."""
+    import pyarrow.compute as pc
+
+    col = table.column(name)
+    cells_name = name[: -len("_stable_intervals")] + "_unresolved_cells"
+    if cells_name not in table.column_names:
+        return col
+    cells = table.column(cells_name)
+    if not np.any(pc.fill_null(pc.list_value_length(cells), 0).to_numpy(zero_copy_only=False)):
+        return col
+    from .sampledcols import checked_intervals
+
+    return [checked_intervals(iv or [], c or []) for iv, c in zip(col.to_pylist(), cells.to_pylist())]
+
+
 def derived_metrics(table, manifest: dict) -> dict[str, tuple[np.ndarray, dict]]:
-    """Lightest stable inertia / stiffest stable spring per family, from the interval columns.
+    """Lightest stable inertia / stiffest stable spring per family, from the interval columns (less
+    the unresolved cells a sampled-data family lists: only checked members count).
 
     Returns {name: (values, info)} with names ``human{i}_lightest_stable_inertia`` (kg·m²) and
     ``human{i}_stiffest_stable_stiffness`` (N·m/rad) (``env{i}_…`` likewise); ``info`` holds
@@ -138,7 +156,7 @@ def derived_metrics(table, manifest: dict) -> dict[str, tuple[np.ndarray, dict]]
         if fi is None:
             continue
         _kind, param, lo, hi = fi
-        cnt, flo, fhi, llo, lhi = interval_ends(table.column(name))
+        cnt, flo, fhi, llo, lhi = interval_ends(_checked_column(table, name))
         tol = 1e-9
         who = "human" if side == "human" else "environment"
         if param == "inertia":

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["sampled_columns", "sampled_refusal"]
+__all__ = ["sampled_columns", "sampled_refusal", "checked_intervals"]
 
 
 def sampled_refusal(cfg) -> str | None:
@@ -33,6 +33,43 @@ def sampled_refusal(cfg) -> str | None:
     return None
 
 
+def checked_intervals(intervals: list, cells: list) -> list:
+    """The stable intervals less the interiors of the cells step control could not resolve.
+
+    A family check lists such cells apart from its intervals, as ``exotune certify`` does (which
+    refuses a file that has any) and as the sweep's ``…_unresolved_cells`` columns do: the intervals
+    span them. Cut out, every member of what remains was checked; the sweep's derived maps (the
+    lightest or stiffest stable member of a family) use these. Only families that are not robust
+    have such cells.
+
+    Parameters
+    ----------
+    intervals : list of [lo, hi]
+        Disjoint stable intervals, ascending, in the family parameter's unit.
+    cells : list of [a, b]
+        Unresolved cells (their ends were evaluated; their interiors were not resolved).
+
+    Returns
+    -------
+    list of [lo, hi]
+        The parts of ``intervals`` outside every open cell (a, b), ascending; the cut leaves no
+        part of zero length (an interval given as a single member stays, unless a cell holds it).
+    """
+    out = [[float(lo), float(hi)] for lo, hi in intervals]
+    for a, b in sorted((float(a), float(b)) for a, b in cells):
+        nxt = []
+        for lo, hi in out:
+            if b <= lo or a >= hi:  # the open cell (a, b) misses [lo, hi]
+                nxt.append([lo, hi])
+                continue
+            if lo < a:
+                nxt.append([lo, a])
+            if b < hi:
+                nxt.append([b, hi])
+        out = nxt
+    return out
+
+
 def sampled_columns(cfg, res) -> dict:
     """The sampled-data columns of a batch of designs ``cfg`` (:func:`exotune.config.batch_config`).
 
@@ -48,9 +85,10 @@ def sampled_columns(cfg, res) -> dict:
     -------
     dict
         ``sampled_free_stable``, ``sampled_locked_stable``; per rational human family
-        ``sampled_human{i}_{kind}_robust``, ``…_stable_intervals``, ``…_critical``,
+        ``sampled_human{i}_{kind}_robust``, ``…_stable_intervals`` (certify's), ``…_unresolved_cells``
+        (the cells step control left unresolved, as certify lists them), ``…_critical``,
         ``…_critical_spectral_radius``; per environment range ``sampled_env{i}_{kind}_robust``
-        and ``…_stable_intervals``; ``sampled_latency_margin_samples``.
+        and ``…_stable_intervals``, ``…_unresolved_cells``; ``sampled_latency_margin_samples``.
 
     References
     ----------
@@ -77,6 +115,7 @@ def sampled_columns(cfg, res) -> dict:
             chk = family_check(bl, des, loop, lo, hi)
             out[f"{prefix}_robust"] = chk["robust"]
             out[f"{prefix}_stable_intervals"] = chk["stable_intervals"]
+            out[f"{prefix}_unresolved_cells"] = chk["unresolved"]
             if prefix.startswith("sampled_human"):
                 out[f"{prefix}_critical"] = chk["critical"]
                 out[f"{prefix}_critical_spectral_radius"] = chk["critical_radius"]

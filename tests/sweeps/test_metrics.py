@@ -55,6 +55,21 @@ def test_derived_metrics_by_definition():
     assert info["unit"] == "N·m/rad" and info["worst"] == "min"
 
 
+def test_derived_metrics_of_sampled_families_leave_out_unresolved_cells():
+    """A sampled-data family lists the cells step control left unresolved; the lightest stable
+    inertia and the stiffest stable spring use only checked members."""
+    table = pa.table({
+        "sampled_human0_mass_stable_intervals": pa.array([[[0.2, 1.0]], [[0.2, 1.0]], [[0.001, 1.0]]], type=LL),
+        "sampled_human0_mass_unresolved_cells": pa.array([[], [[0.3, 0.4]], [[0.5, 1.0]]], type=LL),
+        "sampled_human1_spring_stable_intervals": pa.array([[[1.0, 300.0]], [[1.0, 300.0]], [[1.0, 1e4]]], type=LL),
+        "sampled_human1_spring_unresolved_cells": pa.array([[[1.0, 2.0]], [[50.0, 60.0]], []], type=LL),
+    })
+    out = derived_metrics(table, MANIFEST)
+    assert out["sampled_human0_lightest_stable_inertia"][0].tolist() == [0.2, 0.4, np.inf]
+    assert out["sampled_human1_stiffest_stable_stiffness"][0].tolist() == [0.0, 50.0, 1e4]
+    assert "sampled-data lightest stable inertia" in out["sampled_human0_lightest_stable_inertia"][1]["title"]
+
+
 def test_robust_mask_combines_the_verdicts():
     cols = {"free_stable": [True, True, True, False], "human0_mass_robust": [True, False, True, True],
             "env0_locked_stable": [True, True, False, True], "human0_mass_conclusive": [False] * 4,

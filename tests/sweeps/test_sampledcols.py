@@ -8,6 +8,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from exotune.config import batch_config, design_from_mapping, design_row
 from exotune.model.controller import build_controller
@@ -47,13 +49,15 @@ def test_columns_agree_with_the_pointwise_loop(base):
     b = batch_config(base, {"design.amplification": np.array([4.0, 8.0])})
     cols = sampled_columns(b, SimpleNamespace(n=2, latency_margin_s=None))
     assert set(cols) == {"sampled_free_stable", "sampled_locked_stable", "sampled_human0_mass_robust",
-                         "sampled_human0_mass_stable_intervals", "sampled_human0_mass_critical",
-                         "sampled_human0_mass_critical_spectral_radius", "sampled_latency_margin_samples"}
+                         "sampled_human0_mass_stable_intervals", "sampled_human0_mass_unresolved_cells",
+                         "sampled_human0_mass_critical", "sampled_human0_mass_critical_spectral_radius",
+                         "sampled_latency_margin_samples"}
     for i in range(2):
         cfg = design_row(b, i)
         assert cols["sampled_free_stable"][i] == _stable(cfg)
         assert cols["sampled_locked_stable"][i] == _stable(cfg, env="locked")
         assert cols["sampled_human0_mass_stable_intervals"][i] == [[0.05, 1.0]]
+        assert cols["sampled_human0_mass_unresolved_cells"][i] == []
         assert bool(cols["sampled_human0_mass_robust"][i])
         crit = cols["sampled_human0_mass_critical"][i]
         assert 0.05 <= crit <= 1.0 and cols["sampled_human0_mass_critical_spectral_radius"][i] < 1.0
@@ -74,3 +78,60 @@ def test_an_unstable_family_has_no_margin(base):
     assert hi == 1.0 and not _stable(cfg, {"inertia": lo * 0.999, "damping": 0.0})
     assert _stable(cfg, {"inertia": lo * 1.001, "damping": 0.0})
     assert not cols["sampled_human0_mass_robust"][0] and cols["sampled_latency_margin_samples"][0] == 0.0
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(0.0, 100.0), min_size=2, max_size=12, unique=True),
+       st.lists(st.tuples(st.floats(0.0, 100.0), st.floats(0.0, 100.0)), max_size=5))
+def test_checked_intervals_leave_out_exactly_the_unresolved_cells(ends, raw_cells):
+    from exotune.sweeps.sampledcols import checked_intervals
+
+    ends = sorted(ends)
+    ivs = [[ends[k], ends[k + 1]] for k in range(0, len(ends) - 1, 2)]
+    cells = [sorted(c) for c in raw_cells if c[0] != c[1]]
+    out = checked_intervals(ivs, cells)
+    assert all(lo < hi for lo, hi in out) and out == sorted(out)
+    probes = np.linspace(0.0, 100.0, 2001).tolist() + ends + [x for c in cells for x in c]
+    inside = lambda x, ivs_: any(lo <= x <= hi for lo, hi in ivs_)  # noqa: E731
+    for x in probes:
+        in_cell = any(a < x < b for a, b in cells)
+        if inside(x, out):
+            assert inside(x, ivs) and not in_cell  # nothing is added, no cell interior is kept
+        elif inside(x, ivs) and not in_cell:
+            # a checked member is only lost as an end of a cell that left a zero-length part
+            assert any(x in (a, b) for a, b in cells)
+
+
+def test_sweep_intervals_leave_out_the_unresolved_cells():
+    """A campaign design whose undamped light-mass family stays within 1e-9 of |z| = 1 over a range
+    (members alternate between stable and unstable): the family check leaves cells unresolved, the
+    sweep lists them in their column, the family is not robust, and the checked intervals (what the
+    derived maps use) hold none of their interiors."""
+    from exotune.analysis import analyze_batch
+    from exotune.config import batch_config, design_from_mapping
+    from exotune.sampled.batch import BatchLoops
+    from exotune.sampled.families import family_check, family_loops
+    from exotune.sweeps.sampledcols import checked_intervals, sampled_columns
+
+    raw = {"plant": {"motor_inertia": 0.03528971933847838, "motor_damping": 0.8451256640655744,
+                     "sea_stiffness": 2705.025196295696, "joint_inertia": 0.27018001534607256,
+                     "cuff_stiffness": 901261.3236649559},
+           "design": {"amplification": 11.517004121613125, "felt_inertia": 0.24640459744849513,
+                      "felt_damping": 2.66071113429058, "zeta": 0.08164650821965606, "zeta_hat": 0.4611878812342712},
+           "implementation": {"delay_s": 0.005224845913447144, "sample_rate_hz": 1000.0,
+                              "gv_filter": {"cutoff_hz": 9.91728644364078, "damping": 0.21083377400538655},
+                              "derivative_filter": {"cutoff_hz": 297.7526461671862}, "dob": None},
+           "humans": [{"kind": "mass", "inertia": [1.4194206020498487e-05, 0.006632561078584069], "damping": 0.0}]}
+    des = design_from_mapping(raw)
+    b = batch_config(des, {"design.amplification": np.array([raw["design"]["amplification"]])})
+    cols = sampled_columns(b, analyze_batch(b))
+    loop, lo, hi = family_loops(des.humans, des.environment)[0]
+    chk = family_check(BatchLoops(b, 1000.0), np.array([0]), loop, lo, hi)
+    ivs = cols["sampled_human0_mass_stable_intervals"][0]
+    cells = cols["sampled_human0_mass_unresolved_cells"][0]
+    assert cells == chk["unresolved"][0] and cells and not bool(cols["sampled_human0_mass_robust"][0])
+    assert ivs == chk["stable_intervals"][0]  # certify's listing: the intervals span the cells
+    checked = checked_intervals(ivs, cells)
+    assert checked != ivs
+    for a, c in cells:
+        assert not any(x < c and y > a for x, y in checked)
