@@ -64,16 +64,17 @@ MARCH_STEPS = 96  # rounds (one batch each) of cells tried on the stable sides o
 
 def _greedy_match(la: np.ndarray, lb: np.ndarray) -> np.ndarray:
     """perm (c, N): a one-to-one matching of the eigenvalues ``la`` (c, N) to ``lb`` (c, N),
-    nearest pairs first (where every eigenvalue's nearest partner is a different one, that is
-    the matching; the other rows are matched pair by pair). The compiled engine runs the same
+    nearest pairs first by squared distance (where every eigenvalue's nearest partner is a
+    different one, that is the matching; the other rows are matched pair by pair). The compiled engine runs the same
     rule in :func:`exotune.numerics.kernels.eig.match_spectra`."""
     if compiled():
         from ..numerics.kernels.eig import match_spectra
 
         return match_spectra(la, lb)
     c, N = la.shape
-    with np.errstate(invalid="ignore"):
-        D = np.nan_to_num(np.abs(la[:, :, None] - lb[:, None, :]), nan=1e300, posinf=1e300)
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = la[:, :, None] - lb[:, None, :]
+        D = np.nan_to_num(diff.real * diff.real + diff.imag * diff.imag, nan=1e300, posinf=1e300)  # squared
     perm = np.argmin(D, axis=2)
     srt = np.sort(perm, axis=1)
     clash = np.nonzero(np.any(srt[:, 1:] == srt[:, :-1], axis=1))[0]

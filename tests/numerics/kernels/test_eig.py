@@ -166,7 +166,9 @@ def _greedy_reference(la, lb):
     """The matching rule written out plainly: each eigenvalue's nearest partner when those are all
     different, else repeatedly the nearest remaining pair (ties: first in row-major order)."""
     N = la.size
-    D = np.abs(la[:, None] - lb[None, :])
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = la[:, None] - lb[None, :]
+        D = diff.real * diff.real + diff.imag * diff.imag  # nearest by squared distance, as the kernel ranks
     D[~np.isfinite(D)] = 1e300
     near = D.argmin(axis=1)
     if len(set(near.tolist())) == N:

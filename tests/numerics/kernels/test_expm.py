@@ -39,6 +39,25 @@ def test_kernel_equals_the_numpy_reference_and_scipy(n, seed, log_norm):
         assert np.abs(E[k] - want).max() <= 1e-13 * grow * np.abs(want).max()
 
 
+@pytest.mark.parametrize("norm", [1e-9, 0.0149, 0.0151, 0.25, 0.26, 0.95, 0.96, 5.0, 40.0])
+def test_every_pade_degree_is_exact_to_rounding(norm):
+    """Norms on either side of θ3, θ5 and θ7 (degrees 3, 5, 7) and beyond (13 with scaling):
+    against scipy on a normal matrix (whose exponential is well conditioned), norm-wise 1e-14
+    (times the squarings' growth)."""
+    from exotune.numerics.kernels.expm import THETA
+
+    assert THETA[3] < 0.0151 and 0.0149 < THETA[3] and THETA[5] < 0.26 and THETA[7] < 0.96
+    rng = np.random.default_rng(7)
+    Q, _ = np.linalg.qr(rng.standard_normal((6, 6)))
+    D = np.diag(rng.uniform(-1.0, 1.0, 6))
+    M = Q @ D @ Q.T
+    M *= norm / np.abs(M).sum(axis=0).max()
+    E, ok = _kernel(M[None])
+    assert ok.all()
+    want = scipy.linalg.expm(M)
+    assert np.abs(E[0] - want).max() <= 1e-14 * max(1.0, norm) * np.abs(want).max()
+
+
 @pytest.mark.parametrize("Jm, Ks, Bm", [(1e-4, 1e3, 0.01), (1e-6, 1e4, 1e-4), (0.05, 50.0, 1.0)])
 def test_zero_order_hold_of_a_badly_scaled_plant_is_accurate(Jm, Ks, Bm):
     """A spring over a light rotor (entries of 1e7 and more next to 1) held over 1 ms: every entry
