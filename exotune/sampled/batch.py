@@ -244,9 +244,9 @@ def batch_controller(cfg, fs: float, n: int):
 
 
 def expm_stack(M: np.ndarray) -> np.ndarray:
-    """e^M of a stack (k, n, n): with the compiled engine one compiled loop, balancing then Padé
-    (13, 13) with scaling and squaring (:func:`exotune.numerics.kernels.expm.expm_stack`); on the
-    numpy engine, and for a matrix the kernel does not finish, ``scipy.linalg.expm`` per matrix.
+    """e^M of a stack (k, n, n): with the compiled engine one compiled loop, balancing then the
+    lowest Padé degree exact to rounding (:func:`exotune.numerics.kernels.expm.expm_stack`); on the
+    numpy engine, and for a matrix the kernel does not finish, ``scipy.linalg.expm`` on the stack.
 
     Parameters
     ----------
