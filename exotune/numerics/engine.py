@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
 import os
 from pathlib import Path
 
@@ -39,10 +40,16 @@ def resolve_engine(engine: str | None) -> str:
     if engine is None:
         if _PREFERRED.get() == "numpy" or os.environ.get("EXOTUNE_NUMPY_ONLY"):
             return "numpy"
-        from . import kernels
-
-        engine = "numba" if kernels.AVAILABLE else "numpy"
+        engine = "numba" if _numba_available() else "numpy"
     return engine
+
+
+@functools.cache
+def _numba_available() -> bool:
+    """Whether numba imports (asked once: the engine is resolved at every stage of a batch)."""
+    from . import kernels
+
+    return kernels.AVAILABLE
 
 
 def worth_compiling(work: float, threshold: float = 5e7) -> bool:

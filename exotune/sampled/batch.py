@@ -340,7 +340,8 @@ class BatchLoops:
         names += ["theta_h", "omega_h"] if mass else ["theta_h"] if first_order else []
         n = len(names)
         ix = {s: i for i, s in enumerate(names)}
-        e = lambda s: np.broadcast_to(np.eye(n)[ix[s]], (k, n))  # noqa: E731
+        eye = np.eye(n)
+        e = lambda s: np.broadcast_to(eye[ix[s]], (k, n))  # noqa: E731
         zero = np.zeros((k, n))
         th_m, om_m = e("theta_m"), e("omega_m")
         th_j = zero if locked else e("theta_j")
@@ -410,9 +411,14 @@ class BatchLoops:
     def _assemble(self, des, Phi, G0, G1, C, d: int, frac: bool) -> np.ndarray:
         """:func:`closed_loop_matrix` on a stack (one controller size, one whole-sample delay),
         without its one state that nothing reads: with a whole-sample delay (Γ1 = 0) the oldest
-        command τ_cmd[k−d−1] only adds the eigenvalue 0, so the shift register keeps d states."""
+        command τ_cmd[k−d−1] only adds the eigenvalue 0, so the shift register keeps d states. With the
+        compiled engine, one compiled pass (:func:`exotune.numerics.kernels.loopmat.assemble_stack`)."""
         k, n = G0.shape
         nz = int(self.nz[des[0]])
+        if compiled():
+            from ..numerics.kernels.loopmat import assemble_stack
+
+            return assemble_stack(Phi, G0, G1, C, des, self.Ac, self.Bc, self.Cc, self.Dc, nz, d, frac)
         ns = d + frac
         N = n + nz + ns
         s0 = n + nz
@@ -492,12 +498,18 @@ def _rounding_verdict(M: np.ndarray, lam: np.ndarray) -> np.ndarray:
     eps = np.finfo(float).eps
     err = np.full(lam.shape, 4.0 * N * eps)
     near = np.abs(mod - 1.0) < ROUND_NEAR
+    alive = np.all(mod + err < 1.0, axis=1)  # the estimates only grow: a matrix not stable here never is
     rng = np.random.default_rng(0)
     for _ in range(ROUNDING_TRIALS):
-        wp = _eigvals_or_inf(M * (1.0 + 8.0 * eps * rng.uniform(-1.0, 1.0, (N, N))))
-        moved = np.min(np.abs(wp[:, None, :] - lam[:, :, None]), axis=2)
-        err = np.where(near, np.maximum(err, 10.0 * moved), err)
-    return np.all(mod + err < 1.0, axis=1)
+        pert = 1.0 + 8.0 * eps * rng.uniform(-1.0, 1.0, (N, N))  # drawn every trial: the same sequence as certify's
+        j = np.nonzero(alive)[0]
+        if not j.size:
+            break
+        wp = _eigvals_or_inf(M[j] * pert)
+        moved = np.min(np.abs(wp[:, None, :] - lam[j, :, None]), axis=2)
+        err[j] = np.where(near[j], np.maximum(err[j], 10.0 * moved), err[j])
+        alive[j] = np.all(mod[j] + err[j] < 1.0, axis=1)
+    return alive
 
 
 def _eigvals_or_inf(M: np.ndarray) -> np.ndarray:
@@ -508,15 +520,21 @@ def _eigvals_or_inf(M: np.ndarray) -> np.ndarray:
     (the same balancing, Hessenberg reduction and double-shift QR as LAPACK's ``dgeev``, without its
     per-call overhead); a matrix it does not finish is solved by ``numpy.linalg.eigvals``, as every
     matrix is on the numpy engine (certify, export)."""
-    ok = np.all(np.isfinite(M), axis=(1, 2))
-    lam = np.full(M.shape[:2], np.inf, dtype=complex)
-    todo = ok
     if compiled() and M.shape[1] > 0:
         from ..numerics.kernels.eig import eigvals_stack
 
-        fast, done = eigvals_stack(M)
-        lam[done] = fast[done]
-        todo = ok & ~done
-    if todo.any():
-        lam[todo] = np.linalg.eigvals(M[todo])
+        lam, done = eigvals_stack(M)
+        todo = np.nonzero(~done)[0]
+        if todo.size:
+            lam[todo] = _lapack_or_inf(M[todo])
+        return lam
+    return _lapack_or_inf(M)
+
+
+def _lapack_or_inf(M: np.ndarray) -> np.ndarray:
+    """``numpy.linalg.eigvals`` of the finite matrices of a stack, +inf for the others."""
+    ok = np.all(np.isfinite(M), axis=(1, 2))
+    lam = np.full(M.shape[:2], np.inf, dtype=complex)
+    if ok.any():
+        lam[ok] = np.linalg.eigvals(M[ok])
     return lam

@@ -101,13 +101,11 @@ class _Family:
         self.delay = delay  # per local design
         self.log = lo > 0
         self.width = 8 + int(bl.nz[des].max(initial=0)) + int(np.max(delay, initial=0.0) / bl.Ts + 1e-9)
-        self.v = np.zeros(0)
-        self.owner = np.zeros(0, np.int64)
-        self.rho = np.zeros(0)
-        self.st = np.zeros(0, bool)
-        self.eig = np.zeros((0, self.width), complex)
-        self.der = np.zeros((0, self.width), complex)
-        self.has_der = np.zeros(0, bool)
+        # the points' columns: views of buffers that grow by doubling (:meth:`_append`)
+        self._buf = {"v": np.zeros(64), "owner": np.zeros(64, np.int64), "rho": np.zeros(64),
+                     "st": np.zeros(64, bool), "eig": np.zeros((64, self.width), complex),
+                     "der": np.zeros((64, self.width), complex), "has_der": np.zeros(64, bool)}
+        self._view(0)
         # certify's grid spacing in u: the derivative step and the finest cell are certify's
         self.fd_spacing = (self.u(hi) - self.u(lo)) / (CERTIFY_POINTS - 1)
 
@@ -133,17 +131,29 @@ class _Family:
         else:
             rho, eig, st = self.spectra(owner, v)
         start = self.v.size
-        self.v = np.concatenate([self.v, v])
-        self.owner = np.concatenate([self.owner, owner])
-        self.rho = np.concatenate([self.rho, rho])
-        self.st = np.concatenate([self.st, st])
-        self.eig = np.concatenate([self.eig, eig])
-        self.der = np.concatenate([self.der, np.zeros_like(eig)])
-        self.has_der = np.concatenate([self.has_der, np.full(v.size, derivative)])
+        self._append(v=v, owner=owner, rho=rho, st=st, eig=eig, der=0.0, has_der=derivative)
         pts = np.arange(start, start + v.size)
         if derivative:
             self._set_derivatives(pts, h, eh)
         return pts
+
+    def _view(self, size: int) -> None:
+        for name, buf in self._buf.items():
+            setattr(self, name, buf[:size])
+
+    def _append(self, **cols) -> None:
+        """Append points (a value per column, arrays or scalars) to the columns."""
+        start = self.v.size
+        stop = start + np.size(cols["v"])
+        if stop > self._buf["v"].shape[0]:
+            cap = max(2 * self._buf["v"].shape[0], stop)
+            for name, buf in self._buf.items():
+                grown = np.zeros((cap,) + buf.shape[1:], buf.dtype)
+                grown[:start] = buf[:start]
+                self._buf[name] = grown
+        for name, val in cols.items():
+            self._buf[name][start:stop] = val
+        self._view(stop)
 
     def step(self, v: np.ndarray) -> np.ndarray:
         """The forward-difference step at the members ``v`` (certify's)."""

@@ -13,6 +13,8 @@ One module per kernel family:
 - :mod:`.shiftloop`: the linear recursion of a simulated run with a long delay line;
 - :mod:`.eig`: eigenvalues of stacks of small real matrices (the sampled-data loops) and the
   matching of two spectra; reference: LAPACK (``numpy.linalg.eigvals``);
+- :mod:`.loopmat`: the assembly of the sampled-data loop matrices on a stack; reference: the
+  numpy operations of :meth:`exotune.sampled.batch.BatchLoops.matrices`;
 - :mod:`.expm`: matrix exponentials of stacks of small matrices (the zero-order holds);
   reference: ``scipy.linalg.expm``.
 

@@ -98,14 +98,19 @@ if AVAILABLE:
                 return
 
     @njit(cache=True)
-    def _hessenberg(a, v):
-        """Householder reduction of ``a`` to upper Hessenberg form, in place (``v``: workspace of n)."""
+    def _hessenberg(a, v, w):
+        """Householder reduction of ``a`` to upper Hessenberg form, in place (``v``, ``w``:
+        workspaces of n). A column already zero below its subdiagonal needs no reflector (the one
+        that would be applied only flips a sign: a diagonal ±1 similarity)."""
         n = a.shape[0]
         for k in range(n - 2):
             scale = 0.0
+            tail = 0.0
             for i in range(k + 1, n):
                 scale = max(scale, abs(a[i, k]))
-            if scale == 0.0:
+                if i > k + 1:
+                    tail = max(tail, abs(a[i, k]))
+            if tail == 0.0:
                 continue
             ss = 0.0
             for i in range(k + 1, n):
@@ -116,13 +121,18 @@ if AVAILABLE:
                 alpha = -alpha
             v[k + 1] += alpha
             beta = 1.0 / (alpha * v[k + 1])  # P = I − β v vᵀ maps column k below the diagonal to a multiple of e_{k+1}
+            # P·a on rows k+1.. : w = β vᵀ a, row by row (contiguous), then a −= v wᵀ
             for j in range(k, n):
-                s = 0.0
-                for i in range(k + 1, n):
-                    s += v[i] * a[i, j]
-                s *= beta
-                for i in range(k + 1, n):
-                    a[i, j] -= s * v[i]
+                w[j] = 0.0
+            for i in range(k + 1, n):
+                vi = v[i]
+                for j in range(k, n):
+                    w[j] += vi * a[i, j]
+            for i in range(k + 1, n):
+                f = beta * v[i]
+                for j in range(k, n):
+                    a[i, j] -= f * w[j]
+            # a·P on columns k+1..
             for i in range(n):
                 s = 0.0
                 for j in range(k + 1, n):
@@ -285,8 +295,10 @@ if AVAILABLE:
         k, n, _ = M.shape
         a = np.empty((n, n))
         v = np.empty(n)
+        w = np.empty(n)
         wr = np.empty(n)
         wi = np.empty(n)
+        nan = complex(np.nan, np.nan)
         for t in range(k):
             finite = True
             for i in range(n):
@@ -295,19 +307,17 @@ if AVAILABLE:
                     a[i, j] = x
                     if not math.isfinite(x):
                         finite = False
-            if not finite:
-                ok[t] = False
-                continue
-            balance(a, wr)
-            _hessenberg(a, v)
-            done = _francis(a, wr, wi, max_its)
-            for i in range(n):
-                if not (math.isfinite(wr[i]) and math.isfinite(wi[i])):
-                    done = False
-            ok[t] = done
-            if done:
+            done = finite
+            if finite:
+                balance(a, wr)
+                _hessenberg(a, v, w)
+                done = _francis(a, wr, wi, max_its)
                 for i in range(n):
-                    out[t, i] = complex(wr[i], wi[i])
+                    if not (math.isfinite(wr[i]) and math.isfinite(wi[i])):
+                        done = False
+            ok[t] = done
+            for i in range(n):
+                out[t, i] = complex(wr[i], wi[i]) if done else nan
 
 
 def eigvals_stack(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -329,7 +339,7 @@ def eigvals_stack(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     M = np.ascontiguousarray(M, dtype=float)
     k, n = M.shape[0], M.shape[1]
-    lam = np.full((k, n), complex(np.nan, np.nan))
+    lam = np.empty((k, n), complex)
     ok = np.zeros(k, bool)
     if k and n:
         _eigvals_kernel(M, lam, ok, MAX_ITS)
