@@ -105,3 +105,39 @@ def test_a_batch_of_one_given_controller_has_its_loop_eigenvalues(delay, human, 
         assert got.size == want.size  # the same spectrum (repeated DOB poles: to rounding's ε^(1/3))
         assert np.max(np.min(np.abs(got[:, None] - want[None, :]), axis=1)) < 1e-6
         assert np.max(np.min(np.abs(want[:, None] - got[None, :]), axis=1)) < 1e-6
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_verdicts_within_the_rounding_band_are_certifys(batch, engine):
+    """Loops whose spectral radius lies within 1e-6 of 1 (on both sides of a latency boundary of
+    the locked loop) are decided by the rounding estimate exactly as the point-wise
+    spectral_verdict decides them (inconclusive is not stable) — on both engines, the early stop of
+    the estimate included."""
+    from contextlib import nullcontext
+
+    from exotune.numerics.engine import numpy_engine
+    from exotune.sampled.loop import spectral_verdict
+
+    bl = BatchLoops(batch[1], FS)
+    loop = Loop("locked", env="locked")
+    des = np.array([0])
+    with numpy_engine() if engine == "numpy" else nullcontext():
+        lo, hi = 0.0, 0.05
+        assert bl.spectra(des, loop, delay=bl.delay[des] + hi)[0][0] > 1.0
+        for _ in range(80):  # the extra delay where the locked loop's radius crosses 1
+            mid = 0.5 * (lo + hi)
+            if bl.spectra(des, loop, delay=bl.delay[des] + mid, rounding=False)[0][0] < 1.0:
+                lo = mid
+            else:
+                hi = mid
+        slope = (bl.spectra(des, loop, delay=bl.delay[des] + hi * 1.001, rounding=False)[0][0] - 1.0) / (hi * 1e-3)
+        offsets = np.array([-5e-7, -5e-9, -1e-12, 0.0, 1e-12, 5e-9, 5e-7]) / slope
+        delays = bl.delay[0] + hi + offsets
+        rho, _eig, stable = bl.spectra(np.zeros(offsets.size, np.int64), loop, delay=delays)
+        assert np.all(np.abs(rho - 1.0) < 1e-6)
+        assert (rho < 1.0).any() and (rho > 1.0).any()
+        ((_pos, M),) = bl.matrices(np.zeros(offsets.size, np.int64), loop, np.zeros(offsets.size), delays)
+        want = [spectral_verdict(m)[0] is True for m in M]
+    assert stable.tolist() == want, (rho - 1.0, stable)
+    assert any(want) and not all(want)
+    assert not stable[rho >= 1.0].any()

@@ -208,21 +208,27 @@ if AVAILABLE:
             z = r / s
             q /= p
             r /= p
-            for j in range(k, hi + 1):
-                t = a[k, j] + q * a[k + 1, j]
-                if not last:
-                    t += r * a[k + 2, j]
-                    a[k + 2, j] -= t * z
-                a[k + 1, j] -= t * y
-                a[k, j] -= t * x
             top = min(hi, k + 3)
-            for i in range(lo, top + 1):
-                t = x * a[i, k] + y * a[i, k + 1]
-                if not last:
-                    t += z * a[i, k + 2]
+            if last:  # a 2×2 reflector closes the chase (the branch outside the loops: they stay simple)
+                for j in range(k, hi + 1):
+                    t = a[k, j] + q * a[k + 1, j]
+                    a[k + 1, j] -= t * y
+                    a[k, j] -= t * x
+                for i in range(lo, top + 1):
+                    t = x * a[i, k] + y * a[i, k + 1]
+                    a[i, k + 1] -= t * q
+                    a[i, k] -= t
+            else:
+                for j in range(k, hi + 1):
+                    t = a[k, j] + q * a[k + 1, j] + r * a[k + 2, j]
+                    a[k + 2, j] -= t * z
+                    a[k + 1, j] -= t * y
+                    a[k, j] -= t * x
+                for i in range(lo, top + 1):
+                    t = x * a[i, k] + y * a[i, k + 1] + z * a[i, k + 2]
                     a[i, k + 2] -= t * r
-                a[i, k + 1] -= t * q
-                a[i, k] -= t
+                    a[i, k + 1] -= t * q
+                    a[i, k] -= t
 
     @njit(cache=True)
     def _francis(a, wr, wi, max_its):
