@@ -127,8 +127,19 @@ def test_overflowing_iteration_is_reported_not_done():
     """Entries near the float maximum overflow inside the iteration: the matrix is not done (the
     caller solves it with LAPACK), never given NaN or infinite eigenvalues as a result."""
     A = np.array([[1e308, 1e308, 0.0], [1e308, -1e308, 1e308], [0.0, 1e308, 1e308]])
-    lam, ok = _solve(A[None])
-    assert (not ok[0]) or np.all(np.isfinite(lam[0]))
+    B = np.array([[1.0, 2.0], [3.0, 4.0]]) * 1e307  # finite eigenvalues, products overflow inside
+    for M in (A, B):
+        lam, ok = _solve(M[None])
+        if ok[0]:  # a result is only reported when every eigenvalue is finite and satisfies λ's trace
+            assert np.all(np.isfinite(lam[0]))
+            assert abs(np.sum(lam[0] / 1e300).real - np.trace(M / 1e300)) <= 1e-12 * np.abs(M / 1e300).sum()
+        else:  # not done: no partial result is left in the row
+            assert np.all(np.isnan(lam[0]))
+    # the overflowing 2x2 scaled down: the same eigenvalues, scaled back, as LAPACK's
+    lam, ok = _solve((B * 1e-300)[None])
+    assert ok[0]
+    ref = np.sort_complex(np.linalg.eigvals(B * 1e-300))
+    assert np.allclose(np.sort_complex(lam[0]), ref, rtol=1e-13)
 
 
 def test_sampled_loop_matrices_of_a_batch_match_lapack():
