@@ -14,7 +14,7 @@ The modules, lowest first (each imports only the ones above it):
 ``batch``               every metric for a batch of designs (the sweep columns)
 ``latency_margin``      one design's latency margin (``latency`` for a batch of one, checked by exact verdicts)
 ``plant_margin``        the plant-uncertainty margin (certified lower, witnessed upper bound)
-``kyp``                 KYP passivity certificates of the rational models of C7 (cvxpy)
+``kyp``                 KYP passivity certificates of the rational models of C7 (SDP, Clarabel)
 ``design``              the single-design report (``exotune analyze``), with its margins
 ``design_summary``      the numbers of ``exotune design`` (nominal transfer functions as ``numerics.poly.Rational``)
 ``crosscheck``          an independent root search (Padé + Newton) on the verdicts

@@ -208,7 +208,7 @@ def analyze_with_margins(cfg, sampled_check: bool = True):
 
 
 def kyp_certificates(cfg) -> dict:
-    """KYP passivity certificates of the rational models of C7 (:mod:`exotune.analysis.kyp`, cvxpy):
+    """KYP passivity certificates of the rational models of C7 (:mod:`exotune.analysis.kyp`, an SDP):
     name → :class:`~exotune.analysis.KypCertificate`; a missing or failing SDP solver is reported as
     ``{"error": text}``, not raised.
 

@@ -266,7 +266,7 @@ def _certificates(spec, out) -> None:
     opt_cfg = design_from_mapping(optimized_design_mapping(spec, out))
     # with a sample rate the optimum was decided on the sampled-data loop (out["sampled_data"])
     certs = certificates_dict(kyp_certificates(opt_cfg))
-    # the convex sub-problem: KYP certificates of the optimum's rational C7 models (cvxpy)
+    # the convex sub-problem: KYP certificates of the optimum's rational C7 models (an SDP, Clarabel)
     out["passivity_certificates"] = certs
     nom = certs.get("nominal") or {}
     if spec.constraints["nominal_passive"] and nom.get("passive") is not True:

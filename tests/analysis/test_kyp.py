@@ -284,3 +284,29 @@ def test_realization_error_detects_a_wrong_realization():
     poles = np.roots(den)
     assert realization_error(A, B, C, num, den, poles) < 1e-12
     assert realization_error(A, B, 1.001 * C, num, den, poles) > 5e-4
+
+
+# ------------------------------------------------------------------------------------------------
+# the SDP posed directly to Clarabel, against the same SDP through cvxpy
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("num,den", SMALL)
+def test_sdp_optimum_equals_cvxpy_on_another_realization(num, den):
+    """exotune poses the KYP SDP to Clarabel itself (on a balanced realization, scaled); the same
+    SDP written with cvxpy on scipy's controllable realization has the same optimum d* (it is
+    invariant under similarity), which is also the frequency-domain minimum of Re Y for a SISO Y."""
+    cp = pytest.importorskip("cvxpy")
+    import scipy.signal
+
+    c = admittance_certificate(num[::-1], den[::-1])
+    A, B, C, D = scipy.signal.tf2ss(num, den)
+    n = A.shape[0]
+    P = cp.Variable((n, n), symmetric=True)
+    d = cp.Variable()
+    off = P @ B - C.T
+    M = cp.bmat([[A.T @ P + P @ A, off], [off.T, cp.reshape(-2.0 * (float(D[0, 0]) + d), (1, 1), order="C")]])
+    cp.Problem(cp.Minimize(d), [0.5 * (M + M.T) << 0]).solve(solver="CLARABEL")
+    nu = min_re(lambda s: np.polyval(num, s) / np.polyval(den, s))  # descending coefficients here
+    assert c.solver == "CLARABEL"
+    assert c.shortage_upper == pytest.approx(max(0.0, float(d.value)), rel=1e-5, abs=1e-7)
+    assert c.shortage_upper == pytest.approx(max(0.0, -nu), rel=1e-5, abs=1e-7 * max(1.0, abs(nu)))
+

@@ -229,7 +229,7 @@ def test_felt_compliance_objective_minimizes_felt_inertia():
 def test_nominal_passive_constraint_meets_its_closed_form_and_is_certified():
     """Only nominal passivity constrains the felt inertia: fd ≤ 2ζ̂√(K_c·fi) (kyp.nominal_shortage),
     so the lightest feasible felt inertia is (fd/2ζ̂)²/K_c; the optimum carries the KYP
-    certificates (cvxpy) and the nominal one confirms it."""
+    certificates (an SDP, Clarabel) and the nominal one confirms it."""
     base = _base()
     base["design"]["felt_damping"] = 1.0
     base["design"]["zeta_hat"] = 0.7
