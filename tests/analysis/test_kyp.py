@@ -310,3 +310,23 @@ def test_sdp_optimum_equals_cvxpy_on_another_realization(num, den):
     assert c.shortage_upper == pytest.approx(max(0.0, float(d.value)), rel=1e-5, abs=1e-7)
     assert c.shortage_upper == pytest.approx(max(0.0, -nu), rel=1e-5, abs=1e-7 * max(1.0, abs(nu)))
 
+
+
+def test_a_solver_failure_falls_back_to_cvxpy_and_scs(monkeypatch):
+    """When Clarabel fails (here: it raises), the certificate comes from cvxpy's chain — Clarabel
+    again (failing the same way), then SCS — with the same verdict and, to SCS's accuracy, the
+    same shortage."""
+    clarabel = pytest.importorskip("clarabel")
+    pytest.importorskip("cvxpy")
+    num, den = SMALL[0]
+    direct = admittance_certificate(num[::-1], den[::-1])
+
+    class Broken:
+        def __init__(self, *args, **kwargs):
+            raise RuntimeError("solver unavailable")
+
+    monkeypatch.setattr(clarabel, "DefaultSolver", Broken)
+    fallback = admittance_certificate(num[::-1], den[::-1])
+    assert direct.solver == "CLARABEL" and fallback.solver == "SCS"
+    assert fallback.passive == direct.passive is False
+    assert fallback.shortage_upper == pytest.approx(direct.shortage_upper, rel=1e-3)
