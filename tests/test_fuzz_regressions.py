@@ -32,6 +32,8 @@ import numpy as np
 import pytest
 import yaml
 
+from campaign_designs import S22
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -396,18 +398,7 @@ def test_stable_intervals_check_the_stable_side_of_a_verdict_change():
     assert not any(a <= 1.46 <= b for a, b in ivs), (ivs, info)
 
 
-# Fixed since (6044f09): a regression guard.
-S22 = {"plant": {"motor_inertia": 0.14910128831477634, "motor_damping": 0.6780719838367385,
-                 "sea_stiffness": 739.4063616236089, "joint_inertia": 0.02431287199054757,
-                 "cuff_stiffness": 4400.905689658734},
-       "design": {"amplification": 19.92934626340298, "felt_inertia": 0.08227651306475164,
-                  "felt_damping": 4.39797337905132, "zeta": 0.2265887775531382, "zeta_hat": 1.4157068159093606},
-       "implementation": {"delay_s": 0.006, "sample_rate_hz": 500.0,
-                          "gv_filter": {"cutoff_hz": 6.775656144076836, "damping": 1.2775413712865729},
-                          "derivative_filter": {"cutoff_hz": 200.0},
-                          "dob": {"cutoff_hz": 5.360566447188253, "damping": 1.3406521264077664}},
-       "humans": [{"kind": "mass", "inertia": [2.7596564024904136e-07, 0.00014728437162547935], "damping": 0.0}],
-       "environment": [{"kind": "locked"}]}
+# S22 (campaign_designs): a 500 Hz fuzzing design, fixed since 6044f09
 
 
 def test_an_exported_controller_file_is_readable_by_certify(tmp_path):

@@ -16,6 +16,7 @@ from exotune.model.controller import build_controller
 from exotune.sampled.loop import default_prewarp, sampled_stable
 from exotune.sweeps.sampledcols import sampled_columns, sampled_refusal
 
+from campaign_designs import UNRESOLVED_LIGHT_MASS_1KHZ
 from paper_design import paper_design
 
 FS = 1000.0
@@ -113,15 +114,8 @@ def test_sweep_intervals_leave_out_the_unresolved_cells():
     from exotune.sampled.families import family_check, family_loops
     from exotune.sweeps.sampledcols import checked_intervals, sampled_columns
 
-    raw = {"plant": {"motor_inertia": 0.03528971933847838, "motor_damping": 0.8451256640655744,
-                     "sea_stiffness": 2705.025196295696, "joint_inertia": 0.27018001534607256,
-                     "cuff_stiffness": 901261.3236649559},
-           "design": {"amplification": 11.517004121613125, "felt_inertia": 0.24640459744849513,
-                      "felt_damping": 2.66071113429058, "zeta": 0.08164650821965606, "zeta_hat": 0.4611878812342712},
-           "implementation": {"delay_s": 0.005224845913447144, "sample_rate_hz": 1000.0,
-                              "gv_filter": {"cutoff_hz": 9.91728644364078, "damping": 0.21083377400538655},
-                              "derivative_filter": {"cutoff_hz": 297.7526461671862}, "dob": None},
-           "humans": [{"kind": "mass", "inertia": [1.4194206020498487e-05, 0.006632561078584069], "damping": 0.0}]}
+    raw = copy.deepcopy(UNRESOLVED_LIGHT_MASS_1KHZ)
+
     des = design_from_mapping(raw)
     b = batch_config(des, {"design.amplification": np.array([raw["design"]["amplification"]])})
     cols = sampled_columns(b, analyze_batch(b))

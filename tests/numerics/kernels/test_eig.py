@@ -14,6 +14,8 @@ from scipy.optimize import linear_sum_assignment
 
 from exotune.numerics.kernels import AVAILABLE
 
+from campaign_designs import CLUSTER_AT_Z1_10KHZ
+
 pytestmark = pytest.mark.skipif(not AVAILABLE, reason="numba not installed: LAPACK solves every matrix")
 
 EPS = np.finfo(float).eps
@@ -211,21 +213,7 @@ def test_spectra_matching_follows_the_nearest_pair_rule(n, seed, move, ties):
         assert perm[r].tolist() == _greedy_reference(la[r], lb[r]).tolist()
 
 
-# A 10 kHz design of the independent verdict campaign (docs/benchmarks.md): an undamped human mass
-# on a soft cuff, 5.1 samples of delay. Its loop has the rigid-body mode and two slow modes within
-# 1e-4 of z = 1; balanced by 1-norms (the classical rule) the kernel computed them 1.8e-7 from the
-# exact values and the sweep's sampled columns reported spurious unstable members.
-CLUSTER_DESIGN = {
-    "plant": {"motor_inertia": 0.22968696056629936, "motor_damping": 0.6992451030212418,
-              "sea_stiffness": 14994.912584336505, "joint_inertia": 0.1897880307902598,
-              "cuff_stiffness": 1.9318398892180026},
-    "design": {"amplification": 11.835923876059613, "felt_inertia": 0.030454133567316768,
-               "felt_damping": 0.02768348441047852, "zeta": 0.05634231631104276, "zeta_hat": 0.21176795569311055},
-    "implementation": {"delay_s": 0.0005109982700944911, "sample_rate_hz": 10000.0,
-                       "gv_filter": {"cutoff_hz": 258.1093864382945, "damping": 1.3851040532059207},
-                       "derivative_filter": {"cutoff_hz": 442.28486105290204}, "dob": None},
-    "humans": [{"kind": "mass", "inertia": [0.00012450318808112032, 0.04835492477562772], "damping": 0.0}],
-}
+# the campaign design with a cluster of eigenvalues at z = 1: campaign_designs.CLUSTER_AT_Z1_10KHZ
 
 
 def test_eigenvalues_clustered_at_z_1_are_accurate():
@@ -236,8 +224,8 @@ def test_eigenvalues_clustered_at_z_1_are_accurate():
     from exotune.sampled.batch import BatchLoops
     from exotune.sampled.families import family_loops
 
-    des = design_from_mapping(CLUSTER_DESIGN)
-    b = batch_config(des, {"design.amplification": np.array([CLUSTER_DESIGN["design"]["amplification"]])})
+    des = design_from_mapping(CLUSTER_AT_Z1_10KHZ)
+    b = batch_config(des, {"design.amplification": np.array([CLUSTER_AT_Z1_10KHZ["design"]["amplification"]])})
     bl = BatchLoops(b, 10000.0)
     loop, lo, hi = family_loops(des.humans, des.environment)[0]
     v = np.geomspace(lo, hi, 40)[[4, 11, 23, 27]]
