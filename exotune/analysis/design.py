@@ -168,12 +168,16 @@ def _analyze_design(cfg, sampled_check: bool = True) -> DesignAnalysis:
     )
 
 
-def analyze_with_margins(cfg, sampled_check: bool = True):
+def analyze_with_margins(cfg, sampled_check: bool = True, of_record=None):
     """The single-design analysis (``exotune analyze``) with its margins: the latency margin of
     :func:`exotune.analysis.latency_margin.latency_margin` and the plant-uncertainty margin of
     :func:`exotune.analysis.plant_margin.plant_uncertainty_margin` (weights from the design's
     ``uncertainty`` section, 1 each when absent); ``to_dict()`` puts them first, as mappings with
     units.
+
+    The plant-uncertainty margin is independent of the rest and about half the work: it runs in a
+    child process beside the rest when the machine has two cores
+    (:func:`exotune.numerics.beside.beside`; the same result as a serial run).
 
     Parameters
     ----------
@@ -181,6 +185,10 @@ def analyze_with_margins(cfg, sampled_check: bool = True):
         One design.
     sampled_check : bool, optional
         Passed to :func:`analyze_design` (False: no sampled-data grid check).
+    of_record : callable, optional
+        ``of_record(cfg, latency_margin)`` → the sampled-data verdicts of record
+        (:func:`exotune.controllerfile.verdicts.design_verdicts`), computed while the
+        plant-uncertainty margin runs and stored as ``sampled``.
 
     Returns
     -------
@@ -191,20 +199,24 @@ def analyze_with_margins(cfg, sampled_check: bool = True):
 
     References
     ----------
-    docs/method.md#latency-margin; paper Fig. 5.
+    docs/method.md#latency-margin; docs/method.md#plant-uncertainty-margin; paper Fig. 5.
     """
+    from ..numerics.beside import beside
     from .latency_margin import latency_margin
     from .plant_margin import plant_uncertainty_margin
 
-    rec = analyze_design(cfg, sampled_check)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         cols = analyze_batch(cfg)  # the nominal verdicts, shared by both margins
-        lm = latency_margin(cfg, nominal=cols)
         # a design that is not robust at the nominal plant has k* = 0: its robust loops' own bounds
         # (seconds of work) are left to plant_uncertainty_margin(cfg) — analyze stays quick
-        pm = plant_uncertainty_margin(cfg, getattr(cfg, "uncertainty", None), nominal=cols, loop_detail=False)
+        with beside("plant_uncertainty_margin", plant_uncertainty_margin, cfg, getattr(cfg, "uncertainty", None),
+                    nominal=cols, loop_detail=False) as job:
+            rec = analyze_design(cfg, sampled_check)
+            lm = latency_margin(cfg, nominal=cols)
+            if of_record is not None:
+                rec = dataclasses.replace(rec, sampled=of_record(cfg, lm))
+            pm = job.result()
     return dataclasses.replace(rec, margins=(lm, pm))
-
 
 
 def kyp_certificates(cfg) -> dict:

@@ -190,6 +190,6 @@ def analyze_of_record(cfg):
 
     if not cfg.implementation.sample_rate_hz:
         return analyze_with_margins(cfg)
-    r = analyze_with_margins(cfg, sampled_check=False)
-    v = design_verdicts(cfg, continuous_margin=r.latency_margin)
-    return replace(r, sampled=v, warnings=tuple(r.warnings) + tuple(_disagreements(r, v)))
+    r = analyze_with_margins(cfg, sampled_check=False,
+                             of_record=lambda c, lm: design_verdicts(c, continuous_margin=lm))
+    return replace(r, warnings=tuple(r.warnings) + tuple(_disagreements(r, r.sampled)))

@@ -660,3 +660,37 @@ def test_passivity_does_not_depend_on_the_human_families():
         r = analyze_design(dataclasses.replace(cfg, humans=humans)).to_dict()["passivity"]
         assert r["max_phase_excess_deg"] == pytest.approx(ref["max_phase_excess_deg"], rel=1e-6)
         assert np.allclose(r["nonpassive_band_hz"], ref["nonpassive_band_hz"], rtol=1e-6)
+
+
+def test_plant_margin_beside_the_rest_gives_the_serial_report(tmp_path):
+    """``exotune analyze`` runs the plant-uncertainty margin in a forked child beside the rest of
+    the analysis once the process is warm (exotune.numerics.beside): the report is the serial one,
+    to the last digit. A fresh interpreter analyses the starter design twice (the first run is
+    serial, the second forks when two CPUs are usable) and once more with EXOTUNE_SERIAL set."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from exotune.starter import template_text
+
+    design = tmp_path / "design.yaml"
+    design.write_text(template_text("design.yaml"))
+    script = ("import json, sys\nimport exotune.api as api\nimport exotune.numerics.beside as B\n"
+              "seen = []\norig = B.Beside.result\n"
+              "def result(self):\n    seen.append(self.forked)\n    return orig(self)\n"
+              "B.Beside.result = result\n"
+              "a = api.analyze(sys.argv[1]).to_json()\nb = api.analyze(sys.argv[1]).to_json()\n"
+              "print(json.dumps({'forked': seen, 'can_fork': B.can_fork(), 'a': a, 'b': b}))\n")
+    env = {k: v for k, v in os.environ.items() if k != "EXOTUNE_SERIAL"}
+    out = []
+    for extra in ({}, {"EXOTUNE_SERIAL": "1"}):
+        p = subprocess.run([sys.executable, "-c", script, str(design)], capture_output=True, text=True,
+                           env={**env, **extra}, timeout=600)
+        assert p.returncode == 0, p.stderr
+        out.append(json.loads(p.stdout.strip().splitlines()[-1]))
+    forked, serial = out
+    assert serial["forked"] == [False, False]
+    assert forked["forked"] == [False, forked["can_fork"]]
+    assert json.loads(forked["a"])["margins"]["plant_uncertainty"]["lower"] > 0  # robust: the margin is real work
+    assert forked["a"] == forked["b"] == serial["a"] == serial["b"]
