@@ -116,6 +116,27 @@ def _pade_roots(p0, p1, T, order):
     return _roots_scaled(poly)
 
 
+def _stack_coefficients(*polys) -> np.ndarray:
+    """Ascending coefficient vectors as the rows of one array, zero-padded at the top."""
+    n = max(len(c) for c in polys)
+    dtype = np.result_type(*polys, float)
+    C = np.zeros((len(polys), n), dtype=dtype)
+    for i, c in enumerate(polys):
+        C[i, :len(c)] = c
+    return C
+
+
+def _polyvals(C: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Every row of ``C`` (ascending coefficients) at the points ``x``: numpy's ``polyval``
+    recurrence, in one pass for all rows. The zero padding at the top of a shorter row adds exact
+    zeros until its own leading coefficient, so each row's value is ``polyval``'s, bit for bit."""
+    n = C.shape[1]
+    c0 = C[:, -1:] + x * 0
+    for i in range(2, n + 1):
+        c0 = C[:, n - i:n - i + 1] + c0 * x
+    return c0
+
+
 def exact_rhp_roots(p0: np.ndarray, p1: np.ndarray, T: float, orders=(10, 16), n_seeds: int = 600) -> np.ndarray:
     """Right-half-plane roots of the exact Δ = P0 + P1 e^{−sT} found by Newton's method (an
     independent root finder, not the argument principle), seeded with the Padé models' roots and a
@@ -132,11 +153,13 @@ def exact_rhp_roots(p0: np.ndarray, p1: np.ndarray, T: float, orders=(10, 16), n
     s = np.concatenate(seeds)
     s = s[np.isfinite(s)]
     d0, d1 = P.polyder(p0), P.polyder(p1)
+    C = _stack_coefficients(p0, p1, d0, d1)
     with np.errstate(all="ignore"):
         for _ in range(80):
             e = np.exp(-s * T)
-            F = P.polyval(s, p0) + P.polyval(s, p1) * e
-            dF = P.polyval(s, d0) + (P.polyval(s, d1) - T * P.polyval(s, p1)) * e
+            v0, v1, v2, v3 = _polyvals(C, s)
+            F = v0 + v1 * e
+            dF = v2 + (v3 - T * v1) * e
             s = s - F / dF
         e = np.exp(-s * T)
         F = P.polyval(s, p0) + P.polyval(s, p1) * e

@@ -356,3 +356,69 @@ def test_pade_coefficients_equal_python_control(T, n):
     ours = np.polynomial.polynomial.polyval(s, num) / np.polynomial.polynomial.polyval(s, den)
     ref = np.polyval(cn, s) / np.polyval(cd, s)
     np.testing.assert_allclose(ours, ref, rtol=1e-9)
+
+
+def _newton_reference(p0, p1, T, orders=(10, 16), n_seeds=600):
+    """exact_rhp_roots as first written: numpy's polyval for each polynomial at every Newton step."""
+    from exotune.analysis.crosscheck import pade_coefficients  # noqa: F401 (the module under test)
+    from exotune.numerics.poly import padd, pmul
+    from exotune.numerics.quasipoly import omega_max
+
+    P = np.polynomial.polynomial
+    R = float(omega_max(np.atleast_2d(p0), np.atleast_2d(p1))[0]) if T > 0 else 0.0
+    seeds = []
+    for n in orders:
+        num, den = pade_coefficients(T, n)
+        c = np.trim_zeros(np.asarray(padd(pmul(p0, den), pmul(p1, num)) if T > 0 else padd(p0, p1), complex), "b")
+        k = np.nonzero(np.abs(c) > 0)[0]
+        sig = (abs(c[k[0]]) / abs(c[-1])) ** (1.0 / max(len(c) - 1 - k[0], 1))
+        sig = sig if np.isfinite(sig) and sig > 0 else 1.0
+        seeds.append(np.roots((c * sig ** np.arange(len(c)))[::-1]) * sig)
+    if T > 0 and np.isfinite(R):
+        im = np.geomspace(1e-2, max(R, 1.0), n_seeds)
+        seeds.append(0.05 * im + 1j * im)
+
+    def newton_step(z):
+        ez = np.exp(-z * T)
+        value = P.polyval(z, p0) + P.polyval(z, p1) * ez
+        slope = P.polyval(z, P.polyder(p0)) + (P.polyval(z, P.polyder(p1)) - T * P.polyval(z, p1)) * ez
+        return z - value / slope
+
+    z_all = np.concatenate(seeds)
+    s = z_all[np.isfinite(z_all)]
+    with np.errstate(all="ignore"):
+        for _ in range(80):
+            s = newton_step(s)
+    found = []  # accepted one root at a time (scalar polyval), strongest real part first
+    for z in s[np.isfinite(s)]:
+        ez = np.exp(-z * T)
+        residual = abs(P.polyval(z, p0) + P.polyval(z, p1) * ez)
+        if residual <= 1e-9 * (P.polyval(abs(z), np.abs(p0)) + P.polyval(abs(z), np.abs(p1)) * abs(ez)) \
+                and z.real > 1e-9 * abs(z):
+            found.append(z)
+    out = []
+    for z in sorted(found, key=lambda x: -x.real):
+        if all(abs(z - w) > 1e-6 * max(abs(z), 1.0) for w in out):
+            out.append(z)
+    return np.asarray(out, complex)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.booleans())
+def test_exact_rhp_roots_one_pass_horner_is_polyvals(seed, hysteretic):
+    """The Newton search evaluates its four polynomials in one stacked Horner pass (zero-padded
+    rows): the roots are those of one ``polyval`` per polynomial (rounding-level tolerance)."""
+    from exotune.analysis.crosscheck import exact_rhp_roots
+
+    rng = np.random.default_rng(seed)
+    n0 = int(rng.integers(3, 14))
+    n1 = int(rng.integers(1, n0))
+    p0 = rng.standard_normal(n0) * 10.0 ** rng.uniform(-4, 4, n0)
+    p1 = rng.standard_normal(n1) * 10.0 ** rng.uniform(-4, 4, n1)
+    if hysteretic:
+        p0 = p0 + 1j * 0.2 * p0
+    T = float(10 ** rng.uniform(-4, -2))
+    got, ref = exact_rhp_roots(p0, p1, T), _newton_reference(p0, p1, T)
+    assert got.shape == ref.shape
+    order = lambda r: r[np.lexsort((r.imag, r.real))]  # noqa: E731 (conjugates tie on the real part)
+    np.testing.assert_allclose(order(got), order(ref), rtol=1e-9, atol=0)
