@@ -72,6 +72,13 @@ def _usage_line(e: click.UsageError) -> str:
     return f"{name}: {' '.join(str(reason).split())}"
 
 
+def _as_flags(flags: dict, text: str) -> str:
+    """``text`` with every backticked keyword of ``flags`` replaced by its option."""
+    import re
+
+    return re.sub(r"`([A-Za-z_][A-Za-z0-9_]*)`", lambda m: flags.get(m.group(1), m.group(0)), text)
+
+
 class _Group(click.Group):
     """The ``exotune`` group: maps library errors and click usage errors to one-line errors."""
 
@@ -91,15 +98,19 @@ class _Group(click.Group):
         except click.UsageError:
             raise InputError(f"{args[0]}: no such command (commands: {', '.join(self.list_commands(ctx))})") from None
 
-    def _option_named(self, ctx, e) -> str:
-        """The error's line, its field named as the command line's option when the field is the
-        keyword of the API call that option feeds (``human_inertia`` → ``--human-inertia``)."""
-        field = getattr(e, "field", None)
+    def _flags(self, ctx) -> dict:
+        """Keyword of the API call → the invoked command's option that feeds it (``human_inertia``
+        → ``--human-inertia``)."""
         cmd = self.get_command(ctx, ctx.invoked_subcommand) if ctx.invoked_subcommand else None
-        for p in getattr(cmd, "params", ()):
-            if field and p.name == field and isinstance(p, click.Option):
-                return f"{max(p.opts, key=len)}: {e.reason}"
-        return str(e)
+        return {p.name: max(p.opts, key=len) for p in getattr(cmd, "params", ()) if isinstance(p, click.Option)}
+
+    def _option_named(self, flags: dict, e) -> str:
+        """The error's line in the command line's words: a field that is the keyword of an option
+        is named as that option, and so is a keyword the reason quotes in backticks (the library
+        speaks of its keywords: "give `periods` or `duration_s`, not both")."""
+        field = getattr(e, "field", None)
+        text = f"{flags[field]}: {e.reason}" if field in flags else str(e)
+        return _as_flags(flags, text)
 
     def invoke(self, ctx):
         try:
@@ -109,7 +120,9 @@ class _Group(click.Group):
         except click.UsageError as e:
             raise InputError(_usage_line(e), e.exit_code) from None
         except ExotuneError as e:
-            raise InputError(self._option_named(ctx, e), e.exit_code, getattr(e, "more", ())) from None
+            flags = self._flags(ctx)
+            raise InputError(self._option_named(flags, e), e.exit_code,
+                             [_as_flags(flags, m) for m in getattr(e, "more", ())]) from None
         except ValueError as e:
             raise InputError(" ".join(str(e).split()) or type(e).__name__) from None
         except OSError as e:  # an unwritable output (a directory, a missing parent, no permission)

@@ -241,7 +241,7 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
     cert = certify(doc)
     if not cert.certified and not allow_uncertified:
         raise RunFailed(f"not written: {controller_file} does not certify: {'; '.join(cert.reasons)} "
-                        "(--allow-uncertified writes C stamped as uncertified)")
+                        "(`allow_uncertified` writes C stamped as uncertified)")
     verdict = "CERTIFIED" if cert.certified else "UNCERTIFIED (generated with --allow-uncertified)"
     trace = {"sha256": sha, "certified": cert.certified, "verdict": verdict, "reasons": tuple(cert.reasons)}
     files, n_ctrl, n_sec = _generate(doc, trace)

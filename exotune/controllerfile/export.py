@@ -227,9 +227,9 @@ def requirements_section(fs: float, require_latency_margin_s: float | None = Non
     try:
         v = float(require_latency_margin_s)
     except (TypeError, ValueError):
-        raise ConfigError("--require-latency-margin-s", f"expected a number of seconds, got {require_latency_margin_s!r}") from None
+        raise ConfigError("require_latency_margin_s", f"expected a number of seconds, got {require_latency_margin_s!r}") from None
     if not (math.isfinite(v) and v >= 0):
-        raise ConfigError("--require-latency-margin-s", f"must be a finite number of seconds ≥ 0, got {v:g}")
+        raise ConfigError("require_latency_margin_s", f"must be a finite number of seconds ≥ 0, got {v:g}")
     return {"latency_margin_s": v, "unit": "s",
             "source": "--require-latency-margin-s (0: no requirement)" if v == 0 else "--require-latency-margin-s"}
 
@@ -435,26 +435,26 @@ def export_design(design_file, sample_rate_hz: float | None, out, require_latenc
         impl = raw.get("implementation") if isinstance(raw, dict) else None
         sample_rate_hz = impl.get("sample_rate_hz") if isinstance(impl, dict) else None
         if sample_rate_hz is None:
-            raise ConfigError("--sample-rate-hz", "the design sets no implementation.sample_rate_hz: give the runtime's "
-                                                  "rate (e.g. --sample-rate-hz 1000)")
+            raise ConfigError("sample_rate_hz", "the design sets no implementation.sample_rate_hz: give the runtime's "
+                                                  "rate (e.g. `sample_rate_hz`=1000)")
     cfg = design_at_rate(raw, sample_rate_hz, str(design_file))
     fs = float(cfg.implementation.sample_rate_hz)
     digest = hashlib.sha256(Path(design_file).read_bytes()).hexdigest()
-    with time_budget(budget, f"exporting at {fs:g} Hz", "lower --sample-rate-hz"):
+    with time_budget(budget, f"exporting at {fs:g} Hz", "lower `sample_rate_hz`"):
         doc = build_export(cfg, fs, source=str(design_file), input_hash=digest,
                            require_latency_margin_s=require_latency_margin_s)
     problems = doc["provenance"].get("uncertified") or []
     if problems and not allow_uncertified:
         raise RunFailed(f"not written: {out} would not certify — {'; '.join(problems[:3])}"
                         + (f"; and {len(problems) - 3} more" if len(problems) > 3 else "")
-                        + " (--allow-uncertified writes it anyway)")
+                        + " (`allow_uncertified` writes it anyway)")
     if problems:
         doc["provenance"]["allow_uncertified"] = True
     write_controller(doc, out)
     return ExportedController.from_document(doc, out)
 
 
-def check_sample_rate(value, field: str = "--sample-rate-hz") -> float:
+def check_sample_rate(value, field: str = "sample_rate_hz") -> float:
     """A sample rate [Hz] from the command line: a positive, finite number (else ConfigError).
 
     Parameters

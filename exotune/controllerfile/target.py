@@ -66,7 +66,7 @@ def with_precision(doc: ControllerFile | dict, precision: str) -> ControllerFile
     exotune.errors.ConfigError
         When ``precision`` is invalid or a coefficient does not fit in float32.
     """
-    check_precision(precision, "--precision")
+    check_precision(precision, "precision")
     cf = as_controller_file(doc)
     d = cf.to_dict()  # the new document (a deep copy), written here
     if isinstance(d.get("implementation"), dict):

@@ -152,7 +152,7 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
     if sample_rate_hz is not None:
         if not (isinstance(sample_rate_hz, (int, float)) and not isinstance(sample_rate_hz, bool)
                 and math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
-            raise ConfigError("--sample-rate-hz", f"{sample_rate_hz!r} is not a rate > 0 Hz")
+            raise ConfigError("sample_rate_hz", f"{sample_rate_hz!r} is not a rate > 0 Hz")
         fs, rate_source = float(sample_rate_hz), "given"
         sig["t"] = np.arange(n) / fs
     else:
@@ -160,21 +160,21 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
     delay = None
     if isinstance(delay_s, str) and delay_s.strip().lower() == "auto":
         if "tau_cmd" not in sig:
-            raise ConfigError("--delay-s", "auto estimates the delay of a tau_cmd column; this log has tau_m")
+            raise ConfigError("delay_s", "auto estimates the delay of a tau_cmd column; this log has tau_m")
     else:
         try:
             d_s = float(delay_s)
         except (TypeError, ValueError):
-            raise ConfigError("--delay-s", f"{delay_s!r} is neither a delay [s] nor auto") from None
+            raise ConfigError("delay_s", f"{delay_s!r} is neither a delay [s] nor auto") from None
         if not (math.isfinite(d_s) and d_s >= 0):
-            raise ConfigError("--delay-s", f"{delay_s!r} is not a delay ≥ 0 s")
+            raise ConfigError("delay_s", f"{delay_s!r} is not a delay ≥ 0 s")
         d = d_s * fs
         delay = int(round(d))
         if "tau_cmd" in sig and abs(d - delay) > DELAY_TOLERANCE * max(1.0, d):
-            raise ConfigError("--delay-s", f"{delay_s!r} s is {d:.6g} samples at {fs:g} Hz: identification needs "
+            raise ConfigError("delay_s", f"{delay_s!r} s is {d:.6g} samples at {fs:g} Hz: identification needs "
                               "a whole number of samples (log the applied torque as tau_m otherwise)")
         if "tau_cmd" in sig and delay >= n - MIN_SAMPLES:
-            raise ConfigError("--delay-s", f"{delay} samples leave fewer than {MIN_SAMPLES} samples")
+            raise ConfigError("delay_s", f"{delay} samples leave fewer than {MIN_SAMPLES} samples")
         if "tau_cmd" not in sig:
             delay = 0
     return MeasuredLog(fs, sig, source, delay, rate_source)

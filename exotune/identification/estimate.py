@@ -100,14 +100,14 @@ def parse_fix(fix) -> dict:
     for name, value in items:
         key = name.strip() if name.strip() in _FIXABLE else by_symbol.get(name.strip().lower())
         if key is None:
-            raise ConfigError("--fix", f"{name!r} is not a plant parameter (known: {', '.join(_FIXABLE)} or their "
+            raise ConfigError("fix", f"{name!r} is not a plant parameter (known: {', '.join(_FIXABLE)} or their "
                               "symbols J_m, B_m, K_s, J_j, K_c, F_c), as NAME=VALUE")
         try:
             v = float(value)
         except (TypeError, ValueError):
-            raise ConfigError("--fix", f"{name}={value!r}: the value must be a number (SI units)") from None
+            raise ConfigError("fix", f"{name}={value!r}: the value must be a number (SI units)") from None
         if not math.isfinite(v):
-            raise ConfigError("--fix", f"{name}={value!r}: the value must be a finite number")
+            raise ConfigError("fix", f"{name}={value!r}: the value must be a finite number")
         out[key] = v
     return out
 
@@ -128,7 +128,7 @@ def _as_logs(log) -> list:
             raise ConfigError(other.source, f"sample rate {other.sample_rate_hz:.8g} Hz, {first.source} has "
                               f"{first.sample_rate_hz:.8g} Hz: logs identified together need one rate")
         if other.delay_samples != first.delay_samples:
-            raise ConfigError("--delay-s", f"{other.source} gives {other.delay_samples} samples of delay, "
+            raise ConfigError("delay_s", f"{other.source} gives {other.delay_samples} samples of delay, "
                               f"{first.source} {first.delay_samples}")
     return logs
 
@@ -180,7 +180,7 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
     fs = first.sample_rate_hz
     fh = min(DEFAULT_FILTER_HZ, fs / 100) if filter_hz is None else filter_hz
     if not (isinstance(fh, (int, float)) and math.isfinite(fh) and 0 < fh <= fs / 4):
-        raise ConfigError("--filter-hz", f"{filter_hz!r}: the filter corner must be in (0, {fs / 4:g}] Hz "
+        raise ConfigError("filter_hz", f"{filter_hz!r}: the filter corner must be in (0, {fs / 4:g}] Hz "
                           "(a quarter of the sample rate)")
     shortest = min(lg.samples for lg in logs)
     auto = first.tau_m_held and first.delay_samples is None
@@ -382,8 +382,8 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
 
     paths = [log_path] if isinstance(log_path, (str, bytes)) or hasattr(log_path, "__fspath__") else list(log_path)
     if len(paths) > 1 and folds is not None:
-        raise ConfigError("--folds", "k-fold cross-validation cuts one log into blocks; with several logs, validate "
-                          "on a log not fitted on (--validate LOG.csv)")
+        raise ConfigError("folds", "k-fold cross-validation cuts one log into blocks; with several logs, validate "
+                          "on a log not fitted on (`validate` LOG.csv)")
     logs = [read_log(p, delay_s=delay_s, sample_rate_hz=sample_rate_hz) for p in paths]
     other = None if validate is None else read_log(validate, delay_s=delay_s, sample_rate_hz=sample_rate_hz)
     est = identify_plant(logs, filter_hz=filter_hz, friction=friction, fix=fix)

@@ -212,21 +212,21 @@ def _select(k_lo: int, k_hi: int, selection: str, seed: int | None) -> np.ndarra
 
 def _periods(period_samples: int, fs: float, periods, duration_s) -> int:
     if periods is not None and duration_s is not None:
-        raise ConfigError("--duration-s", "give --periods or --duration-s, not both")
+        raise ConfigError("duration_s", "give `periods` or `duration_s`, not both")
     T = period_samples / fs
     if periods is not None:
         if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or periods < 1:
-            raise ConfigError("--periods", f"must be a whole number ≥ 1, got {periods!r}")
+            raise ConfigError("periods", f"must be a whole number ≥ 1, got {periods!r}")
         n = int(periods)
     elif duration_s is not None:
-        d = _number("--duration-s", duration_s)
+        d = _number("duration_s", duration_s)
         n = int(math.floor(d / T * (1 + _REL)))
         if n < 1:
-            raise ConfigError("--duration-s", f"{d:g} s is shorter than one period ({T:.6g} s)")
+            raise ConfigError("duration_s", f"{d:g} s is shorter than one period ({T:.6g} s)")
     else:
         n = max(2, int(math.ceil(DEFAULT_DURATION_S / T * (1 - _REL))))
     if n * period_samples > MAX_SAMPLES:
-        raise ConfigError("--periods" if periods is not None else "--duration-s",
+        raise ConfigError("periods" if periods is not None else "duration_s",
                           f"{n} periods of {period_samples} samples: at most {MAX_SAMPLES} samples are written")
     return n
 
@@ -262,7 +262,8 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     Raises
     ------
     ConfigError
-        Naming the option (``--f-hi-hz``, ``--period-s``, …) and the reason.
+        Naming the keyword (``f_hi_hz``, ``period_s``, …) and the reason (``exotune excite`` names
+        the option instead: ``--f-hi-hz``).
 
     Examples
     --------
@@ -270,38 +271,38 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     >>> len(e.harmonics), e.resolution_hz, round(e.peak_nm, 12), e.crest_factor < 2
     (20, 1.0, 2.0, True)
     """
-    fs = _number("--sample-rate-hz", sample_rate_hz)
-    lo = _number("--f-lo-hz", f_lo_hz)
-    hi = _number("--f-hi-hz", f_hi_hz)
+    fs = _number("sample_rate_hz", sample_rate_hz)
+    lo = _number("f_lo_hz", f_lo_hz)
+    hi = _number("f_hi_hz", f_hi_hz)
     if hi >= fs / 2:
-        raise ConfigError("--f-hi-hz", f"{hi:g} Hz is not below the Nyquist frequency {fs / 2:g} Hz (half of "
-                          f"--sample-rate-hz {fs:g})")
+        raise ConfigError("f_hi_hz", f"{hi:g} Hz is not below the Nyquist frequency {fs / 2:g} Hz (half of "
+                          f"`sample_rate_hz` {fs:g})")
     if lo >= hi:
-        raise ConfigError("--f-lo-hz", f"{lo:g} Hz must be below --f-hi-hz ({hi:g} Hz)")
+        raise ConfigError("f_lo_hz", f"{lo:g} Hz must be below `f_hi_hz` ({hi:g} Hz)")
     if (peak_nm is None) == (rms_nm is None):
-        raise ConfigError("--peak-nm", "give the amplitude as exactly one of --peak-nm and --rms-nm [N·m]")
-    kind, amp = ("peak", _number("--peak-nm", peak_nm)) if peak_nm is not None else ("rms", _number("--rms-nm", rms_nm))
+        raise ConfigError("peak_nm", "give the amplitude as exactly one of `peak_nm` and `rms_nm` [N·m]")
+    kind, amp = ("peak", _number("peak_nm", peak_nm)) if peak_nm is not None else ("rms", _number("rms_nm", rms_nm))
     if lines not in SELECTIONS:
-        raise ConfigError("--lines", f"{lines!r}: one of {', '.join(SELECTIONS)}")
+        raise ConfigError("lines", f"{lines!r}: one of {', '.join(SELECTIONS)}")
     if seed is not None and lines != "random-odd":
-        raise ConfigError("--seed", f"only --lines random-odd draws at random (--lines is {lines})")
+        raise ConfigError("seed", f"only `lines` random-odd draws at random (`lines` is {lines})")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise ConfigError("--seed", f"must be a whole number ≥ 0, got {seed!r}")
-    T = 1.0 / lo if period_s is None else _number("--period-s", period_s)
+        raise ConfigError("seed", f"must be a whole number ≥ 0, got {seed!r}")
+    T = 1.0 / lo if period_s is None else _number("period_s", period_s)
     N = int(round(T * fs))
     if N > MAX_SAMPLES:
-        raise ConfigError("--period-s" if period_s is not None else "--f-lo-hz",
+        raise ConfigError("period_s" if period_s is not None else "f_lo_hz",
                           f"a period of {N} samples: at most {MAX_SAMPLES}")
     df = fs / N if N > 0 else math.inf
     k_lo, k_hi = int(math.ceil(lo / df * (1 - _REL))), min(int(math.floor(hi / df * (1 + _REL))), (N - 1) // 2)
     if N < 3 or k_hi < max(k_lo, 1):
-        raise ConfigError("--period-s" if period_s is not None else "--f-lo-hz",
+        raise ConfigError("period_s" if period_s is not None else "f_lo_hz",
                           f"a period of {N / fs:.6g} s ({N} samples) resolves {df:.6g} Hz: no line k/period "
-                          f"lies in [{lo:g}, {hi:g}] Hz; give a longer --period-s")
+                          f"lies in [{lo:g}, {hi:g}] Hz; give a longer `period_s`")
     ks = _select(max(k_lo, 1), k_hi, lines, seed)
     if ks.size == 0:
-        raise ConfigError("--lines", f"no {lines} line in [{lo:g}, {hi:g}] Hz at the resolution {df:.6g} Hz; "
-                          "give a longer --period-s or --lines all")
+        raise ConfigError("lines", f"no {lines} line in [{lo:g}, {hi:g}] Hz at the resolution {df:.6g} Hz; "
+                          "give a longer `period_s` or `lines` all")
     n_periods = _periods(N, fs, periods, duration_s)
     phases = _schroeder_phases(ks)
     X = np.zeros(N // 2 + 1, complex)

@@ -400,7 +400,7 @@ def validate_plant(est, log: MeasuredLog, validation_log: MeasuredLog | None = N
     delay = int(est.delay["samples"]) if est.delay else 0
     data = validation_log if validation_log is not None else log
     if validation_log is not None and validation_log.tau_m_held != log.tau_m_held:
-        raise ConfigError("--validate", "the validation log must log the motor torque as the fitting log does "
+        raise ConfigError("validate", "the validation log must log the motor torque as the fitting log does "
                           "(tau_m or tau_cmd)")
     tests, fits, stats = [], [], {}
     for name, inputs, y, ys, free, u in simulate_outputs(data, _values(est), delay, est.filter_hz):
@@ -411,9 +411,9 @@ def validate_plant(est, log: MeasuredLog, validation_log: MeasuredLog | None = N
         tests.append(residual_test(name, "τ_m" if inputs.startswith("τ_m") else inputs, e, u, input_stats=stats))
     if folds is not None:
         if not (isinstance(folds, int) and 2 <= folds and log.samples // folds >= MIN_SAMPLES * 2):
-            raise ConfigError("--folds", f"{folds!r}: at least 2 folds of {2 * MIN_SAMPLES} samples each are needed")
+            raise ConfigError("folds", f"{folds!r}: at least 2 folds of {2 * MIN_SAMPLES} samples each are needed")
         if refit is None:
-            raise ConfigError("--folds", "k-fold validation needs the identification to repeat (refit)")
+            raise ConfigError("folds", "k-fold validation needs the identification to repeat (refit)")
         fits += _kfold(log, est, folds, refit, delay)
     frs = frequency_responses(data, est)
     errors = [ModelError(p.key, p.relative_excess, f"the measured {fr.name} frequency response departs by "

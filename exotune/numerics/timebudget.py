@@ -34,7 +34,7 @@ __all__ = ["DEFAULT_TIME_BUDGET_S", "time_budget", "check_time", "eig_seconds", 
            "active_budget"]
 
 DEFAULT_TIME_BUDGET_S = 600.0
-FIELD = "--time-budget-s"
+FIELD = "time_budget_s"
 _DEADLINE: contextvars.ContextVar = contextvars.ContextVar("exotune_time_budget", default=None)
 
 
@@ -108,7 +108,7 @@ def check_time() -> None:
     if d is not None and time.monotonic() > d[0]:
         _deadline, seconds, what, hint, tail = d
         raise ConfigError(FIELD, f"{what} exceeded the time budget of {seconds:g} s and was stopped ({hint}, or "
-                                 f"raise {FIELD}){tail}")
+                                 f"raise `{FIELD}`){tail}")
 
 
 @one_blas_thread
@@ -171,5 +171,5 @@ def refuse_if_over(problems: int, states: int, seconds: float, what: str, hint: 
     if est > seconds:
         raise ConfigError(FIELD, f"{what} needs at least {problems} eigenvalue problems of a {states}-state loop "
                                  f"matrix, about {est:.0f} s on this machine, over the time budget of {seconds:g} s "
-                                 f"({hint}, or raise {FIELD}){tail}")
+                                 f"({hint}, or raise `{FIELD}`){tail}")
     return est

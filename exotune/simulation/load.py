@@ -119,7 +119,7 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
         raw, name, in_memory = read_yaml(path), str(path), False
     if isinstance(raw, dict) and "schema" in raw:
         if sample_rate_hz is not None:
-            raise ConfigError("--sample-rate-hz", "a controller file carries the sample rate it was certified at; "
+            raise ConfigError("sample_rate_hz", "a controller file carries the sample rate it was certified at; "
                               "the option applies to design files only")
         doc = checked_controller(raw, name) if in_memory else load_controller(path)
         if check:
@@ -129,8 +129,8 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
     if fs is None and isinstance(raw, dict) and isinstance(raw.get("implementation"), dict):
         fs = raw["implementation"].get("sample_rate_hz")
     if fs is None:
-        raise ConfigError("--sample-rate-hz", "a design file needs a sample rate to be simulated (give "
-                          "--sample-rate-hz or implementation.sample_rate_hz, or simulate an exported controller file)")
+        raise ConfigError("sample_rate_hz", "a design file needs a sample rate to be simulated (give "
+                          "`sample_rate_hz` or implementation.sample_rate_hz, or simulate an exported controller file)")
     cfg = design_at_rate(raw, fs, name)
     fs = float(cfg.implementation.sample_rate_hz)
     return build_export(cfg, fs, source=name, analyses=False)  # the runtime's sections only
@@ -163,5 +163,5 @@ def at_joint_angle(doc: ControllerFile | dict, joint_angle_rad: float) -> Contro
     """
     cf = as_controller_file(doc)
     if cf.gain_schedule is None:
-        raise ConfigError("--joint-angle", "the controller has no gain schedule (no transmission section)")
+        raise ConfigError("joint_angle", "the controller has no gain schedule (no transmission section)")
     return cf.entry_view(cf.gain_schedule.nearest(joint_angle_rad))

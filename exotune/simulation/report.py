@@ -191,14 +191,14 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     >>> check_budget(1000.0, 1e6)
     Traceback (most recent call last):
     ...
-    exotune.errors.ConfigError: --duration: 1e+06 s at 1000 Hz is 1e+09 samples; a run is limited to 1e+07 samples (shorten --duration or lower the rate)
+    exotune.errors.ConfigError: duration: 1e+06 s at 1000 Hz is 1e+09 samples; a run is limited to 1e+07 samples (shorten `duration` or lower the rate)
     """
     from ..errors import ConfigError
 
     n = sample_rate_hz * duration_s
     if not n <= MAX_SAMPLES:
-        raise ConfigError("--duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a run is limited "
-                                        f"to {MAX_SAMPLES:.0e} samples (shorten --duration or lower the rate)")
+        raise ConfigError("duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a run is limited "
+                                        f"to {MAX_SAMPLES:.0e} samples (shorten `duration` or lower the rate)")
 
 
 def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inertia: float | None = None,

@@ -284,7 +284,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
             raise ConfigError("sample", f"{sample} exceeds the number of grid points ({total})")
         seed = 0 if seed is None else int_option("seed", seed, 0)
     elif seed is not None:
-        raise ConfigError("seed", "only meaningful together with --sample")
+        raise ConfigError("seed", "only meaningful together with `sample`")
 
     verify = int_option("verify_points", mapping.get("verify_points", 0), 0)
     if verify > MAX_VERIFY_POINTS:

@@ -228,7 +228,7 @@ def test_zero_disables_and_bad_values_are_refused():
     assert requirement_problems({"required_s": 0.0, "extra_delay_s": 0.0, "extra_delay_samples": 0.0}) == []
     assert requirement_problems({"required_s": 1e-3, "extra_delay_s": None, "extra_delay_samples": None}) == []
     for bad in ("-1", "abc", "inf"):
-        with pytest.raises(ConfigError, match="--require-latency-margin-s"):
+        with pytest.raises(ConfigError, match="require_latency_margin_s"):
             requirements_section(FS, bad)
 
 

@@ -142,7 +142,7 @@ def test_certify_precision_float32_on_a_float64_file(tmp_path):
     assert "certify --precision float32" in cert.to_text()
     assert "precision" not in certify(doc).to_dict()
     assert out.read_bytes() == before
-    with pytest.raises(ConfigError, match="--precision"):
+    with pytest.raises(ConfigError, match="^precision: "):
         certify(doc, precision="float16")
 
 

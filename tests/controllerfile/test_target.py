@@ -71,5 +71,5 @@ def test_float32_to_float64_drops_the_realization(scheduled_doc, scheduled_doc32
 
 
 def test_unknown_precision_is_refused(scheduled_doc):
-    with pytest.raises(ConfigError, match="--precision"):
+    with pytest.raises(ConfigError, match="^precision: "):
         with_precision(scheduled_doc, "float16")

@@ -45,11 +45,11 @@ def test_given_rate_and_command_delay():
     ({k: v[:MIN_SAMPLES - 1] for k, v in _cols().items()}, {}, "t", f"{MIN_SAMPLES - 1} samples: at least"),
     (_cols(t=np.r_[np.arange(100), np.arange(101, N + 1)] / FS), {}, "t", "about 1 sample(s) missing after sample 99"),
     (_cols(t=np.r_[np.arange(200), np.arange(199, -1, -1)] / FS), {}, "t", "not increasing"),
-    (_cols(), {"sample_rate_hz": -1.0}, "--sample-rate-hz", "is not a rate > 0 Hz"),
-    (_cols(tau_m=None, tau_cmd=np.zeros(N)), {"delay_s": "0.0015"}, "--delay-s", "1.5 samples at 1000 Hz"),
-    (_cols(), {"delay_s": "auto"}, "--delay-s", "this log has tau_m"),
-    (_cols(), {"delay_s": "soon"}, "--delay-s", "neither a delay [s] nor auto"),
-    (_cols(), {"delay_s": -1}, "--delay-s", "is not a delay ≥ 0 s"),
+    (_cols(), {"sample_rate_hz": -1.0}, "sample_rate_hz", "is not a rate > 0 Hz"),
+    (_cols(tau_m=None, tau_cmd=np.zeros(N)), {"delay_s": "0.0015"}, "delay_s", "1.5 samples at 1000 Hz"),
+    (_cols(), {"delay_s": "auto"}, "delay_s", "this log has tau_m"),
+    (_cols(), {"delay_s": "soon"}, "delay_s", "neither a delay [s] nor auto"),
+    (_cols(), {"delay_s": -1}, "delay_s", "is not a delay ≥ 0 s"),
 ])
 def test_bad_logs_name_the_column(cols, kw, field, reason):
     with pytest.raises(ConfigError) as ei:

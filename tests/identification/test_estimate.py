@@ -63,7 +63,7 @@ def test_parse_fix():
     assert parse_fix({"K_c": "250"}) == {"cuff_stiffness": 250.0}
     with pytest.raises(ConfigError) as ei:
         parse_fix(["gear=3"])
-    assert ei.value.field == "--fix" and "'gear' is not a plant parameter" in ei.value.reason
+    assert ei.value.field == "fix" and "'gear' is not a plant parameter" in ei.value.reason
     with pytest.raises(ConfigError, match="the value must be a number"):
         parse_fix(["J_m"])
     with pytest.raises(ConfigError, match="finite number"):

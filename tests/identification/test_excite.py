@@ -143,6 +143,20 @@ def test_bad_options_exit_2_naming_the_option_and_write_nothing(tmp_path, args, 
     assert res.exit_code == 2, res.output
     line = res.output.strip()
     assert line.startswith(f"exotune: error: {option}") and "\n" not in line, res.output
+    assert "`" not in line and "_hz" not in line and "_nm" not in line  # options, not the API's keywords
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_api_names_keywords_and_the_command_line_options(tmp_path):
+    """One error, two audiences: the library's reason quotes its keywords in backticks, the
+    command line prints the options that feed them."""
+    with pytest.raises(ConfigError) as e:
+        exotune.excite(sample_rate_hz=1000.0, f_lo_hz=0.5, f_hi_hz=40.0, peak_nm=2.0, periods=2, duration_s=10.0)
+    assert str(e.value) == "duration_s: give `periods` or `duration_s`, not both"
+    res = CliRunner().invoke(cli, ["excite", "-o", str(tmp_path / "e.csv"), "--sample-rate-hz", "1000", "--f-lo-hz", "0.5",
+                                   "--f-hi-hz", "40", "--peak-nm", "2", "--periods", "2", "--duration-s", "10"])
+    assert res.exit_code == 2
+    assert res.output.strip() == "exotune: error: --duration-s: give --periods or --duration-s, not both"
     assert list(tmp_path.iterdir()) == []
 
 
@@ -163,7 +177,8 @@ def test_text_and_json_report_crest_factor_resolution_and_lines_with_units(tmp_p
     assert api.to_csv() == out.read_text() and (tmp_path / "f.json").exists()
     with pytest.raises(ConfigError) as e:
         exotune.excite(sample_rate_hz=1000.0, f_lo_hz=1.0, f_hi_hz=20.0)
-    assert e.value.field == "--peak-nm"
+    assert e.value.field == "peak_nm"  # the API names its keywords; the command line its options (above)
+    assert "`peak_nm` and `rms_nm`" in e.value.reason
 
 
 def test_frequency_responses_of_a_periodic_command_are_read_at_its_lines():

@@ -134,4 +134,4 @@ def test_delay_auto_needs_a_command(tmp_path):
     cols["tau_m"] = cols.pop("tau_cmd")
     with pytest.raises(ConfigError) as e:
         log_from_columns(cols, delay_s="auto")
-    assert e.value.field == "--delay-s"
+    assert e.value.field == "delay_s"

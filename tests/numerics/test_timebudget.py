@@ -21,7 +21,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 def test_option_is_validated(bad):
     with pytest.raises(ConfigError) as e:
         check_budget_option(bad)
-    assert e.value.field == "--time-budget-s"
+    assert e.value.field == "time_budget_s"
 
 
 def test_option_default_and_value():

@@ -58,9 +58,9 @@ def test_the_run_budget():
     check_budget(1000.0, 6.0)
     with pytest.raises(ConfigError) as ei:
         check_budget(1000.0, 1e6)
-    assert ei.value.field == "--duration"
+    assert ei.value.field == "duration"
     assert ei.value.reason == ("1e+06 s at 1000 Hz is 1e+09 samples; a run is limited to 1e+07 samples (shorten "
-                               "--duration or lower the rate)")
+                               "`duration` or lower the rate)")
 
 
 def test_run_scenario_returns_the_typed_run():
