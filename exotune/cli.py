@@ -166,9 +166,12 @@ def cli(ctx):
     """
     if ctx.invoked_subcommand in SINGLE_DESIGN_COMMANDS:
         # one design: the numpy engine answers at once; compiling the kernels pays only for batches
+        from .numerics.beside import one_shot
         from .numerics.engine import numpy_engine
 
         ctx.with_resource(numpy_engine())
+        # one command per process: independent halves of the work may run in two processes at once
+        ctx.with_resource(one_shot())
 
 
 @cli.command("init")

@@ -322,8 +322,9 @@ def test_documented_layer_table_matches_the_enforced_layers():
 
 
 # What the command line may import besides exotune.api: the version and errors it reports, the
-# option parser, the engine choice for the process, and the sweep's progress bar (a view).
-CLI_MAY_IMPORT = {"api", "version", "errors", "options", "numerics.engine", "sweeps"}
+# option parser, the engine choice and the one-shot declaration of the process (numerics.beside), and the
+# sweep's progress bar (a view).
+CLI_MAY_IMPORT = {"api", "version", "errors", "options", "numerics.engine", "numerics.beside", "sweeps"}
 CLI_NOT_YET: set = set()
 
 

@@ -13,9 +13,10 @@ caller's process when :meth:`Beside.result` is called:
 
 * POSIX ``fork`` exists, the process has one Python thread (forking a threaded process can leave
   a lock held forever in the child), at least two CPUs are usable, and ``EXOTUNE_SERIAL`` is unset;
-* the same ``key`` has already run once in this process. The first run is serial, so that the
-  modules and compiled kernels it loads stay loaded in the parent: a child's imports die with it,
-  and repeated calls would otherwise pay them every time.
+* the same ``key`` has already run once in this process, or the process has declared itself
+  one-shot (:func:`one_shot`: the command line runs one command per process). Otherwise the first
+  run is serial, so that the modules and compiled kernels it loads stay loaded in the parent: a
+  child's imports die with it, and repeated calls would otherwise pay them every time.
 
 Any failure of the child (an exception, a signal, a result that does not unpickle) makes
 :meth:`Beside.result` run the function in the caller's process, where an exception propagates as
@@ -28,14 +29,35 @@ docs/architecture.md#engines.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
 import pickle
 import signal
 import threading
 
-__all__ = ["Beside", "beside", "can_fork"]
+__all__ = ["Beside", "beside", "can_fork", "one_shot"]
 
 _SEEN: set = set()  # keys that have run once in this process (serially)
+_ONE_SHOT: contextvars.ContextVar[bool] = contextvars.ContextVar("exotune_one_shot", default=False)
+
+
+@contextlib.contextmanager
+def one_shot():
+    """Declare the enclosed work the process's only work (``exotune analyze`` on the command line):
+    a computation may run in a child process already on its first run, since nothing the child
+    loads would serve a later run.
+
+    Examples
+    --------
+    >>> with one_shot():
+    ...     pass
+    """
+    token = _ONE_SHOT.set(True)
+    try:
+        yield
+    finally:
+        _ONE_SHOT.reset(token)
 
 
 def can_fork() -> bool:
@@ -71,7 +93,7 @@ class Beside:
         self._done = False
         self._value = None
         self.forked = False
-        if key in _SEEN and can_fork():
+        if (key in _SEEN or _ONE_SHOT.get()) and can_fork():
             self._start()
         _SEEN.add(key)
 

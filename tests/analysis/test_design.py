@@ -664,9 +664,10 @@ def test_passivity_does_not_depend_on_the_human_families():
 
 def test_plant_margin_beside_the_rest_gives_the_serial_report(tmp_path):
     """``exotune analyze`` runs the plant-uncertainty margin in a forked child beside the rest of
-    the analysis once the process is warm (exotune.numerics.beside): the report is the serial one,
-    to the last digit. A fresh interpreter analyses the starter design twice (the first run is
-    serial, the second forks when two CPUs are usable) and once more with EXOTUNE_SERIAL set."""
+    the analysis once the process is warm, or at once on the command line (exotune.numerics.beside):
+    the report is the serial one, to the last digit. A fresh interpreter analyses the starter design
+    twice (the first run is serial, the second forks when two CPUs are usable), once more with
+    EXOTUNE_SERIAL set, and the command line analyses it once (forked)."""
     import json
     import os
     import subprocess
@@ -694,3 +695,8 @@ def test_plant_margin_beside_the_rest_gives_the_serial_report(tmp_path):
     assert forked["forked"] == [False, forked["can_fork"]]
     assert json.loads(forked["a"])["margins"]["plant_uncertainty"]["lower"] > 0  # robust: the margin is real work
     assert forked["a"] == forked["b"] == serial["a"] == serial["b"]
+    # the command line declares its process one-shot: the first run already forks
+    p = subprocess.run([sys.executable, "-m", "exotune", "analyze", str(design), "--json"], capture_output=True,
+                       text=True, env=env, timeout=600)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.rstrip("\n") == serial["a"]

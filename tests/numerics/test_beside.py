@@ -150,3 +150,25 @@ def test_result_is_computed_once():
     assert job.result() == 2 and job.result() == 2
     assert calls == [1]
     job.close()
+
+
+def test_one_shot_forks_on_the_first_run():
+    """Inside one_shot() (the command line's declaration) a first run may fork already."""
+    script = textwrap.dedent("""
+        import json, os
+        from exotune.numerics.beside import beside, can_fork, one_shot
+        PARENT = os.getpid()
+        with one_shot():
+            with beside("first", lambda: os.getpid() != PARENT) as job:
+                out = [can_fork(), job.forked, job.result()]
+        with beside("other", lambda: os.getpid() != PARENT) as job:  # outside: serial first run
+            out += [job.forked, job.result()]
+        print(json.dumps(out))
+    """)
+    env = {k: v for k, v in os.environ.items() if k != "EXOTUNE_SERIAL"}
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=ROOT, timeout=120)
+    assert p.returncode == 0, p.stderr
+    can, forked, in_child, forked2, in_child2 = json.loads(p.stdout.strip().splitlines()[-1])
+    if not can:
+        pytest.skip("no fork or fewer than two usable CPUs here")
+    assert (forked, in_child, forked2, in_child2) == (True, True, False, False)
