@@ -11,16 +11,19 @@ same function on the same inputs, so the result is the one a serial run gives, b
 The child is used only when it is safe and pays off; otherwise the function simply runs in the
 caller's process when :meth:`Beside.result` is called:
 
-* POSIX ``fork`` exists, the process has one Python thread (forking a threaded process can leave
-  a lock held forever in the child), at least two CPUs are usable, and ``EXOTUNE_SERIAL`` is unset;
+* the system is Linux (macOS's system libraries, e.g. the Accelerate BLAS, are not safe to use
+  in a forked child that does not exec), the process has one Python thread (forking a threaded
+  process can leave a lock held forever in the child), at least two CPUs are usable, and
+  ``EXOTUNE_SERIAL`` is unset;
 * the same ``key`` has already run once in this process, or the process has declared itself
   one-shot (:func:`one_shot`: the command line runs one command per process). Otherwise the first
   run is serial, so that the modules and compiled kernels it loads stay loaded in the parent: a
   child's imports die with it, and repeated calls would otherwise pay them every time.
 
-Any failure of the child (an exception, a signal, a result that does not unpickle) makes
-:meth:`Beside.result` run the function in the caller's process, where an exception propagates as
-usual. Leaving the ``with`` block without collecting the result kills and reaps the child.
+Any failure of the child (an exception, a signal, a result that does not unpickle, no result
+within :data:`STALL_S` of the call of :meth:`Beside.result`) makes :meth:`Beside.result` run the
+function in the caller's process, where an exception propagates as usual. Leaving the ``with``
+block without collecting the result kills and reaps the child.
 
 References
 ----------
@@ -33,11 +36,15 @@ import contextlib
 import contextvars
 import os
 import pickle
+import select
 import signal
+import sys
 import threading
+import time
 
 __all__ = ["Beside", "beside", "can_fork", "one_shot"]
 
+STALL_S = 600.0  # the longest wait for a child's result [s] before the caller computes it itself
 _SEEN: set = set()  # keys that have run once in this process (serially)
 _ONE_SHOT: contextvars.ContextVar[bool] = contextvars.ContextVar("exotune_one_shot", default=False)
 
@@ -66,9 +73,10 @@ def can_fork() -> bool:
     Returns
     -------
     bool
-        POSIX fork available, one Python thread, ≥ 2 usable CPUs and ``EXOTUNE_SERIAL`` unset.
+        Linux, one Python thread, ≥ 2 usable CPUs and ``EXOTUNE_SERIAL`` unset.
     """
-    if os.environ.get("EXOTUNE_SERIAL") or not hasattr(os, "fork") or threading.active_count() != 1:
+    if (os.environ.get("EXOTUNE_SERIAL") or not sys.platform.startswith("linux") or not hasattr(os, "fork")
+            or threading.active_count() != 1):
         return False
     try:
         cpus = len(os.sched_getaffinity(0))
@@ -125,15 +133,18 @@ class Beside:
     def _collect(self):
         """The child's value, or raise LookupError when it failed."""
         chunks = []
-        try:
-            while True:
-                b = os.read(self._fd, 1 << 20)
-                if not b:
-                    break
-                chunks.append(b)
-        finally:
-            os.close(self._fd)
-            self._fd = None
+        deadline = time.monotonic() + STALL_S
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([self._fd], [], [], left)[0]:
+                self.close()  # stalled: kill it, compute here
+                raise LookupError("the child process gave no result in time")
+            b = os.read(self._fd, 1 << 20)
+            if not b:
+                break
+            chunks.append(b)
+        os.close(self._fd)
+        self._fd = None
         _, status = os.waitpid(self._pid, 0)
         self._pid = None
         if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):

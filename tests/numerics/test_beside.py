@@ -82,6 +82,21 @@ SCRIPT = textwrap.dedent("""
         except ChildProcessError:
             out["reaped"] = True
 
+    import time
+    import exotune.numerics.beside as B
+
+    def stalls_in_child():
+        if os.getpid() != PARENT:
+            time.sleep(30)
+        return "parent"
+
+    beside("t", stalls_in_child).result()
+    B.STALL_S = 0.5
+    t0 = time.monotonic()
+    with beside("t", stalls_in_child) as job:
+        out["stall"] = [job.forked, job.result(), time.monotonic() - t0 < 10]
+    B.STALL_S = 600.0
+
     def raises_everywhere():
         raise ValueError("bad input")
 
@@ -116,6 +131,7 @@ def test_forked_child_gives_the_serial_result_and_failures_fall_back():
     assert out["big"] == [True, True]
     assert out["reaped"] is True
     assert out["raises"] == "bad input"  # an error in both places propagates from the parent's run
+    assert out["stall"] == [True, "parent", True]  # no result in time: killed, computed here
 
 
 def test_exotune_serial_never_forks():
