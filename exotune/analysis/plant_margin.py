@@ -37,6 +37,7 @@ Paper §II (the plant), §III (the DOB); docs/method.md#plant-uncertainty-margin
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -45,6 +46,7 @@ import numpy as np
 
 from ..model.plant import Plant
 from ..record import Result
+from ..numerics.beside import beside
 from ..numerics.engine import cached_engine
 from .counting import RootCounter
 from .plant_margin_box import PLANT_FIELDS, PLANT_SYMBOLS, LoopModel, certify_loop, strip_rows
@@ -396,6 +398,23 @@ def _witness(lp: _Loop, k: float, delta: np.ndarray, p) -> PlantWitness:
                         int(N[0]), root, bool(roots.size) or extra_zero)
 
 
+def _witnesses(loops, ups: dict) -> dict:
+    """The witness record of every loop with an unstable point in ``ups`` (loop name → (k, δ, p))."""
+    return {lp.name: _witness(lp, *ups[lp.name]) for lp in loops if ups.get(lp.name) is not None}
+
+
+@contextlib.contextmanager
+def _confirm_beside(loops, ups: dict):
+    """:func:`_witnesses` of ``ups`` started beside the caller's work
+    (:func:`exotune.numerics.beside.beside`: a child process when that is safe and pays off), or
+    None when there is nothing to confirm."""
+    if not any(v is not None for v in ups.values()):
+        yield None
+        return
+    with beside("plant_margin_witnesses", _witnesses, loops, ups) as job:
+        yield job
+
+
 def _certify_all(loops, k, w, budget):
     """Certify every loop at level k: (all certified, evaluations, hints per loop). A loop
     certified at a level ≥ k is not redone (the boxes are nested); loops that failed before go
@@ -554,18 +573,22 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
         robust = [lp for lp in loops if lp.ok]
         detail = loop_detail or len(robust) == len(loops)
         ups = _loops_upper(robust, w, rel_tol, k_cap) if detail else {}
-        if len(robust) < len(loops):
-            notes.insert(0, "not robust at the nominal plant (" + ", ".join(lp.name for lp in loops if not lp.ok)
-                         + "): k* = 0" + ("; the robust loops' margins are listed" if detail else ""))
-            lower, upper, crit, per, used = _not_robust(loops, ups, w, k_cap, rel_tol, budget)
-        else:
-            lower, upper, crit, per, used = _robust(robust, ups, w, k_cap, rel_tol, budget)
-            if not math.isfinite(upper):
-                notes.append(f"no unstable plant found up to k = {k_cap:.6g} (every parameter kept positive)")
+        first = dict(ups)  # the vertex witnesses, confirmed beside the certification (their own process)
+        with _confirm_beside(loops, first) as early:
+            if len(robust) < len(loops):
+                notes.insert(0, "not robust at the nominal plant (" + ", ".join(lp.name for lp in loops if not lp.ok)
+                             + "): k* = 0" + ("; the robust loops' margins are listed" if detail else ""))
+                lower, upper, crit, per, used = _not_robust(loops, ups, w, k_cap, rel_tol, budget)
+            else:
+                lower, upper, crit, per, used = _robust(robust, ups, w, k_cap, rel_tol, budget)
+                if not math.isfinite(upper):
+                    notes.append(f"no unstable plant found up to k = {k_cap:.6g} (every parameter kept positive)")
+            confirmed = early.result() if early is not None else {}
         out, witness = [], None
         for lp in loops:
             v = ups.get(lp.name)
-            wit = None if v is None else _witness(lp, *v)
+            # a witness the certification replaced (a lower unstable point) is confirmed here
+            wit = None if v is None else (confirmed[lp.name] if v is first.get(lp.name) else _witness(lp, *v))
             witness = wit if lp.name == crit else witness
             if lp.ok and lp.name not in ups:  # not bounded (loop_detail False)
                 out.append(LoopPlantMargin(lp.name, math.nan, math.nan, None, True))
