@@ -138,7 +138,7 @@ def design(source, *, plots=None) -> DesignSummary:
     """
     from .analysis import design_report
 
-    check_outputs([source], out_dirs={"--plots": plots})
+    check_outputs([source], out_dirs={"`plots`": plots})
     cfg = load_design(source)
     with numpy_engine():
         r = design_report(cfg)
@@ -209,7 +209,7 @@ def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
     """
     from .controllerfile.verdicts import analyze_of_record
 
-    check_outputs([source], out_dirs={"--plots": plots})
+    check_outputs([source], out_dirs={"`plots`": plots})
     cfg = load_design(source)
     with numpy_engine():
         r = analyze_of_record(cfg)
@@ -269,7 +269,7 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     from .config.yamlio import spec_base
     from .sweeps import run_sweep
 
-    check_outputs([spec, spec_base(spec)], out_dirs={"-o": out})
+    check_outputs([spec, spec_base(spec)], out_dirs={"`out`": out})
     return run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
                      chunk_size=chunk_size, progress=progress)
 
@@ -309,7 +309,7 @@ def report(sweep_dir, out=None) -> SweepReport:
 
     if isinstance(sweep_dir, SweepResult):
         sweep_dir = sweep_dir.directory
-    check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"-o": out},
+    check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"`out`": out},
                   protected_dirs=[os.path.join(sweep_dir, "chunks")])
     return make_report(sweep_dir, out)
 
@@ -355,7 +355,7 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     from .config.yamlio import spec_base
     from .optimization import run_optimize
 
-    check_outputs([spec, spec_base(spec)], outputs={"-o": out, "--pareto": pareto_csv})
+    check_outputs([spec, spec_base(spec)], outputs={"`out`": out, "`pareto_csv`": pareto_csv})
     return run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv)
 
 
@@ -412,7 +412,7 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
         raise TypeError("export needs the design file (a path, or a design loaded from a file)")
     if out is None:
         raise TypeError("export needs out, the controller file to write")
-    check_outputs([path], outputs={"-o": out})
+    check_outputs([path], outputs={"`out`": out})
     with numpy_engine():
         return export_design(path, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
                              time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
@@ -519,7 +519,7 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
         if source.path is None:
             raise TypeError("codegen needs a written controller file (export it to a path first)")
         source = source.path
-    check_outputs([source], out_dirs={"-o": out})
+    check_outputs([source], out_dirs={"`out`": out})
     return write_c_sources(source, out, allow_uncertified=allow_uncertified)
 
 
@@ -591,8 +591,8 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
         logs = [log_from_columns(dict(m), f"<mapping {i + 1}>" if several else "<mapping>", delay_s, sample_rate_hz)
                 for i, m in enumerate(maps)]
         return identify_plant(logs if several else logs[0], filter_hz=filter_hz, friction=friction, fix=fix)
-    check_outputs([*(source if several else [source]), validate], outputs={"-o": out, "--frf-csv": frf_csv},
-                  out_dirs={"--plots": plots})
+    check_outputs([*(source if several else [source]), validate], outputs={"`out`": out, "`frf_csv`": frf_csv},
+                  out_dirs={"`plots`": plots})
     r = identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
                       friction=friction, fix=fix, validate=validate, folds=folds)
     if frf_csv is not None:
@@ -666,7 +666,7 @@ def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, p
     from .identification.excite import sidecar_path
 
     if out is not None:
-        check_outputs([], outputs={"-o": out, "-o (its sidecar)": sidecar_path(out)})
+        check_outputs([], outputs={"`out`": out, "`out` (its sidecar)": sidecar_path(out)})
     e = schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm=peak_nm, rms_nm=rms_nm, period_s=period_s,
                             periods=periods, duration_s=duration_s, lines=lines, seed=seed)
     return e if out is None else write_excitation(e, out)
@@ -728,7 +728,7 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
-    check_outputs([source], out_dirs={"--plots": plots})
+    check_outputs([source], out_dirs={"`plots`": plots})
     check_human_inertia(human_inertia)
     with numpy_engine():
         doc = load_for_simulation(source, sample_rate_hz)

@@ -102,7 +102,7 @@ class _Group(click.Group):
         """Keyword of the API call → the invoked command's option that feeds it (``human_inertia``
         → ``--human-inertia``)."""
         cmd = self.get_command(ctx, ctx.invoked_subcommand) if ctx.invoked_subcommand else None
-        return {p.name: max(p.opts, key=len) for p in getattr(cmd, "params", ()) if isinstance(p, click.Option)}
+        return {p.name: p.opts[0] for p in getattr(cmd, "params", ()) if isinstance(p, click.Option)}
 
     def _option_named(self, flags: dict, e) -> str:
         """The error's line in the command line's words: a field that is the keyword of an option
@@ -189,8 +189,8 @@ def init_cmd(directory):
 @cli.command("design")
 @click.argument("design_file", metavar="DESIGN.yaml")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
-@click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write Bode plots (PNG) of C4, C5, Ĉ5, C7, G_v.")
-def design_cmd(design_file, as_json, plots_dir):
+@click.option("--plots", "plots", metavar="DIR", default=None, help="Write Bode plots (PNG) of C4, C5, Ĉ5, C7, G_v.")
+def design_cmd(design_file, as_json, plots):
     """Gains and nominal transfer functions of a design file (paper §IV,
     docs/method.md#double-compliance-shaping).
 
@@ -198,7 +198,7 @@ def design_cmd(design_file, as_json, plots_dir):
     to stdout (--json: one JSON object); --plots DIR writes the Bode PNGs into DIR."""
     from .api import design
 
-    r = design(design_file, plots=plots_dir)
+    r = design(design_file, plots=plots)
     click.echo(r.to_json() if as_json else r.to_text())
 
 
@@ -219,10 +219,10 @@ def sea_cmd(sea_file, as_json):
 @cli.command("analyze")
 @click.argument("design_file", metavar="DESIGN.yaml")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
-@click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write the analysis plots to DIR.")
+@click.option("--plots", "plots", metavar="DIR", default=None, help="Write the analysis plots to DIR.")
 @click.option("--cross-check", "cross_check", is_flag=True,
               help="Also compare the exact verdicts with closed-loop roots of two Padé models (docs/method.md#analyses-and-metrics).")
-def analyze_cmd(design_file, as_json, plots_dir, cross_check):
+def analyze_cmd(design_file, as_json, plots, cross_check):
     """Margins (latency, plant uncertainty), stability, passivity, DOB margins and
     amplification of a design (docs/method.md#analyses-and-metrics).
 
@@ -230,19 +230,19 @@ def analyze_cmd(design_file, as_json, plots_dir, cross_check):
     JSON object); --plots DIR writes the analysis PNGs into DIR."""
     from .api import analyze
 
-    r = analyze(design_file, cross_check=cross_check, plots=plots_dir)
+    r = analyze(design_file, cross_check=cross_check, plots=plots)
     click.echo(r.to_json() if as_json else r.to_text())
 
 
 @cli.command("sweep")
 @click.argument("spec_file", metavar="SPEC.yaml")
-@click.option("-o", "--out", "out_dir", required=True, metavar="DIR", help="Output directory (resumable).")
+@click.option("-o", "--out", "out", required=True, metavar="DIR", help="Output directory (resumable).")
 @click.option("--workers", type=click.IntRange(min=1), default=None, help="Local worker processes.")
 @click.option("--dask", "dask_address", default=None, metavar="ADDRESS", help="Run on this Dask scheduler.")
 @click.option("--sample", type=click.IntRange(min=1), default=None, metavar="N", help="Random sample of N grid points.")
 @click.option("--seed", type=int, default=None, metavar="S", help="Seed for --sample.")
 @click.option("--chunk-size", type=click.IntRange(min=1), default=None, metavar="N", help="Design points per chunk.")
-def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_size):
+def sweep_cmd(spec_file, out, workers, dask_address, sample, seed, chunk_size):
     """Vectorized, chunked, resumable parameter sweep.
 
     SPEC.yaml is a sweep spec (docs/sweep-spec.md). Writes DIR/manifest.json and one Parquet file
@@ -253,7 +253,7 @@ def sweep_cmd(spec_file, out_dir, workers, dask_address, sample, seed, chunk_siz
     from .sweeps import TqdmProgress
 
     _note_first_compile()
-    sweep(spec_file, out_dir, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
+    sweep(spec_file, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
           chunk_size=chunk_size, progress=TqdmProgress(sys.stderr))
 
 
@@ -341,10 +341,10 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s, precision):
 
 @cli.command("codegen")
 @click.argument("controller_file", metavar="CONTROLLER.yaml")
-@click.option("-o", "--out", "out_dir", required=True, metavar="DIR", help="Directory for the C files.")
+@click.option("-o", "--out", "out", required=True, metavar="DIR", help="Directory for the C files.")
 @click.option("--allow-uncertified", "allow_uncertified", is_flag=True,
               help="Write the C of a file that does not certify, stamped as uncertified.")
-def codegen_cmd(controller_file, out_dir, allow_uncertified):
+def codegen_cmd(controller_file, out, allow_uncertified):
     """Write the C99 port of a controller file's runtime (docs/deploying.md):
     exotune_controller.{h,c} and exotune_golden_test.c, which checks the port on the target. The
     file is certified first: one that does not certify is refused (exit 1, the reasons named,
@@ -352,7 +352,7 @@ def codegen_cmd(controller_file, out_dir, allow_uncertified):
     version and the verdict. All files are written or none."""
     from .api import codegen
 
-    click.echo(codegen(controller_file, out_dir, allow_uncertified=allow_uncertified).to_text())
+    click.echo(codegen(controller_file, out, allow_uncertified=allow_uncertified).to_text())
 
 
 @cli.command("identify")
@@ -371,12 +371,12 @@ def codegen_cmd(controller_file, out_dir, allow_uncertified):
 @click.option("--validate", "validate", default=None, metavar="LOG2.csv",
               help="Validate on a second log: simulated-output NRMSE, residual tests, frequency responses.")
 @click.option("--folds", "folds", default=None, type=int, metavar="K", help="K-fold cross-validation on LOG.csv itself.")
-@click.option("--plots", "plots_dir", metavar="DIR", default=None,
+@click.option("--plots", "plots", metavar="DIR", default=None,
               help="Write the Bode overlays and residual tests (PNG) and frequency_response.csv to DIR.")
 @click.option("--frf-csv", "frf_csv", default=None, metavar="FRF.csv", help="Write the measured frequency responses (CSV).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 @click.pass_context
-def identify_cmd(ctx, log_files, out, delay_s, filter_hz, sample_rate_hz, friction, fix, validate, folds, plots_dir,
+def identify_cmd(ctx, log_files, out, delay_s, filter_hz, sample_rate_hz, friction, fix, validate, folds, plots,
                  frf_csv, as_json):
     """Identify the plant (J_m, B_m, K_s, J_j, K_c) from a measured log, or from several logs
     together (docs/identification.md).
@@ -398,7 +398,7 @@ def identify_cmd(ctx, log_files, out, delay_s, filter_hz, sample_rate_hz, fricti
     fs = None if sample_rate_hz is None else number_value("--sample-rate-hz", sample_rate_hz, True)
     r = identify(list(log_files) if len(log_files) > 1 else log_files[0], out, delay_s=delay, filter_hz=fh,
                  sample_rate_hz=fs, friction=friction, fix=fix, validate=validate, folds=folds, frf_csv=frf_csv,
-                 plots=plots_dir)
+                 plots=plots)
     click.echo(r.to_json() if as_json else r.to_text())
     if not r.complete:
         ctx.exit(1)
@@ -452,9 +452,9 @@ def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s,
               help="Initial controller state: at equilibrium with the initial measurements, or zero.")
 @click.option("--joint-angle", "joint_angle", default=None, metavar="RAD",
               help="Run the gain-schedule entry (plant and controller) nearest this joint angle [rad].")
-@click.option("--plots", "plots_dir", metavar="DIR", default=None, help="Write time-series plots (PNG) to DIR.")
+@click.option("--plots", "plots", metavar="DIR", default=None, help="Write time-series plots (PNG) to DIR.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (summary, no time series).")
-def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, start, joint_angle, plots_dir, as_json):
+def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, start, joint_angle, plots, as_json):
     """Nonlinear time-domain run of the runtime controller on the plant (friction, backlash,
     saturation), judged by the growth rate of its oscillation envelope."""
     import sys
@@ -476,7 +476,7 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
 
     shown: list = []
     r = simulate(input_file, scenario, sample_rate_hz=sample_rate_hz, human_inertia=human_inertia, duration=duration,
-                 start=start, joint_angle=joint_angle, plots=plots_dir, progress=progress if sys.stderr.isatty() else None)
+                 start=start, joint_angle=joint_angle, plots=plots, progress=progress if sys.stderr.isatty() else None)
     click.echo(r.to_json() if as_json else r.to_text())
 
 

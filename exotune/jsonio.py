@@ -309,16 +309,18 @@ def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> 
         The files (or directories) the command reads; other items (``None``, a mapping, a loaded
         object) are not files and are ignored.
     outputs : dict, optional
-        Option label (``"-o"``, ``"--pareto"``) → path of a *file* to write (``None``: not given).
+        Label → path of a *file* to write (``None``: not given). The API labels its outputs by
+        keyword in backticks (``"`out`"``, ``"`pareto_csv`"``): the command line names the option
+        that feeds the keyword instead (``-o``, ``--pareto``).
     out_dirs : dict, optional
-        Option label (``"--plots"``) → path of a *directory* to write into (``None``: not given).
+        Label (``"`plots`"``) → path of a *directory* to write into (``None``: not given).
     protected_dirs : sequence of str or os.PathLike
         Directories no output may be in (a sweep's ``chunks``).
 
     Raises
     ------
     exotune.errors.ConfigError
-        ``<path>: …`` (the option named in the reason) when an output is (or is the same file as,
+        ``<path>: …`` (the output's label in the reason) when an output is (or is the same file as,
         by inode) an input or another output, when a file output names a directory (an
         existing one, or a path ending in ``/``), when a directory output is an existing file,
         or when the nearest existing ancestor of an output is not a writable directory.
@@ -335,7 +337,7 @@ def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> 
     items += [(lbl, os.fspath(p), True) for lbl, p in (out_dirs or {}).items() if p is not None]
     for label, path, is_dir in items:
         if not path:
-            raise ConfigError(label, "an empty path")
+            raise ConfigError(label.replace("`", ""), "an empty path")
         for inp in ins:
             if _same(path, inp):
                 raise ConfigError(path, f"the {label} output is the same file as the input {inp}; refusing to "

@@ -335,9 +335,9 @@ def test_output_checks_are_the_librarys(tmp_path):
         exotune.export(design, 1000.0, design)
     afile = tmp_path / "f.txt"
     afile.write_text("x")
-    with pytest.raises(ConfigError, match="--plots"):
+    with pytest.raises(ConfigError, match="`plots`"):
         exotune.analyze(design, plots=afile)
-    with pytest.raises(ConfigError, match="--plots"):
+    with pytest.raises(ConfigError, match="`plots`"):
         exotune.design(design, plots=afile)
     assert design.read_text() == PAPER.read_text() and afile.read_text() == "x"
 

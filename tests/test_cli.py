@@ -453,3 +453,27 @@ def test_report_says_where_it_wrote_and_sweep_says_workers_unused(tmp_path):
     assert "dob_delay_margin_s" not in md
     helptext = run("report", "--help").stdout
     assert "DIR/report" in " ".join(helptext.split())
+
+
+def test_output_checks_name_the_keyword_in_the_api_and_the_option_on_the_command_line(tmp_path):
+    """The output checks are the library's: a script is told of its keyword (`out`, `plots`),
+    the command line of its option (-o, --plots); nothing is written either way."""
+    import exotune
+    from exotune.errors import ConfigError
+    from exotune.starter import template_text
+
+    design = tmp_path / "design.yaml"
+    design.write_text(template_text("design.yaml"))
+    before = design.read_text()
+    with pytest.raises(ConfigError) as e:
+        exotune.export(design, out=design)
+    assert "the `out` output is the same file as the input" in e.value.reason
+    with pytest.raises(ConfigError) as e:
+        exotune.analyze(design, plots=design)
+    assert "the `plots` output is the same file as the input" in e.value.reason
+    res = CliRunner().invoke(cli, ["export", str(design), "-o", str(design)])
+    assert res.exit_code == 2 and "the -o output is the same file as the input" in res.output
+    assert "`" not in res.output
+    res = CliRunner().invoke(cli, ["analyze", str(design), "--plots", str(design)])
+    assert res.exit_code == 2 and "the --plots output is the same file as the input" in res.output
+    assert design.read_text() == before and sorted(p.name for p in tmp_path.iterdir()) == ["design.yaml"]
