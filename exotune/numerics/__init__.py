@@ -7,6 +7,7 @@
 ``budgets``     per-task work budgets of the adaptive algorithms
 ``timebudget``  the time budget of ``exotune export`` and ``exotune certify``
 ``threads``     one BLAS thread for the small eigenvalue problems
+``beside``      one independent computation in a forked child process beside the caller's work
 ``kernels``     the compiled kernels (numba), imported only by the engines that run them
 """
 
