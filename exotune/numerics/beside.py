@@ -13,8 +13,9 @@ caller's process when :meth:`Beside.result` is called:
 
 * the system is Linux (macOS's system libraries, e.g. the Accelerate BLAS, are not safe to use
   in a forked child that does not exec), the process has one Python thread (forking a threaded
-  process can leave a lock held forever in the child), at least two CPUs are usable, and
-  ``EXOTUNE_SERIAL`` is unset;
+  process can leave a lock held forever in the child), at least two CPUs are usable,
+  ``EXOTUNE_SERIAL`` is unset and the work is not inside :func:`serial` (a sweep's workers already
+  use every core);
 * the same ``key`` has already run once in this process, or the process has declared itself
   one-shot (:func:`one_shot`: the command line runs one command per process). Otherwise the first
   run is serial, so that the modules and compiled kernels it loads stay loaded in the parent: a
@@ -42,11 +43,30 @@ import sys
 import threading
 import time
 
-__all__ = ["Beside", "beside", "can_fork", "one_shot"]
+__all__ = ["Beside", "beside", "can_fork", "one_shot", "serial"]
 
 STALL_S = 600.0  # the longest wait for a child's result [s] before the caller computes it itself
 _SEEN: set = set()  # keys that have run once in this process (serially)
 _ONE_SHOT: contextvars.ContextVar[bool] = contextvars.ContextVar("exotune_one_shot", default=False)
+_SERIAL: contextvars.ContextVar[bool] = contextvars.ContextVar("exotune_serial", default=False)
+
+
+@contextlib.contextmanager
+def serial():
+    """Run the enclosed work without child processes: work that is already spread over the cores
+    (a sweep's workers, one design each at a time) gains nothing from more processes.
+
+    Examples
+    --------
+    >>> with serial():
+    ...     can_fork()
+    False
+    """
+    token = _SERIAL.set(True)
+    try:
+        yield
+    finally:
+        _SERIAL.reset(token)
 
 
 @contextlib.contextmanager
@@ -73,10 +93,11 @@ def can_fork() -> bool:
     Returns
     -------
     bool
-        Linux, one Python thread, ≥ 2 usable CPUs and ``EXOTUNE_SERIAL`` unset.
+        Linux, one Python thread, ≥ 2 usable CPUs, ``EXOTUNE_SERIAL`` unset and not inside
+        :func:`serial`.
     """
-    if (os.environ.get("EXOTUNE_SERIAL") or not sys.platform.startswith("linux") or not hasattr(os, "fork")
-            or threading.active_count() != 1):
+    if (os.environ.get("EXOTUNE_SERIAL") or _SERIAL.get() or not sys.platform.startswith("linux")
+            or not hasattr(os, "fork") or threading.active_count() != 1):
         return False
     try:
         cpus = len(os.sched_getaffinity(0))

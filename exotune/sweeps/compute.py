@@ -80,13 +80,16 @@ def _plant_margin_columns(cfg, res, budget: int) -> dict:
     time; 0 for a design that is not robust at the nominal plant (no search is spent on it)."""
     from ..analysis.plant_margin import plant_uncertainty_margin
     from ..config import design_row
+    from ..numerics.beside import serial
 
     n = res.n
     lower, upper = np.zeros(n), np.zeros(n)
     weights = getattr(cfg, "uncertainty", None)
-    for i in range(n):
-        pm = plant_uncertainty_margin(design_row(cfg, i), weights, nominal=res.row(i), budget=budget, loop_detail=False)
-        lower[i], upper[i] = pm.lower, pm.upper
+    with serial():  # the sweep's workers already use every core: no child process per design
+        for i in range(n):
+            pm = plant_uncertainty_margin(design_row(cfg, i), weights, nominal=res.row(i), budget=budget,
+                                          loop_detail=False)
+            lower[i], upper[i] = pm.lower, pm.upper
     return {"plant_margin_lower": lower, "plant_margin_upper": upper}
 
 

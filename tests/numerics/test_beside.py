@@ -154,6 +154,17 @@ def test_can_fork_refuses_a_threaded_process():
         t.join()
 
 
+def test_serial_context_never_forks():
+    """Inside serial() (a sweep's workers) nothing forks, whatever the process."""
+    with B.serial():
+        assert B.can_fork() is False
+        job = B.beside(("test_serial_context_never_forks", 1), int, "7")
+        job.result()
+        job2 = B.beside(("test_serial_context_never_forks", 1), int, "8")
+        assert job2.forked is False and job2.result() == 8
+        job2.close()
+
+
 def test_result_is_computed_once():
     calls = []
 

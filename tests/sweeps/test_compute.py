@@ -86,3 +86,24 @@ def test_spec_without_the_key_keeps_its_hash(tmp_path):
     assert load_spec({**spec, "plant_margin": False}).hash == h
     assert load_spec({**spec, "plant_margin": True}).hash != h
     assert load_spec({**spec, "plant_margin": True}).spec["plant_margin"] == {"budget": 150000}
+
+
+def test_sweep_rows_compute_their_margins_without_child_processes(tmp_path, monkeypatch):
+    """A sweep's workers already use every core: the plant margin of a row (and its witness
+    confirmation) never forks a child process there (exotune.numerics.beside.serial)."""
+    import exotune.numerics.beside as B
+
+    seen = []
+    orig = B.Beside.__init__
+
+    def record(self, key, fn, args, kwargs):
+        orig(self, key, fn, args, kwargs)
+        seen.append((key, self.forked, B.can_fork()))
+
+    monkeypatch.setattr(B.Beside, "__init__", record)
+    base = _base(tmp_path)
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({"base": str(base), "axes": {"implementation.delay_s": [0.0005, 0.001]},
+                                    "chunk_size": 2, "plant_margin": {"budget": 20000}}), encoding="utf-8")
+    run_sweep(spec, tmp_path / "out", workers=1, progress=False)
+    assert len(seen) == 2 and all(k == "plant_margin_witnesses" and not f and not c for k, f, c in seen)
