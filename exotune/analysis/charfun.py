@@ -47,6 +47,10 @@ class CharTerms:
     def qp(self, key: str) -> QP:
         return self.terms[key]
 
+    def rows(self, sl) -> "CharTerms":
+        """The terms of the designs ``sl`` (a slice or an index array) of the batch."""
+        return CharTerms({k: QP(t.p0[sl], t.p1[sl], t.T[sl]) for k, t in self.terms.items()}, self.T[sl])
+
     def combine(self, key0: str, key1: str, z0: np.ndarray) -> tuple[QP, QP]:
         """(Δ_0, Δ_1') with Δ_0 = Δ{key0} + z0(s)·Δ{key1}, Δ_1' = Δ{key1}."""
         A, B = self.terms[key0], self.terms[key1]

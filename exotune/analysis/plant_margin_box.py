@@ -76,16 +76,31 @@ class LoopModel:
         """A batch Plant from absolute parameter rows ``q`` (n, 5)."""
         return Plant(*(q[:, i].copy() for i in range(5)))
 
-    def coeffs(self, q: np.ndarray, p: np.ndarray | None, real_twin: bool = False):
-        """(P0, P1) rows for every (plant row of ``q``, member of ``p``), plant-major, member-minor.
+    @property
+    def keys(self) -> tuple:
+        """The characteristic terms the loop uses (``"00"``, ``"10"``, ``"01"``)."""
+        return self._keys
 
-        ``real_twin``: the hysteretic family's real twin (factor 1 instead of 1 + jη)."""
+    def terms(self, q: np.ndarray, keys: tuple | None = None):
+        """The characteristic terms (:func:`~exotune.analysis.charfun.char_terms`, the DOB's model
+        the nominal plant's) of the plant rows ``q`` (n, 5): the loop's own, or ``keys`` (the
+        union of several loops' whose rows are computed at once)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         n = q.shape[0]
         if n not in self._controller:  # the controller is fixed: its polynomials once per row count
             self._controller[n] = controller_polys(self.cs, n)
-        ct = char_terms(self.plants(q), self.cs, n, dob_model=(self.q0[0], self.q0[1]), keys=self._keys,
-                        controller=self._controller[n])
+        return char_terms(self.plants(q), self.cs, n, dob_model=(self.q0[0], self.q0[1]),
+                          keys=self._keys if keys is None else keys, controller=self._controller[n])
+
+    def coeffs(self, q: np.ndarray, p: np.ndarray | None, real_twin: bool = False, ct=None):
+        """(P0, P1) rows for every (plant row of ``q``, member of ``p``), plant-major, member-minor.
+
+        ``real_twin``: the hysteretic family's real twin (factor 1 instead of 1 + jη); ``ct``: the
+        characteristic terms of the rows of ``q`` when already computed (:meth:`terms`)."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        n = q.shape[0]
+        if ct is None:
+            ct = self.terms(q)
         if self.fam is None:
             t = ct.qp(self.key0)
             return t.p0, t.p1
@@ -112,11 +127,13 @@ class LoopModel:
         p = None if self.fam is None else np.array([lo[5], hi[5]])
         return q, p
 
-    def submit(self, counter: RootCounter, q: np.ndarray, p: np.ndarray | None):
+    def submit(self, counter: RootCounter, q: np.ndarray, p: np.ndarray | None, ct=None):
         """Queue the exact RHP counts of every (plant, member) row on ``counter`` (several loops'
-        rows then run in one call); returns the handle of :meth:`RootCounter.result`."""
-        P0, P1 = self.coeffs(q, p)
-        reg = self.coeffs(q, p, real_twin=True) if self.complex else None
+        rows then run in one call); returns the handle of :meth:`RootCounter.result`. ``ct``: the
+        characteristic terms of the rows of ``q`` when already computed (:meth:`terms`)."""
+        ct = self.terms(q) if ct is None else ct
+        P0, P1 = self.coeffs(q, p, ct=ct)
+        reg = self.coeffs(q, p, real_twin=True, ct=ct) if self.complex else None
         reg = None if reg is None else (trim_poly(reg[0]), trim_poly(reg[1]))
         return counter.add(trim_poly(P0), trim_poly(P1), self.T, reg=reg)
 

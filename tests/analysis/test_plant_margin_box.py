@@ -113,3 +113,35 @@ def test_certify_loop_never_certifies_a_box_with_an_unstable_member(loops, c, h,
     if res.certified:
         inner = lo + np.random.default_rng(seed).uniform(size=(8, 5)) * (hi - lo)
         assert not loop_counts_at(m, inner, None, 1).any()
+
+
+def test_terms_computed_for_several_loops_at_once_give_each_loops_coefficients(loops):
+    """The witness search computes the characteristic terms of every loop's plant rows in one call
+    (the union of their terms) and hands each loop its rows: each loop's coefficient rows are the
+    ones it computes alone (up to exact zero columns at the top, which the counts trim)."""
+    from exotune.analysis.charfun import trim_poly
+    from exotune.analysis.counting import RootCounter
+
+    rng = np.random.default_rng(3)
+    names = list(loops)
+    qs = [loops[n].q0[None, :] * (1.0 + rng.uniform(-0.3, 0.3, (4 + i, 5))) for i, n in enumerate(names)]
+    keys = tuple(sorted({k for n in names for k in loops[n].keys}))
+    assert set(keys) >= {"00", "01", "10"}
+    ct_all = loops[names[0]].terms(np.concatenate(qs), keys)
+    start = 0
+    for n, q in zip(names, qs):
+        m = loops[n]
+        members = None if m.fam is None else np.geomspace(max(m.fam.lo, 1e-3), m.fam.hi, 3)
+        ct = ct_all.rows(slice(start, start + q.shape[0]))
+        start += q.shape[0]
+        for twin in ((False, True) if m.complex else (False,)):
+            alone, shared = m.coeffs(q, members, real_twin=twin), m.coeffs(q, members, real_twin=twin, ct=ct)
+            for a, b in zip(alone, shared):
+                a, b = trim_poly(a), trim_poly(b)
+                assert a.shape == b.shape, n
+                np.testing.assert_allclose(b, a, rtol=1e-14, atol=0, err_msg=n)  # the same arithmetic
+        c1, c2 = RootCounter(), RootCounter()
+        h1, h2 = m.submit(c1, q, members), m.submit(c2, q, members, ct=ct)
+        c1.run()
+        c2.run()
+        assert all(np.array_equal(x, y) for x, y in zip(c1.result(h1), c2.result(h2))), n
