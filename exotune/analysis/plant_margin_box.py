@@ -253,6 +253,29 @@ class _Box:
     P1: np.ndarray
     c0max: np.ndarray
     c1max: np.ndarray
+    # the rows _eval_box evaluates together, zero-padded at the top (the same values as one row
+    # set at a time: the padding adds exact zeros until a row's own leading coefficient)
+    P01: np.ndarray = None  # P0 over P1
+    slope: np.ndarray = None  # |P0'|, |P1'|, |P1| (the motion bound at the interval's end)
+    size: np.ndarray = None  # |P0|, |P1| (the rounding allowance at the midpoint)
+
+    def __post_init__(self):
+        d0 = self.P0[:, 1:] * np.arange(1, self.P0.shape[1])
+        d1 = self.P1[:, 1:] * np.arange(1, self.P1.shape[1])
+        self.P01 = _stack_rows(self.P0, self.P1)
+        self.slope = np.abs(_stack_rows(d0, d1, self.P1))
+        self.size = np.abs(_stack_rows(self.P0, self.P1))
+
+
+def _stack_rows(*blocks) -> np.ndarray:
+    """Row blocks of ascending coefficients as one array, each zero-padded at the top."""
+    n = max(b.shape[1] for b in blocks)
+    out = np.zeros((sum(b.shape[0] for b in blocks), n), dtype=np.result_type(*blocks))
+    i = 0
+    for b in blocks:
+        out[i:i + b.shape[0], :b.shape[1]] = b
+        i += b.shape[0]
+    return out
 
 
 @dataclass(frozen=True)
@@ -348,11 +371,13 @@ def _eval_box(box: _Box, T: float, a: np.ndarray, b: np.ndarray):
     c = 0.5 * (a + b)
     h = 0.5 * (b - a)
     s = 1j * c
-    V = _horner(box.P0, s) + _horner(box.P1, s) * np.exp(-s * T)[:, None]
-    d0 = box.P0[:, 1:] * np.arange(1, box.P0.shape[1])
-    d1 = box.P1[:, 1:] * np.arange(1, box.P1.shape[1])
-    L = _abs_rows(d0, b) + _abs_rows(d1, b) + T * _abs_rows(box.P1, b)
-    scale = _abs_rows(box.P0, c) + _abs_rows(box.P1, c)
+    R = box.P0.shape[0]
+    H = _horner(box.P01, s)
+    V = H[:, :R] + H[:, R:] * np.exp(-s * T)[:, None]
+    B = _abs_rows(box.slope, b)  # Σ|P0'_k| b^k, Σ|P1'_k| b^k, Σ|P1_k| b^k
+    L = B[:, :R] + B[:, R:2 * R] + T * B[:, 2 * R:]
+    C = _abs_rows(box.size, c)
+    scale = C[:, :R] + C[:, R:]
     slack = h[:, None] * L + ROUND_REL * scale
     d_cert, d_mid = hull_distance(V, slack)
     return d_cert, d_mid, V
