@@ -8,7 +8,9 @@ Default design: the ``exotune init`` starter design (1 kHz, 1 ms delay, three hu
 locked environment). Each process analyses the design once (imports, caches: not timed), then
 ``--runs`` times, one run at a time in turns with the other process, and reports per run the wall
 time and the CPU time of the process and of its finished children. Prints the best and median
-wall time of each mode, the CPU-time ratio, and whether the ≤ 1 s target is met.
+wall time of each mode, the serial run's two halves (the plant-uncertainty margin, its witnesses'
+confirmation, the rest: CPU seconds of each ``Beside.result`` run serially) with the critical path
+they give on two free cores, and whether the ≤ 1 s target is met.
 """
 
 from __future__ import annotations
@@ -27,16 +29,24 @@ HERE = Path(__file__).resolve().parent
 WORKER = r"""
 import json, os, resource, sys, time
 import exotune.api as api
+import exotune.numerics.beside as B
 path = sys.argv[1]
+spent = {}  # key -> CPU seconds of Beside.result (the whole computation when it runs serially)
+_result = B.Beside.result
+def result(self):
+    t = time.process_time(); v = _result(self); spent[self.key] = spent.get(self.key, 0.0) + time.process_time() - t
+    return v
+B.Beside.result = result
 api.analyze(path)  # warm-up: imports, kernels, first serial run
 for line in sys.stdin:
     if line.strip() != "go":
         break
+    spent.clear()
     r0 = resource.getrusage(resource.RUSAGE_SELF); c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter(); api.analyze(path); wall = time.perf_counter() - t
     r1 = resource.getrusage(resource.RUSAGE_SELF); c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime) + (c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime)
-    print(json.dumps({"wall": wall, "cpu": cpu}), flush=True)
+    print(json.dumps({"wall": wall, "cpu": cpu, "spent": spent}), flush=True)
 """
 
 
@@ -78,6 +88,16 @@ def main() -> None:
         c = [r["cpu"] for r in rs]
         print(f"  {m:7s}: wall best {min(w):.2f} s, median {statistics.median(w):.2f} s; "
               f"CPU (process + children) median {statistics.median(c):.2f} s")
+    # the serial run's halves: the margin (its witnesses' confirmation included) and the rest; with
+    # the margin beside the rest and the confirmation beside the box proofs, two free cores would
+    # take the longest of: the margin without the confirmation, the rest (+ the confirmation)
+    sr = res["serial"]
+    margin = statistics.median(r["spent"].get("plant_uncertainty_margin", 0.0) for r in sr)
+    wit = statistics.median(r["spent"].get("plant_margin_witnesses", 0.0) for r in sr)
+    rest = statistics.median(r["cpu"] for r in sr) - margin
+    print(f"  serial halves (CPU, medians): margin {margin:.2f} s (witnesses' confirmation {wit:.2f} s of it), "
+          f"rest {rest:.2f} s; critical path on two free cores ≈ {max(margin - wit, rest + wit):.2f} s "
+          "(an estimate)")
     wb = statistics.median(r["wall"] for r in res["beside"])
     ws = statistics.median(r["wall"] for r in res["serial"])
     print(f"  median wall ratio beside/serial: {wb / ws:.2f}; issue 24 target (warm analyze ≤ 1 s): "

@@ -111,11 +111,14 @@ class Beside:
 
     Attributes
     ----------
+    key : hashable
+        What the computation is (:func:`beside`'s ``key``).
     forked : bool
         Whether it runs in a child process (False: it runs in the caller at :meth:`result`).
     """
 
     def __init__(self, key, fn, args, kwargs):
+        self.key = key
         self._fn, self._args, self._kwargs = fn, args, kwargs
         self._pid = None
         self._fd = None

@@ -173,7 +173,7 @@ def test_result_is_computed_once():
         return x + 1
 
     job = B.beside(("test_result_is_computed_once", id(calls)), fn, 1)
-    assert job.forked is False  # a first run is serial
+    assert job.forked is False and job.key == ("test_result_is_computed_once", id(calls))  # a first run is serial
     assert job.result() == 2 and job.result() == 2
     assert calls == [1]
     job.close()
