@@ -25,7 +25,7 @@ from .batch import analyze_batch
 from .charfun import char_terms, strip_qps, trim_poly
 from ..model.controller import build_controller
 from ..model.humans import family_split
-from ..numerics.poly import padd, pmul
+from ..numerics.poly import pad_cols, padd, pmul
 from ..numerics.quasipoly import QP, omega_max
 
 __all__ = ["pade_crosscheck", "pade_stable", "pade_coefficients"]
@@ -116,16 +116,6 @@ def _pade_roots(p0, p1, T, order):
     return _roots_scaled(poly)
 
 
-def _stack_coefficients(*polys) -> np.ndarray:
-    """Ascending coefficient vectors as the rows of one array, zero-padded at the top."""
-    n = max(len(c) for c in polys)
-    dtype = np.result_type(*polys, float)
-    C = np.zeros((len(polys), n), dtype=dtype)
-    for i, c in enumerate(polys):
-        C[i, :len(c)] = c
-    return C
-
-
 def _polyvals(C: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Every row of ``C`` (ascending coefficients) at the points ``x``: numpy's ``polyval``
     recurrence, in one pass for all rows. The zero padding at the top of a shorter row adds exact
@@ -153,7 +143,8 @@ def exact_rhp_roots(p0: np.ndarray, p1: np.ndarray, T: float, orders=(10, 16), n
     s = np.concatenate(seeds)
     s = s[np.isfinite(s)]
     d0, d1 = P.polyder(p0), P.polyder(p1)
-    C = _stack_coefficients(p0, p1, d0, d1)
+    n = max(len(p0), len(p1))  # the four polynomials as the rows of one array, zero-padded at the top
+    C = np.stack([pad_cols(np.asarray(c, dtype=np.result_type(c, float)), n) for c in (p0, p1, d0, d1)])
     with np.errstate(all="ignore"):
         for _ in range(80):
             e = np.exp(-s * T)

@@ -303,16 +303,15 @@ def _search_unstable_many(jobs, rows=None, engine=None, index: bool = False):
             base = int(rows[j])
             D = D[base // m:base // m + 1]
             members = None if members is None else members[base % m:base % m + 1]
-        points.append((lp, D, members, base))
+        points.append((lp, D, members, base, lp.model.q0[None, :] * (1.0 + D)))
     # the loops share the design: the characteristic terms of every job's plant rows in one call
     models = [lp.model for lp, *_ in points]
     shared = bool(models) and all(md.cs is models[0].cs and np.array_equal(md.q0, models[0].q0) for md in models)
     if shared:
-        Q = np.concatenate([lp.model.q0[None, :] * (1.0 + D) for lp, D, _m, _b in points])
-        ct_all = models[0].terms(Q, tuple(sorted({key for md in models for key in md.keys})))
+        ct_all = models[0].terms(np.concatenate([pt[4] for pt in points]),
+                                 tuple(sorted({key for md in models for key in md.keys})))
     start = 0
-    for lp, D, members, base in points:
-        q = lp.model.q0[None, :] * (1.0 + D)
+    for lp, D, members, base, q in points:
         ct = ct_all.rows(slice(start, start + D.shape[0])) if shared else None
         start += D.shape[0]
         h = lp.model.submit(counter, q, members, ct=ct)

@@ -255,27 +255,15 @@ class _Box:
     c1max: np.ndarray
     # the rows _eval_box evaluates together, zero-padded at the top (the same values as one row
     # set at a time: the padding adds exact zeros until a row's own leading coefficient)
-    P01: np.ndarray = None  # P0 over P1
-    slope: np.ndarray = None  # |P0'|, |P1'|, |P1| (the motion bound at the interval's end)
-    size: np.ndarray = None  # |P0|, |P1| (the rounding allowance at the midpoint)
+    P01: np.ndarray = None  # P0 over P1 (the vertex values; |·|: the rounding allowance)
+    slope: np.ndarray = None  # P0', P1', P1 (the motion bound at the interval's end)
 
     def __post_init__(self):
         d0 = self.P0[:, 1:] * np.arange(1, self.P0.shape[1])
         d1 = self.P1[:, 1:] * np.arange(1, self.P1.shape[1])
-        self.P01 = _stack_rows(self.P0, self.P1)
-        self.slope = np.abs(_stack_rows(d0, d1, self.P1))
-        self.size = np.abs(_stack_rows(self.P0, self.P1))
-
-
-def _stack_rows(*blocks) -> np.ndarray:
-    """Row blocks of ascending coefficients as one array, each zero-padded at the top."""
-    n = max(b.shape[1] for b in blocks)
-    out = np.zeros((sum(b.shape[0] for b in blocks), n), dtype=np.result_type(*blocks))
-    i = 0
-    for b in blocks:
-        out[i:i + b.shape[0], :b.shape[1]] = b
-        i += b.shape[0]
-    return out
+        n = max(self.P0.shape[1], self.P1.shape[1])
+        self.P01 = np.concatenate([pad_cols(self.P0, n), pad_cols(self.P1, n)])
+        self.slope = np.concatenate([pad_cols(d0, n), pad_cols(d1, n), pad_cols(self.P1, n)])
 
 
 @dataclass(frozen=True)
@@ -376,7 +364,7 @@ def _eval_box(box: _Box, T: float, a: np.ndarray, b: np.ndarray):
     V = H[:, :R] + H[:, R:] * np.exp(-s * T)[:, None]
     B = _abs_rows(box.slope, b)  # Σ|P0'_k| b^k, Σ|P1'_k| b^k, Σ|P1_k| b^k
     L = B[:, :R] + B[:, R:2 * R] + T * B[:, 2 * R:]
-    C = _abs_rows(box.size, c)
+    C = _abs_rows(box.P01, c)  # Σ|P0_k| c^k, Σ|P1_k| c^k
     scale = C[:, :R] + C[:, R:]
     slack = h[:, None] * L + ROUND_REL * scale
     d_cert, d_mid = hull_distance(V, slack)
