@@ -109,7 +109,8 @@ class _Group(click.Group):
         is named as that option, and so is a keyword the reason quotes in backticks (the library
         speaks of its keywords: "give `periods` or `duration_s`, not both")."""
         field = getattr(e, "field", None)
-        text = f"{flags[field]}: {e.reason}" if field in flags else str(e)
+        keyword = field in flags and not getattr(e, "in_file", False)
+        text = f"{flags[field]}: {e.reason}" if keyword else str(e)
         return _as_flags(flags, text)
 
     def invoke(self, ctx):

@@ -42,21 +42,27 @@ class ConfigError(ExotuneError):
 
     ``more`` lists the file's further problems, each ``"<field>: <reason>"`` on one line: the
     command line prints ``str(error)`` as its first line ``exotune: error: …`` and then one line
-    per item of ``more`` (docs/cli.md#errors)."""
+    per item of ``more`` (docs/cli.md#errors).
 
-    def __init__(self, field: str, reason: str, more=()):
+    ``in_file`` marks a field that is a key of an input file even though a keyword of the same
+    name exists (a sweep spec's ``chunk_size`` beside ``chunk_size=``/``--chunk-size``, an optimize
+    spec's ``seed`` beside ``seed=``/``--seed``): the command line then names the file's key, not
+    the option the user did not give."""
+
+    def __init__(self, field: str, reason: str, more=(), in_file: bool = False):
         # keep every message on one line (the CLI contract is a one-line error), and short: an
         # error never quotes a whole input file
         self.field = _cap(" ".join(str(field).split()), MAX_FIELD_CHARS)
         self.reason = _cap(" ".join(str(reason).split()), MAX_REASON_CHARS)
         self.more = [_cap(" ".join(str(m).split()), MAX_FIELD_CHARS + MAX_REASON_CHARS) for m in more]
+        self.in_file = bool(in_file)
         super().__init__(self.field, self.reason)
 
     def __str__(self) -> str:
         return f"{self.field}: {self.reason}" if self.field else self.reason
 
     def __reduce__(self):  # picklable across process pools (sweeps)
-        return (type(self), (self.field, self.reason, tuple(self.more)))
+        return (type(self), (self.field, self.reason, tuple(self.more), self.in_file))
 
 
 def combine_errors(errors) -> ConfigError:
@@ -78,4 +84,4 @@ def combine_errors(errors) -> ConfigError:
     for e in rest:
         more.append(str(e))
         more.extend(e.more)
-    return ConfigError(first.field, first.reason, more)
+    return ConfigError(first.field, first.reason, more, in_file=first.in_file)

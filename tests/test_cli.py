@@ -477,3 +477,40 @@ def test_output_checks_name_the_keyword_in_the_api_and_the_option_on_the_command
     res = CliRunner().invoke(cli, ["analyze", str(design), "--plots", str(design)])
     assert res.exit_code == 2 and "the --plots output is the same file as the input" in res.output
     assert design.read_text() == before and sorted(p.name for p in tmp_path.iterdir()) == ["design.yaml"]
+
+
+def test_a_spec_key_named_like_an_option_is_named_as_the_spec_key(tmp_path):
+    """A sweep spec's ``chunk_size`` and an optimize spec's ``seed`` share their names with the
+    commands' --chunk-size and --seed: a bad value in the file names the file's key (the user
+    gave no option), a bad option names the option, and the library says which keyword or key."""
+    import exotune
+    from exotune.errors import ConfigError
+    from exotune.starter import template_text
+
+    (tmp_path / "design.yaml").write_text(template_text("design.yaml"))
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text("base: design.yaml\naxes:\n  design.amplification: [2.0, 3.0]\nchunk_size: 0\n")
+    res = CliRunner().invoke(cli, ["sweep", str(sweep), "-o", str(tmp_path / "sw")])
+    assert res.exit_code == 2 and res.output.startswith("exotune: error: chunk_size: must be >= 1, got 0"), res.output
+    assert "--chunk-size" not in res.output and not (tmp_path / "sw").exists()
+    with pytest.raises(ConfigError) as e:
+        exotune.sweep(sweep, tmp_path / "sw")
+    assert (e.value.field, e.value.in_file) == ("chunk_size", True)
+    sweep.write_text("base: design.yaml\naxes:\n  design.amplification: [2.0, 3.0]\n")
+    with pytest.raises(ConfigError) as e:
+        exotune.sweep(sweep, tmp_path / "sw", chunk_size=0)
+    assert (e.value.field, e.value.in_file) == ("chunk_size", False)
+    assert not (tmp_path / "sw").exists()
+
+    opt = tmp_path / "optimize.yaml"
+    opt.write_text("base: design.yaml\nobjective: amplification\nfree:\n  design.amplification: [1.5, 40.0]\n"
+                   "seed: -3\n")
+    res = CliRunner().invoke(cli, ["optimize", str(opt), "-o", str(tmp_path / "best.yaml")])
+    assert res.exit_code == 2, res.output
+    assert res.output.startswith("exotune: error: seed: expected a non-negative integer, got -3"), res.output
+    assert "--seed" not in res.output and not (tmp_path / "best.yaml").exists()
+    opt.write_text("base: design.yaml\nobjective: amplification\nfree:\n  design.amplification: [1.5, 40.0]\n")
+    with pytest.raises(ConfigError) as e:
+        exotune.optimize(opt, out=tmp_path / "best.yaml", seed=-2)
+    assert (e.value.field, e.value.in_file) == ("seed", False)
+    assert not (tmp_path / "best.yaml").exists()

@@ -45,8 +45,15 @@ def test_config_error_survives_pickling_with_its_fields():
     e = ConfigError("plant.cuff_stiffness", "must be positive", more=["x: y"])
     back = pickle.loads(pickle.dumps(e))
     assert type(back) is ConfigError
-    assert (back.field, back.reason, back.more) == (e.field, e.reason, e.more)
+    assert (back.field, back.reason, back.more, back.in_file) == (e.field, e.reason, e.more, False)
     assert str(back) == str(e)
+    f = pickle.loads(pickle.dumps(ConfigError("seed", "bad", in_file=True)))
+    assert f.in_file is True and str(f) == "seed: bad"
+
+
+def test_combine_errors_keeps_the_first_errors_origin():
+    assert combine_errors([ConfigError("seed", "x", in_file=True), ConfigError("b", "y")]).in_file is True
+    assert combine_errors([ConfigError("seed", "x"), ConfigError("b", "y", in_file=True)]).in_file is False
 
 
 def test_combine_errors_keeps_the_first_and_lists_the_rest_in_order():

@@ -231,7 +231,8 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     cons, how = _constraints(cfg, mapping.get("constraints"))
     s = mapping.get("seed", 0) if seed is None else seed
     if isinstance(s, bool) or not isinstance(s, int) or s < 0:
-        raise ConfigError("seed", f"expected a non-negative integer, got {s!r}")
+        # in_file: the spec's own key when the keyword of the same name was not given
+        raise ConfigError("seed", f"expected a non-negative integer, got {s!r}", in_file=seed is None)
     budget = mapping.get("budget", default_budget(len(free)))
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 50:
         raise ConfigError("budget", f"expected an integer ≥ 50, got {budget!r}")

@@ -267,8 +267,10 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
         axes[path] = {"values": vals, "scale": scale}
 
     if chunk_size is None:
-        chunk_size = mapping.get("chunk_size", DEFAULT_CHUNK_SIZE)
-        chunk_size = int_option("chunk_size", chunk_size, 1)
+        try:  # the spec's own key (the keyword of the same name was not given)
+            chunk_size = int_option("chunk_size", mapping.get("chunk_size", DEFAULT_CHUNK_SIZE), 1)
+        except ConfigError as e:
+            raise ConfigError(e.field, e.reason, in_file=True) from None
     else:
         chunk_size = int_option("chunk_size", chunk_size, 1)
 
