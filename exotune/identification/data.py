@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "JITTER", "MeasuredLog", "read_log", "log_from_columns"]
+__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "MAX_SIGNAL", "JITTER", "MeasuredLog", "read_log", "log_from_columns"]
 
 # column → (unit, meaning); t, theta_m and tau_s are required, and tau_m or tau_cmd
 COLUMNS = {
@@ -39,6 +39,10 @@ MIN_SAMPLES = 200
 MAX_LOG_BYTES = 256 << 20  # 256 MiB: ~10^6 rows of eight columns
 JITTER = 0.1  # a step may differ from the median step by this fraction (time-stamp jitter)
 DELAY_TOLERANCE = 1e-4  # in samples: --delay-s must be a whole number of samples within this
+# the largest magnitude of a signal sample [rad or N·m]: far beyond any joint (a value beyond it is
+# a wrong unit or corrupt data), and small enough that the filters' and regressions' sums of
+# squares cannot overflow
+MAX_SIGNAL = 1e9
 
 
 @dataclass(frozen=True)
@@ -140,6 +144,13 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             raise ConfigError(c, f"sample {int(bad[0])} is {float(a[bad[0]])!r}: every value must be a finite number")
+        if c != "t" and a.size:
+            big = np.flatnonzero(np.abs(a) > MAX_SIGNAL)
+            if big.size:
+                unit = COLUMNS[c][0]
+                raise ConfigError(c, f"sample {int(big[0])} is {float(a[big[0]]):.6g} {unit}: beyond ±{MAX_SIGNAL:.0e} "
+                                  f"{unit}, not a measured {COLUMNS[c][1].split(' (')[0]} (check the units, "
+                                  "docs/identification.md#the-log)")
         sig[c] = a
     n = sig["theta_m"].size
     if any(a.size != n for a in sig.values()):

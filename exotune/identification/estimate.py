@@ -37,6 +37,7 @@ import math
 
 import numpy as np
 
+from ..config.batch import OVERRIDABLE
 from ..errors import ConfigError
 from ..numerics.threads import one_blas_thread
 from .data import MeasuredLog
@@ -92,7 +93,8 @@ def parse_fix(fix) -> dict:
     Raises
     ------
     ConfigError
-        Field ``--fix``: an unknown name or a value that is not a finite number.
+        Field ``fix``: an unknown name, a value that is not a finite number, or one the design
+        file refuses (J_m, K_s, J_j, K_c ≤ 0; B_m or F_c < 0).
     """
     items = fix.items() if isinstance(fix, dict) else [str(x).split("=", 1) if "=" in str(x) else (str(x), None) for x in fix]
     by_symbol = {sym.lower(): key for key, sym, _u in _FIXABLE.values()}
@@ -108,6 +110,10 @@ def parse_fix(fix) -> dict:
             raise ConfigError("fix", f"{name}={value!r}: the value must be a number (SI units)") from None
         if not math.isfinite(v):
             raise ConfigError("fix", f"{name}={value!r}: the value must be a finite number")
+        # the design file's rule for the parameter (docs/design-file.md); Coulomb friction ≥ 0
+        op, bound = OVERRIDABLE.get(f"plant.{key}", (">=", 0.0))
+        if not (v > bound if op == ">" else v >= bound):
+            raise ConfigError("fix", f"{name}={value!r}: {key} must be {op} {bound:g} {_FIXABLE[key][2]}")
         out[key] = v
     return out
 
@@ -264,11 +270,12 @@ def _identify(logs, sig, eqs, fixed, delay, delay_info, lag, friction) -> tuple:
     for name, eq in eqs.items():
         pars, needs, off_unit, text, _regs, _y = eq
         lacking = [c for c in needs if c not in S and not (c == "tau_m" and "tau_cmd" in S)]
+        # a fixed parameter is known whether or not the log can fit its equation
+        params += [ParameterEstimate(key, sym, fixed[key], 0.0, unit, fixed=True) for key, sym, unit in pars if key in fixed]
         if lacking:
             missing += [(key, f"needs the column{'s' if len(lacking) > 1 else ''} {', '.join(lacking)}")
                         for key, _s, _u in pars if key not in fixed]
             continue
-        params += [ParameterEstimate(key, sym, fixed[key], 0.0, unit, fixed=True) for key, sym, unit in pars if key in fixed]
         y, cols, free = regression(sig, eq, fixed, delay)
         if free:
             attempted += 1

@@ -41,6 +41,10 @@ def test_given_rate_and_command_delay():
     (_cols(tau_m=None), {}, "tau_m", "exactly one of tau_m"),
     (_cols(theta_m=["a"] * N), {}, "theta_m", "not a column of numbers"),
     (_cols(tau_s=np.r_[np.zeros(N - 1), np.nan]), {}, "tau_s", f"sample {N - 1} is nan"),
+    # a value no joint produces (a wrong unit, corrupt data) would overflow the sums of squares
+    (_cols(theta_m=np.r_[np.zeros(7), 1e300, np.zeros(N - 8)]), {}, "theta_m",
+     "sample 7 is 1e+300 rad: beyond ±1e+09 rad, not a measured motor angle"),
+    (_cols(tau_m=np.r_[-2e9, np.zeros(N - 1)]), {}, "tau_m", "sample 0 is -2e+09 N·m: beyond ±1e+09 N·m"),
     (_cols(tau_s=np.zeros(N - 1)), {}, "t", "different lengths"),
     ({k: v[:MIN_SAMPLES - 1] for k, v in _cols().items()}, {}, "t", f"{MIN_SAMPLES - 1} samples: at least"),
     (_cols(t=np.r_[np.arange(100), np.arange(101, N + 1)] / FS), {}, "t", "about 1 sample(s) missing after sample 99"),
@@ -73,3 +77,11 @@ def test_read_log_csv_round_trip(tmp_path):
     with pytest.raises(ConfigError) as ei:
         read_log(bad)
     assert str(bad) in str(ei.value)
+
+
+def test_the_largest_accepted_signal_passes():
+    """±MAX_SIGNAL itself is accepted (and the time column has no such bound: epoch stamps)."""
+    from exotune.identification.data import MAX_SIGNAL
+
+    log = log_from_columns(_cols(theta_m=np.r_[MAX_SIGNAL, -MAX_SIGNAL, np.zeros(N - 2)], t=1.7e9 + np.arange(N) / FS))
+    assert log.signals["theta_m"][0] == MAX_SIGNAL

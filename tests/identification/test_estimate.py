@@ -68,6 +68,27 @@ def test_parse_fix():
         parse_fix(["J_m"])
     with pytest.raises(ConfigError, match="finite number"):
         parse_fix(["J_m=inf"])
+    # the design file's rule of each parameter
+    for bad, why in (("J_m=-1", "motor_inertia must be > 0 kg·m²"), ("K_s=0", "sea_stiffness must be > 0 N·m/rad"),
+                     ("J_j=0", "joint_inertia must be > 0"), ("K_c=-3", "cuff_stiffness must be > 0"),
+                     ("B_m=-0.1", "motor_damping must be >= 0 N·m·s/rad"), ("F_c=-1", "coulomb_friction must be >= 0")):
+        with pytest.raises(ConfigError) as ei:
+            parse_fix([bad])
+        assert ei.value.field == "fix" and why in ei.value.reason, bad
+    assert parse_fix(["B_m=0", "F_c=0"]) == {"motor_damping": 0.0, "coulomb_friction": 0.0}
+
+
+def test_a_fixed_parameter_is_kept_when_the_log_cannot_fit_its_equation(smooth):
+    """A datasheet K_s beside a log without theta_j: reported as fixed (not dropped), not listed
+    as missing, and the other equations identified as without it."""
+    sig = {k: v for k, v in smooth[0].signals.items() if k in ("t", "theta_m", "tau_s", "tau_m")}
+    log = log_from_columns(sig, source="motor-only")
+    est = identify_plant(log, fix=["K_s=1180"])
+    assert est["sea_stiffness"].fixed and est["sea_stiffness"].value == 1180.0
+    assert "sea_stiffness" not in dict(est.missing)
+    assert est["motor_inertia"].value == pytest.approx(TRUE["motor_inertia"], rel=1e-6)
+    plain = identify_plant(log)
+    assert "sea_stiffness" in dict(plain.missing) and "sea_stiffness" not in {p.key for p in plain.parameters}
 
 
 def test_identify_file_reads_the_csv(smooth, tmp_path):

@@ -66,12 +66,19 @@ def test_a_held_command_is_delayed_within_its_log():
 
 
 def test_overflowing_values_name_the_column():
+    """The loader refuses signals beyond ±1e9 (tests/identification/test_data.py); a log built
+    around it still gets a named error from the filter, not an overflow warning."""
+    import dataclasses
+
     log = _log(600, 5)
     big = dict(log.signals)
     big["theta_m"] = big["theta_m"] * 1e306
     from exotune.errors import ConfigError
 
-    sig = FilteredLogs([log_from_columns(big)], FH, [50])
+    with pytest.raises(ConfigError) as ei:
+        log_from_columns(big)
+    assert ei.value.field == "theta_m" and "beyond" in ei.value.reason
+    sig = FilteredLogs([dataclasses.replace(log, signals=big)], FH, [50])
     with pytest.raises(ConfigError) as ei:
         sig.get("theta_m", 2)
     assert ei.value.field == "theta_m" and "overflow" in ei.value.reason
