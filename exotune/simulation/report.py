@@ -179,11 +179,14 @@ def dob_estimate(doc: ControllerFile, sim: dict) -> np.ndarray | None:
 
 
 MAX_SAMPLES = 10_000_000  # per run: about 1 GB of time series and a few minutes, refused beyond
+MIN_SAMPLES = 16  # per run: the envelope's growth rate needs 9 sample-to-sample changes at least
 
 
 def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     """Refuse, before anything runs, a run longer than :data:`MAX_SAMPLES` samples (its time series
-    and its time would exceed what a single run may take; docs/cli.md#simulate).
+    and its time would exceed what a single run may take; docs/cli.md#simulate), or shorter than
+    :data:`MIN_SAMPLES` (too short for a verdict: its envelope cannot be fitted, and "marginal"
+    would be a claim the run does not support).
 
     Examples
     --------
@@ -192,10 +195,18 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     Traceback (most recent call last):
     ...
     exotune.errors.ConfigError: duration: 1e+06 s at 1000 Hz is 1e+09 samples; a run is limited to 1e+07 samples (shorten `duration` or lower the rate)
+    >>> check_budget(1000.0, 0.005)
+    Traceback (most recent call last):
+    ...
+    exotune.errors.ConfigError: duration: 0.005 s at 1000 Hz is 5 samples; a verdict needs a run of at least 16 samples (0.016 s at this rate)
     """
     from ..errors import ConfigError
 
     n = sample_rate_hz * duration_s
+    if n < MIN_SAMPLES:
+        raise ConfigError("duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a verdict needs "
+                                      f"a run of at least {MIN_SAMPLES} samples ({MIN_SAMPLES / sample_rate_hz:g} s at "
+                                      "this rate)")
     if not n <= MAX_SAMPLES:
         raise ConfigError("duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a run is limited "
                                         f"to {MAX_SAMPLES:.0e} samples (shorten `duration` or lower the rate)")

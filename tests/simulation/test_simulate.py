@@ -389,6 +389,7 @@ def _doc_1k():
     (["--scenario", "light-mass", "--human-inertia", "1e-300"], "--human-inertia"),
     (["--scenario", "light-mass", "--duration", "0"], "--duration"),
     (["--scenario", "light-mass", "--duration", "-2"], "--duration"),
+    (["--scenario", "light-mass", "--duration", "1e-9"], "--duration"),  # 1 sample: no verdict
     (["--scenario", "light-mass", "--start", "warm"], "--start"),
 ])
 def test_cli_simulate_option_errors_are_one_line(args, field):
