@@ -179,7 +179,7 @@ def dob_estimate(doc: ControllerFile, sim: dict) -> np.ndarray | None:
 
 
 MAX_SAMPLES = 10_000_000  # per run: about 1 GB of time series and a few minutes, refused beyond
-MIN_SAMPLES = 16  # per run: the envelope's growth rate needs 9 sample-to-sample changes at least
+MIN_SAMPLES = 16  # per run: the envelope's growth rate needs 9 samples at least (envelope_growth)
 
 
 def check_budget(sample_rate_hz: float, duration_s: float) -> None:

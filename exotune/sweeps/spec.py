@@ -133,7 +133,7 @@ def _sampled_option(v: Any, cfg) -> bool:
     return True
 
 
-def int_option(field: str, v: Any, minimum: int) -> int:
+def int_option(field: str, v: Any, minimum: int, in_file: bool = False) -> int:
     """``v`` as an integer >= ``minimum`` (bools refused); ConfigError naming ``field`` otherwise.
 
     Parameters
@@ -144,6 +144,8 @@ def int_option(field: str, v: Any, minimum: int) -> int:
         The value read from the spec.
     minimum : int
         The smallest accepted value.
+    in_file : bool, optional
+        ``field`` is the spec's key although a keyword has the same name (``ConfigError.in_file``).
 
     Returns
     -------
@@ -156,9 +158,9 @@ def int_option(field: str, v: Any, minimum: int) -> int:
         When ``v`` is not an integer or is below ``minimum``.
     """
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
-        raise ConfigError(field, f"expected an integer >= {minimum}, got {v!r}")
+        raise ConfigError(field, f"expected an integer >= {minimum}, got {v!r}", in_file=in_file)
     if int(v) < minimum:
-        raise ConfigError(field, f"must be >= {minimum}, got {int(v)}")
+        raise ConfigError(field, f"must be >= {minimum}, got {int(v)}", in_file=in_file)
     return int(v)
 
 
@@ -266,13 +268,10 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
             raise ConfigError(f"axes.{path}", e.reason) from None
         axes[path] = {"values": vals, "scale": scale}
 
-    if chunk_size is None:
-        try:  # the spec's own key (the keyword of the same name was not given)
-            chunk_size = int_option("chunk_size", mapping.get("chunk_size", DEFAULT_CHUNK_SIZE), 1)
-        except ConfigError as e:
-            raise ConfigError(e.field, e.reason, in_file=True) from None
-    else:
-        chunk_size = int_option("chunk_size", chunk_size, 1)
+    # the spec's own key when the keyword of the same name was not given
+    from_spec = chunk_size is None
+    chunk_size = int_option("chunk_size", mapping.get("chunk_size", DEFAULT_CHUNK_SIZE) if from_spec else chunk_size, 1,
+                            in_file=from_spec)
 
     shape = tuple(len(a["values"]) for a in axes.values())
     total = 1
