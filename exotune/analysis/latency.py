@@ -49,7 +49,22 @@ GRID_PER_DECADE = 40
 GOLDEN_ITERATIONS = 26
 BISECTION_ITERATIONS = 44
 GRAZE_REL = 1e-6
-SHRINK_ITERATIONS = 16  # bisections that move a refinement bracket's end to its segment's edge
+# bisections that move a refinement bracket's end to its segment's edge; where the smallest ΔT of the
+# branch sits at that edge (a turning point of the crossing curve, where ΔT varies as the square
+# root of the distance: 16 bisections alone left it 1e-3 too large), EDGE_ITERATIONS more follow
+SHRINK_ITERATIONS = 16
+EDGE_ITERATIONS = 36  # further bisections of an edge that holds the smallest ΔT (52 in all: float resolution)
+# golden-section steps that look, between two grid points, for the deepest point of a grid local
+# minimum of (|P0|² − |P1|²)/(|P0|² + |P1|²): a lightly damped resonance whose band |P1| > |P0| is
+# narrower than a grid step (an undamped light mass on the cuff spring: 0.4 % wide) has no grid
+# point inside; 40 steps narrow two grid steps (12 % in ω) to 5e-10 relative
+PEAK_ITERATIONS = 40
+# golden-section steps that locate a near-axis root of P0 or P1 inside a grid cell (6 % in ω) to
+# 1e-15 relative: the band around it where |P1| > |P0| may be 1e-10 wide
+DIP_ITERATIONS = 72
+# a branch point (ω, p) counts only where |P0|² − |P1|² vanishes to this relative accuracy at the p
+# the quadratic gives (it does not near an undamped resonance, where p is ill-conditioned)
+BRANCH_REL = 1e-6
 SEED_POINTS = 9  # samples of each branch over ± one grid step around an end member's crossing
 MAX_CROSSINGS = 64  # per loop and design, the end-member crossings that seed curve segments
 NEUTRAL_TAIL = 1e7  # rad/s: the grid top when a loop has no tail bound (neutral: deg P1 ≥ deg P0)
@@ -254,6 +269,15 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
     best = np.full(N, np.inf)
     best_w = np.full(N, np.nan)
     rows, logs, gidx = [], [], []
+
+    def record(rr, pk, lc, cell):  # a crossing of member(s) pk of rows rr at log ω = lc, in grid cell ``cell``
+        x = np.exp(lc)
+        a0, a1, b0, b1 = loop.values(x, rr)
+        _take_min(best, (best_w,), rr, _first_delay(a0 + pk * b0, a1 + pk * b1, x, T[rr]), (x,))
+        rows.append(rr)
+        logs.append(lc)
+        gidx.append(cell)
+
     r, i = np.nonzero(np.signbit(F[:, :-1]) != np.signbit(F[:, 1:]))
     if r.size:
         lo_l, hi_l = np.log(w[r, i]), np.log(w[r, i + 1])
@@ -269,14 +293,10 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
             same = np.signbit(Fp(mid)) == f_lo
             lo_l = np.where(same, mid, lo_l)
             hi_l = np.where(same, hi_l, mid)
-        lx = 0.5 * (lo_l + hi_l)
-        x = np.exp(lx)
-        a0, a1, b0, b1 = loop.values(x, r)
-        dT = _first_delay(a0 + pr * b0, a1 + pr * b1, x, T[r])
-        _take_min(best, (best_w,), r, dT, (x,))
-        rows.append(r)
-        logs.append(lx)
-        gidx.append(i)
+        record(r, pr, 0.5 * (lo_l + hi_l), i)
+    # bands |P1| > |P0| narrower than a grid step (a lightly damped or undamped resonance)
+    for rr, pk, lc, cell in _narrow_crossings(loop, p, per_row, w, P0, P1, F / np.where(m0 + m1 > 0, m0 + m1, 1.0)):
+        record(rr, pk, lc, cell)
     # grazing points: |F| relative to its scale at a local minimum within 1e-6 of 0
     rel = np.abs(F) / np.where(m0 + m1 > 0, m0 + m1, 1.0)
     g = (rel[:, 1:-1] < rel[:, :-2]) & (rel[:, 1:-1] < rel[:, 2:]) & (rel[:, 1:-1] < GRAZE_REL)
@@ -291,6 +311,97 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
     cross = ((np.concatenate(rows), np.concatenate(logs), np.concatenate(gidx)) if rows
              else (np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64)))
     return best, best_w, cross
+
+
+def _golden(f, a, b, n: int):
+    """Golden-section search of the vectorized ``f`` over [a, b] (arrays), ``n`` steps: the smallest
+    value reached and where."""
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(n):
+        lb = fc <= fd  # the minimum lies in [a, d]: d ← c, a new c; else in [c, b]: c ← d, a new d
+        a = np.where(lb, a, c)
+        b = np.where(lb, d, b)
+        c_new = np.where(lb, b - g * (b - a), d)
+        d_new = np.where(lb, c, a + g * (b - a))
+        f_new = f(np.where(lb, c_new, d_new))
+        fc, fd = np.where(lb, f_new, fd), np.where(lb, fc, f_new)
+        c, d = c_new, d_new
+    return np.fmin(fc, fd), np.where(fc <= fd, c, d)
+
+
+def _narrow_crossings(loop: _Loop, p, per_row: bool, w, P0, P1, sg):
+    """The crossings (rows, member(s), log ω, grid cell) of bands |P1| > |P0| that hold no grid
+    point, for member(s) ``p`` with grid values P0, P1 and signed relative F ``sg`` (N, G):
+
+    * a grid local minimum of ``sg``, positive with both neighbours, searched between them
+      (a lightly damped resonance narrower than a grid step); where ``sg`` < 0 there, both band
+      edges are bisected;
+    * where the phase of P0 or P1 turns by more than π/2 between two grid points (a root near the
+      axis inside the cell: an undamped light mass on the cuff spring makes both vanish within
+      1e-6 of each other, and |P1| > |P0| holds on a band 1e-10 wide), the deepest point of |P| in
+      the cell is searched and the sign changes of F between it and the cell's ends are bisected.
+    """
+    out = []
+    r, i = np.nonzero((sg[:, 1:-1] <= sg[:, :-2]) & (sg[:, 1:-1] <= sg[:, 2:]) & (sg[:, 1:-1] > 0)
+                      & (sg[:, :-2] > 0) & (sg[:, 2:] > 0))
+    if r.size:
+        i = i + 1
+        pr = np.asarray(p, dtype=float)[r] if per_row else p
+        lx, found = _narrow_band(loop, r, pr, np.log(w[r, i - 1]), np.log(w[r, i + 1]))
+        rr, pk, xin, ii = r[found], (pr[found] if per_row else pr), lx[found], i[found]
+        for end in (ii - 1, ii + 1):
+            lc = _bisect_sign(loop, rr, pk, np.log(w[rr, end]), xin)
+            out.append((rr, pk, lc, np.where(lc < np.log(w[rr, ii]), ii - 1, ii)))
+    for which, P in enumerate((P0, P1)):
+        r, i = np.nonzero(np.real(P[:, 1:] * np.conj(P[:, :-1])) < 0)
+        if not r.size:
+            continue
+        pr = np.asarray(p, dtype=float)[r] if per_row else p
+        lx = _root_dip(loop, r, pr, which, np.log(w[r, i]), np.log(w[r, i + 1]))
+        pos_x = _signed_rel(loop, r, pr, lx) > 0
+        for end in (i, i + 1):
+            k = (sg[r, end] > 0) != pos_x
+            if k.any():
+                pk, le, lk = (pr[k] if per_row else pr), np.log(w[r[k], end[k]]), lx[k]
+                lc = _bisect_sign(loop, r[k], pk, np.where(pos_x[k], lk, le), np.where(pos_x[k], le, lk))
+                out.append((r[k], pk, lc, i[k]))
+    return out
+
+
+def _signed_rel(loop: _Loop, r, p, lx):
+    """(|P0|² − |P1|²)/(|P0|² + |P1|²) of member(s) ``p`` of rows ``r`` at log ω = ``lx``."""
+    a0, a1, b0, b1 = loop.values(np.exp(lx), r)
+    m0, m1 = np.abs(a0 + p * b0) ** 2, np.abs(a1 + p * b1) ** 2
+    return (m0 - m1) / np.where(m0 + m1 > 0, m0 + m1, 1.0)
+
+
+def _narrow_band(loop: _Loop, r, p, a, b):
+    """Golden-section search of the signed relative F over [a, b] (log ω) for a point where it is
+    negative (a band |P1| > |P0| between two grid points): the point reached and whether F < 0 there."""
+    m, x = _golden(lambda x: _signed_rel(loop, r, p, x), a, b, PEAK_ITERATIONS)
+    return x, m < 0
+
+
+def _root_dip(loop: _Loop, r, p, which: int, a, b):
+    """Golden-section search of |P0| (``which`` 0) or |P1| (1) of member(s) ``p`` over [a, b]
+    (log ω) for its smallest value (a near-axis root in the cell): where it is (log ω)."""
+    def f(x):
+        a0, a1, b0, b1 = loop.values(np.exp(x), r)
+        return np.abs(a0 + p * b0) if which == 0 else np.abs(a1 + p * b1)
+
+    return _golden(f, a, b, DIP_ITERATIONS)[1]
+
+
+def _bisect_sign(loop: _Loop, r, p, lo_l, hi_l):
+    """The sign change of F between log ω = ``lo_l`` (F > 0) and ``hi_l`` (F < 0), by bisection."""
+    for _ in range(BISECTION_ITERATIONS):
+        mid = 0.5 * (lo_l + hi_l)
+        pos = _signed_rel(loop, r, p, mid) > 0
+        lo_l = np.where(pos, mid, lo_l)
+        hi_l = np.where(pos, hi_l, mid)
+    return 0.5 * (lo_l + hi_l)
 
 
 def _branches(loop: _Loop, w, vals, T, members: bool = False):
@@ -316,6 +427,10 @@ def _branches(loop: _Loop, w, vals, T, members: bool = False):
         ok = np.isfinite(pm) & (pm >= loop.lo) & (pm <= loop.hi)
         P1 = A1 + pm * B1
         ok &= np.abs(P1) > 0
+        # the member must cross there: near an undamped resonance A0 ≈ −p B0 to 1e-10 and the
+        # quadratic's root p is off by more than its band is wide (|P0| ≫ |P1| at the p it gives)
+        m0, m1 = np.abs(A0 + pm * B0) ** 2, np.abs(P1) ** 2
+        ok &= np.abs(m0 - m1) <= BRANCH_REL * (m0 + m1)
         dT = _first_delay(A0 + pm * B0, np.where(ok, P1, 1.0), w, T)
         dT = np.where(ok & np.isfinite(dT), dT, np.inf)
         out.append((dT, pm) if members else dT)
@@ -325,35 +440,39 @@ def _branches(loop: _Loop, w, vals, T, members: bool = False):
 def _refine(loop: _Loop, which: int, r, T, a, x0, b):
     """Per candidate, the smallest ΔT on branch ``which`` near the finite point log ω = x0 of the
     bracket [a, b] (log ω) and where it is (log ω): an end where the branch does not exist is
-    first moved, by bisection, to the edge of the segment holding x0; then golden-section search."""
+    first moved, by bisection, to the edge of the segment holding x0; then golden-section search.
+    An edge itself may hold the smallest ΔT (a turning point of the crossing curve, where ΔT varies
+    as the square root of the distance): where it is below the golden-section minimum, the edge is
+    bisected on to float resolution and evaluated there."""
     Tr = T[r]
 
     def f(x):
         xw = np.exp(x)
         return _branches(loop, xw, loop.values(xw, r), Tr)[which]
 
-    def edge(inside, outside):  # the last point of x0's segment towards ``outside``
-        for _ in range(SHRINK_ITERATIONS):
+    def edge(inside, outside, n):  # the last point of x0's segment towards ``outside``
+        for _ in range(n):
             mid = 0.5 * (inside + outside)
             fin = np.isfinite(f(mid))
             inside, outside = np.where(fin, mid, inside), np.where(fin, outside, mid)
-        return inside
+        return inside, outside
 
-    a = np.where(np.isfinite(f(a)), a, edge(x0, a))
-    b = np.where(np.isfinite(f(b)), b, edge(x0, b))
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    for _ in range(GOLDEN_ITERATIONS):
-        lb = fc <= fd  # the minimum lies in [a, d]: d ← c, a new c; else in [c, b]: c ← d, a new d
-        a = np.where(lb, a, c)
-        b = np.where(lb, d, b)
-        c_new = np.where(lb, b - g * (b - a), d)
-        d_new = np.where(lb, c, a + g * (b - a))
-        f_new = f(np.where(lb, c_new, d_new))
-        fc, fd = np.where(lb, f_new, fd), np.where(lb, fc, f_new)
-        c, d = c_new, d_new
-    return np.fmin(fc, fd), np.where(fc <= fd, c, d)
+    ends = []
+    for e in (a, b):
+        shrink = ~np.isfinite(f(e))
+        inside, outside = edge(x0, e, SHRINK_ITERATIONS)
+        ends.append((shrink, np.where(shrink, inside, e), outside))
+    a, b = ends[0][1], ends[1][1]
+    m, x = _golden(f, a, b, GOLDEN_ITERATIONS)
+    for shrink, e, outside in ends:
+        fe = f(e)
+        on = shrink & (fe < m)
+        if on.any():
+            e = np.where(on, edge(e, outside, EDGE_ITERATIONS)[0], e)
+            fe = f(e)
+        x = np.where(fe < m, e, x)
+        m = np.fmin(m, fe)
+    return m, x
 
 
 def _curve_margin(loop: _Loop, w, vals, T, cross):
@@ -457,7 +576,8 @@ def _margins_compiled(terms: _Terms, loops: list, T: np.ndarray, wmax: np.ndarra
         arr([lp.lo for lp in loops]), arr([lp.hi for lp in loops]),
         arr([(not lp.single) and lp.hi > lp.lo for lp in loops], np.bool_),
         arr(T), arr(wmax), GRID_DECADES, int(GRID_DECADES * GRID_PER_DECADE) + 1,
-        BISECTION_ITERATIONS, SHRINK_ITERATIONS, GOLDEN_ITERATIONS, GRAZE_REL, SEED_POINTS, MAX_CROSSINGS)
+        BISECTION_ITERATIONS, SHRINK_ITERATIONS, GOLDEN_ITERATIONS, GRAZE_REL, SEED_POINTS, MAX_CROSSINGS,
+        PEAK_ITERATIONS, DIP_ITERATIONS, BRANCH_REL, EDGE_ITERATIONS)
 
 
 # ---------------------------------------------------------------------------------------------

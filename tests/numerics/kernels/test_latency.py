@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from exotune.analysis.latency import (BISECTION_ITERATIONS, GOLDEN_ITERATIONS, GRAZE_REL, GRID_DECADES,
-                                      GRID_PER_DECADE, MAX_CROSSINGS, SEED_POINTS, SHRINK_ITERATIONS)
+                                      GRID_PER_DECADE, MAX_CROSSINGS, PEAK_ITERATIONS, SEED_POINTS, DIP_ITERATIONS, BRANCH_REL, EDGE_ITERATIONS,
+                                      SHRINK_ITERATIONS)
 from exotune.numerics.kernels import AVAILABLE
 
 pytestmark = pytest.mark.skipif(not AVAILABLE, reason="numba not installed")
@@ -37,7 +38,8 @@ def _run(a, k, c, T, lo, hi, curve):
         ev, od, np.array([0]), np.array([1]), np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0]]), np.array([1.0]),
         np.array([0.0]), members, np.array([2 if hi > lo else 1]), np.array([lo]), np.array([hi]), np.array([curve]),
         np.ascontiguousarray(T, dtype=float), np.full(K, 1e4), GRID_DECADES, int(GRID_DECADES * GRID_PER_DECADE) + 1,
-        BISECTION_ITERATIONS, SHRINK_ITERATIONS, GOLDEN_ITERATIONS, GRAZE_REL, SEED_POINTS, MAX_CROSSINGS)
+        BISECTION_ITERATIONS, SHRINK_ITERATIONS, GOLDEN_ITERATIONS, GRAZE_REL, SEED_POINTS, MAX_CROSSINGS,
+        PEAK_ITERATIONS, DIP_ITERATIONS, BRANCH_REL, EDGE_ITERATIONS)
 
 
 def test_single_member_margin_equals_the_closed_form():
