@@ -116,7 +116,10 @@ def write_atomic(path, data: str | bytes) -> None:
         data = data.encode("utf-8")
     parent = os.path.dirname(os.path.abspath(path))
     os.makedirs(parent, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-" + os.path.basename(path) + ".", dir=parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-" + os.path.basename(path) + ".", dir=parent)
+    except OSError as e:  # name the destination, not the temporary file
+        raise type(e)(e.errno, e.strerror, path) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -281,6 +284,9 @@ def _same(a: str, b: str) -> bool:
     return os.path.realpath(a) == os.path.realpath(b)
 
 
+TMP_NAME_EXTRA = 14  # ".tmp-" + "." + mkstemp's 8 random characters: what a temporary name adds
+
+
 def _check_parent(label: str, path: str) -> None:
     """The nearest existing ancestor of ``path`` (``path`` itself when it is an existing
     directory) must be a writable directory."""
@@ -293,6 +299,18 @@ def _check_parent(label: str, path: str) -> None:
         raise ConfigError(path, f"cannot write output ({label}): {cur} is not a directory")
     if not os.access(cur, os.W_OK | os.X_OK):
         raise ConfigError(path, f"cannot write output ({label}): no permission to write into {cur}")
+    try:
+        name_max = os.pathconf(cur, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    parts = [q for q in os.path.abspath(path).split(os.sep) if q]
+    for k, part in enumerate(parts):
+        # a file is written through a temporary sibling named ".tmp-<name>.<8 characters>"
+        extra = TMP_NAME_EXTRA if k == len(parts) - 1 else 0
+        if len(os.fsencode(part)) + extra > name_max:
+            short = part if len(part) <= 40 else part[:20] + "…" + part[-12:]
+            raise ConfigError(label.replace("`", ""), f"the name {short!r} is too long for the file system "
+                                                      f"({len(os.fsencode(part))} bytes; at most {name_max - extra})")
 
 
 def _inside(path: str, directory: str) -> bool:

@@ -170,3 +170,20 @@ def test_check_outputs_refuses_unwritable_parent(tmp_path):
             check_outputs(outputs={"-o": ro / "x.json"})
     finally:
         ro.chmod(0o700)
+
+
+def test_check_outputs_refuses_a_name_too_long_for_the_file_system(tmp_path):
+    """Caught before any work (it was found only when the file was written, after the run, and a
+    first output was then already written); the temporary sibling's longer name counts too."""
+    from exotune.errors import ConfigError
+    from exotune.jsonio import TMP_NAME_EXTRA, check_outputs
+
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX")
+    with pytest.raises(ConfigError) as e:
+        check_outputs(outputs={"`out`": tmp_path / ("a" * 10000)})
+    assert e.value.field == "out" and "too long" in str(e.value)
+    with pytest.raises(ConfigError):
+        check_outputs(outputs={"`out`": tmp_path / ("b" * (limit - TMP_NAME_EXTRA + 1))})
+    check_outputs(outputs={"`out`": tmp_path / ("c" * (limit - TMP_NAME_EXTRA))})
+    write_atomic(tmp_path / ("c" * (limit - TMP_NAME_EXTRA)), "ok")
+    assert list(tmp_path.iterdir()) == [tmp_path / ("c" * (limit - TMP_NAME_EXTRA))]

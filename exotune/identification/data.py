@@ -180,6 +180,8 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
         if not (math.isfinite(d_s) and d_s >= 0):
             raise ConfigError("delay_s", f"{delay_s!r} is not a delay ≥ 0 s")
         d = d_s * fs
+        if not math.isfinite(d):
+            raise ConfigError("delay_s", f"{delay_s!r} s is more samples at {fs:g} Hz than a number can hold")
         delay = int(round(d))
         if "tau_cmd" in sig and abs(d - delay) > DELAY_TOLERANCE * max(1.0, d):
             raise ConfigError("delay_s", f"{delay_s!r} s is {d:.6g} samples at {fs:g} Hz: identification needs "

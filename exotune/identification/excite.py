@@ -37,6 +37,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..record import Result
 from ..version import __version__
+from .data import MAX_SIGNAL
 
 __all__ = ["Excitation", "schroeder_multisine", "write_excitation", "sidecar_path", "SELECTIONS",
            "LOG_LINES_PER_DECADE", "MAX_SAMPLES", "DEFAULT_DURATION_S"]
@@ -282,6 +283,8 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     if (peak_nm is None) == (rms_nm is None):
         raise ConfigError("peak_nm", "give the amplitude as exactly one of `peak_nm` and `rms_nm` [N·m]")
     kind, amp = ("peak", _number("peak_nm", peak_nm)) if peak_nm is not None else ("rms", _number("rms_nm", rms_nm))
+    if amp > MAX_SIGNAL:  # identify refuses a logged torque beyond it (check the units)
+        raise ConfigError(f"{kind}_nm", f"{amp:.6g} N·m is beyond {MAX_SIGNAL:.0e} N·m (check the units)")
     if lines not in SELECTIONS:
         raise ConfigError("lines", f"{lines!r}: one of {', '.join(SELECTIONS)}")
     if seed is not None and lines != "random-odd":
@@ -289,10 +292,10 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
         raise ConfigError("seed", f"must be a whole number ≥ 0, got {seed!r}")
     T = 1.0 / lo if period_s is None else _number("period_s", period_s)
-    N = int(round(T * fs))
-    if N > MAX_SAMPLES:
+    if not T * fs <= MAX_SAMPLES:  # also a period that overflows to inf samples
         raise ConfigError("period_s" if period_s is not None else "f_lo_hz",
-                          f"a period of {N} samples: at most {MAX_SAMPLES}")
+                          f"a period of {T * fs:.6g} samples: at most {MAX_SAMPLES}")
+    N = int(round(T * fs))
     df = fs / N if N > 0 else math.inf
     k_lo, k_hi = int(math.ceil(lo / df * (1 - _REL))), min(int(math.floor(hi / df * (1 + _REL))), (N - 1) // 2)
     if N < 3 or k_hi < max(k_lo, 1):

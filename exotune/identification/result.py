@@ -189,7 +189,7 @@ class PlantEstimate(Result):
         """
         ps = [p for p in self.parameters if p.key != "coulomb_friction"]  # not a design-file parameter
         unc = self.uncertainty()
-        return {"plant": {p.key: p.value for p in ps}, "uncertainty": {p.key: unc[p.key][0] for p in ps}}
+        return {"plant": {p.key: float(p.value) for p in ps}, "uncertainty": {p.key: float(unc[p.key][0]) for p in ps}}
 
     def to_dict(self) -> dict:
         """The ``exotune identify --json`` object.

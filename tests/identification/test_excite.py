@@ -133,6 +133,8 @@ def test_identify_recovers_the_plant_from_a_log_excited_with_it(tmp_path):
     (["--seed", "1"], "--seed"),  # all lines: nothing drawn
     (["--lines", "sparse"], "--lines"),
     (["--sample-rate-hz", "abc"], "--sample-rate-hz"),
+    (["--period-s", "1e308"], "--period-s"),  # overflows a sample count
+    (["--peak-nm", "1e308"], "--peak-nm"),  # beyond what identify reads back (check the units)
 ])
 def test_bad_options_exit_2_naming_the_option_and_write_nothing(tmp_path, args, option):
     base = {"--sample-rate-hz": "1000", "--f-lo-hz": "0.5", "--f-hi-hz": "40", "--peak-nm": "2"}

@@ -227,3 +227,38 @@ def test_absurd_magnitudes_are_refused_without_numpy_warnings(smooth):
                 assert e.field in ("theta_m", "tau_s", "tau_m", "theta_j", "tau_c", "theta_h"), str(e)
             else:  # the equations are homogeneous: a uniform scale leaves the estimates
                 assert r["motor_inertia"].value == pytest.approx(TRUE["motor_inertia"], rel=1e-4)
+
+
+@pytest.mark.parametrize("keep", [("t", "theta_m", "tau_s", "tau_m"), None])
+def test_cli_writes_the_sections_for_every_column_subset(smooth, tmp_path, keep):
+    """The written sections are plain numbers: a log with unmodelled Coulomb friction, whose
+    uncertainty is the measured model error, once gave numpy scalars that the YAML writer refused,
+    with a traceback."""
+    cols = {k: v for k, v in smooth.items() if keep is None or k in keep}  # keep: the motor's side only
+    cols["tau_m"] = np.asarray(cols["tau_m"]) + 0.02 * np.sign(np.gradient(np.asarray(cols["theta_m"])))
+    log = _csv(tmp_path / "log.csv", cols)
+    out = tmp_path / "plant.yaml"
+    res = CliRunner().invoke(cli, ["identify", str(log), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    sec = yaml.safe_load(out.read_text())
+    assert sec["plant"]["motor_inertia"] == pytest.approx(TRUE["motor_inertia"], rel=1e-3)
+    assert all(type(v) is float for part in sec.values() for v in part.values())
+
+
+def test_a_delay_that_overflows_a_sample_count_is_refused(smooth, tmp_path):
+    log = _csv(tmp_path / "log.csv", smooth)
+    res = CliRunner().invoke(cli, ["identify", str(log), "--delay-s", "1e308"])
+    assert res.exit_code == 2 and res.output.startswith("exotune: error: --delay-s:"), res.output
+    assert "Traceback" not in res.output
+
+
+def test_design_sections_are_plain_numbers_when_the_model_error_dominates(smooth):
+    """Unmodelled Coulomb friction makes the measured model error the damping's uncertainty (a
+    numpy scalar): the sections must still be plain floats that the YAML writer takes."""
+    cols = {k: v for k, v in smooth.items() if k in ("t", "theta_m", "tau_s", "tau_m")}
+    cols["tau_m"] = np.asarray(cols["tau_m"]) + 0.02 * np.sign(np.gradient(np.asarray(cols["theta_m"])))
+    r = identify_plant(log_from_columns(cols))
+    assert "Coulomb friction" in r.uncertainty()["motor_damping"][1]
+    sec = r.design_sections()
+    assert all(type(v) is float for part in sec.values() for v in part.values())
+    assert yaml.safe_load(yaml.safe_dump(sec)) == sec
