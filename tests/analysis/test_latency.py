@@ -27,6 +27,8 @@ from exotune.config import batch_config, design_from_mapping, read_yaml
 from exotune.numerics.engine import numpy_engine
 from exotune.numerics.kernels import AVAILABLE
 
+from campaign_designs import LIGHT_MASS
+
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 SCHEDULED = read_yaml(EXAMPLES / "scheduled.yaml")
 PAPER = read_yaml(EXAMPLES / "paper.yaml")
@@ -207,25 +209,6 @@ def test_member_margins_in_one_pass_equal_each_member_as_a_family_of_one(base):
             alone = member_latency_margins(ct, 0, fam, "10", [p])
             assert np.array_equal(alone[0], dT[k:k + 1]) and np.array_equal(alone[1], om[k:k + 1], equal_nan=True)
         assert np.isfinite(dT).any() or base == "paper"
-
-
-# A light undamped mass on a stiff cuff (from the independent metrics campaign,
-# benchmarks/fuzz_metrics.py): both P0 and P1 of its loop vanish near the cuff resonance
-# (≈ 17.9 kHz), within 1e-6 of each other, and |P1| > |P0| holds on a band about 1e-10 wide there.
-# The grid (6 % per step) stepped over it: the margin came out 1000× too large.
-LIGHT_MASS = {
-    "plant": {"motor_inertia": 0.2652836268811759, "motor_damping": 5.624431964563109,
-              "sea_stiffness": 12671.753851590962, "joint_inertia": 0.6125269568867149,
-              "cuff_stiffness": 10417.405909759664},
-    "design": {"amplification": 2.8709807625519868, "felt_inertia": 0.1860766720044322,
-               "felt_damping": 0.3091784710504105, "zeta": 0.2103788648060066, "zeta_hat": 0.10921783252628804},
-    "implementation": {"delay_s": 0.0022642007093090087, "sample_rate_hz": None,
-                       "gv_filter": {"cutoff_hz": 95.83628913119769, "damping": 0.42657995513535696},
-                       "derivative_filter": {"cutoff_hz": 39.29667467776736},
-                       "dob": {"cutoff_hz": 77.92470619488127, "damping": 0.8756651816522716}},
-    "humans": [{"kind": "mass", "inertia": [8.255439215449672e-07, 8.446154797059966e-07], "damping": 0.0}],
-    "environment": [{"kind": "locked"}],
-}
 
 
 def _polyroot_margin(mapping: dict, p: float) -> float:
