@@ -23,7 +23,8 @@ Metrics and references
 * Amplification (docs/method.md#amplification): C6/C5 = 1 − τ_s/τ_c with the output locked and the
   cuff torque τ_c applied (the controller reads it), with the exact delay. DC at s = 0, bandwidth =
   first ω where |C6/C5| = dc/√2 on a dense log grid (400/decade + points around every lightly
-  damped pole) refined by brentq.
+  damped pole; with a delay, plus 64 points per ripple period up to the first log-grid point
+  below the level) refined by brentq.
 * Passivity (docs/method.md#passivity-of-the-operator-compliance): C7 = θ_h/τ_c of the free
   exoskeleton driven by a torque source on the cuff, C7 = θ_j/τ_c + 1/K_c, exact delay. Phase
   excess = distance of arg C7 from [−180°, 0°]; its maximum refined by bounded Brent around the
@@ -283,6 +284,16 @@ def ref_amplification(R: Ref, lams):
     a = np.abs(R.amp(w)) ** 2
     thr = 0.5 * abs(dc) ** 2
     below = np.flatnonzero(a <= thr)
+    if R.T > 0:
+        # the delay ripple (period 2π/T) can dip below the level between log-grid points at high
+        # frequency: 64 points per period up to the first log-grid point below it (capped)
+        wend = float(w[below[0]]) if below.size else float(w[-1])
+        step = math.pi / (32 * R.T)
+        wl = np.arange(step, min(wend, 4e5 * step), step)
+        if wl.size:
+            w = np.unique(np.concatenate([w, wl]))
+            a = np.abs(R.amp(w)) ** 2
+            below = np.flatnonzero(a <= thr)
     info = {}
     if below.size == 0:
         bw = math.inf

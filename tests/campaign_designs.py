@@ -62,3 +62,112 @@ LIGHT_MASS = {
     "humans": [{"kind": "mass", "inertia": [8.255439215449672e-07, 8.446154797059966e-07], "damping": 0.0}],
     "environment": [{"kind": "locked"}],
 }
+
+
+# A fuzz-metrics campaign design (seed 7, #106; docs/benchmarks.md): 6 delay-ripple lobes of C7
+# with peaks 14°–0.12° beyond 390 Hz, which the leaves (refined on Δ00 and Δ10, not on C7) had
+# merged into one band 390–1444 Hz.
+RIPPLE_LOBES = {'plant': {'motor_inertia': 0.11571375518949424,
+           'motor_damping': 0.42794517603482446,
+           'sea_stiffness': 9668.225233198114,
+           'joint_inertia': 0.1568740916831038,
+           'cuff_stiffness': 75365.50031261116},
+ 'design': {'amplification': 23.238983914331097,
+            'felt_inertia': 0.025451373283785824,
+            'felt_damping': 9.048829792303925,
+            'zeta': 0.3772054542387375,
+            'zeta_hat': 0.6948361464382852},
+ 'implementation': {'delay_s': 0.006962119055252551,
+                    'sample_rate_hz': None,
+                    'gv_filter': {'cutoff_hz': 317.61728899837635, 'damping': 0.7178654399199149},
+                    'derivative_filter': {'cutoff_hz': 30.653674225932388},
+                    'dob': None},
+ 'humans': [{'kind': 'mass',
+             'inertia': [0.0006757843354426521, 0.9010932504991659],
+             'damping': 1.1338738575311826}]}
+
+
+# Campaign design #54: a non-passive band 38.55–40.74 Hz (peak 0.5°) between two leaf ends.
+NARROW_PASSIVITY_BAND = {'plant': {'motor_inertia': 0.0296523630229437,
+           'motor_damping': 3.5667095424177453,
+           'sea_stiffness': 437.5646812718517,
+           'joint_inertia': 0.021973225503684395,
+           'cuff_stiffness': 47724.03983441196},
+ 'design': {'amplification': 13.477861857034432,
+            'felt_inertia': 0.03330529162159271,
+            'felt_damping': 0.029815089583340653,
+            'zeta': 0.8289645046046836,
+            'zeta_hat': 0.35717116015630834},
+ 'implementation': {'delay_s': 0.011787261887012169,
+                    'sample_rate_hz': None,
+                    'gv_filter': {'cutoff_hz': 322.44523120072915, 'damping': 1.4052834433937333},
+                    'derivative_filter': {'cutoff_hz': 261.6517167438735},
+                    'dob': {'cutoff_hz': 18.653248682902895, 'damping': 1.0472207641321996}},
+ 'humans': [{'kind': 'mass', 'inertia': [0.0002932585449639556, 0.00538915047614647], 'damping': 0.0}]}
+
+
+# Campaign design #138 (no delay): the phase of C7 passes 90° between two leaf ends; the maximum
+# excess was 89.70° instead of 90°.
+PHASE_THROUGH_90 = {'plant': {'motor_inertia': 0.05086290534185415,
+           'motor_damping': 5.104428344799681,
+           'sea_stiffness': 5533.975503833874,
+           'joint_inertia': 0.5416281580028863,
+           'cuff_stiffness': 4875.709244713233},
+ 'design': {'amplification': 16.275575895986137,
+            'felt_inertia': 0.0031532374917284983,
+            'felt_damping': 0.057330336788645714,
+            'zeta': 0.17308099918671954,
+            'zeta_hat': 0.12867198757345202},
+ 'implementation': {'delay_s': 0.0,
+                    'sample_rate_hz': None,
+                    'gv_filter': {'cutoff_hz': 27.40131221668229, 'damping': 0.719199198696278},
+                    'derivative_filter': {'cutoff_hz': 25.432064812696957},
+                    'dob': {'cutoff_hz': 221.4714643230377, 'damping': 1.443896655140982}},
+ 'humans': [{'kind': 'mass',
+             'inertia': [1.2334669002559509e-05, 0.007806066003241813],
+             'damping': 0.16525999988191295}]}
+
+
+# Campaign design #133: its mass-spring-damper family's crossing curve dips across the real axis
+# between two sub-sampled points (Im p changes sign at 593.3 and 605.4 Hz, |Im p|/|p| ≤ 2e-3):
+# the pair of critical values 0.00914 and 0.00840 kg·m² was missed.
+MSD_CROSSING_PAIR = {'plant': {'motor_inertia': 0.8797972804986542,
+           'motor_damping': 47.44934866989066,
+           'sea_stiffness': 3447.475533180451,
+           'joint_inertia': 0.023922590325398584,
+           'cuff_stiffness': 89473.94598125857},
+ 'design': {'amplification': 35.07901965345966,
+            'felt_inertia': 0.007126919636420992,
+            'felt_damping': 0.09460370433843811,
+            'zeta': 1.48457865383326,
+            'zeta_hat': 1.0971406098580143},
+ 'implementation': {'delay_s': 0.006247637087662651,
+                    'sample_rate_hz': None,
+                    'gv_filter': {'cutoff_hz': 96.01847810034899, 'damping': 1.4127209129493665},
+                    'derivative_filter': {'cutoff_hz': 117.7883116071398},
+                    'dob': {'cutoff_hz': 9.854465337581962, 'damping': 0.2034238401921207},
+                    'velocity_filter': {'cutoff_hz': 22.246870586564444}},
+ 'humans': [{'kind': 'msd',
+             'inertia': [0.00040070626727621025, 0.01466960228339476],
+             'damping': 1.7724734864451301,
+             'stiffness': 50.32537520448414}]}
+
+
+# Campaign design (seed 11, #83): a passive gap 4.604–4.726 Hz between two non-passive bands
+# (peaks 7.5° and 90°), narrower than the samples: the two bands had been reported as one.
+PASSIVITY_GAP = {'plant': {'motor_inertia': 0.942970345352568,
+           'motor_damping': 8.966929267892365,
+           'sea_stiffness': 926.8470736343586,
+           'joint_inertia': 1.8126214390527557,
+           'cuff_stiffness': 528361.9370301764},
+ 'design': {'amplification': 19.53585560582673,
+            'felt_inertia': 0.07699294133272513,
+            'felt_damping': 0.09678333190218723,
+            'zeta': 0.09731496504840303,
+            'zeta_hat': 1.016621040714862},
+ 'implementation': {'delay_s': 0.0028390231419366434,
+                    'sample_rate_hz': None,
+                    'gv_filter': {'cutoff_hz': 12.485587419709097, 'damping': 0.8328506271271081},
+                    'derivative_filter': {'cutoff_hz': 104.45138635368444},
+                    'dob': None},
+ 'humans': [{'kind': 'mass', 'inertia': [1.0018356804638301e-05, 0.05118432825664403], 'damping': 0.0}]}

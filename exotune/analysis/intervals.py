@@ -20,9 +20,9 @@ import numpy as np
 from ..model.humans import HumanFamily, family_split
 from ..numerics.engine import compiled
 from ..numerics.poly import degree, leading, padd, pmul
-from ..numerics.quasipoly import QP, leaves_pair, log_grid, omega_max
+from ..numerics.quasipoly import DIP_RISE, QP, dip_candidates, golden_max, leaves_pair, log_grid, omega_max
 from .batch_result import FamilyBatch
-from .brackets import pair_roots, pair_values
+from .brackets import pair_roots
 from .charfun import CharTerms, trim_poly
 from .counting import RootCounter
 
@@ -93,7 +93,7 @@ class FamilySide:
                 tk, ba, bb, bga, bgb = lv["task"][br], lv["a"][br], lv["b"][br], ga[br], gb[br]
                 if sus.any():
                     st, sa_, sb_ = lv["task"][sus], lv["a"][sus], lv["b"][sus]
-                    sub = subsample_brackets(g, D0, D1, k, factor, st, sa_, sb_)
+                    sub = subsample_brackets(D0, D1, k, factor, st, sa_, sb_)
                     if sub[0].size:
                         tk, ba, bb, bga, bgb = (np.concatenate([x, y]) for x, y in zip((tk, ba, bb, bga, bgb), sub))
                 ws = _refine_crossings(g, D0, D1, k, factor, tk, ba, bb, bga, bgb)
@@ -186,6 +186,7 @@ MAX_FAMILY_PIECES = 1000
 
 NEAR_REAL_RAD = 1.0  # leaves with κ this close (in angle) to the real axis at an end are sub-sampled
 SIN_NEAR = float(np.sin(NEAR_REAL_RAD))
+DIP_ITERATIONS = 40  # golden-section steps of the search for a dip between sub-sampled points
 
 
 def classify_numpy(lv: dict, k: int, factor: complex, lo: float, hi: float):
@@ -279,15 +280,20 @@ def classify(lv: dict, k: int, factor: complex, lo: float, hi: float):
     return ga, gb, br, sus
 
 
-def subsample_brackets(g, D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
+def subsample_brackets(D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
     """Sign-change brackets (task, a, b, g(a), g(b)) of the crossing function g on M equally
     spaced points of each leaf [sa, sb] (ends included; M ≥ 8 and ≥ 8 per delay ripple period
-    2π/T, at most 512); compiled when available.
+    2π/T, at most 512), and the two brackets of each dip between points; compiled when available.
+
+    A dip is a pair of crossings closer than the point spacing (the delay ripple's crest or trough
+    just reaching the real axis): at three consecutive points of one sign s, the normalized
+    s·g/(|Δ_0||f φ Δ1|) has a local minimum at the middle one that may hide the other sign
+    (:func:`~exotune.numerics.quasipoly.dip_candidates`); s·g is then minimized between the outer
+    points by golden section (``DIP_ITERATIONS`` steps), and a minimum of the other sign splits
+    them into two brackets.
 
     Parameters
     ----------
-    g : callable
-        ``g(task, w)``, the crossing function (numpy reference; unused when compiled).
     D0, D1 : QP
         Δ_0 and Δ1 of the family's group.
     k : int
@@ -307,7 +313,7 @@ def subsample_brackets(g, D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
     if compiled():
         from ..numerics import kernels as _fastphase
 
-        return _fastphase.subsample_brackets(D0, D1, k, factor, st, sa, sb)
+        return _fastphase.subsample_brackets(D0, D1, k, factor, st, sa, sb, iters=DIP_ITERATIONS, rise=DIP_RISE)
     Tt = D0.T[st]
     per = np.where(Tt > 0, 2 * np.pi / np.maximum(Tt, 1e-300), np.inf)
     M = np.clip(np.ceil(8.0 * (sb - sa) / per), 8, 512).astype(int)
@@ -315,10 +321,35 @@ def subsample_brackets(g, D0: QP, D1: QP, k: int, factor: complex, st, sa, sb):
     # M points per leaf, both ends included (a sign change at the ends is kept)
     frac = (np.arange(rep.size) - np.repeat(np.cumsum(M) - M, M)) / np.repeat(M - 1, M)
     wsub = sa[rep] + frac * (sb - sa)[rep]
-    gsub = pair_values(g, D0, D1, "cross", st[rep], wsub, k=k, factor=factor)
+    tsub = st[rep]
+    gsub, usub = _cross_normalized(D0, D1, k, factor, tsub, wsub)
     nxt = np.r_[rep[1:] == rep[:-1], False]
     j = np.nonzero(nxt & (np.sign(gsub) * np.sign(np.r_[gsub[1:], 0.0]) < 0))[0]
-    return st[rep[j]], wsub[j], wsub[j + 1], gsub[j], gsub[j + 1]
+    out = [(rep[j], tsub[j], wsub[j], wsub[j + 1], gsub[j], gsub[j + 1])]
+    # dips between points (dip_candidates): s·g is minimized between the outer two of three points,
+    # and a minimum of the other sign gives two brackets
+    m = np.flatnonzero(nxt & np.r_[False, nxt[:-1]])  # middle points (neighbours in the same leaf)
+    dip, sg = dip_candidates(usub[m - 1], usub[m], usub[m + 1])
+    m, sg = m[dip], sg[dip]
+    if m.size:
+        tm = tsub[m]
+        v, wd = golden_max(lambda x: -sg * _cross_normalized(D0, D1, k, factor, tm, x)[0], wsub[m - 1], wsub[m + 1],
+                           iters=DIP_ITERATIONS, where=True)
+        hit = v > 0  # the minimum of s·g (= −v) has the other sign
+        m, wd, gd, tm = m[hit], wd[hit], -v[hit] * sg[hit], tm[hit]
+        out += [(rep[m], tm, wsub[m - 1], wd, gsub[m - 1], gd), (rep[m], tm, wd, wsub[m + 1], gd, gsub[m + 1])]
+    leaf, *res = (np.concatenate(x) for x in zip(*out))
+    order = np.lexsort((res[1], leaf))  # leaf by leaf, increasing ω (the compiled pass's order)
+    return tuple(x[order] for x in res)
+
+
+def _cross_normalized(D0: QP, D1: QP, k: int, factor: complex, task, w):
+    """The crossing function g = Im[Δ_0·conj(f (jω)^k Δ1)] and g/(|Δ_0|·|f (jω)^k Δ1|)."""
+    a, _ = D0.eval(task, w, deriv=False)
+    fb = (factor * 1j**k) * (w**k * D1.eval(task, w, deriv=False)[0])
+    g = np.imag(a * np.conj(fb))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return g, g / (np.abs(a) * np.abs(fb))
 
 
 def _refine_crossings(g, D0: QP, D1: QP, k: int, factor: complex, task, a, b, fa, fb):

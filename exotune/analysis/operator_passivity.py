@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..numerics.engine import compiled
-from ..numerics.quasipoly import bisect_roots
+from ..numerics.quasipoly import bisect_roots, dip_candidates, golden_max
 from .batch_result import PassivityBatch
 from .brackets import pair_roots
 from .charfun import CharTerms
@@ -42,6 +42,18 @@ def c7_response(ct: CharTerms, w: np.ndarray) -> np.ndarray:
 
 
 BAND_MIN_EXCESS_DEG = 0.1
+# the delay ripple (docs/method.md#passivity-of-the-operator-compliance): beyond the last leaf, the
+# sampled range is extended by octaves while the frozen ripple can still lift the phase by
+# more than RIPPLE_MIN_DEG (a fifth of the listing threshold), up to TAIL_STEPS octaves
+RIPPLE_MIN_DEG = 0.02
+TAIL_STEPS = 12
+# at most this many ripple samples per design (4 per period); a design that would need more (or a
+# longer tail) is reported with partial coverage (NaN maximum, no bands) rather than with merged bands
+MAX_RIPPLE_SAMPLES = 20_000
+# the maximum is refined (golden section) around this many local maxima of the sampled excess per
+# design, the largest first, plus every local maximum near the listing threshold (the cells where
+# the phase passes 90° are bisected)
+REFINE_PEAKS = 1
 
 
 def passivity(side: FamilySide) -> PassivityBatch:
@@ -49,15 +61,19 @@ def passivity(side: FamilySide) -> PassivityBatch:
     as a :class:`~exotune.analysis.batch_result.PassivityBatch`.
 
     Passive phase band: arg C7 ∈ [−180°, 0°] ⇔ Im C7(jω) ≤ 0. The excess is the angular distance
-    of the (wrapped) phase from that band, min(φ, 180° − φ) for φ ∈ (0°, 180°); its maximum is
-    refined by golden-section search. Band edges are the exact zeros of Im C7. With a delay,
-    C7 → 1/K_c with a decaying ripple of period 1/T in frequency, giving infinitely many tiny
-    bands: bands whose peak excess is below ``BAND_MIN_EXCESS_DEG`` (0.1°) are not listed
-    (``max_phase_excess_deg`` itself is exact, and the band holding it is listed whenever it
-    reaches 0.1°; other bands are judged by their sampled peak).
+    of the (wrapped) phase from that band, min(φ, 180° − φ) for φ ∈ (0°, 180°).
 
-    One function (over 80 lines): the peak refinement, the band runs and their edges all index the
-    same vectorized leaf arrays of every design; split, they would pass a dozen arrays around.
+    C7 is sampled at the ends of the root-counting leaves and, with a delay, at four points per
+    period 2π/T of the delay ripple, placed on the crests and troughs of the frozen ripple
+    (:func:`_ripple_points`) wherever the ripple can make Im C7 positive, up to the frequency where
+    it can no longer lift the phase by ``RIPPLE_MIN_DEG``; a lobe or gap narrower than the samples
+    is searched where the sampled phase comes near the band's edge and turns back (:func:`_dips`).
+    Bands are the runs of samples with Im C7 > 0; their edges are the exact zeros of Im C7. Where
+    the phase passes 90° between samples, the maximum is 90° at the bisected zero of Re C7;
+    otherwise the largest local maximum of the sampled excess, and every one near the listing
+    threshold, is refined by golden section. Bands whose peak excess is below
+    ``BAND_MIN_EXCESS_DEG`` (0.1°) are not listed (with a delay, C7 → 1/K_c with a decaying ripple
+    of period 1/T in frequency).
 
     Parameters
     ----------
@@ -78,161 +94,393 @@ def passivity(side: FamilySide) -> PassivityBatch:
     z0 = (0.0, 0.0, 0.0)
     D0, D1, lv = side.leaves.get(z0) or side.compute_leaves(z0)
     Nd = D0.n
-
-    def c7(task, w):
-        a, _ = D0.eval(task, w, deriv=False)
-        b, _ = D1.eval(task, w, deriv=False)
-        return b / a
-
-    def excess(c):
-        ph = np.degrees(np.angle(c))
-        return np.where(ph > 0, np.minimum(ph, 180.0 - ph), 0.0)
-
-    def excess_where(c, im):
-        # excess(c) where it can be positive (Im c > 0 ⇔ phase in (0°, 180°)), 0 elsewhere and
-        # where c is not finite; the same values as excess(c) without the angles of the rest
-        out = np.zeros(c.shape)
-        sel = (im > 0) & np.isfinite(c)
-        out[sel] = excess(c[sel])
-        return out
-
-    pos = lv["a"] > 0
-    # the leaves with a > 0 (all of them unless a grid starts at ω = 0): no copies when all
-    on = (lambda x: x) if pos.all() else (lambda x: x[pos])  # noqa: E731
-    task = on(lv["task"])
-    a_l, b_l = on(lv["a"]), on(lv["b"])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cb = on(lv["vb"][1]) / on(lv["vb"][0])
-    imb = np.imag(cb)
-    leaf = np.flatnonzero(pos)
-
-    def ima(k):  # Im C7 at the a-end of leaves k (only the bracketing leaves need it)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.imag(lv["va"][1][leaf[k]] / lv["va"][0][leaf[k]])
-
-    exb = excess_where(cb, imb)
+    task, w, c, over = _samples(D0, D1, lv)
+    im = np.imag(c)
+    ex = _excess_where(c, im)
+    same = task[1:] == task[:-1]  # consecutive samples of one design
     best = np.zeros(Nd)
-    np.maximum.at(best, task, exb)
-    arg = _argmax_by_task(task, exb, Nd)
-    have = arg >= 0
-    if have.any():
-        ti = np.nonzero(have)[0]
-        j = arg[ti]
-        nxt = np.minimum(j + 1, len(b_l) - 1)
-        a_ = a_l[j]
-        b_ = np.where(task[nxt] == ti, b_l[nxt], b_l[j])
-        if compiled():
-            from ..numerics import kernels as _fastphase
-
-            peak = _fastphase.golden_max(D0, D1, "excess", ti, a_, b_, iters=40)
-        else:
-            peak = _golden_max(lambda w: excess(c7(ti, w)), a_, b_)
-        best[ti] = np.maximum(best[ti], peak)
-    # bands = runs of consecutive samples with Im C7 > 0; only runs whose sampled peak excess
-    # reaches the threshold get their two edges refined (exact zeros of Im C7)
-    # the sign of Im C7 is only trusted above the float resolution (|Im C7| > 1e-8 |C7|); samples
-    # below it inherit the state of the previous sample of the same design, so rounding noise in
-    # the high-frequency tail (C7 → 1/K_c) neither splits nor ends a band
-    resolved_sign = np.abs(imb) > 1e-8 * np.abs(cb)
-    inside = imb > 0
-    if task.size:
-        first_of_task = np.r_[True, task[1:] != task[:-1]]
-        keep = resolved_sign | first_of_task
-        last = np.maximum.accumulate(np.where(keep, np.arange(task.size), 0))
-        inside = inside[last]
-        # the a-end of a leaf is the b-end of the previous leaf of the same design
-        resolved_a = np.r_[False, resolved_sign[:-1]] & ~first_of_task
-    else:
-        resolved_a = np.zeros(0, bool)
-    if task.size:
-        newrun = np.r_[True, (task[1:] != task[:-1]) | (inside[1:] != inside[:-1])]
-    else:
-        newrun = np.zeros(0, bool)
+    np.maximum.at(best, task, ex)
+    # bands = runs of samples with Im C7 > 0. The sign of Im C7 is only trusted above the float
+    # resolution (|Im C7| > 1e-8 |C7|); samples below it inherit the state of the previous sample
+    # of the same design, so rounding noise in the high-frequency tail neither splits nor ends a band
+    resolved = np.abs(im) > 1e-8 * np.abs(c)
+    first = np.r_[True, ~same][: task.size]
+    last = np.maximum.accumulate(np.where(resolved | first, np.arange(task.size), 0))
+    inside = (im > 0)[last]
+    newrun = np.r_[True, ~same | (inside[1:] != inside[:-1])][: task.size]
     rid = np.cumsum(newrun) - 1
-    nrun = int(rid[-1]) + 1 if rid.size else 0
-    peak = np.zeros(nrun)
-    np.maximum.at(peak, rid, exb)
-    if have.any():  # the refined maximum counts for the band that holds its leaf
-        np.maximum.at(peak, rid[j], np.where(np.isfinite(best[ti]), best[ti], 0.0))
-    starts = np.nonzero(newrun)[0]
+    peak = np.zeros(int(rid[-1]) + 1 if rid.size else 0)
+    np.maximum.at(peak, rid, ex)
+    ct, ca, cb, at = _peak_cells(task, w, c, ex, im, resolved, same)
+    j90, f90 = _through_90(D0, D1, task, w, c, im, resolved, same)
+    ct, at = np.r_[ct, task[j90]], np.r_[at, j90]
+    if ct.size:
+        f = np.r_[_refine_max(D0, D1, ct[:ca.size], ca, cb), f90]
+        f = np.where(np.isfinite(f), f, 0.0)
+        np.maximum.at(best, ct, f)
+        np.maximum.at(peak, rid[at], f)
+    starts = np.flatnonzero(newrun)
+    ends = np.r_[starts[1:], task.size] - 1
     qual = inside[starts] & (peak >= BAND_MIN_EXCESS_DEG)
-    qs = starts[qual]
-    # the run after each qualifying run (same task) holds the closing edge in its first leaf
-    nxt_run = np.searchsorted(starts, qs, side="right")
-    has_end = nxt_run < len(starts)
-    je = np.where(has_end, starts[np.minimum(nxt_run, len(starts) - 1)], -1)
-    has_end &= task[np.maximum(je, 0)] == task[qs]
-    fim = lambda t_, w: np.imag(c7(t_, w))
-    # the band edges are the zeros of Im C7 = Im(Δ10/Δ00); the compiled refinement uses the same
-    # zeros of Im(Δ00·conj Δ10) = −|Δ00|² Im C7 (no division): its bracket values change sign
-    # (computed for the bracketing leaves only; index k among the leaves with a > 0)
-    def gva(k):
-        with np.errstate(over="ignore", invalid="ignore"):  # only their signs are used
-            return np.imag(lv["va"][0][leaf[k]] * np.conj(lv["va"][1][leaf[k]]))
-
-    def gvb(k):
-        with np.errstate(over="ignore", invalid="ignore"):
-            return np.imag(lv["vb"][0][leaf[k]] * np.conj(lv["vb"][1][leaf[k]]))
-
-    bracket_start = (np.sign(ima(qs)) != np.sign(imb[qs])) & resolved_sign[qs] & resolved_a[qs]
-    ws = a_l[qs].copy()
-    if bracket_start.any():
-        k = qs[bracket_start]
-        ws[bracket_start] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima(k), imb[k], gva(k), gvb(k))
-    we = np.full(len(qs), np.inf)
-    jj = np.maximum(je, 0)
-    closes = has_end & (np.sign(ima(jj)) != np.sign(imb[jj])) & resolved_sign[jj] & resolved_a[jj]
-    we[has_end & ~closes] = b_l[np.maximum(je, 0)][has_end & ~closes] if (has_end & ~closes).any() else we[has_end & ~closes]
-    has_end = closes
-    if has_end.any():
-        k = je[has_end]
-        we[has_end] = _edge_roots(fim, D0, D1, task[k], a_l[k], b_l[k], ima(k), imb[k], gva(k), gvb(k))
+    qs, qe = starts[qual], ends[qual]
+    # a run's edge is the zero of Im C7 between its end sample and the neighbour outside it (that
+    # neighbour itself where a sign there is below the float resolution)
+    opens = (qs > 0) & ~first[qs]
+    ws = _edges(D0, D1, task, w, c, resolved, qs - 1, np.where(opens, w[np.maximum(qs - 1, 0)], w[qs]), ok=opens)
+    nxt = np.minimum(qe + 1, task.size - 1)
+    closes = (qe + 1 < task.size) & (task[nxt] == task[qe])
+    we = np.where(closes, _edges(D0, D1, task, w, c, resolved, qe, w[nxt], ok=closes), np.inf)
     bands = [[] for _ in range(Nd)]
     for t_, w0, w1 in zip(task[qs].tolist(), ws.tolist(), we.tolist()):
         bands[t_].append([w0 / (2 * np.pi), w1 / (2 * np.pi)])
+    partial = over.copy()
     exh = lv.get("exhausted")
-    if exh is not None and exh.any():  # partial frequency coverage: the metrics are undefined
-        best[exh] = np.nan
-        for t in np.flatnonzero(exh):
+    if exh is not None:
+        partial |= exh
+    if partial.any():  # partial frequency coverage: the metrics are undefined
+        best[partial] = np.nan
+        for t in np.flatnonzero(partial):
             bands[t] = []
     return PassivityBatch(conclusive=lv["valid"] & lv["resolved"], max_phase_excess_deg=best, nonpassive_band_hz=bands)
 
 
-def _golden_max(f, a_, b_):
-    """Maximum of ``f`` on each bracket [a_, b_] by 40 golden-section steps (numpy reference of
-    :func:`exotune.numerics.kernels.golden_max`): ``f`` at the final bracket's midpoint."""
-    gr = 0.5 * (np.sqrt(5) - 1)
-    c1 = b_ - gr * (b_ - a_)
-    c2 = a_ + gr * (b_ - a_)
-    f1, f2 = f(c1), f(c2)
-    for _ in range(40):  # golden section, one new evaluation per iteration
-        left = f1 >= f2
-        b_ = np.where(left, c2, b_)
-        a_ = np.where(left, a_, c1)
-        c2n = np.where(left, c1, a_ + gr * (b_ - a_))
-        c1n = np.where(left, b_ - gr * (b_ - a_), c2)
-        new = np.where(left, c1n, c2n)
-        fn = f(new)
-        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
-        c1, c2 = c1n, c2n
-    return f(0.5 * (a_ + b_))
+def _excess(c):
+    """The passivity phase excess of C7 values ``c`` [deg]."""
+    ph = np.degrees(np.angle(c))
+    return np.where(ph > 0, np.minimum(ph, 180.0 - ph), 0.0)
 
 
-def _edge_roots(fim, D0, D1, task, a, b, ima, imb, ga, gb):
-    if compiled():
-        return pair_roots(None, D0, D1, "cross", task, a, b, ga, gb)
-    return bisect_roots(fim, task, a, b, ima, fb=imb)
-
-
-def _argmax_by_task(task, vals, Nd):
-    """Index of the largest positive value of each task (-1 when none); ties: the last index."""
-    out = np.full(Nd, -1)
-    if task.size == 0:
-        return out
-    best = np.full(Nd, -np.inf)
-    np.maximum.at(best, task, vals)
-    hit = np.nonzero((vals == best[task]) & (vals > 0))[0]
-    # indices ascending: for repeated tasks the last assignment (largest index) wins
-    out[task[hit]] = hit
+def _excess_where(c, im):
+    """:func:`_excess` where it can be positive (Im c > 0 ⇔ phase in (0°, 180°)), 0 elsewhere and
+    where ``c`` is not finite (the same values, without the angles of the rest)."""
+    out = np.zeros(c.shape)
+    sel = (im > 0) & np.isfinite(c)
+    out[sel] = _excess(c[sel])
     return out
 
+
+def _samples(D0, D1, lv):
+    """C7 samples of every design, ordered by (design, ω): the leaves' ends, the tail extension
+    of delayed designs, the ripple points (:func:`_ripple_points`) and the dips (:func:`_dips`).
+
+    Returns ``(task, w, c7, over)``: design row, ω [rad/s] and C7(jω) per sample, and per design
+    whether the ripple needed more than ``MAX_RIPPLE_SAMPLES`` samples or more than ``TAIL_STEPS``
+    octaves of tail (partial coverage)."""
+    Nd = D0.n
+    pos = lv["a"] > 0  # all leaves unless a grid starts at ω = 0
+    lt, la, lb = lv["task"][pos], lv["a"][pos], lv["b"][pos]
+    if lt.size == 0:
+        z = np.zeros(0)
+        return np.zeros(0, np.int64), z, z.astype(complex), np.zeros(Nd, bool)
+    first = np.r_[True, lt[1:] != lt[:-1]]
+    # the leaves' ends: the a-end of each design's first leaf, then every b-end (no evaluation)
+    ntake = 1 + first.astype(np.int64)  # samples each leaf contributes
+    at = np.repeat(np.arange(lt.size), ntake)
+    is_a = np.zeros(at.size, bool)
+    is_a[np.cumsum(ntake)[first] - 2] = True
+    task, w = lt[at], np.where(is_a, la[at], lb[at])
+    va, vb = lv["va"], lv["vb"]
+    d0 = np.where(is_a, va[0][pos][at], vb[0][pos][at])  # Δ00(jω)
+    d1 = np.where(is_a, va[1][pos][at], vb[1][pos][at])  # Δ10(jω)
+    T = D0.T
+    over = np.zeros(Nd, bool)
+    if (T > 0).any():
+        task, w, d0, d1, flag, gval, wide, over = _tail(D0, D1, task, w, d0, d1)
+        # the ripple: four points per period in every cell longer than a quarter period where the
+        # frozen ripple's crest of Im C7 is positive and lifts the phase by RIPPLE_MIN_DEG at an end
+        cell = np.flatnonzero(wide & (flag[1:] | flag[:-1]))
+        args = (w[cell], w[cell + 1], T[task[cell]], gval[cell], gval[cell + 1])
+        over |= np.bincount(task[cell], weights=_ripple_phase(*args)[0], minlength=Nd) > MAX_RIPPLE_SAMPLES
+        keep = ~over[task[cell]]
+        cell = cell[keep]
+        n, rw = _ripple_points(*(x[keep] for x in args))
+        if rw.size:
+            rt = np.repeat(task[cell], n)
+            ins = np.zeros(task.size, np.int64)
+            ins[cell] = n
+            put = _inserter(ins)
+            task, w = put(task, rt), put(w, rw)
+            d0, d1 = put(d0, D0.eval(rt, rw, deriv=False)[0]), put(d1, D1.eval(rt, rw, deriv=False)[0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = d1 / d0
+    # a lobe (or a gap in a band) narrower than the sampling: where sin arg C7 comes near 0 and
+    # turns back, Im C7 is searched for the other sign between the neighbours; such a point is
+    # added as a sample, and the lobe's (gap's) edges follow
+    after, wd, cd = _dips(D0, D1, task, w, c)
+    if after.size:
+        ins = np.zeros(task.size, np.int64)
+        np.add.at(ins, after, 1)
+        order = np.argsort(after, kind="stable")
+        put = _inserter(ins)
+        task, w, c = put(task, task[after][order]), put(w, wd[order]), put(c, cd[order])
+    return task, w, c, over
+
+
+def _tail(D0, D1, task, w, d0, d1):
+    """The frozen-ripple frame (:func:`_frame`) where the ripple sampling needs it, and the tail.
+
+    The cells between consecutive samples that are longer than a quarter ripple period (ωT spans
+    more than π/2; shorter cells have four samples per period or more, where :func:`_dips` finds
+    a lobe narrower than them) get the frame at both ends. A delayed design whose last sample is
+    flagged gets a tail: up to ``TAIL_STEPS`` octaves beyond it, kept while the frame is flagged
+    (and one step beyond); beyond the last leaf the frequency set's tail bounds hold and the
+    ripple's lift only decays.
+
+    Returns the samples with the tails inserted, the frame (``flag``, ``g``; False and 0 where it
+    is not computed), per cell whether it is long, and per design whether the ripple could still
+    lift the phase at the last tail step (the coverage is then partial)."""
+    T = D0.T
+    same = task[1:] == task[:-1]
+    wide = same & ((w[1:] - w[:-1]) * T[task[:-1]] > 0.5 * np.pi)
+    last = np.flatnonzero(np.r_[~same, True])
+    last = last[T[task[last]] > 0]
+    need = np.zeros(task.size, bool)
+    need[:-1] |= wide
+    need[1:] |= wide
+    need[last] = True
+    k = np.flatnonzero(need)
+    flag = np.zeros(task.size, bool)
+    g = np.zeros(task.size, complex)
+    flag[k], g[k] = _frame(D0, D1, task[k], w[k], d0[k], d1[k])
+    last = last[flag[last]]
+    unfinished = np.zeros(D0.n, bool)
+    if last.size == 0:
+        return task, w, d0, d1, flag, g, wide, unfinished
+    t_task = np.repeat(task[last], TAIL_STEPS)
+    t_w = (w[last][:, None] * 2.0 ** np.arange(1, TAIL_STEPS + 1)[None, :]).ravel()
+    t_d0, t_d1 = D0.eval(t_task, t_w, deriv=False)[0], D1.eval(t_task, t_w, deriv=False)[0]
+    t_flag, t_g = _frame(D0, D1, t_task, t_w, t_d0, t_d1)
+    lifts = t_flag.reshape(-1, TAIL_STEPS)
+    # steps up to the last one that can still lift the phase, plus one (at least one step)
+    n_t = np.where(lifts.any(axis=1), np.minimum(TAIL_STEPS - np.argmax(lifts[:, ::-1], axis=1) + 1, TAIL_STEPS), 1)
+    keep = (np.arange(TAIL_STEPS)[None, :] < n_t[:, None]).ravel()
+    ins = np.zeros(task.size, np.int64)
+    ins[last] = n_t
+    put = _inserter(ins)
+    unfinished[task[last]] = lifts[:, -1]
+    # the tail's cells (from the last sample on) are octaves: long; they follow cell last − 1 (a
+    # design has two samples at least)
+    wide_ins = np.zeros(task.size - 1, np.int64)
+    wide_ins[last - 1] = n_t
+    wide = _inserter(wide_ins)(wide, np.ones(int(n_t.sum()), bool))
+    out = (put(task, t_task[keep]), put(w, t_w[keep]), put(d0, t_d0[keep]), put(d1, t_d1[keep]),
+           put(flag, t_flag[keep]), put(g, t_g[keep]))
+    return out + (wide, unfinished)
+
+
+def _frame(D0, D1, task, w, d0, d1):
+    """The frozen delay ripple at each sample (compiled: :func:`exotune.numerics.kernels.ripple_frame`):
+    whether its crest A0 + |G| of |Δ00|² Im C7 is positive and can lift the phase by
+    ``RIPPLE_MIN_DEG`` or more (bounded with |Δ00| ≥ |P00| − |P01| and |Δ10| ≥ |P10| − |P11|; a
+    non-positive bound counts), and G (docs/method.md#passivity-of-the-operator-compliance).
+    Δ00 = P00 + P01 e^{−sT} and Δ10 = P10 + P11 e^{−sT}; the delayed parts P01, P11 are evaluated,
+    P00 and P10 follow from Δ00 and Δ10. No delay: no flag, G = 0."""
+    if compiled():
+        from ..numerics import kernels as _fastphase
+
+        return _fastphase.ripple_frame(D0, D1, task, w, d0, d1, RIPPLE_MIN_DEG)
+    flag = np.zeros(task.size, bool)
+    g = np.zeros(task.size, complex)
+    dl = np.flatnonzero(D0.T[task] > 0)
+    if dl.size == 0:
+        return flag, g
+    t_, x = task[dl], w[dl]
+    e = np.exp(-1j * x * D0.T[t_])
+    p01, p11 = D0.delayed_part(t_, x), D1.delayed_part(t_, x)
+    p00, p10 = d0[dl] - p01 * e, d1[dl] - p11 * e
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        a0 = np.imag(p10 * np.conj(p00) + p11 * np.conj(p01))
+        gd = p11 * np.conj(p00) - np.conj(p10) * p01
+        crest = a0 + np.abs(gd)
+        den = np.maximum(np.abs(p00) - np.abs(p01), 0.0) * np.maximum(np.abs(p10) - np.abs(p11), 0.0)
+        lift = np.degrees(crest / den)
+    flag[dl] = (crest > 0) & ~((den > 0) & (lift < RIPPLE_MIN_DEG))
+    g[dl] = gd
+    return flag, g
+
+
+def _inserter(counts):
+    """A function that returns its ``base`` with ``counts[i]`` items of ``extra`` (in order)
+    inserted after each ``base[i]`` (the positions computed once for every array)."""
+    pos = np.arange(counts.size) + np.cumsum(counts) - counts
+    size = counts.size + int(counts.sum())
+    mask = np.ones(size, bool)
+    mask[pos] = False
+
+    def put(base, extra):
+        out = np.empty(size, dtype=np.result_type(base, extra))
+        out[pos] = base
+        out[mask] = extra
+        return out
+
+    return put
+
+
+def _dips(D0, D1, task, w, c):
+    """Lobes of Im C7 > 0, and gaps of Im C7 < 0 inside a band, narrower than the samples.
+    Candidates: samples j where sin arg C7 (= Im C7/|C7|) may hide the other sign between its
+    neighbours (:func:`~exotune.numerics.quasipoly.dip_candidates`). −s·Im(Δ10·conj Δ00) = −s|Δ00|² Im C7 is maximized on [w_{j−1}, w_{j+1}] by
+    golden section; where its maximum is positive (Im C7 changes sign), that point is returned.
+
+    Returns ``(after, w, c7)``: the index of the sample each new point follows, the point [rad/s]
+    and C7 there."""
+    n = task.size
+    z = np.zeros(0, np.int64)
+    if n < 3:
+        return z, np.zeros(0), np.zeros(0, complex)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sn = np.imag(c) / np.abs(c)
+    j = np.arange(1, n - 1)
+    cand, sg = dip_candidates(sn[j - 1], sn[j], sn[j + 1])
+    cand &= (task[j - 1] == task[j]) & (task[j + 1] == task[j])
+    j, sg = j[cand], sg[cand]
+    if j.size == 0:
+        return z, np.zeros(0), np.zeros(0, complex)
+    v, ws = np.zeros(j.size), np.zeros(j.size)
+    for s_, qa, qb in ((-1.0, D1, D0), (1.0, D0, D1)):  # −s·Im(Δ10 conj Δ00) = Im(qa conj qb)
+        k = sg == s_
+        if not k.any():
+            continue
+        tk = task[j[k]]
+        if compiled():
+            from ..numerics import kernels as _fastphase
+
+            v[k], ws[k] = _fastphase.golden_max(qa, qb, "cross", tk, w[j[k] - 1], w[j[k] + 1], iters=40, where=True)
+        else:
+            def f(x, qa=qa, qb=qb, tk=tk):
+                return np.imag(qa.eval(tk, x, deriv=False)[0] * np.conj(qb.eval(tk, x, deriv=False)[0]))
+
+            v[k], ws[k] = golden_max(f, w[j[k] - 1], w[j[k] + 1], where=True)
+    hit = v > 0
+    j, ws = j[hit], ws[hit]
+    tj = task[j]
+    a, _ = D0.eval(tj, ws, deriv=False)
+    b, _ = D1.eval(tj, ws, deriv=False)
+    return np.where(ws < w[j], j - 1, j), ws, b / a
+
+
+def _ripple_phase(wa, wb, T, ga, gb):
+    """The ripple phase ψ(ω) = ωT − arg G(ω) + π/2 at the cells' a-ends and its increase across
+    them, and the number n and first index k0 of the quarter periods ψ = kπ/2 inside each cell."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dpsi = (wb - wa) * T - np.angle(gb / ga)
+        psi_a = wa * T - np.angle(ga) + 0.5 * np.pi
+    ok = np.isfinite(dpsi) & np.isfinite(psi_a) & (dpsi > 0)
+    q = 0.5 * np.pi
+    k0 = np.where(ok, np.floor(psi_a / q) + 1, 0)
+    k1 = np.where(ok, np.ceil((psi_a + dpsi) / q) - 1, -1)
+    n = np.minimum(np.maximum(k1 - k0 + 1, 0), 4.0 * MAX_RIPPLE_SAMPLES).astype(np.int64)
+    return n, k0, psi_a, dpsi
+
+
+def _ripple_points(wa, wb, T, ga, gb):
+    """Four points per period of the delay ripple in each cell [wa, wb] [rad/s], on the crests,
+    troughs and midway points of the frozen ripple A0 + |G| sin(arg G − ωT) (:func:`_g`):
+    ψ(ω) = ωT − arg G(ω) + π/2 ≡ 0 (mod π/2), with arg G interpolated linearly across the cell.
+    A lobe where Im C7 > 0 is then sampled at its crest, and the gap between two lobes at its
+    trough, unless the lobe (gap) is so shallow that its peak excess is negligible.
+
+    Returns ``(n, w)``: the number of points in each cell and the points, cell by cell, increasing."""
+    n, k0, psi_a, dpsi = _ripple_phase(wa, wb, T, ga, gb)
+    q = 0.5 * np.pi
+    cell = np.repeat(np.arange(wa.size), n)
+    k = k0[cell] + (np.arange(cell.size) - np.repeat(np.cumsum(n) - n, n))
+    w = wa[cell] + (k * q - psi_a[cell]) / dpsi[cell] * (wb[cell] - wa[cell])
+    # rounding can put a point on a cell end: keep it strictly inside
+    w = np.minimum(np.maximum(w, np.nextafter(wa[cell], np.inf)), np.nextafter(wb[cell], -np.inf))
+    return n, w
+
+
+def _peak_cells(task, w, c, ex, im, resolved, same):
+    """The brackets where the maximum of the excess is refined by golden section: around the
+    ``REFINE_PEAKS`` largest local maxima of the sampled excess of each design and every local
+    maximum within a factor 2 of the listing threshold. Returns ``(task, a, b, sample)``: the
+    sample names the run that the refined value belongs to."""
+    n = task.size
+    if n < 2:
+        z = np.zeros(0, np.int64)
+        return z, np.zeros(0), np.zeros(0), z
+    left = np.r_[False, same]  # sample i has a left neighbour of its design
+    right = np.r_[same, False]
+    exl = np.where(left, np.r_[0.0, ex[:-1]], -np.inf)
+    exr = np.where(right, np.r_[ex[1:], 0.0], -np.inf)
+    locmax = (ex > 0) & (ex >= exl) & (ex >= exr)
+    i = np.flatnonzero(locmax)
+    # rank within each design by the sampled excess, the largest first
+    order = np.lexsort((-ex[i], task[i]))
+    i = i[order]
+    start = np.r_[True, task[i][1:] != task[i][:-1]] if i.size else np.zeros(0, bool)
+    rank = np.arange(i.size) - np.maximum.accumulate(np.where(start, np.arange(i.size), 0))
+    near = (ex[i] >= 0.5 * BAND_MIN_EXCESS_DEG) & (ex[i] < BAND_MIN_EXCESS_DEG)
+    i = i[(rank < REFINE_PEAKS) | near]
+    a = w[np.where(left[i], i - 1, i)]
+    b = w[np.where(right[i], i + 1, i)]
+    return task[i], a, b, i
+
+
+def _through_90(D0, D1, task, w, c, im, resolved, same):
+    """The excess [deg] where the phase passes 90° between two samples of Im C7 > 0 (Re C7 changes
+    sign): Re C7 = 0 is bisected (the zero of Re(Δ10·conj Δ00) = |Δ00|² Re C7, the compiled
+    refinement's crossing function of the pair (Δ10, Δ00) with f = −j) and the excess evaluated
+    there (90° to rounding; golden section is not used: the excess has a kink at 90°). Returns
+    ``(sample, excess)``: the cell's first sample and the value."""
+    pos = (im > 0) & resolved
+    j = np.flatnonzero(same & pos[:-1] & pos[1:] & (np.sign(np.real(c[:-1])) != np.sign(np.real(c[1:]))))
+    if j.size == 0:
+        return j, np.zeros(0)
+    tj = task[j]
+
+    def fre(t_, x):
+        return np.real(D1.eval(t_, x, deriv=False)[0] * np.conj(D0.eval(t_, x, deriv=False)[0]))
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        ga, gb = fre(tj, w[j]), fre(tj, w[j + 1])
+    if compiled():
+        w90 = pair_roots(None, D1, D0, "cross", tj, w[j], w[j + 1], ga, gb, k=0, factor=-1j)
+    else:
+        w90 = bisect_roots(fre, tj, w[j], w[j + 1], ga, fb=gb)
+    a, _ = D0.eval(tj, w90, deriv=False)
+    b, _ = D1.eval(tj, w90, deriv=False)
+    return j, _excess_where(b / a, np.imag(b / a))
+
+
+def _refine_max(D0, D1, task, a, b):
+    """The maximum of the excess [deg] on each bracket [a, b] by golden section (compiled or the
+    numpy reference :func:`~exotune.numerics.quasipoly.golden_max`)."""
+    if compiled():
+        from ..numerics import kernels as _fastphase
+
+        return _fastphase.golden_max(D0, D1, "excess", task, a, b, iters=40)
+
+    def f(w):
+        a_, _ = D0.eval(task, w, deriv=False)
+        b_, _ = D1.eval(task, w, deriv=False)
+        return _excess(b_ / a_)
+
+    return golden_max(f, a, b)
+
+
+def _edges(D0, D1, task, w, c, resolved, i, fallback, ok):
+    """Band edges [rad/s]: the zero of Im C7 between samples i and i + 1 where ``ok``, both signs
+    are resolved and they differ, else ``fallback``."""
+    out = np.array(fallback, dtype=float, copy=True)
+    if i.size == 0 or task.size < 2:
+        return out
+    j = np.clip(i, 0, task.size - 2)
+    im = np.imag(c)
+    br = ok & resolved[j] & resolved[j + 1] & (np.sign(im[j]) != np.sign(im[j + 1])) & (task[j] == task[j + 1])
+    if br.any():
+        k = j[br]
+
+        # the zeros of Im C7 = Im(Δ10/Δ00) are those of Im(Δ00·conj Δ10) = −|Δ00|² Im C7 (no
+        # division; the compiled refinement's "cross" function)
+        def fim(t_, x):
+            return np.imag(D0.eval(t_, x, deriv=False)[0] * np.conj(D1.eval(t_, x, deriv=False)[0]))
+
+        with np.errstate(over="ignore", invalid="ignore"):
+            ga, gb = fim(task[k], w[k]), fim(task[k], w[k + 1])
+        if compiled():
+            out[br] = pair_roots(None, D0, D1, "cross", task[k], w[k], w[k + 1], ga, gb)
+        else:
+            out[br] = bisect_roots(fim, task[k], w[k], w[k + 1], ga, fb=gb)
+    return out

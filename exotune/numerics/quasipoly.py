@@ -35,11 +35,14 @@ from .engine import resolve_engine as _engine
 from .poly import degree, leading, pder
 from .budgets import MAX_TASK_LEAVES
 
-__all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots"]
+__all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots", "golden_max", "dip_candidates", "DIP_RISE"]
 
 ARG_STEP = 0.8  # max accepted phase step per interval [rad] (any value < π keeps unwrapping exact)
 DER_STEP = 1.0  # max accepted (b − a)·|Δ'/Δ(b) − Δ'/Δ(a)| per interval
 MAX_LEVELS = 64
+# a sampled local minimum of a function of one sign is searched for the other sign when it is
+# nearer to 0 than DIP_RISE times its rise to the higher neighbour (see dip_candidates)
+DIP_RISE = 0.5
 _TAN_ARG = float(np.tan(ARG_STEP))
 
 
@@ -60,6 +63,14 @@ class QP:
     @property
     def n(self) -> int:
         return self.p0.shape[0]
+
+    def parts(self, idx: np.ndarray, w: np.ndarray):
+        """P0(jω) and P1(jω) (the polynomial parts, without the delay) for rows ``idx``."""
+        return _horner_vd(self._c0, idx, 1j * w, False)[0], self.delayed_part(idx, w)
+
+    def delayed_part(self, idx: np.ndarray, w: np.ndarray):
+        """P1(jω), the polynomial that multiplies the delay, for rows ``idx``."""
+        return _horner_vd(self._c1, idx, 1j * w, False)[0]
 
     def take(self, idx) -> "QP":
         return QP(self.p0[idx], self.p1[idx], self.T[idx])
@@ -460,3 +471,69 @@ def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.nda
         a = np.where(hit, x, a)
         b = np.where(hit, x, b)
     return 0.5 * (a + b)
+
+
+def golden_max(f, a_, b_, iters: int = 40, where: bool = False):
+    """Maximum of the vectorized ``f`` on each bracket [a_, b_] by ``iters`` golden-section steps
+    (numpy reference of :func:`exotune.numerics.kernels.golden_max`, the same iteration).
+
+    Parameters
+    ----------
+    f : callable
+        ``f(w)``: real values at the points ``w`` (one per bracket).
+    a_, b_ : numpy.ndarray
+        The brackets' ends.
+    iters : int, optional
+        Golden-section steps (one new evaluation each).
+    where : bool, optional
+        Also return where each maximum was found.
+
+    Returns
+    -------
+    numpy.ndarray, or (numpy.ndarray, numpy.ndarray) when ``where``
+        ``f`` at the final bracket's midpoint, and that midpoint.
+    """
+    gr = 0.5 * (np.sqrt(5) - 1)
+    c1 = b_ - gr * (b_ - a_)
+    c2 = a_ + gr * (b_ - a_)
+    f1, f2 = f(c1), f(c2)
+    for _ in range(iters):  # golden section, one new evaluation per iteration
+        left = f1 >= f2
+        b_ = np.where(left, c2, b_)
+        a_ = np.where(left, a_, c1)
+        c2n = np.where(left, c1, a_ + gr * (b_ - a_))
+        c1n = np.where(left, b_ - gr * (b_ - a_), c2)
+        new = np.where(left, c1n, c2n)
+        fn = f(new)
+        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
+        c1, c2 = c1n, c2n
+    wm = 0.5 * (a_ + b_)
+    return (f(wm), wm) if where else f(wm)
+
+
+def dip_candidates(uq, up, un):
+    """Which middle points of three consecutive samples ``(uq, up, un)`` of one sign s may hide a
+    pair of sign changes between the outer two: s·u has a local minimum at the middle point that is
+    nearer to 0 than ``DIP_RISE`` (½) times its rise to the higher neighbour.
+
+    A smooth minimum sampled evenly (a parabola, or a sinusoid at 8 points per period) lies below
+    its sampled value by at most a quarter of that rise, so a minimum of the other sign always
+    passes the test (with a factor 2 to spare).
+
+    Parameters
+    ----------
+    uq, up, un : numpy.ndarray
+        The normalized function at the three points (NaN: never a candidate).
+
+    Returns
+    -------
+    cand : numpy.ndarray of bool
+        The candidates.
+    sign : numpy.ndarray
+        s, the sign of the middle value.
+    """
+    sg = np.sign(up)
+    with np.errstate(invalid="ignore"):
+        lo_, mid, hi_ = sg * uq, sg * up, sg * un
+        cand = (mid > 0) & (lo_ > 0) & (hi_ > 0) & (mid <= lo_) & (mid < hi_) & (mid < DIP_RISE * (np.maximum(lo_, hi_) - mid))
+    return cand, sg

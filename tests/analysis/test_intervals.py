@@ -211,3 +211,52 @@ def test_msd_box_edge_theorem_matches_grid_counts():
                 assert not res["stable"].all(), (alpha, delay, m_lo)
             verdicts.add(robust)
     assert verdicts == {True, False}
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_a_crossing_pair_between_subsampled_points_is_found(engine):
+    """Campaign design MSD_CROSSING_PAIR (docs/benchmarks.md#independent-metrics-campaign): the
+    crossing curve of its mass-spring-damper family dips across the real axis between two
+    sub-sampled points (a pair of critical values 8 % apart in value, 12 Hz apart in frequency, with
+    |Im p|/|p| ≤ 2e-3). Reference, independent of exotune's leaves and sub-sampling: p(ω) =
+    (−1/C7(jω) − z0(jω))/(jω)² of the member z = m s² + b s + k on a dense grid (1 mHz–100 kHz, 64
+    points per delay-ripple period up to 5 kHz), its sign changes of Im p refined by brentq; every
+    one with Re p inside the range must be a critical value."""
+    import scipy.optimize
+
+    from campaign_designs import MSD_CROSSING_PAIR
+    from exotune.analysis.operator_passivity import c7_response
+    from exotune.config import design_from_mapping
+    from exotune.numerics.engine import numpy_engine
+
+    cfg = batch_config(design_from_mapping(MSD_CROSSING_PAIR), {})
+    fam = MSD_CROSSING_PAIR["humans"][0]
+    lo, hi = fam["inertia"]
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    terms = char_terms(cfg.plant, cs, 1)
+
+    def p_of(w):
+        w = np.atleast_1d(np.asarray(w, dtype=float))
+        s = 1j * w
+        return (-1.0 / c7_response(terms, w[None, :])[0] - (fam["damping"] * s + fam["stiffness"])) / s**2
+
+    T = MSD_CROSSING_PAIR["implementation"]["delay_s"]
+    f = np.unique(np.r_[np.geomspace(1e-3, 1e5, 200_001), np.arange(1 / (64 * T), 5e3, 1 / (64 * T))])
+    w = 2 * np.pi * f
+    p = p_of(w)
+    ch = np.flatnonzero(np.sign(p.imag[1:]) * np.sign(p.imag[:-1]) < 0)
+    ref = []
+    for i in ch:
+        x = scipy.optimize.brentq(lambda v: p_of(v)[0].imag, w[i], w[i + 1], xtol=1e-14 * w[i])
+        v = float(p_of(x)[0].real)
+        if lo < v < hi:
+            ref.append((v, x / (2 * np.pi)))
+    assert len(ref) >= 3  # the pair near 600 Hz and the crossing near 483 Hz
+    if engine == "numpy":
+        with numpy_engine():
+            crit = analyze_batch(cfg).to_columns()["human0_msd_critical"][0]
+    else:
+        crit = analyze_batch(cfg).to_columns()["human0_msd_critical"][0]
+    for v, fr in ref:
+        assert any(abs(c - v) <= 1e-7 * v and abs(g - fr) <= 1e-7 * fr for c, g in crit), (v, fr, crit)
+    assert len(crit) == len(ref)

@@ -9,6 +9,7 @@ One module per kernel family:
 - :mod:`.pair`: scalar functions of a pair (values, Illinois roots, golden-section maxima, the
   crossing classification and sub-sampling of leaves);
 - :mod:`.bounds`: frequency tail bounds and batched polynomial products;
+- :mod:`.ripple`: the frozen delay-ripple frame of the operator compliance C7 (passivity);
 - :mod:`.latency`: the latency margin of every design of a batch (the sweep column);
 - :mod:`.shiftloop`: the linear recursion of a simulated run with a long delay line;
 - :mod:`.eig`: eigenvalues of stacks of small real matrices (the sampled-data loops) and the
@@ -29,6 +30,7 @@ from .common import AVAILABLE, GEO_SPLIT_RATIO, MAX_GROUP_EVALS, MAX_TASK_EVALS,
 from .leaves import leaves2
 from .pair import classify_leaves, golden_max, pair_roots, pair_values, refine_crossings, subsample_brackets
 from .phase import count_tasks, phase_sums
+from .ripple import ripple_frame
 
 __all__ = [
     "AVAILABLE",
@@ -48,4 +50,5 @@ __all__ = [
     "family_wmax",
     "omega_max",
     "pmul_rows",
+    "ripple_frame",
 ]

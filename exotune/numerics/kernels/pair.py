@@ -87,7 +87,7 @@ if AVAILABLE:
             out[i] = 0.5 * (x0 + x1)
 
     @njit(cache=True)
-    def _golden_max(cA0, cA1, cB0, cB1, Ts, task, a, b, mode, iters, out):
+    def _golden_max(cA0, cA1, cB0, cB1, Ts, task, a, b, mode, iters, out, out_w):
         gr = 0.5 * (math.sqrt(5.0) - 1.0)
         for i in range(task.shape[0]):
             t = task[i]
@@ -111,7 +111,8 @@ if AVAILABLE:
                     f1 = f2
                     c2 = lo + gr * (hi - lo)
                     f2 = _fun(cA0, cA1, cB0, cB1, t, T, c2, mode, 0, 1.0, 0.0, 0.0)
-            out[i] = _fun(cA0, cA1, cB0, cB1, t, T, 0.5 * (lo + hi), mode, 0, 1.0, 0.0, 0.0)
+            out_w[i] = 0.5 * (lo + hi)
+            out[i] = _fun(cA0, cA1, cB0, cB1, t, T, out_w[i], mode, 0, 1.0, 0.0, 0.0)
 
 
 _MODES = {"cross": 0, "mag": 1, "excess": 2}
@@ -229,10 +230,10 @@ def refine_crossings(qa, qb, k: int, factor: complex, task, a, b, fa, fb):
     return pair_roots(qa, qb, "cross", task, a, b, fa, fb, k=k, factor=factor)
 
 
-def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40):
+def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40, where: bool = False):
     """Golden-section maximization of the ``mode`` function on [a, b] per entry (one new
     evaluation per iteration); returns the value at the final midpoint (same iteration as the numpy
-    reference in exotune.analysis).
+    reference in exotune.analysis), and that midpoint too when ``where``.
 
     Parameters
     ----------
@@ -247,17 +248,21 @@ def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40):
         The intervals' ends [rad/s].
     iters : int
         Golden-section iterations.
+    where : bool
+        Also return where each maximum was found.
 
     Returns
     -------
-    ndarray
-        The maximum found on each interval (for "excess": [deg]).
+    ndarray, or (ndarray, ndarray) when ``where``
+        The maximum found on each interval (for "excess": [deg]), and its frequency [rad/s].
     """
     out = np.empty(len(task))
+    out_w = np.empty(len(task))
     if len(task):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
-        _golden_max(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), _MODES[mode], int(iters), out)
-    return out
+        _golden_max(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), _MODES[mode], int(iters),
+                    out, out_w)
+    return (out, out_w) if where else out
 
 
 if AVAILABLE:
@@ -350,10 +355,50 @@ def classify_leaves(lv: dict, k: int, factor: complex, lo: float, hi: float, sin
 
 if AVAILABLE:
 
+    @njit(cache=True, inline="always")
+    def _cross_norm(cA0, cA1, cB0, cB1, t, T, w, k, fre, fim):
+        """The crossing function g = Im[a·conj(f (jω)^k b)] and |a|·|f (jω)^k b| (its scale)."""
+        a, _ = eval_quasi(cA0, cA1, t, T, w)
+        b, _ = eval_quasi(cB0, cB1, t, T, w)
+        s = 1j * w
+        phi = 1.0 + 0j
+        for _ in range(k):
+            phi = phi * s
+        fb = complex(fre, fim) * phi * b
+        # the scale by two square roots (cheaper than abs, which guards against overflow only
+        # beyond 1e154, where the normalized value is not needed)
+        return (a * fb.conjugate()).imag, math.sqrt(a.real * a.real + a.imag * a.imag) * math.sqrt(
+            fb.real * fb.real + fb.imag * fb.imag)
+
     @njit(cache=True)
-    def _subsample(cA0, cA1, cB0, cB1, Ts, st, sa, sb, Ms, k, fre, fim, cvals, otask, oa, ob, oga, ogb):
+    def _dip(cA0, cA1, cB0, cB1, t, T, lo, hi, sg, k, fre, fim, iters):
+        """Golden-section minimum of sg·g on [lo, hi]: (where, g there)."""
+        gr = 0.5 * (math.sqrt(5.0) - 1.0)
+        c1 = hi - gr * (hi - lo)
+        c2 = lo + gr * (hi - lo)
+        f1 = sg * _cross_norm(cA0, cA1, cB0, cB1, t, T, c1, k, fre, fim)[0]
+        f2 = sg * _cross_norm(cA0, cA1, cB0, cB1, t, T, c2, k, fre, fim)[0]
+        for _ in range(iters):
+            if f1 <= f2:
+                hi = c2
+                c2 = c1
+                f2 = f1
+                c1 = hi - gr * (hi - lo)
+                f1 = sg * _cross_norm(cA0, cA1, cB0, cB1, t, T, c1, k, fre, fim)[0]
+            else:
+                lo = c1
+                c1 = c2
+                f1 = f2
+                c2 = lo + gr * (hi - lo)
+                f2 = sg * _cross_norm(cA0, cA1, cB0, cB1, t, T, c2, k, fre, fim)[0]
+        wm = 0.5 * (lo + hi)
+        return wm, _cross_norm(cA0, cA1, cB0, cB1, t, T, wm, k, fre, fim)[0]
+
+    @njit(cache=True)
+    def _subsample(cA0, cA1, cB0, cB1, Ts, st, sa, sb, Ms, k, fre, fim, iters, rise, otask, oa, ob, oga, ogb):
         """Sign-change brackets of the crossing function on Ms[i] equally spaced points (ends
-        included) of each leaf [sa, sb] of task st."""
+        included) of each leaf [sa, sb] of task st, and the two brackets of each dip between
+        points (numpy reference: :func:`exotune.analysis.intervals.subsample_brackets`)."""
         n = 0
         for i in range(st.shape[0]):
             t = st[i]
@@ -362,10 +407,16 @@ if AVAILABLE:
             b = sb[i]
             M = Ms[i]
             wp = a
-            gp = _fun(cA0, cA1, cB0, cB1, t, T, wp, MODE_CROSS, k, fre, fim, cvals[t])
+            gp, npv = _cross_norm(cA0, cA1, cB0, cB1, t, T, wp, k, fre, fim)
+            # the point before the previous one (normalized value; NaN: none)
+            wq = a
+            gq = 0.0
+            uq = np.nan
+            up = gp / npv if npv > 0 else np.nan
             for j in range(1, M):
                 w = a + (j / (M - 1)) * (b - a)
-                g = _fun(cA0, cA1, cB0, cB1, t, T, w, MODE_CROSS, k, fre, fim, cvals[t])
+                g, nv = _cross_norm(cA0, cA1, cB0, cB1, t, T, w, k, fre, fim)
+                u = g / nv if nv > 0 else np.nan
                 if (gp < 0.0 and g > 0.0) or (gp > 0.0 and g < 0.0):
                     otask[n] = t
                     oa[n] = wp
@@ -373,12 +424,42 @@ if AVAILABLE:
                     oga[n] = gp
                     ogb[n] = g
                     n += 1
+                elif _is_dip(uq, up, u, rise):
+                    sg = 1.0 if up > 0 else -1.0
+                    wd, gd = _dip(cA0, cA1, cB0, cB1, t, T, wq, w, sg, k, fre, fim, iters)
+                    if sg * gd < 0.0:
+                        otask[n] = t
+                        oa[n] = wq
+                        ob[n] = wd
+                        oga[n] = gq
+                        ogb[n] = gd
+                        otask[n + 1] = t
+                        oa[n + 1] = wd
+                        ob[n + 1] = w
+                        oga[n + 1] = gd
+                        ogb[n + 1] = g
+                        n += 2
+                wq = wp
+                gq = gp
+                uq = up
                 wp = w
                 gp = g
+                up = u
         return n
 
+    @njit(cache=True, inline="always")
+    def _is_dip(uq, up, u, rise):
+        """Normalized values at three consecutive points of one sign s: s·u has a local minimum
+        at the middle one, nearer to 0 than ``rise`` times its rise to the higher neighbour
+        (:func:`exotune.numerics.quasipoly.dip_candidates`)."""
+        if not (uq * up > 0.0 and up * u > 0.0):  # also NaN
+            return False
+        sg = 1.0 if up > 0 else -1.0
+        m, l, r = sg * up, sg * uq, sg * u
+        return m <= l and m < r and m < rise * (max(l, r) - m)
 
-def subsample_brackets(qa, qb, k: int, factor: complex, st, sa, sb):
+
+def subsample_brackets(qa, qb, k: int, factor: complex, st, sa, sb, iters: int = 40, rise: float = 0.5):
     """Compiled sub-sampling of leaves (see :meth:`exotune.analysis._Side.submit`): the sign-change
     brackets (task, a, b, g(a), g(b)) of g(ω) = Im[Δa·conj(f (jω)^k Δb)] on each leaf's points.
 
@@ -394,6 +475,10 @@ def subsample_brackets(qa, qb, k: int, factor: complex, st, sa, sb):
         Design row of each leaf.
     sa, sb : ndarray
         The leaves' ends [rad/s].
+    iters : int
+        Golden-section steps of the search for a dip between points.
+    rise : float
+        The dip test's factor (:func:`exotune.numerics.quasipoly.dip_candidates`).
 
     Returns
     -------
@@ -410,5 +495,5 @@ def subsample_brackets(qa, qb, k: int, factor: complex, st, sa, sb):
     if len(st):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
         n = _subsample(*_pair_args(qa, qb), np.ascontiguousarray(st, dtype=np.int64), f(sa), f(sb), M, int(k),
-                       factor.real, factor.imag, _cvals(None, qa.n), *out)
+                       factor.real, factor.imag, int(iters), float(rise), *out)
     return tuple(x[:n] for x in out)
