@@ -18,8 +18,10 @@ import os
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
+from .errors import ConfigError
 from .jsonio import check_outputs
 from .numerics.engine import numpy_engine
+from .options import flag_value, number_value, path_value
 
 if TYPE_CHECKING:  # each function imports what it returns: `exotune analyze` loads no controller-file code
     from .results import (
@@ -65,7 +67,7 @@ def init(directory=".") -> list:
     """
     from .starter import write_templates
 
-    return list(write_templates(directory))
+    return list(write_templates(path_value("directory", directory)))
 
 
 def load_design(source) -> Any:
@@ -138,7 +140,7 @@ def design(source, *, plots=None) -> DesignSummary:
     """
     from .analysis import design_report
 
-    check_outputs([source], out_dirs={"`plots`": plots})
+    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)})
     cfg = load_design(source)
     with numpy_engine():
         r = design_report(cfg)
@@ -209,7 +211,8 @@ def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
     """
     from .controllerfile.verdicts import analyze_of_record
 
-    check_outputs([source], out_dirs={"`plots`": plots})
+    cross_check = flag_value("cross_check", cross_check)
+    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)})
     cfg = load_design(source)
     with numpy_engine():
         r = analyze_of_record(cfg)
@@ -269,7 +272,7 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     from .config.yamlio import spec_base
     from .sweeps import run_sweep
 
-    check_outputs([spec, spec_base(spec)], out_dirs={"`out`": out})
+    check_outputs([spec, spec_base(spec)], out_dirs={"`out`": path_value("out", out, required=True)})
     return run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
                      chunk_size=chunk_size, progress=progress)
 
@@ -309,6 +312,7 @@ def report(sweep_dir, out=None) -> SweepReport:
 
     if isinstance(sweep_dir, SweepResult):
         sweep_dir = sweep_dir.directory
+    sweep_dir, out = path_value("sweep_dir", sweep_dir, required=True), path_value("out", out)
     check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"`out`": out},
                   protected_dirs=[os.path.join(sweep_dir, "chunks")])
     return make_report(sweep_dir, out)
@@ -355,8 +359,42 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     from .config.yamlio import spec_base
     from .optimization import run_optimize
 
-    check_outputs([spec, spec_base(spec)], outputs={"`out`": out, "`pareto_csv`": pareto_csv})
+    check_outputs([spec, spec_base(spec)], outputs={"`out`": path_value("out", out, required=True),
+                                                    "`pareto_csv`": path_value("pareto_csv", pareto_csv)})
     return run_optimize(spec, out, seed=seed, pareto_csv=pareto_csv)
+
+
+def _rate_override(sample_rate_hz) -> float | None:
+    """The ``sample_rate_hz`` keyword (``--sample-rate-hz``) of ``export`` and ``simulate``, which
+    replaces a design's ``implementation.sample_rate_hz``: refused, naming the keyword, when it is
+    not a positive number or lies outside the design file's accepted range of frequencies.
+
+    Parameters
+    ----------
+    sample_rate_hz : Any
+        The keyword's value (a number, or its text from the command line); None: not given.
+
+    Returns
+    -------
+    float or None
+        The rate [Hz], or None.
+
+    Raises
+    ------
+    ConfigError
+        Field ``sample_rate_hz``: not a positive, finite number, or out of the accepted range
+        (docs/design-file.md#input-limits-and-accepted-ranges).
+    """
+    if sample_rate_hz is None:
+        return None
+    from .config.validate import check_limit
+    from .controllerfile.export import check_sample_rate
+
+    fs = check_sample_rate(sample_rate_hz)
+    try:
+        return check_limit(fs, "frequency")
+    except ValueError as e:  # the range's reason, under the keyword the user gave
+        raise ConfigError("sample_rate_hz", str(e)) from None
 
 
 def export(source, sample_rate_hz: float | None = None, out=None, *, require_latency_margin_s: float | None = None,
@@ -412,7 +450,12 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
         raise TypeError("export needs the design file (a path, or a design loaded from a file)")
     if out is None:
         raise TypeError("export needs out, the controller file to write")
-    check_outputs([path], outputs={"`out`": out})
+    sample_rate_hz = _rate_override(sample_rate_hz)
+    allow_uncertified = flag_value("allow_uncertified", allow_uncertified)
+    if require_latency_margin_s is not None:
+        require_latency_margin_s = number_value("require_latency_margin_s", require_latency_margin_s,
+                                                noun="a number of seconds")
+    check_outputs([path], outputs={"`out`": path_value("out", out)})
     with numpy_engine():
         return export_design(path, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
                              time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
@@ -519,7 +562,8 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
         if source.path is None:
             raise TypeError("codegen needs a written controller file (export it to a path first)")
         source = source.path
-    check_outputs([source], out_dirs={"`out`": out})
+    allow_uncertified = flag_value("allow_uncertified", allow_uncertified)
+    check_outputs([source], out_dirs={"`out`": path_value("out", out, required=True)})
     return write_c_sources(source, out, allow_uncertified=allow_uncertified)
 
 
@@ -582,11 +626,17 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
     (0.44, 17.9, 'kg·m²')
     """
     from .identification import identify_file, identify_plant, log_from_columns
+    from .identification.estimate import parse_fix
 
+    friction, fix = flag_value("friction", friction), parse_fix(fix)  # bad keywords before any log is read
+    for name, p in (("out", out), ("validate", validate), ("frf_csv", frf_csv), ("plots", plots)):
+        path_value(name, p)
     several = isinstance(source, (list, tuple))
     if isinstance(source, Mapping) or (several and source and all(isinstance(x, Mapping) for x in source)):
-        if any(x is not None for x in (out, validate, folds, frf_csv, plots)):
-            raise TypeError("identify writes its sections and validates only for a log file (give a path)")
+        given = [k for k, x in (("out", out), ("validate", validate), ("folds", folds), ("frf_csv", frf_csv),
+                                ("plots", plots)) if x is not None]
+        if given:
+            raise ConfigError(given[0], "identify writes its sections and validates only for a log file (give a path)")
         maps = list(source) if several else [source]
         logs = [log_from_columns(dict(m), f"<mapping {i + 1}>" if several else "<mapping>", delay_s, sample_rate_hz)
                 for i, m in enumerate(maps)]
@@ -665,7 +715,7 @@ def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, p
 
     from .identification.excite import sidecar_path
 
-    if out is not None:
+    if path_value("out", out) is not None:
         check_outputs([], outputs={"`out`": out, "`out` (its sidecar)": sidecar_path(out)})
     e = schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm=peak_nm, rms_nm=rms_nm, period_s=period_s,
                             periods=periods, duration_s=duration_s, lines=lines, seed=seed)
@@ -724,14 +774,17 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     """
     from .controllerfile.results import ExportedController
     from .simulation import at_joint_angle, load_for_simulation, run_scenario
-    from .simulation.load import check_human_inertia
+    from .simulation.load import check_joint_angle
+    from .simulation.report import check_run_options
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
-    check_outputs([source], out_dirs={"`plots`": plots})
-    check_human_inertia(human_inertia)
+    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)})
+    check_run_options(scenario, start, human_inertia, duration)  # bad options before the file is loaded
+    check_joint_angle(joint_angle)
+    fs = _rate_override(sample_rate_hz)
     with numpy_engine():
-        doc = load_for_simulation(source, sample_rate_hz)
+        doc = load_for_simulation(source, fs)
         if joint_angle is not None:
             doc = at_joint_angle(doc, joint_angle)
         r = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,

@@ -1,16 +1,24 @@
-"""Numbers given on the command line (and to the API twins of the commands): one parser, one
-message style — the option's name, the reason, the value as typed (docs/cli.md)."""
+"""Numbers, flags and paths given on the command line or as keywords of the API twins of the
+commands: one parser per kind of value, one message style — the option's (or keyword's) name, the
+reason, the value as typed (docs/cli.md)."""
 
 from __future__ import annotations
 
 import math
+import os
 
 from .errors import ConfigError
 
-__all__ = ["number_value"]
+__all__ = ["number_value", "flag_value", "path_value"]
 
 
-def number_value(name: str, text, positive: bool = False, noun: str = "a number") -> float:
+def _is_bool(value) -> bool:
+    """A bool, or a numpy boolean scalar (``np.True_``): a flag, never a number."""
+    return isinstance(value, bool) or (getattr(getattr(value, "dtype", None), "kind", None) == "b"
+                                       and getattr(value, "shape", None) == ())
+
+
+def number_value(name: str, text, positive: bool = False, noun: str = "a number", strings: bool = True) -> float:
     """``text`` as a finite float (> 0 when ``positive``); :class:`ConfigError` naming ``name``
     otherwise. ``noun`` words the expected value ("a number of Hz").
 
@@ -19,11 +27,15 @@ def number_value(name: str, text, positive: bool = False, noun: str = "a number"
     name : str
         The option or field named by the error.
     text : Any
-        The value (a string or a number).
+        The value (a string or a number). A bool is refused (it is an int, but not a number anyone
+        means).
     positive : bool, optional
         Require a value > 0.
     noun : str, optional
         What the error says was expected.
+    strings : bool, optional
+        Accept the number's text (``"2.5"``): the command line's values are strings. False for a
+        keyword the command line converts before the call (only numbers then).
 
     Returns
     -------
@@ -33,19 +45,87 @@ def number_value(name: str, text, positive: bool = False, noun: str = "a number"
     Raises
     ------
     exotune.errors.ConfigError
-        When the value is not a finite number, or not positive when required.
+        When the value is a bool (or, unless ``strings``, a string), is not a finite number, or is
+        not positive when required.
 
     Examples
     --------
     >>> number_value("--duration", "2.5", positive=True)
     2.5
     """
+    if _is_bool(text) or (not strings and isinstance(text, (str, bytes))):
+        raise ConfigError(name, f"expected {noun}, got {text!r}")
     try:
         v = float(text)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ConfigError(name, f"expected {noun}, got {text!r}") from None
     if not math.isfinite(v):
         raise ConfigError(name, f"must be a finite number, got {text!r}")
     if positive and not v > 0:
         raise ConfigError(name, f"must be > 0, got {text!r}")
     return v
+
+
+def flag_value(name: str, value) -> bool:
+    """A yes/no keyword (``cross_check``, ``allow_uncertified``, ``friction``): ``True`` or
+    ``False`` only, so that a string such as ``"no"`` is not taken for yes.
+
+    Parameters
+    ----------
+    name : str
+        The keyword named by the error.
+    value : Any
+        The value given.
+
+    Returns
+    -------
+    bool
+        The value (a numpy boolean scalar as a bool).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the value is not a bool.
+
+    Examples
+    --------
+    >>> flag_value("cross_check", True)
+    True
+    """
+    if not _is_bool(value):
+        raise ConfigError(name, f"expected True or False, got {value!r}")
+    return bool(value)
+
+
+def path_value(name: str, value, required: bool = False):
+    """A path keyword (``out``, ``plots``, ``validate``, …): a ``str`` or an ``os.PathLike``;
+    None (not given) passes unless ``required``.
+
+    Parameters
+    ----------
+    name : str
+        The keyword named by the error.
+    value : Any
+        The value given.
+    required : bool, optional
+        Refuse None (a keyword without a default: the output of ``sweep``, ``optimize``, …).
+
+    Returns
+    -------
+    str, os.PathLike or None
+        The value, unchanged.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the value is neither a string nor an ``os.PathLike`` (a number, a list, bytes; None
+        when ``required``).
+
+    Examples
+    --------
+    >>> path_value("out", "controller.yaml")
+    'controller.yaml'
+    """
+    if (required or value is not None) and not isinstance(value, (str, os.PathLike)):
+        raise ConfigError(name, f"expected a path (str or os.PathLike), got {type(value).__name__} {value!r}")
+    return value

@@ -7,6 +7,7 @@ from __future__ import annotations
 import doctest
 import importlib
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -23,6 +24,7 @@ from exotune.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
+SCHED = ROOT / "examples" / "scheduled.yaml"
 
 
 def _cli_json(*args) -> dict:
@@ -364,3 +366,124 @@ def test_sea_and_init_twins(tmp_path):
     assert sorted(p.name for p in written) == ["design.yaml", "optimize.yaml", "sweep.yaml"]
     with pytest.raises(ConfigError):
         exotune.init(tmp_path)  # never overwrites
+
+
+# ------------------------------------------------------------------------------------------
+# Bad keywords: a ConfigError naming the keyword and why, before any work, nothing written
+# ------------------------------------------------------------------------------------------
+def _refused(call, field: str, why: str = "") -> ConfigError:
+    with pytest.raises(ConfigError) as ei:
+        call()
+    assert ei.value.field == field and why in ei.value.reason, str(ei.value)
+    return ei.value
+
+
+@pytest.mark.parametrize("kw, field, why", [
+    ({"scenario": "nope"}, "scenario", "unknown scenario 'nope'"),  # was a ValueError
+    ({"scenario": ["locked-output"]}, "scenario", "unknown scenario"),  # was a TypeError
+    ({"start": "warm"}, "start", "must be one of bumpless, zero"),  # was a ValueError
+    ({"start": 0}, "start", "must be one of bumpless, zero"),
+    ({"joint_angle": math.nan}, "joint_angle", "finite"),  # was run at an arbitrary schedule entry
+    ({"joint_angle": math.inf}, "joint_angle", "finite"),
+    ({"joint_angle": "1.0"}, "joint_angle", "expected a number"),  # was a TypeError
+    ({"human_inertia": True}, "human_inertia", "expected a number"),  # was run with 1 kg·m²
+    ({"human_inertia": "0.02"}, "human_inertia", "expected a number"),  # was a TypeError
+    ({"duration": True}, "duration", "expected a number"),  # was a 1 s run
+    ({"duration": "0.5"}, "duration", "expected a number"),
+    ({"sample_rate_hz": True}, "sample_rate_hz", "expected a number of Hz"),
+    ({"sample_rate_hz": 1e308}, "sample_rate_hz", "out of the accepted range"),  # was implementation.sample_rate_hz
+    ({"plots": 3}, "plots", "expected a path"),  # was a TypeError
+])
+def test_simulate_refuses_bad_keywords_naming_them(tmp_path, kw, field, why):
+    args = {"scenario": "locked-output", "duration": 0.5, **kw}
+    _refused(lambda: exotune.simulate(SCHED, args.pop("scenario"), **args), field, why)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_simulate_takes_the_rate_as_the_command_line_gives_it():
+    """The command line passes ``--sample-rate-hz`` as text: the API accepts a number's text there."""
+    r = exotune.simulate(SCHED, "locked-output", sample_rate_hz="1000", duration=0.1)
+    assert r.to_dict()["sample_rate_hz"] == 1000.0
+
+
+@pytest.mark.parametrize("kw, field, why", [
+    ({"sample_rate_hz": True}, "sample_rate_hz", "expected a number of Hz"),
+    ({"sample_rate_hz": 1e308}, "sample_rate_hz", "out of the accepted range: must be in [0.001, 1e7] Hz"),
+    ({"sample_rate_hz": 1e-9}, "sample_rate_hz", "out of the accepted range"),
+    ({"require_latency_margin_s": True}, "require_latency_margin_s", "expected a number of seconds"),
+    ({"time_budget_s": True}, "time_budget_s", "expected a number of seconds"),
+    ({"allow_uncertified": "no"}, "allow_uncertified", "expected True or False"),
+    ({"out": 5}, "out", "expected a path"),
+])
+def test_export_refuses_bad_keywords_naming_them(tmp_path, kw, field, why):
+    args = {"sample_rate_hz": 1000.0, "out": tmp_path / "c.yaml", **kw}
+    _refused(lambda: exotune.export(SCHED, **args), field, why)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_export_sample_rate_out_of_range_names_the_option_on_the_command_line(tmp_path):
+    res = CliRunner().invoke(cli, ["export", str(SCHED), "--sample-rate-hz", "1e308", "-o", str(tmp_path / "c.yaml")])
+    assert res.exit_code == 2 and res.stderr.startswith("exotune: error: --sample-rate-hz: out of the accepted range")
+    assert list(tmp_path.iterdir()) == []
+
+
+_OPT_SPEC = {"base": str(SCHED), "free": {"design.amplification": [2.0, 12.0]}, "budget": 50}
+_SWEEP_SPEC = {"base": str(SCHED), "axes": {"design.amplification": [4.0, 8.0]}}
+
+
+@pytest.mark.parametrize("call, field", [
+    (lambda d: exotune.analyze(PAPER, cross_check="no"), "cross_check"),  # "no" was taken for yes
+    (lambda d: exotune.analyze(PAPER, cross_check=1), "cross_check"),
+    (lambda d: exotune.codegen(SCHED, d / "c", allow_uncertified="no"), "allow_uncertified"),
+    (lambda d: exotune.identify(d / "log.csv", friction="no"), "friction"),
+])
+def test_flag_keywords_take_only_bools(tmp_path, call, field):
+    _refused(lambda: call(tmp_path), field, "expected True or False")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("call, field", [
+    (lambda d: exotune.init(5), "directory"),
+    (lambda d: exotune.design(PAPER, plots=5), "plots"),
+    (lambda d: exotune.analyze(PAPER, plots=["p"]), "plots"),
+    (lambda d: exotune.sweep(_SWEEP_SPEC, 5), "out"),
+    (lambda d: exotune.report(5), "sweep_dir"),
+    (lambda d: exotune.report(d, out=[d]), "out"),
+    (lambda d: exotune.optimize(_OPT_SPEC, 5), "out"),
+    (lambda d: exotune.optimize(_OPT_SPEC, d / "o.yaml", pareto_csv=1.5), "pareto_csv"),
+    (lambda d: exotune.codegen(SCHED, 5), "out"),
+    (lambda d: exotune.identify(d / "log.csv", out=5), "out"),
+    (lambda d: exotune.identify(d / "log.csv", validate=5), "validate"),
+    (lambda d: exotune.identify(d / "log.csv", frf_csv=[1]), "frf_csv"),
+    (lambda d: exotune.identify(d / "log.csv", plots=5), "plots"),
+    (lambda d: exotune.excite(5, sample_rate_hz=1000.0, f_lo_hz=1.0, f_hi_hz=20.0, rms_nm=1.0, periods=2), "out"),
+])
+def test_path_keywords_take_only_paths(tmp_path, call, field):
+    _refused(lambda: call(tmp_path), field, "expected a path (str or os.PathLike), got ")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("fix, why", [
+    (1.0, "expected a mapping {NAME: VALUE} or a list of 'NAME=VALUE' strings, got float 1.0"),  # was a TypeError
+    ("K_s=1000", "a list of 'NAME=VALUE' strings, got str"),
+    ({"K_s": True}, "the value must be a number"),
+])
+def test_identify_fix_is_names_and_values(tmp_path, fix, why):
+    _refused(lambda: exotune.identify(tmp_path / "log.csv", fix=fix), "fix", why)
+    columns = {"t": [0.0, 0.001], "theta_m": [0.0, 0.0], "tau_s": [0.0, 0.0], "tau_m": [0.0, 0.0]}
+    _refused(lambda: exotune.identify(columns, fix=fix), "fix", why)
+
+
+def test_identify_outputs_of_a_mapping_name_the_keyword():
+    columns = {"t": [0.0, 0.001], "theta_m": [0.0, 0.0], "tau_s": [0.0, 0.0], "tau_m": [0.0, 0.0]}
+    _refused(lambda: exotune.identify(columns, frf_csv="f.csv"), "frf_csv", "only for a log file")
+
+
+def test_sweep_dask_errors_name_the_keyword_and_the_command_line_names_the_option(tmp_path):
+    _refused(lambda: exotune.sweep(_SWEEP_SPEC, tmp_path / "sw", dask_address="local:0"), "dask_address", "local:N")
+    _refused(lambda: exotune.sweep(_SWEEP_SPEC, tmp_path / "sw", dask_address=5), "dask_address", "scheduler address")
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps(_SWEEP_SPEC))
+    res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(tmp_path / "sw"), "--dask", "local:0"])
+    assert res.exit_code == 2 and res.stderr.splitlines()[-1] == "exotune: error: --dask: local:N needs N >= 1, got 0"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["spec.yaml"]

@@ -230,7 +230,7 @@ def test_validate_controller_refuses_non_mapping():
 # ------------------------------------------------------------------------------------------
 # 2. CLI bad input
 # ------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("rate", ["0", "-3", "nan", "abc", "inf", "-0"])
+@pytest.mark.parametrize("rate", ["0", "-3", "nan", "abc", "inf", "-0", "1e308", "1e-9", "2e7"])
 def test_export_bad_sample_rate(tmp_path, rate):
     out = tmp_path / "ctl.yaml"
     res = run("export", "--allow-uncertified", PAPER, "--sample-rate-hz", rate, "-o", out)

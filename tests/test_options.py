@@ -1,13 +1,15 @@
 """exotune.options: numbers given on the command line, one message style naming the option."""
 
 import math
+from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from exotune.errors import ConfigError
-from exotune.options import number_value
+from exotune.options import flag_value, number_value, path_value
 
 
 @given(st.floats(allow_nan=False, allow_infinity=False))
@@ -35,3 +37,54 @@ def test_errors_name_the_option_and_the_value_as_typed(text, kw, reason):
         number_value("--sample-rate-hz", text, **kw)
     assert ei.value.field == "--sample-rate-hz" and ei.value.reason == reason
     assert str(ei.value) == f"--sample-rate-hz: {reason}"
+
+
+@pytest.mark.parametrize("value", [True, False, np.True_, np.bool_(False)])
+def test_a_bool_is_not_a_number(value):
+    """A bool is an int, but ``duration=True`` is a mistake, not one second."""
+    with pytest.raises(ConfigError) as ei:
+        number_value("duration", value, positive=True, noun="a number of seconds")
+    assert ei.value.field == "duration" and ei.value.reason == f"expected a number of seconds, got {value!r}"
+
+
+def test_strings_only_where_the_command_line_passes_them():
+    assert number_value("--duration", "2.5") == 2.5  # the command line's values are text
+    for text in ("2.5", b"2.5"):
+        with pytest.raises(ConfigError) as ei:
+            number_value("duration", text, strings=False)
+        assert ei.value.field == "duration" and "expected a number" in ei.value.reason
+    assert number_value("duration", 2, strings=False) == 2.0 and number_value("x", np.float32(0.5), strings=False) == 0.5
+
+
+def test_an_integer_too_large_for_a_float_is_refused():
+    with pytest.raises(ConfigError) as ei:
+        number_value("duration", 10 ** 400)
+    assert ei.value.field == "duration" and ei.value.reason.startswith("expected a number")
+
+
+@pytest.mark.parametrize("value", ["no", "yes", "", 1, 0, None, 1.0, [True], np.array([True, False])])
+def test_a_flag_is_true_or_false_only(value):
+    with pytest.raises(ConfigError) as ei:
+        flag_value("cross_check", value)
+    assert ei.value.field == "cross_check" and ei.value.reason.startswith("expected True or False, got ")
+
+
+def test_flags_that_are_bools_pass():
+    assert flag_value("friction", True) is True and flag_value("friction", False) is False
+    assert flag_value("friction", np.True_) is True
+
+
+@pytest.mark.parametrize("value", [3, 2.5, ["out"], ("a", "b"), b"out", {"path": "x"}])
+def test_a_path_is_a_str_or_path_like(value):
+    with pytest.raises(ConfigError) as ei:
+        path_value("plots", value)
+    assert ei.value.field == "plots" and ei.value.reason.startswith(f"expected a path (str or os.PathLike), got "
+                                                                    f"{type(value).__name__}")
+
+
+def test_paths_that_are_paths_pass():
+    assert path_value("out", "a.yaml") == "a.yaml" and path_value("out", Path("a")) == Path("a")
+    assert path_value("plots", None) is None
+    with pytest.raises(ConfigError) as ei:
+        path_value("out", None, required=True)
+    assert ei.value.field == "out" and ei.value.reason == "expected a path (str or os.PathLike), got NoneType None"

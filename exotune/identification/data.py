@@ -174,9 +174,11 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
             raise ConfigError("delay_s", "auto estimates the delay of a tau_cmd column; this log has tau_m")
     else:
         try:
-            d_s = float(delay_s)
-        except (TypeError, ValueError):
-            raise ConfigError("delay_s", f"{delay_s!r} is neither a delay [s] nor auto") from None
+            d_s = float(delay_s) if not isinstance(delay_s, bool) else None  # a bool is not a delay
+        except (TypeError, ValueError, OverflowError):
+            d_s = None
+        if d_s is None:
+            raise ConfigError("delay_s", f"{delay_s!r} is neither a delay [s] nor auto")
         if not (math.isfinite(d_s) and d_s >= 0):
             raise ConfigError("delay_s", f"{delay_s!r} is not a delay ≥ 0 s")
         d = d_s * fs

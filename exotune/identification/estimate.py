@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -82,8 +83,9 @@ def parse_fix(fix) -> dict:
 
     Parameters
     ----------
-    fix : dict or iterable of str
-        ``{name: value}`` or ``NAME=VALUE`` strings, values in SI units.
+    fix : mapping, iterable of str, or None
+        ``{name: value}`` or ``NAME=VALUE`` strings (a list or tuple of them), values in SI
+        units; None: nothing fixed.
 
     Returns
     -------
@@ -93,10 +95,19 @@ def parse_fix(fix) -> dict:
     Raises
     ------
     ConfigError
-        Field ``fix``: an unknown name, a value that is not a finite number, or one the design
-        file refuses (J_m, K_s, J_j, K_c ≤ 0; B_m or F_c < 0).
+        Field ``fix``: neither a mapping nor a collection of strings (a number, a single string),
+        an unknown name, a value that is not a finite number (a bool is not one), or one the
+        design file refuses (J_m, K_s, J_j, K_c ≤ 0; B_m or F_c < 0).
     """
-    items = fix.items() if isinstance(fix, dict) else [str(x).split("=", 1) if "=" in str(x) else (str(x), None) for x in fix]
+    if fix is None:
+        return {}
+    if isinstance(fix, Mapping):
+        items = [(str(k), v) for k, v in fix.items()]
+    elif isinstance(fix, Iterable) and not isinstance(fix, (str, bytes)):
+        items = [str(x).split("=", 1) if "=" in str(x) else (str(x), None) for x in fix]
+    else:
+        raise ConfigError("fix", f"expected a mapping {{NAME: VALUE}} or a list of 'NAME=VALUE' strings, got "
+                          f"{type(fix).__name__} {fix!r}")
     by_symbol = {sym.lower(): key for key, sym, _u in _FIXABLE.values()}
     out = {}
     for name, value in items:
@@ -105,9 +116,11 @@ def parse_fix(fix) -> dict:
             raise ConfigError("fix", f"{name!r} is not a plant parameter (known: {', '.join(_FIXABLE)} or their "
                               "symbols J_m, B_m, K_s, J_j, K_c, F_c), as NAME=VALUE")
         try:
-            v = float(value)
-        except (TypeError, ValueError):
-            raise ConfigError("fix", f"{name}={value!r}: the value must be a number (SI units)") from None
+            v = float(value) if not isinstance(value, bool) else None
+        except (TypeError, ValueError, OverflowError):
+            v = None
+        if v is None:
+            raise ConfigError("fix", f"{name}={value!r}: the value must be a number (SI units)")
         if not math.isfinite(v):
             raise ConfigError("fix", f"{name}={value!r}: the value must be a finite number")
         # the design file's rule for the parameter (docs/design-file.md); Coulomb friction ≥ 0
@@ -180,12 +193,12 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
     ----------
     docs/identification.md; paper eq. (5).
     """
-    fixed = parse_fix(fix or {})
+    fixed = parse_fix(fix)
     logs = _as_logs(log)
     first = logs[0]
     fs = first.sample_rate_hz
     fh = min(DEFAULT_FILTER_HZ, fs / 100) if filter_hz is None else filter_hz
-    if not (isinstance(fh, (int, float)) and math.isfinite(fh) and 0 < fh <= fs / 4):
+    if not (isinstance(fh, (int, float)) and not isinstance(fh, bool) and math.isfinite(fh) and 0 < fh <= fs / 4):
         raise ConfigError("filter_hz", f"{filter_hz!r}: the filter corner must be in (0, {fs / 4:g}] Hz "
                           "(a quarter of the sample rate)")
     shortest = min(lg.samples for lg in logs)
@@ -384,7 +397,7 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     from ..jsonio import write_atomic
     from .data import read_log
 
-    fix = parse_fix(fix or {})  # bad input before the log is read
+    fix = parse_fix(fix)  # bad input before the log is read
     from .validate import validate_plant
 
     paths = [log_path] if isinstance(log_path, (str, bytes)) or hasattr(log_path, "__fspath__") else list(log_path)

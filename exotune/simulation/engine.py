@@ -32,7 +32,7 @@ from ..controllerfile import ControllerFile, Runtime, as_controller_file
 from .fastpath import NP, LinearLoop, runtime_state, set_runtime_state
 from .plant import JointPlant
 
-__all__ = ["simulate", "bumpless_start", "strip_dob", "STATE_BOUND", "STARTS", "CHUNK"]
+__all__ = ["simulate", "bumpless_start", "strip_dob", "check_start", "STATE_BOUND", "STARTS", "CHUNK"]
 
 CHUNK = 1000  # samples per fast linear stretch
 SLOW_RUN = 8  # samples stepped one by one from where a fast stretch reached a limit (or the delay line + 2)
@@ -117,6 +117,31 @@ def strip_dob(doc: ControllerFile | dict) -> ControllerFile:
     return as_controller_file(doc).without_dob()
 
 
+def check_start(start) -> str:
+    """The initial controller state of a run (``start``, ``--start``): one of :data:`STARTS`.
+
+    Parameters
+    ----------
+    start : Any
+        The value given.
+
+    Returns
+    -------
+    str
+        ``start``.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        Field ``start``: not one of :data:`STARTS`.
+    """
+    from ..errors import ConfigError
+
+    if not (isinstance(start, str) and start in STARTS):
+        raise ConfigError("start", f"must be one of {', '.join(STARTS)}, got {start!r}")
+    return start
+
+
 def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, duration_s: float | None = None,
              start: str = "bumpless", clamp: bool = True,
              progress: Callable[[float], None] | None = None, fast: bool = True) -> dict:
@@ -155,8 +180,7 @@ def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, du
     ----------
     Paper §V (sampled-data loop), §V (experiments); docs/method.md#simulation.
     """
-    if start not in STARTS:
-        raise ValueError(f"start must be one of {', '.join(STARTS)}, got {start!r}")
+    check_start(start)
     doc = strip_dob(doc) if without_dob else as_controller_file(doc)
     sc = scenario if duration_s is None else replace(scenario, duration_s=float(duration_s))
     run = _Run(doc, sc, clamp)

@@ -7,9 +7,10 @@ from ..config import read_yaml
 from ..controllerfile import ControllerFile, as_controller_file, build_export, checked_controller, design_at_rate, load_controller
 from ..controllerfile.certify import certify
 from ..errors import ConfigError
+from ..options import number_value
 from .plant import MIN_HUMAN_INERTIA
 
-__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "check_human_inertia"]
+__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "check_human_inertia", "check_joint_angle"]
 
 
 def check_human_inertia(value: float | None, field: str = "human_inertia") -> float | None:
@@ -20,28 +21,59 @@ def check_human_inertia(value: float | None, field: str = "human_inertia") -> fl
     Parameters
     ----------
     value : float or None
-        The inertia [kg·m²].
+        The inertia [kg·m²] (a number: a bool or a string is refused).
     field : str, optional
         Field named by the error.
 
     Returns
     -------
     float or None
-        ``value``.
+        ``value`` as a float.
 
     Raises
     ------
     exotune.errors.ConfigError
-        When ``value`` is below ``MIN_HUMAN_INERTIA`` (or NaN).
+        When ``value`` is not a finite number or is below ``MIN_HUMAN_INERTIA``.
 
     References
     ----------
     docs/cli.md#simulate.
     """
-    if value is not None and not value >= MIN_HUMAN_INERTIA:
+    if value is None:
+        return None
+    value = number_value(field, value, noun="a number of kg·m²", strings=False)
+    if not value >= MIN_HUMAN_INERTIA:
         raise ConfigError(field, f"{value!r} kg·m² is below {MIN_HUMAN_INERTIA:g} kg·m²: the cuff mode √(K_c/m) is "
                                  "then beyond double precision (the sampled-data model overflows)")
     return value
+
+
+def check_joint_angle(value: float | None, field: str = "joint_angle") -> float | None:
+    """A joint angle [rad] choosing a gain-schedule entry (``--joint-angle``): None, or a finite
+    number (NaN or ±inf would pick an entry arbitrarily), else :class:`ConfigError` naming ``field``.
+
+    Parameters
+    ----------
+    value : float or None
+        The angle [rad] (a number: a bool or a string is refused).
+    field : str, optional
+        Field named by the error.
+
+    Returns
+    -------
+    float or None
+        ``value`` as a float.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``value`` is not a finite number.
+
+    References
+    ----------
+    docs/cli.md#simulate.
+    """
+    return None if value is None else number_value(field, value, noun="a number of radians", strings=False)
 
 
 def check_consistent(doc: dict) -> None:
@@ -155,12 +187,14 @@ def at_joint_angle(doc: ControllerFile | dict, joint_angle_rad: float) -> Contro
     Raises
     ------
     ConfigError
-        ``--joint-angle``: the controller has no gain schedule.
+        ``joint_angle`` (``--joint-angle``): not a finite number (:func:`check_joint_angle`), or
+        the controller has no gain schedule.
 
     References
     ----------
     docs/cli.md#simulate; paper §IV (the transmission's gain schedule).
     """
+    joint_angle_rad = check_joint_angle(joint_angle_rad)
     cf = as_controller_file(doc)
     if cf.gain_schedule is None:
         raise ConfigError("joint_angle", "the controller has no gain schedule (no transmission section)")

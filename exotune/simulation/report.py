@@ -10,13 +10,16 @@ from typing import Callable
 import numpy as np
 
 from ..controllerfile import ControllerFile, Runtime, as_controller_file
-from .engine import bumpless_start, simulate, strip_dob
+from ..errors import ConfigError
+from ..options import number_value
+from .engine import bumpless_start, check_start, simulate, strip_dob
+from .load import check_human_inertia
 from .result import SimulationRun
 from .scenarios import SCENARIOS, Nonlinearities, Scenario
 from .verdict import (FIT_FRACTION, MARGINAL_TOL, classify, dominant_frequency, envelope_growth,
                       loop_spectral_radius)
 
-__all__ = ["run_scenario", "summarize"]
+__all__ = ["run_scenario", "check_run_options", "summarize"]
 
 LIMIT_CYCLE_NM = 1e-3  # a sustained spring-torque swing above this × max(|push|, 1 N·m) is a limit cycle
 
@@ -200,8 +203,6 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     ...
     exotune.errors.ConfigError: duration: 0.005 s at 1000 Hz is 5 samples; a verdict needs a run of at least 16 samples (0.016 s at this rate)
     """
-    from ..errors import ConfigError
-
     n = sample_rate_hz * duration_s
     if n < MIN_SAMPLES:
         raise ConfigError("duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a verdict needs "
@@ -210,6 +211,51 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     if not n <= MAX_SAMPLES:
         raise ConfigError("duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a run is limited "
                                         f"to {MAX_SAMPLES:.0e} samples (shorten `duration` or lower the rate)")
+
+
+def check_run_options(name, start: str = "bumpless", human_inertia: float | None = None,
+                      duration_s: float | None = None) -> tuple[Scenario, float | None, float | None]:
+    """The options of :func:`run_scenario` checked before any work, each refused naming its
+    keyword (``scenario``, ``start``, ``human_inertia``, ``duration``; the command line names
+    ``--scenario``, …). Numbers must be numbers (a bool or a string is refused).
+
+    Parameters
+    ----------
+    name : str or Scenario
+        A key of :data:`SCENARIOS` or a :class:`Scenario`.
+    start : str, optional
+        Initial controller state (:func:`~exotune.simulation.engine.check_start`).
+    human_inertia : float, optional
+        Human inertia [kg·m²] (:func:`~exotune.simulation.load.check_human_inertia`).
+    duration_s : float, optional
+        Run length [s], > 0.
+
+    Returns
+    -------
+    tuple
+        The scenario, the human inertia and the run length (floats or None).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        The first bad option.
+
+    Examples
+    --------
+    >>> check_run_options("locked-output", duration_s=2)[0].name, check_run_options("backlash", duration_s=2)[2]
+    ('locked-output', 2.0)
+    """
+    if isinstance(name, Scenario):
+        sc = name
+    elif isinstance(name, str) and name in SCENARIOS:
+        sc = SCENARIOS[name]
+    else:
+        raise ConfigError("scenario", f"unknown scenario {name!r} (known: {', '.join(SCENARIOS)})")
+    check_start(start)
+    human_inertia = check_human_inertia(human_inertia)
+    if duration_s is not None:
+        duration_s = number_value("duration", duration_s, positive=True, noun="a number of seconds", strings=False)
+    return sc, human_inertia, duration_s
 
 
 def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inertia: float | None = None,
@@ -240,20 +286,20 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
         (``windup_recovery``, ``limit_cycle``, ``friction_estimate``, ``friction_sensitivity``);
         ``runs``: the time series, keyed ``controller``, ``without_dob``, ``without_clamp``.
 
+    Raises
+    ------
+    exotune.errors.ConfigError
+        A bad option (:func:`check_run_options`), or a run too long or too short (``duration``).
+
     References
     ----------
     Paper §V; docs/cli.md#simulate.
     """
-    if isinstance(name, Scenario):
-        sc = name
-    elif name in SCENARIOS:
-        sc = SCENARIOS[name]
-    else:
-        raise ValueError(f"unknown scenario {name!r} (known: {', '.join(SCENARIOS)})")
+    sc, human_inertia, duration_s = check_run_options(name, start, human_inertia, duration_s)
     if human_inertia is not None:
-        sc = replace(sc, human={**sc.human, "inertia": float(human_inertia)})
+        sc = replace(sc, human={**sc.human, "inertia": human_inertia})
     if duration_s is not None:
-        sc = replace(sc, duration_s=float(duration_s))
+        sc = replace(sc, duration_s=duration_s)
     doc = as_controller_file(doc)
     check_budget(float(doc.sample_rate_hz), sc.duration_s)
     alpha = float(doc.design.amplification)

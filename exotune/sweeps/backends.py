@@ -180,30 +180,31 @@ def check_dask_address(address, workers: int | None = None) -> tuple[str, int | 
     Raises
     ------
     ConfigError
-        A malformed address (field ``dask``), one line.
+        A malformed address (field ``dask_address``, the keyword; the command line names
+        ``--dask``), one line.
 
     References
     ----------
     docs/sweep-spec.md (execution, Dask).
     """
     if not isinstance(address, str) or not address.strip():
-        raise ConfigError("dask", f"expected a scheduler address, got {address!r}")
+        raise ConfigError("dask_address", f"expected a scheduler address, got {address!r}")
     if address == "local" or address.startswith("local:"):
         n = workers or os.cpu_count() or 1
         if address.startswith("local:"):
             tail = address.split(":", 1)[1]
             if not tail.isdigit():
-                raise ConfigError("dask", f"expected 'local' or 'local:N', got {address!r}")
+                raise ConfigError("dask_address", f"expected 'local' or 'local:N', got {address!r}")
             n = int(tail)
             if n < 1:
-                raise ConfigError("dask", f"local:N needs N >= 1, got {n}")
+                raise ConfigError("dask_address", f"local:N needs N >= 1, got {n}")
         return "local", n
     if address.startswith(("inproc://", "ucx://")):
         return "remote", None
     mt = _ADDRESS_RE.match(address)
     if mt is None or not 1 <= int(mt.group(3)) <= 65535:
-        raise ConfigError("dask", f"expected a scheduler address [tcp://]host:port (port 1 … 65535), 'local' or "
-                                  f"'local:N', got {address[:80]!r}")
+        raise ConfigError("dask_address", f"expected a scheduler address [tcp://]host:port (port 1 … 65535), "
+                                          f"'local' or 'local:N', got {address[:80]!r}")
     return "remote", None
 
 
@@ -220,14 +221,14 @@ def _reachable(address: str, timeout_s: float = 5.0) -> None:
         with socket.create_connection((host, int(mt.group(3))), timeout=timeout_s):
             pass
     except OSError as e:
-        raise ConfigError("dask", f"cannot connect to the Dask scheduler at {address!r}: "
-                                  f"{e.strerror or type(e).__name__}") from None
+        raise ConfigError("dask_address", f"cannot connect to the Dask scheduler at {address!r}: "
+                                          f"{e.strerror or type(e).__name__}") from None
 
 
 def connect_dask(address: str, workers: int | None) -> DaskConnection:
     """Validate ``address`` (:func:`check_dask_address`) and connect: start a ``LocalCluster`` for
     ``"local"``/``"local:N"``, else connect a :class:`distributed.Client` (a TCP probe first, so an
-    unreachable scheduler fails in seconds). Every failure is one ConfigError naming ``dask``;
+    unreachable scheduler fails in seconds). Every failure is one ConfigError naming ``dask_address``;
     :func:`~exotune.sweeps.run.run_sweep` calls it before creating the sweep directory.
 
     Parameters
@@ -250,21 +251,21 @@ def connect_dask(address: str, workers: int | None) -> DaskConnection:
     try:
         from distributed import Client, LocalCluster
     except ImportError as e:  # pragma: no cover - dask[distributed] is a dependency
-        raise ConfigError("dask", f"dask.distributed is not installed ({e})") from None
+        raise ConfigError("dask_address", f"dask.distributed is not installed ({e})") from None
     if kind == "local":
         try:
             with _single_threaded_blas_env():
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
         except Exception as e:
-            raise ConfigError("dask", f"cannot start a local Dask cluster of {n} workers: "
-                                      f"{' '.join(str(e).split())[:200]}") from None
+            raise ConfigError("dask_address", f"cannot start a local Dask cluster of {n} workers: "
+                                              f"{' '.join(str(e).split())[:200]}") from None
         return DaskConnection(address, Client(cluster), cluster)
     _reachable(address)
     try:
         client = Client(address, timeout="20s")
     except Exception as e:
-        raise ConfigError("dask", f"cannot connect to the Dask scheduler at {address!r}: "
-                                  f"{' '.join(str(e).split())[:200]}") from None
+        raise ConfigError("dask_address", f"cannot connect to the Dask scheduler at {address!r}: "
+                                          f"{' '.join(str(e).split())[:200]}") from None
     return DaskConnection(address, client)
 
 

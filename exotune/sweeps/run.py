@@ -94,7 +94,7 @@ def run_sweep(
     if workers is not None:
         workers = int_option("workers", workers, 1)
     if dask_address is not None and (not isinstance(dask_address, str) or not dask_address.strip()):
-        raise ConfigError("dask", f"expected a scheduler address, got {dask_address!r}")
+        raise ConfigError("dask_address", f"expected a scheduler address, got {dask_address!r}")
     out_dir = os.fspath(out_dir)
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise ConfigError(out_dir, "exists and is not a directory")

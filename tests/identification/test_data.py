@@ -54,6 +54,8 @@ def test_given_rate_and_command_delay():
     (_cols(), {"delay_s": "auto"}, "delay_s", "this log has tau_m"),
     (_cols(), {"delay_s": "soon"}, "delay_s", "neither a delay [s] nor auto"),
     (_cols(), {"delay_s": -1}, "delay_s", "is not a delay ≥ 0 s"),
+    (_cols(tau_m=None, tau_cmd=np.zeros(N)), {"delay_s": True}, "delay_s", "True is neither a delay [s] nor auto"),
+    (_cols(), {"delay_s": 10 ** 400}, "delay_s", "neither a delay [s] nor auto"),
 ])
 def test_bad_logs_name_the_column(cols, kw, field, reason):
     with pytest.raises(ConfigError) as ei:

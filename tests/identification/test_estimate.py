@@ -99,3 +99,22 @@ def test_identify_file_reads_the_csv(smooth, tmp_path):
                                                   for i in range(smooth[0].samples)) + "\n")
     est = identify_file(p)
     assert est.source == str(p) and est["sea_stiffness"].value == pytest.approx(TRUE["sea_stiffness"], rel=1e-6)
+
+
+@pytest.mark.parametrize("fix, reason", [
+    (1.0, "expected a mapping {NAME: VALUE} or a list of 'NAME=VALUE' strings, got float 1.0"),
+    ("J_m=0.44", "a list of 'NAME=VALUE' strings, got str 'J_m=0.44'"),  # not its characters one by one
+    ({"J_m": True}, "J_m=True: the value must be a number"),
+    ({1: 2.0}, "'1' is not a plant parameter"),
+])
+def test_fix_of_the_wrong_kind_is_refused_naming_fix(fix, reason):
+    with pytest.raises(ConfigError) as ei:
+        parse_fix(fix)
+    assert ei.value.field == "fix" and reason in ei.value.reason
+    assert parse_fix(None) == {} and parse_fix(()) == {} and parse_fix(iter(["K_s=1000"])) == {"sea_stiffness": 1000.0}
+
+
+def test_a_bool_filter_corner_is_refused(smooth):
+    with pytest.raises(ConfigError) as ei:
+        identify_plant(smooth[0], filter_hz=True)
+    assert ei.value.field == "filter_hz"

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from exotune.controllerfile import Runtime
-from exotune.simulation.engine import STARTS, bumpless_start, simulate, strip_dob
+from exotune.errors import ConfigError
+from exotune.simulation.engine import STARTS, bumpless_start, check_start, simulate, strip_dob
 from exotune.simulation.scenarios import SCENARIOS
 
 from paper_design import paper_controller
@@ -63,8 +64,11 @@ def test_strip_dob_removes_its_filters(doc):
 
 
 def test_options_are_checked_and_progress_reported(doc):
-    with pytest.raises(ValueError, match="start must be one of bumpless, zero"):
-        simulate(doc, SCENARIOS["light-mass"], start="warm")
+    for bad in ("warm", 1, None):
+        with pytest.raises(ConfigError) as ei:
+            simulate(doc, SCENARIOS["light-mass"], start=bad)
+        assert ei.value.field == "start" and ei.value.reason == f"must be one of bumpless, zero, got {bad!r}"
+    assert check_start("zero") == "zero"
     assert STARTS == ("bumpless", "zero")
     seen = []
     simulate(doc, SCENARIOS["light-mass"], duration_s=0.2, progress=seen.append)

@@ -4,11 +4,16 @@ predictions a written controller file carries."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+
+import pytest
 
 from exotune.config import design_from_mapping
 from exotune.controllerfile.export import build_export
-from exotune.simulation import load_for_simulation
+from exotune.errors import ConfigError
+from exotune.simulation import at_joint_angle, load_for_simulation
+from exotune.simulation.load import check_human_inertia, check_joint_angle
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 RUNTIME_KEYS = ("schema", "sample_rate_hz", "delay_s", "plant", "design", "gains", "signals", "controller", "dob",
@@ -31,3 +36,32 @@ def test_in_memory_export_has_the_runtime_sections_of_a_full_export():
     for a, b in zip(le, fe):
         assert "predicted_sampled" not in a and "predicted_sampled" in b
         assert a["controller"] == b["controller"] and a["plant"] == b["plant"] and a["gains"] == b["gains"]
+
+
+@pytest.mark.parametrize("angle, reason", [
+    (math.nan, "must be a finite number, got nan"),
+    (math.inf, "must be a finite number, got inf"),
+    (-math.inf, "must be a finite number, got -inf"),
+    (True, "expected a number of radians, got True"),
+    ("0.5", "expected a number of radians, got '0.5'"),
+])
+def test_a_joint_angle_that_is_not_a_finite_number_is_refused(angle, reason):
+    with pytest.raises(ConfigError) as ei:
+        check_joint_angle(angle)
+    assert ei.value.field == "joint_angle" and ei.value.reason == reason
+    doc = load_for_simulation(EXAMPLES / "scheduled.yaml", 1000.0)
+    with pytest.raises(ConfigError) as ei:  # nan picked a schedule entry
+        at_joint_angle(doc, angle)
+    assert ei.value.field == "joint_angle"
+    assert check_joint_angle(None) is None and check_joint_angle(1) == 1.0
+
+
+@pytest.mark.parametrize("value, reason", [(True, "expected a number of kg·m², got True"),
+                                           ("0.02", "expected a number of kg·m², got '0.02'"),
+                                           (math.nan, "must be a finite number"),
+                                           (1e-20, "below 1e-15 kg·m²")])
+def test_a_human_inertia_must_be_a_number_in_range(value, reason):
+    with pytest.raises(ConfigError) as ei:
+        check_human_inertia(value)
+    assert ei.value.field == "human_inertia" and reason in ei.value.reason
+    assert check_human_inertia(None) is None and check_human_inertia(2) == 2.0

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from exotune.errors import ConfigError
-from exotune.simulation.report import check_budget, run_scenario, summarize
+from exotune.simulation.report import check_budget, check_run_options, run_scenario, summarize
 from exotune.simulation.result import SimulationRun
 from exotune.simulation.scenarios import SCENARIOS
 
@@ -70,3 +70,30 @@ def test_run_scenario_returns_the_typed_run():
     rep = run.to_dict()
     assert rep["summary"]["verdict"] in ("decaying", "marginal") and "runs" not in rep
     assert run.runs and all("series" in r for r in run.runs.values())
+
+
+@pytest.mark.parametrize("kw, field, reason", [
+    ({"name": "nope"}, "scenario", "unknown scenario 'nope' (known: locked-output,"),
+    ({"name": ["locked-output"]}, "scenario", "unknown scenario ['locked-output']"),  # was a bare TypeError
+    ({"start": "warm"}, "start", "must be one of bumpless, zero, got 'warm'"),
+    ({"duration_s": True}, "duration", "expected a number of seconds, got True"),
+    ({"duration_s": "2"}, "duration", "expected a number of seconds, got '2'"),
+    ({"duration_s": math.nan}, "duration", "must be a finite number"),
+    ({"duration_s": -1.0}, "duration", "must be > 0"),
+    ({"human_inertia": False}, "human_inertia", "expected a number of kg·m², got False"),
+    ({"human_inertia": "0.02"}, "human_inertia", "expected a number of kg·m², got '0.02'"),
+])
+def test_run_options_are_refused_naming_their_keyword(kw, field, reason):
+    args = {"name": "locked-output", **kw}
+    with pytest.raises(ConfigError) as ei:
+        check_run_options(**args)
+    assert ei.value.field == field and reason in ei.value.reason
+    with pytest.raises(ConfigError) as ei:  # run_scenario checks them itself, before any run
+        run_scenario(paper_controller(), args.pop("name"), **args)
+    assert ei.value.field == field
+
+
+def test_run_options_as_numbers():
+    sc, m, d = check_run_options("light-mass", "zero", 1, 2)
+    assert sc is SCENARIOS["light-mass"] and (m, d) == (1.0, 2.0) and type(m) is float and type(d) is float
+    assert check_run_options(SCENARIOS["backlash"])[0] is SCENARIOS["backlash"]

@@ -133,7 +133,7 @@ def test_cli_simulate_errors_and_success(tmp_path):
 
 
 @pytest.mark.parametrize("args,field", [
-    (["examples/paper.yaml", "--sample-rate-hz", "1e9"], "implementation.sample_rate_hz"),  # 1e6 delay states
+    (["examples/paper.yaml", "--sample-rate-hz", "1e9"], "--sample-rate-hz"),  # 1e6 delay states; the option typed
     (["results/pipeline/controller_1khz.yaml", "--sample-rate-hz", "2000"], "--sample-rate-hz"),
     (["results/pipeline/controller_1khz.yaml", "--human-inertia", "nan"], "--human-inertia"),
     (["results/pipeline/controller_1khz.yaml", "--joint-angle", "inf"], "--joint-angle"),

@@ -45,10 +45,10 @@ def test_local_without_workers_uses_the_cpus():
     ("http://host:80", "expected a scheduler address [tcp://]host:port"),
     ("host", "expected a scheduler address"),
 ])
-def test_bad_dask_addresses_name_the_dask_field(address, reason):
+def test_bad_dask_addresses_name_the_dask_address_keyword(address, reason):
     with pytest.raises(ConfigError) as ei:
         check_dask_address(address)
-    assert ei.value.field == "dask" and reason in ei.value.reason
+    assert ei.value.field == "dask_address" and reason in ei.value.reason  # the command line: --dask
 
 
 def test_dispatch_in_process_calls_back_every_chunk_in_order(monkeypatch, tmp_path):

@@ -303,7 +303,7 @@ def test_bad_dask_address_fails_fast_and_creates_nothing(tmp_path, address):
     out = tmp_path / "never"
     res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(out), "--dask", address])
     assert res.exit_code == 2, (res.output, res.exception)
-    assert res.stderr.startswith("exotune: error: dask: ") and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith("exotune: error: --dask: ") and res.stderr.count("\n") == 1, res.stderr
     assert not out.exists()
 
 
