@@ -50,10 +50,6 @@ TAIL_STEPS = 12
 # at most this many ripple samples per design (4 per period); a design that would need more (or a
 # longer tail) is reported with partial coverage (NaN maximum, no bands) rather than with merged bands
 MAX_RIPPLE_SAMPLES = 20_000
-# the maximum is refined (golden section) around this many local maxima of the sampled excess per
-# design, the largest first, plus every local maximum near the listing threshold (the cells where
-# the phase passes 90° are bisected)
-REFINE_PEAKS = 1
 
 
 def passivity(side: FamilySide) -> PassivityBatch:
@@ -99,7 +95,9 @@ def passivity(side: FamilySide) -> PassivityBatch:
     ex = _excess_where(c, im)
     same = task[1:] == task[:-1]  # consecutive samples of one design
     best = np.zeros(Nd)
-    np.maximum.at(best, task, ex)
+    starts_t = np.flatnonzero(np.r_[True, ~same]) if task.size else np.zeros(0, np.int64)
+    if task.size:  # samples are grouped by design: segment maxima
+        best[task[starts_t]] = np.maximum.reduceat(ex, starts_t)
     # bands = runs of samples with Im C7 > 0. The sign of Im C7 is only trusted above the float
     # resolution (|Im C7| > 1e-8 |C7|); samples below it inherit the state of the previous sample
     # of the same design, so rounding noise in the high-frequency tail neither splits nor ends a band
@@ -109,9 +107,9 @@ def passivity(side: FamilySide) -> PassivityBatch:
     inside = (im > 0)[last]
     newrun = np.r_[True, ~same | (inside[1:] != inside[:-1])][: task.size]
     rid = np.cumsum(newrun) - 1
-    peak = np.zeros(int(rid[-1]) + 1 if rid.size else 0)
-    np.maximum.at(peak, rid, ex)
-    ct, ca, cb, at = _peak_cells(task, w, c, ex, im, resolved, same)
+    starts = np.flatnonzero(newrun)
+    peak = np.maximum.reduceat(ex, starts) if starts.size else np.zeros(0)
+    ct, ca, cb, at = _peak_cells(task, w, ex, same, starts_t, best)
     j90, f90 = _through_90(D0, D1, task, w, c, im, resolved, same)
     ct, at = np.r_[ct, task[j90]], np.r_[at, j90]
     if ct.size:
@@ -119,7 +117,6 @@ def passivity(side: FamilySide) -> PassivityBatch:
         f = np.where(np.isfinite(f), f, 0.0)
         np.maximum.at(best, ct, f)
         np.maximum.at(peak, rid[at], f)
-    starts = np.flatnonzero(newrun)
     ends = np.r_[starts[1:], task.size] - 1
     qual = inside[starts] & (peak >= BAND_MIN_EXCESS_DEG)
     qs, qe = starts[qual], ends[qual]
@@ -168,20 +165,24 @@ def _samples(D0, D1, lv):
     octaves of tail (partial coverage)."""
     Nd = D0.n
     pos = lv["a"] > 0  # all leaves unless a grid starts at ω = 0
-    lt, la, lb = lv["task"][pos], lv["a"][pos], lv["b"][pos]
+    keep = (lambda x: x) if pos.all() else (lambda x: x[pos])  # noqa: E731  (no copies when all)
+    lt = keep(lv["task"])
     if lt.size == 0:
         z = np.zeros(0)
         return np.zeros(0, np.int64), z, z.astype(complex), np.zeros(Nd, bool)
-    first = np.r_[True, lt[1:] != lt[:-1]]
+    first = np.flatnonzero(np.r_[True, lt[1:] != lt[:-1]])
     # the leaves' ends: the a-end of each design's first leaf, then every b-end (no evaluation)
-    ntake = 1 + first.astype(np.int64)  # samples each leaf contributes
-    at = np.repeat(np.arange(lt.size), ntake)
-    is_a = np.zeros(at.size, bool)
-    is_a[np.cumsum(ntake)[first] - 2] = True
-    task, w = lt[at], np.where(is_a, la[at], lb[at])
-    va, vb = lv["va"], lv["vb"]
-    d0 = np.where(is_a, va[0][pos][at], vb[0][pos][at])  # Δ00(jω)
-    d1 = np.where(is_a, va[1][pos][at], vb[1][pos][at])  # Δ10(jω)
+    ins = np.zeros(lt.size, np.int64)
+    ins[first[1:] - 1] = 1  # a design's a-end follows the previous design's last b-end
+    put = _inserter(ins)
+
+    def ends(x, y):
+        return np.r_[keep(x)[:1], put(keep(y), keep(x)[first[1:]])]
+
+    task = np.r_[lt[:1], put(lt, lt[first[1:]])]
+    w = ends(lv["a"], lv["b"])
+    d0 = ends(lv["va"][0], lv["vb"][0])  # Δ00(jω)
+    d1 = ends(lv["va"][1], lv["vb"][1])  # Δ10(jω)
     T = D0.T
     over = np.zeros(Nd, bool)
     if (T > 0).any():
@@ -391,28 +392,26 @@ def _ripple_points(wa, wb, T, ga, gb):
     return n, w
 
 
-def _peak_cells(task, w, c, ex, im, resolved, same):
-    """The brackets where the maximum of the excess is refined by golden section: around the
-    ``REFINE_PEAKS`` largest local maxima of the sampled excess of each design and every local
-    maximum within a factor 2 of the listing threshold. Returns ``(task, a, b, sample)``: the
-    sample names the run that the refined value belongs to."""
+def _peak_cells(task, w, ex, same, starts, best):
+    """The brackets where the maximum of the excess is refined by golden section: around each
+    design's largest sampled excess (its first sample attaining ``best``, when positive) and every
+    local maximum within a factor 2 below the listing threshold. ``starts``: the first sample of
+    each design that has samples. Returns ``(task, a, b, sample)``: the sample names the run that
+    the refined value belongs to."""
     n = task.size
     if n < 2:
         z = np.zeros(0, np.int64)
         return z, np.zeros(0), np.zeros(0), z
     left = np.r_[False, same]  # sample i has a left neighbour of its design
     right = np.r_[same, False]
+    top = (ex == best[task]) & (ex > 0)
+    # the first sample of each design attaining its maximum
+    first_top = np.flatnonzero(top & ~np.r_[False, top[:-1] & same])
+    first_top = first_top[np.r_[True, task[first_top][1:] != task[first_top][:-1]]] if first_top.size else first_top
     exl = np.where(left, np.r_[0.0, ex[:-1]], -np.inf)
     exr = np.where(right, np.r_[ex[1:], 0.0], -np.inf)
-    locmax = (ex > 0) & (ex >= exl) & (ex >= exr)
-    i = np.flatnonzero(locmax)
-    # rank within each design by the sampled excess, the largest first
-    order = np.lexsort((-ex[i], task[i]))
-    i = i[order]
-    start = np.r_[True, task[i][1:] != task[i][:-1]] if i.size else np.zeros(0, bool)
-    rank = np.arange(i.size) - np.maximum.accumulate(np.where(start, np.arange(i.size), 0))
-    near = (ex[i] >= 0.5 * BAND_MIN_EXCESS_DEG) & (ex[i] < BAND_MIN_EXCESS_DEG)
-    i = i[(rank < REFINE_PEAKS) | near]
+    near = (ex >= 0.5 * BAND_MIN_EXCESS_DEG) & (ex < BAND_MIN_EXCESS_DEG) & (ex >= exl) & (ex >= exr)
+    i = np.union1d(first_top, np.flatnonzero(near))
     a = w[np.where(left[i], i - 1, i)]
     b = w[np.where(right[i], i + 1, i)]
     return task[i], a, b, i
