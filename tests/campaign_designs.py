@@ -171,3 +171,24 @@ PASSIVITY_GAP = {'plant': {'motor_inertia': 0.942970345352568,
                     'derivative_filter': {'cutoff_hz': 104.45138635368444},
                     'dob': None},
  'humans': [{'kind': 'mass', 'inertia': [1.0018356804638301e-05, 0.05118432825664403], 'damping': 0.0}]}
+
+
+# Campaign design (seed 7, #99): a non-passive lobe near −180° (27.8–37.8 Hz, peak 1.77°) inside one
+# 21 Hz cell between unevenly spaced samples, which the frozen ripple (inaccurate at 30 Hz) does
+# not cover: found only by the dip search with the wider net of unevenly spaced samples.
+LOBE_NEAR_180 = {'plant': {'motor_inertia': 2.5697142522881435,
+           'motor_damping': 3.6871992111884593,
+           'sea_stiffness': 1495.7514352135747,
+           'joint_inertia': 0.1132322654613883,
+           'cuff_stiffness': 33523.27286897353},
+ 'design': {'amplification': 1.8494475472015817,
+            'felt_inertia': 0.010188217308485034,
+            'felt_damping': 0.0965588102884869,
+            'zeta': 0.06294815858058185,
+            'zeta_hat': 1.1251927274554419},
+ 'implementation': {'delay_s': 0.00721908321492147,
+                    'sample_rate_hz': None,
+                    'gv_filter': {'cutoff_hz': 242.167082359468, 'damping': 0.8431770965835199},
+                    'derivative_filter': {'cutoff_hz': 18.76891889040744},
+                    'dob': {'cutoff_hz': 44.76805364201722, 'damping': 0.5884729885732516}},
+ 'humans': [{'kind': 'mass', 'inertia': [2.6989590790326025e-05, 0.23516919001834474], 'damping': 0.0}]}

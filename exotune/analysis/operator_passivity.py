@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..numerics.engine import compiled
-from ..numerics.quasipoly import bisect_roots, dip_candidates, golden_max
+from ..numerics.quasipoly import DIP_RISE_UNEVEN, bisect_roots, dip_candidates, golden_max
 from .batch_result import PassivityBatch
 from .brackets import pair_roots
 from .charfun import CharTerms
@@ -218,21 +218,21 @@ def _samples(D0, D1, lv):
 
 
 def _tail(D0, D1, task, w, d0, d1):
-    """The frozen-ripple frame (:func:`_frame`) where the ripple sampling needs it, and the tail.
+    """The frozen-ripple frame (:func:`_frame`) of every sample of a delayed design, and the tail.
 
-    The cells between consecutive samples that are longer than a quarter ripple period (ωT spans
-    more than π/2; shorter cells have four samples per period or more, where :func:`_dips` finds
-    a lobe narrower than them) get the frame at both ends. A delayed design whose last sample is
-    flagged gets a tail: up to ``TAIL_STEPS`` octaves beyond it, kept while the frame is flagged
-    (and one step beyond); beyond the last leaf the frequency set's tail bounds hold and the
-    ripple's lift only decays.
+    Every cell between consecutive samples gets the frame at both ends (also a cell shorter than a
+    quarter ripple period can hold a lobe: a crest point is placed in it when the frozen crest
+    falls inside). A delayed design
+    whose last sample is flagged gets a tail: up to ``TAIL_STEPS`` octaves beyond it, kept while
+    the frame is flagged (and one step beyond); beyond the last leaf the frequency set's tail
+    bounds hold and the ripple's lift only decays.
 
-    Returns the samples with the tails inserted, the frame (``flag``, ``g``; False and 0 where it
-    is not computed), per cell whether it is long, and per design whether the ripple could still
-    lift the phase at the last tail step (the coverage is then partial)."""
+    Returns the samples with the tails inserted, the frame (``flag``, ``g``; False and 0 without a
+    delay), per cell whether both ends are samples of one design, and per design whether the
+    ripple could still lift the phase at the last tail step (the coverage is then partial)."""
     T = D0.T
     same = task[1:] == task[:-1]
-    wide = same & ((w[1:] - w[:-1]) * T[task[:-1]] > 0.5 * np.pi)
+    wide = same
     last = np.flatnonzero(np.r_[~same, True])
     last = last[T[task[last]] > 0]
     need = np.zeros(task.size, bool)
@@ -332,7 +332,7 @@ def _dips(D0, D1, task, w, c):
     with np.errstate(invalid="ignore", divide="ignore"):
         sn = np.imag(c) / np.abs(c)
     j = np.arange(1, n - 1)
-    cand, sg = dip_candidates(sn[j - 1], sn[j], sn[j + 1])
+    cand, sg = dip_candidates(sn[j - 1], sn[j], sn[j + 1], rise=DIP_RISE_UNEVEN)
     cand &= (task[j - 1] == task[j]) & (task[j + 1] == task[j])
     j, sg = j[cand], sg[cand]
     if j.size == 0:

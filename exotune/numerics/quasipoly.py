@@ -35,14 +35,16 @@ from .engine import resolve_engine as _engine
 from .poly import degree, leading, pder
 from .budgets import MAX_TASK_LEAVES
 
-__all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots", "golden_max", "dip_candidates", "DIP_RISE"]
+__all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots", "golden_max", "dip_candidates", "DIP_RISE", "DIP_RISE_UNEVEN"]
 
 ARG_STEP = 0.8  # max accepted phase step per interval [rad] (any value < π keeps unwrapping exact)
 DER_STEP = 1.0  # max accepted (b − a)·|Δ'/Δ(b) − Δ'/Δ(a)| per interval
 MAX_LEVELS = 64
 # a sampled local minimum of a function of one sign is searched for the other sign when it is
-# nearer to 0 than DIP_RISE times its rise to the higher neighbour (see dip_candidates)
+# nearer to 0 than DIP_RISE times its rise to the higher neighbour (see dip_candidates): evenly
+# spaced samples, and unevenly spaced ones (the leaves' ends)
 DIP_RISE = 0.5
+DIP_RISE_UNEVEN = 2.0
 _TAN_ARG = float(np.tan(ARG_STEP))
 
 
@@ -511,19 +513,23 @@ def golden_max(f, a_, b_, iters: int = 40, where: bool = False):
     return (f(wm), wm) if where else f(wm)
 
 
-def dip_candidates(uq, up, un):
+def dip_candidates(uq, up, un, rise: float = DIP_RISE):
     """Which middle points of three consecutive samples ``(uq, up, un)`` of one sign s may hide a
     pair of sign changes between the outer two: s·u has a local minimum at the middle point that is
-    nearer to 0 than ``DIP_RISE`` (½) times its rise to the higher neighbour.
+    nearer to 0 than ``rise`` times its rise to the higher neighbour.
 
     A smooth minimum sampled evenly (a parabola, or a sinusoid at 8 points per period) lies below
-    its sampled value by at most a quarter of that rise, so a minimum of the other sign always
-    passes the test (with a factor 2 to spare).
+    its sampled value by at most a quarter of that rise, so with ``DIP_RISE`` (½) a minimum of the
+    other sign always passes the test, with a factor 2 to spare. Unevenly spaced samples have no
+    such bound (the minimum can sit deep in the longer cell): ``DIP_RISE_UNEVEN`` (2) is a wider
+    net, checked against dense references by the metrics campaign (docs/benchmarks.md).
 
     Parameters
     ----------
     uq, up, un : numpy.ndarray
         The normalized function at the three points (NaN: never a candidate).
+    rise : float, optional
+        The factor of the test.
 
     Returns
     -------
@@ -535,5 +541,5 @@ def dip_candidates(uq, up, un):
     sg = np.sign(up)
     with np.errstate(invalid="ignore"):
         lo_, mid, hi_ = sg * uq, sg * up, sg * un
-        cand = (mid > 0) & (lo_ > 0) & (hi_ > 0) & (mid <= lo_) & (mid < hi_) & (mid < DIP_RISE * (np.maximum(lo_, hi_) - mid))
+        cand = (mid > 0) & (lo_ > 0) & (hi_ > 0) & (mid <= lo_) & (mid < hi_) & (mid < rise * (np.maximum(lo_, hi_) - mid))
     return cand, sg
