@@ -192,3 +192,24 @@ LOBE_NEAR_180 = {'plant': {'motor_inertia': 2.5697142522881435,
                     'derivative_filter': {'cutoff_hz': 18.76891889040744},
                     'dob': {'cutoff_hz': 44.76805364201722, 'damping': 0.5884729885732516}},
  'humans': [{'kind': 'mass', 'inertia': [2.6989590790326025e-05, 0.23516919001834474], 'damping': 0.0}]}
+
+
+# Campaign design (seed 41, #145): its band 39.08–607.21 Hz (peak 1.5°) ends where |Im C7| is
+# near the float resolution (1e-8 |C7|); the run's last sample was below it, and the band's end
+# was reported at the next sample (775.8 Hz) instead of the zero of Im C7.
+BAND_END_NEAR_RESOLUTION = {'plant': {'motor_inertia': 0.08885545754190341,
+           'motor_damping': 8.972580887355731,
+           'sea_stiffness': 991.6584642889047,
+           'joint_inertia': 0.07903812010516038,
+           'cuff_stiffness': 2856.4884526294527},
+ 'design': {'amplification': 1.4420100039467152,
+            'felt_inertia': 0.4255946775906065,
+            'felt_damping': 0.011574409057674075,
+            'zeta': 1.6670164208556664,
+            'zeta_hat': 0.41188060751761996},
+ 'implementation': {'delay_s': 3.783646618469705e-05,
+                    'sample_rate_hz': None,
+                    'gv_filter': {'cutoff_hz': 46.492297545851166, 'damping': 1.140060269629077},
+                    'derivative_filter': {'cutoff_hz': 11.199134508594005},
+                    'dob': {'cutoff_hz': 35.0716442517344, 'damping': 0.6061812430485861}},
+ 'humans': [{'kind': 'mass', 'inertia': [0.0005607939596996909, 0.15401177915484845], 'damping': 0.0}]}

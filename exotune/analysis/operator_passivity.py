@@ -120,13 +120,16 @@ def passivity(side: FamilySide) -> PassivityBatch:
     ends = np.r_[starts[1:], task.size] - 1
     qual = inside[starts] & (peak >= BAND_MIN_EXCESS_DEG)
     qs, qe = starts[qual], ends[qual]
-    # a run's edge is the zero of Im C7 between its end sample and the neighbour outside it (that
-    # neighbour itself where a sign there is below the float resolution)
+    # a run's edges are zeros of Im C7 bracketed by resolved samples: a run starts on one, and
+    # the last resolved sample before it (`last`) brackets its start; its last resolved sample and
+    # the next run's first bracket its end (the samples between are below the float resolution)
     opens = (qs > 0) & ~first[qs]
-    ws = _edges(D0, D1, task, w, c, resolved, qs - 1, np.where(opens, w[np.maximum(qs - 1, 0)], w[qs]), ok=opens)
+    before = last[np.maximum(qs - 1, 0)]
+    ws = _edges(D0, D1, task, w, c, before, qs, np.where(opens, w[np.maximum(qs - 1, 0)], w[qs]),
+                ok=opens & resolved[before])
     nxt = np.minimum(qe + 1, task.size - 1)
     closes = (qe + 1 < task.size) & (task[nxt] == task[qe])
-    we = np.where(closes, _edges(D0, D1, task, w, c, resolved, qe, w[nxt], ok=closes), np.inf)
+    we = np.where(closes, _edges(D0, D1, task, w, c, last[qe], nxt, w[nxt], ok=closes & resolved[nxt]), np.inf)
     bands = [[] for _ in range(Nd)]
     for t_, w0, w1 in zip(task[qs].tolist(), ws.tolist(), we.tolist()):
         bands[t_].append([w0 / (2 * np.pi), w1 / (2 * np.pi)])
@@ -459,17 +462,19 @@ def _refine_max(D0, D1, task, a, b):
     return golden_max(f, a, b)
 
 
-def _edges(D0, D1, task, w, c, resolved, i, fallback, ok):
-    """Band edges [rad/s]: the zero of Im C7 between samples i and i + 1 where ``ok``, both signs
-    are resolved and they differ, else ``fallback``."""
+def _edges(D0, D1, task, w, c, lo, hi, fallback, ok):
+    """Band edges [rad/s]: the zero of Im C7 between samples ``lo`` and ``hi`` (of one design)
+    where ``ok`` and their signs differ, else ``fallback``. The callers pass resolved samples
+    (|Im C7| above the float resolution); the samples between them are not (they inherited the
+    run's state), so the zero found lies where Im C7 is within the float resolution of 0."""
     out = np.array(fallback, dtype=float, copy=True)
-    if i.size == 0 or task.size < 2:
+    if lo.size == 0 or task.size < 2:
         return out
-    j = np.clip(i, 0, task.size - 2)
+    a_, b_ = np.clip(lo, 0, task.size - 1), np.clip(hi, 0, task.size - 1)
     im = np.imag(c)
-    br = ok & resolved[j] & resolved[j + 1] & (np.sign(im[j]) != np.sign(im[j + 1])) & (task[j] == task[j + 1])
+    br = ok & (np.sign(im[a_]) * np.sign(im[b_]) < 0) & (task[a_] == task[b_])
     if br.any():
-        k = j[br]
+        ka, kb = a_[br], b_[br]
 
         # the zeros of Im C7 = Im(Δ10/Δ00) are those of Im(Δ00·conj Δ10) = −|Δ00|² Im C7 (no
         # division; the compiled refinement's "cross" function)
@@ -477,9 +482,9 @@ def _edges(D0, D1, task, w, c, resolved, i, fallback, ok):
             return np.imag(D0.eval(t_, x, deriv=False)[0] * np.conj(D1.eval(t_, x, deriv=False)[0]))
 
         with np.errstate(over="ignore", invalid="ignore"):
-            ga, gb = fim(task[k], w[k]), fim(task[k], w[k + 1])
+            ga, gb = fim(task[ka], w[ka]), fim(task[ka], w[kb])
         if compiled():
-            out[br] = pair_roots(None, D0, D1, "cross", task[k], w[k], w[k + 1], ga, gb)
+            out[br] = pair_roots(None, D0, D1, "cross", task[ka], w[ka], w[kb], ga, gb)
         else:
-            out[br] = bisect_roots(fim, task[k], w[k], w[k + 1], ga, fb=gb)
+            out[br] = bisect_roots(fim, task[ka], w[ka], w[kb], ga, fb=gb)
     return out

@@ -164,13 +164,13 @@ def _reference(mapping, f_hi=5e3):
 
 @pytest.mark.parametrize("engine", ["compiled", "numpy"])
 @pytest.mark.parametrize("name", ["RIPPLE_LOBES", "NARROW_PASSIVITY_BAND", "PHASE_THROUGH_90", "PASSIVITY_GAP",
-                                  "LOBE_NEAR_180"])
+                                  "LOBE_NEAR_180", "BAND_END_NEAR_RESOLUTION"])
 def test_campaign_designs_bands_and_maximum_match_a_dense_reference(name, engine):
     """Delay-ripple lobes listed one by one (they had been merged into one band), a band between
     two leaf ends (it had been missed), a phase that passes 90° between samples (the maximum
     was 89.70°), a passive gap between two bands narrower than the samples (the bands had been
-    merged) and a lobe near −180° inside one long cell: exotune's bands and maximum against the
-    dense reference."""
+    merged), a lobe near −180° inside one long cell and a band whose end is near the float
+    resolution of Im C7: exotune's bands and maximum against the dense reference."""
     mapping = getattr(campaign_designs, name)
     if engine == "numpy":
         with numpy_engine():
