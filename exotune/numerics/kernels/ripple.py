@@ -82,7 +82,8 @@ def ripple_frame(qa, qb, task, w, d0, d1, lift_min: float):
     if n:
         _, cA1 = coefficients(qa)
         _, cB1 = coefficients(qb)
-        cA1, cB1 = (np.ascontiguousarray(x, dtype=complex) for x in (cA1, cB1))
+        if cA1.dtype != cB1.dtype:  # one compiled specialization per dtype: real rows stay real
+            cA1, cB1 = (np.ascontiguousarray(x, dtype=complex) for x in (cA1, cB1))
         c = lambda x: np.ascontiguousarray(x, dtype=complex)  # noqa: E731
         _frame(cA1, cB1, np.ascontiguousarray(qa.T, dtype=float), np.ascontiguousarray(task, dtype=np.int64),
                np.ascontiguousarray(w, dtype=float), c(d0), c(d1), float(lift_min), flag, g)
