@@ -189,15 +189,15 @@ def _samples(D0, D1, lv):
     T = D0.T
     over = np.zeros(Nd, bool)
     if (T > 0).any():
-        task, w, d0, d1, flag, gval, wide, over = _tail(D0, D1, task, w, d0, d1)
-        # the ripple: four points per period in every cell longer than a quarter period where the
+        task, w, d0, d1, flag, gval, over = _tail(D0, D1, task, w, d0, d1)
+        # the ripple: four points per period in every cell (two samples of one design) where the
         # frozen ripple's crest of Im C7 is positive and lifts the phase by RIPPLE_MIN_DEG at an end
-        cell = np.flatnonzero(wide & (flag[1:] | flag[:-1]))
-        args = (w[cell], w[cell + 1], T[task[cell]], gval[cell], gval[cell + 1])
-        over |= np.bincount(task[cell], weights=_ripple_phase(*args)[0], minlength=Nd) > MAX_RIPPLE_SAMPLES
+        cell = np.flatnonzero((task[1:] == task[:-1]) & (flag[1:] | flag[:-1]))
+        phase = _ripple_phase(w[cell], w[cell + 1], T[task[cell]], gval[cell], gval[cell + 1])
+        over |= np.bincount(task[cell], weights=phase[0], minlength=Nd) > MAX_RIPPLE_SAMPLES
         keep = ~over[task[cell]]
+        n, rw = _ripple_points(w[cell][keep], w[cell + 1][keep], *(x[keep] for x in phase))
         cell = cell[keep]
-        n, rw = _ripple_points(*(x[keep] for x in args))
         if rw.size:
             rt = np.repeat(task[cell], n)
             ins = np.zeros(task.size, np.int64)
@@ -231,25 +231,16 @@ def _tail(D0, D1, task, w, d0, d1):
     bounds hold and the ripple's lift only decays.
 
     Returns the samples with the tails inserted, the frame (``flag``, ``g``; False and 0 without a
-    delay), per cell whether both ends are samples of one design, and per design whether the
-    ripple could still lift the phase at the last tail step (the coverage is then partial)."""
+    delay), and per design whether the ripple could still lift the phase at the last tail step
+    (the coverage is then partial)."""
     T = D0.T
-    same = task[1:] == task[:-1]
-    wide = same
-    last = np.flatnonzero(np.r_[~same, True])
+    last = np.flatnonzero(np.r_[task[1:] != task[:-1], True])
     last = last[T[task[last]] > 0]
-    need = np.zeros(task.size, bool)
-    need[:-1] |= wide
-    need[1:] |= wide
-    need[last] = True
-    k = np.flatnonzero(need)
-    flag = np.zeros(task.size, bool)
-    g = np.zeros(task.size, complex)
-    flag[k], g[k] = _frame(D0, D1, task[k], w[k], d0[k], d1[k])
+    flag, g = _frame(D0, D1, task, w, d0, d1)
     last = last[flag[last]]
     unfinished = np.zeros(D0.n, bool)
     if last.size == 0:
-        return task, w, d0, d1, flag, g, wide, unfinished
+        return task, w, d0, d1, flag, g, unfinished
     t_task = np.repeat(task[last], TAIL_STEPS)
     t_w = (w[last][:, None] * 2.0 ** np.arange(1, TAIL_STEPS + 1)[None, :]).ravel()
     t_d0, t_d1 = D0.eval(t_task, t_w, deriv=False)[0], D1.eval(t_task, t_w, deriv=False)[0]
@@ -262,14 +253,9 @@ def _tail(D0, D1, task, w, d0, d1):
     ins[last] = n_t
     put = _inserter(ins)
     unfinished[task[last]] = lifts[:, -1]
-    # the tail's cells (from the last sample on) are octaves: long; they follow cell last − 1 (a
-    # design has two samples at least)
-    wide_ins = np.zeros(task.size - 1, np.int64)
-    wide_ins[last - 1] = n_t
-    wide = _inserter(wide_ins)(wide, np.ones(int(n_t.sum()), bool))
     out = (put(task, t_task[keep]), put(w, t_w[keep]), put(d0, t_d0[keep]), put(d1, t_d1[keep]),
            put(flag, t_flag[keep]), put(g, t_g[keep]))
-    return out + (wide, unfinished)
+    return out + (unfinished,)
 
 
 def _frame(D0, D1, task, w, d0, d1):
@@ -377,15 +363,16 @@ def _ripple_phase(wa, wb, T, ga, gb):
     return n, k0, psi_a, dpsi
 
 
-def _ripple_points(wa, wb, T, ga, gb):
+def _ripple_points(wa, wb, n, k0, psi_a, dpsi):
     """Four points per period of the delay ripple in each cell [wa, wb] [rad/s], on the crests,
-    troughs and midway points of the frozen ripple A0 + |G| sin(arg G − ωT) (:func:`_g`):
+    troughs and midway points of the frozen ripple A0 + |G| sin(arg G − ωT) (:func:`_frame`):
     ψ(ω) = ωT − arg G(ω) + π/2 ≡ 0 (mod π/2), with arg G interpolated linearly across the cell.
     A lobe where Im C7 > 0 is then sampled at its crest, and the gap between two lobes at its
     trough, unless the lobe (gap) is so shallow that its peak excess is negligible.
 
+    ``n, k0, psi_a, dpsi``: the cells' ripple phase (:func:`_ripple_phase`).
+
     Returns ``(n, w)``: the number of points in each cell and the points, cell by cell, increasing."""
-    n, k0, psi_a, dpsi = _ripple_phase(wa, wb, T, ga, gb)
     q = 0.5 * np.pi
     cell = np.repeat(np.arange(wa.size), n)
     k = k0[cell] + (np.arange(cell.size) - np.repeat(np.cumsum(n) - n, n))
