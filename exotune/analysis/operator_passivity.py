@@ -165,7 +165,13 @@ def _samples(D0, D1, lv):
 
     Returns ``(task, w, c7, over)``: design row, ω [rad/s] and C7(jω) per sample, and per design
     whether the ripple needed more than ``MAX_RIPPLE_SAMPLES`` samples or more than ``TAIL_STEPS``
-    octaves of tail (partial coverage)."""
+    octaves of tail (partial coverage). Compiled: :func:`exotune.numerics.kernels.c7_samples`, the
+    same steps in one pass per design."""
+    if compiled():
+        from ..numerics import kernels as _fastphase
+
+        return _fastphase.c7_samples(D0, D1, lv, RIPPLE_MIN_DEG, TAIL_STEPS, MAX_RIPPLE_SAMPLES, DIP_RISE_UNEVEN,
+                                     iters=40)
     Nd = D0.n
     pos = lv["a"] > 0  # all leaves unless a grid starts at ω = 0
     keep = (lambda x: x) if pos.all() else (lambda x: x[pos])  # noqa: E731  (no copies when all)

@@ -9,7 +9,8 @@ One module per kernel family:
 - :mod:`.pair`: scalar functions of a pair (values, Illinois roots, golden-section maxima, the
   crossing classification and sub-sampling of leaves);
 - :mod:`.bounds`: frequency tail bounds and batched polynomial products;
-- :mod:`.ripple`: the frozen delay-ripple frame of the operator compliance C7 (passivity);
+- :mod:`.ripple`: the frozen delay-ripple frame of the operator compliance C7 and the samples of
+  C7 built on it, one pass per design (passivity);
 - :mod:`.latency`: the latency margin of every design of a batch (the sweep column);
 - :mod:`.shiftloop`: the linear recursion of a simulated run with a long delay line;
 - :mod:`.eig`: eigenvalues of stacks of small real matrices (the sampled-data loops) and the
@@ -30,7 +31,7 @@ from .common import AVAILABLE, GEO_SPLIT_RATIO, MAX_GROUP_EVALS, MAX_TASK_EVALS,
 from .leaves import leaves2
 from .pair import classify_leaves, golden_max, pair_roots, pair_values, refine_crossings, subsample_brackets
 from .phase import count_tasks, phase_sums
-from .ripple import ripple_frame
+from .ripple import c7_samples, ripple_frame
 
 __all__ = [
     "AVAILABLE",
@@ -51,4 +52,5 @@ __all__ = [
     "omega_max",
     "pmul_rows",
     "ripple_frame",
+    "c7_samples",
 ]

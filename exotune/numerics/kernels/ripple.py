@@ -12,13 +12,36 @@ import math
 import numpy as np
 
 from .common import AVAILABLE, coefficients, njit
+from .pair import _pair_args
 
 if AVAILABLE:
-    from .common import horner
+    from .common import cdiv, eval_quasi, horner
+    from .pair import _dip, _is_dip
 
-__all__ = ["ripple_frame"]
+__all__ = ["ripple_frame", "c7_samples"]
 
 if AVAILABLE:
+
+    @njit(cache=True, inline="always")
+    def _frame_at(cA1, cB1, t, T, x, d0, d1, lift_min):
+        """(flag, G) of the frozen ripple at one sample ω = x of a delayed design (T > 0)."""
+        ar, ai, _, _ = horner(cA1, t, x)
+        br, bi, _, _ = horner(cB1, t, x)
+        p01 = complex(ar, ai)
+        p11 = complex(br, bi)
+        e = complex(math.cos(x * T), -math.sin(x * T))
+        p00 = d0 - p01 * e
+        p10 = d1 - p11 * e
+        a0 = (p10 * p00.conjugate() + p11 * p01.conjugate()).imag
+        gi = p11 * p00.conjugate() - p10.conjugate() * p01
+        crest = a0 + abs(gi)
+        den = max(abs(p00) - abs(p01), 0.0) * max(abs(p10) - abs(p11), 0.0)
+        if not (crest > 0.0):  # also NaN
+            return False, gi
+        if den > 0.0:
+            lift = math.degrees(crest / den)
+            return not (lift < lift_min), gi  # NaN or inf lifts count
+        return True, gi
 
     @njit(cache=True)
     def _frame(cA1, cB1, Ts, task, w, d0, d1, lift_min, flag, g):
@@ -29,26 +52,7 @@ if AVAILABLE:
                 flag[i] = False
                 g[i] = 0.0
                 continue
-            x = w[i]
-            ar, ai, _, _ = horner(cA1, t, x)
-            br, bi, _, _ = horner(cB1, t, x)
-            p01 = complex(ar, ai)
-            p11 = complex(br, bi)
-            e = complex(math.cos(x * T), -math.sin(x * T))
-            p00 = d0[i] - p01 * e
-            p10 = d1[i] - p11 * e
-            a0 = (p10 * p00.conjugate() + p11 * p01.conjugate()).imag
-            gi = p11 * p00.conjugate() - p10.conjugate() * p01
-            g[i] = gi
-            crest = a0 + abs(gi)
-            den = max(abs(p00) - abs(p01), 0.0) * max(abs(p10) - abs(p11), 0.0)
-            if not (crest > 0.0):  # also NaN
-                flag[i] = False
-            elif den > 0.0:
-                lift = math.degrees(crest / den)
-                flag[i] = not (lift < lift_min)  # NaN or inf lifts count
-            else:
-                flag[i] = True
+            flag[i], g[i] = _frame_at(cA1, cB1, t, T, w[i], d0[i], d1[i], lift_min)
 
 
 def ripple_frame(qa, qb, task, w, d0, d1, lift_min: float):
@@ -88,3 +92,233 @@ def ripple_frame(qa, qb, task, w, d0, d1, lift_min: float):
         _frame(cA1, cB1, np.ascontiguousarray(qa.T, dtype=float), np.ascontiguousarray(task, dtype=np.int64),
                np.ascontiguousarray(w, dtype=float), c(d0), c(d1), float(lift_min), flag, g)
     return flag, g
+
+
+if AVAILABLE:
+
+    @njit(cache=True)
+    def _grow(x, n):
+        """``x`` if it holds ``n`` items, else a copy of it with room for max(2 len(x), n)."""
+        if n <= x.shape[0]:
+            return x
+        y = np.empty(max(2 * x.shape[0], n), x.dtype)
+        y[: x.shape[0]] = x
+        return y
+
+    @njit(cache=True, inline="always")
+    def _sin_arg(c):
+        """Im c / |c| (NaN where c is 0 or not finite)."""
+        return c.imag / abs(c)
+
+    @njit(cache=True)
+    def _samples(cA0, cA1, cB0, cB1, Ts, lt, la, lb, va0, va1, vb0, vb1, lift_min, tail_steps, max_ripple, rise,
+                 iters, over):
+        """One pass per design over its leaves: the samples of C7 in order (numpy reference and
+        description: :func:`exotune.analysis.operator_passivity._samples`). Returns (task, w, c, n)."""
+        q = 0.5 * math.pi
+        n_l = lt.shape[0]
+        cap = n_l + 64
+        o_t = np.empty(cap, np.int64)
+        o_w = np.empty(cap)
+        o_c = np.empty(cap, np.complex128)
+        n = 0
+        # per-design scratch: base samples (leaf ends and tail) with their frame, the cells' ripple
+        # phase, the samples with the ripple points, the dips
+        sw = np.empty(64)
+        s0 = np.empty(64, np.complex128)
+        s1 = np.empty(64, np.complex128)
+        sf = np.empty(64, np.bool_)
+        sg = np.empty(64, np.complex128)
+        rn = np.empty(64, np.int64)
+        rk = np.empty(64)
+        rp = np.empty(64)
+        rd = np.empty(64)
+        fw = np.empty(64)
+        fc = np.empty(64, np.complex128)
+        da = np.empty(64, np.int64)
+        dw = np.empty(64)
+        i = 0
+        while i < n_l:
+            t = lt[i]
+            e = i
+            while e < n_l and lt[e] == t:
+                e += 1
+            need = e - i + 1 + tail_steps
+            sw = _grow(sw, need)
+            s0 = _grow(s0, need)
+            s1 = _grow(s1, need)
+            sf = _grow(sf, need)
+            sg = _grow(sg, need)
+            m = 0
+            for lf in range(i, e):  # the a-end of the first leaf with a > 0, then every b-end
+                if not (la[lf] > 0):
+                    continue
+                if m == 0:
+                    sw[0] = la[lf]
+                    s0[0] = va0[lf]
+                    s1[0] = va1[lf]
+                    m = 1
+                sw[m] = lb[lf]
+                s0[m] = vb0[lf]
+                s1[m] = vb1[lf]
+                m += 1
+            i = e
+            if m == 0:
+                continue
+            T = Ts[t]
+            total = 0
+            if T > 0.0:
+                for j in range(m):
+                    sf[j], sg[j] = _frame_at(cA1, cB1, t, T, sw[j], s0[j], s1[j], lift_min)
+                if sf[m - 1]:  # the tail: octaves while the ripple can lift the phase, and one more
+                    wl = sw[m - 1]
+                    lastf = -1
+                    for k in range(tail_steps):
+                        x = wl * 2.0 ** (k + 1)
+                        v0, _ = eval_quasi(cA0, cA1, t, T, x)
+                        v1, _ = eval_quasi(cB0, cB1, t, T, x)
+                        sw[m + k] = x
+                        s0[m + k] = v0
+                        s1[m + k] = v1
+                        sf[m + k], sg[m + k] = _frame_at(cA1, cB1, t, T, x, v0, v1, lift_min)
+                        if sf[m + k]:
+                            lastf = k
+                    if lastf == tail_steps - 1:
+                        over[t] = True
+                    m += min(lastf + 2, tail_steps) if lastf >= 0 else 1
+                rn = _grow(rn, m)
+                rk = _grow(rk, m)
+                rp = _grow(rp, m)
+                rd = _grow(rd, m)
+                for j in range(m - 1):  # the ripple phase of each flagged cell
+                    rn[j] = 0
+                    if not (sf[j] or sf[j + 1]):
+                        continue
+                    gq = cdiv(sg[j + 1], sg[j])
+                    dpsi = (sw[j + 1] - sw[j]) * T - math.atan2(gq.imag, gq.real)
+                    psi_a = sw[j] * T - math.atan2(sg[j].imag, sg[j].real) + 0.5 * math.pi
+                    if not (np.isfinite(dpsi) and np.isfinite(psi_a) and dpsi > 0):
+                        continue
+                    k0 = math.floor(psi_a / q) + 1
+                    k1 = math.ceil((psi_a + dpsi) / q) - 1
+                    rn[j] = int(min(max(k1 - k0 + 1, 0.0), 4.0 * max_ripple))
+                    rk[j] = k0
+                    rp[j] = psi_a
+                    rd[j] = dpsi
+                    total += rn[j]
+                if total > max_ripple or over[t]:  # partial coverage: no ripple points
+                    total = 0
+                    for j in range(m - 1):
+                        rn[j] = 0
+            # the samples in order: each base sample, then its cell's ripple points
+            M = m + total
+            fw = _grow(fw, M)
+            fc = _grow(fc, M)
+            p = 0
+            for j in range(m):
+                fw[p] = sw[j]
+                fc[p] = cdiv(s1[j], s0[j])
+                p += 1
+                if j == m - 1 or total == 0:
+                    continue
+                wa = sw[j]
+                wb = sw[j + 1]
+                lo = np.nextafter(wa, np.inf)
+                hi = np.nextafter(wb, -np.inf)
+                for r in range(rn[j]):
+                    x = wa + ((rk[j] + r) * q - rp[j]) / rd[j] * (wb - wa)
+                    x = min(max(x, lo), hi)
+                    v0, _ = eval_quasi(cA0, cA1, t, T, x)
+                    v1, _ = eval_quasi(cB0, cB1, t, T, x)
+                    fw[p] = x
+                    fc[p] = cdiv(v1, v0)
+                    p += 1
+            # lobes and gaps narrower than the samples: golden section of Im(Δ00 conj Δ10) between
+            # the neighbours of each candidate; at most one new point follows a sample
+            da = _grow(da, M)
+            dw = _grow(dw, M)
+            nd = 0
+            up = _sin_arg(fc[0])
+            un = _sin_arg(fc[1]) if M > 1 else math.nan
+            for j in range(1, M - 1):
+                uq = up
+                up = un
+                un = _sin_arg(fc[j + 1])
+                if not _is_dip(uq, up, un, rise):
+                    continue
+                s = 1.0 if up > 0 else -1.0
+                wd, gd = _dip(cA0, cA1, cB0, cB1, t, T, fw[j - 1], fw[j + 1], -s, 0, 1.0, 0.0, iters)
+                if s * gd > 0:
+                    da[nd] = j - 1 if wd < fw[j] else j
+                    dw[nd] = wd
+                    nd += 1
+            need = n + M + nd
+            if need > o_t.shape[0]:
+                o_t = _grow(o_t, need)
+                o_w = _grow(o_w, need)
+                o_c = _grow(o_c, need)
+            r = 0
+            for j in range(M):
+                o_t[n] = t
+                o_w[n] = fw[j]
+                o_c[n] = fc[j]
+                n += 1
+                if r < nd and da[r] == j:
+                    v0, _ = eval_quasi(cA0, cA1, t, T, dw[r])
+                    v1, _ = eval_quasi(cB0, cB1, t, T, dw[r])
+                    o_t[n] = t
+                    o_w[n] = dw[r]
+                    o_c[n] = cdiv(v1, v0)
+                    n += 1
+                    r += 1
+        return o_t, o_w, o_c, n
+
+
+def c7_samples(qa, qb, lv: dict, lift_min: float, tail_steps: int, max_ripple: int, rise: float, iters: int = 40):
+    """The samples of C7 = Δb/Δa of every design, ordered by (design, ω), in one compiled pass per
+    design: the leaves' ends, the tail of a delayed design, four ripple points per period in every
+    cell the frozen ripple flags, and the points of the lobes and gaps narrower than the samples.
+
+    Parameters
+    ----------
+    qa, qb : QP
+        Δ00 and Δ10 (same delays T [s]).
+    lv : dict
+        Their adaptive frequency set (``task``, ``a``, ``b``, ``va``, ``vb``; leaves sorted by
+        design and frequency).
+    lift_min : float
+        The smallest lift of the phase by the frozen ripple that flags a sample [deg].
+    tail_steps : int
+        The most octaves of tail beyond the last leaf.
+    max_ripple : int
+        The most ripple points of one design (more: partial coverage, no ripple points).
+    rise : float
+        The dip test's factor (:func:`exotune.numerics.quasipoly.dip_candidates`).
+    iters : int
+        Golden-section steps of a dip search.
+
+    Returns
+    -------
+    task : ndarray of int
+        Design row of each sample.
+    w : ndarray
+        The samples [rad/s].
+    c : ndarray of complex
+        C7(jω) there [rad/(N·m)].
+    over : ndarray of bool, shape (ntask,)
+        Per design: partial coverage (too many ripple points, or the ripple could still lift the
+        phase at the last tail step).
+
+    References
+    ----------
+    docs/method.md#passivity-of-the-operator-compliance; numpy reference:
+    :func:`exotune.analysis.operator_passivity._samples`.
+    """
+    cA0, cA1, cB0, cB1, T = _pair_args(qa, qb)
+    over = np.zeros(T.shape[0], np.bool_)
+    c = lambda x: np.ascontiguousarray(x, dtype=complex)  # noqa: E731
+    task, w, c7, n = _samples(cA0, cA1, cB0, cB1, T, np.ascontiguousarray(lv["task"], dtype=np.int64),
+                              np.ascontiguousarray(lv["a"], dtype=float), np.ascontiguousarray(lv["b"], dtype=float),
+                              c(lv["va"][0]), c(lv["va"][1]), c(lv["vb"][0]), c(lv["vb"][1]), float(lift_min),
+                              int(tail_steps), int(max_ripple), float(rise), int(iters), over)
+    return task[:n], w[:n], c7[:n], over
