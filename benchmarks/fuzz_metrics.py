@@ -52,7 +52,9 @@ sweep column refines minima by golden section on a 40/decade grid; the reference
 refinement is ~1e-7).
 
 Classification: ``agree``; ``disagree`` (outside tolerance, after the reference was refined);
-``ref-inconclusive`` (the reference cannot settle it: a band peak within 5 % of the 0.1° listing
+``ex-inconclusive`` (a critical value exotune does not list in a family it reports inconclusive:
+it claims no interval there, so this is no disagreement; tallied apart); ``ref-inconclusive``
+(the reference cannot settle it: a band peak within 5 % of the 0.1° listing
 threshold, a band end beyond which |Im C7| stays below exotune's float resolution 1e-8 |C7| (exotune
 extends the band to infinity), a crossing at a range end to 1e-9, a double (tangent) crossing, a shallow −3 dB
 approach within 0.01 neper that exotune documents it accepts, a margin where the reference's
@@ -594,10 +596,11 @@ class Tally:
         self.dis = []
 
     def add(self, metric, cls, rel=None, detail=None):
-        r = self.rows.setdefault(metric, dict(compared=0, agree=0, disagree=0, ref_inconclusive=0, max_rel=0.0))
+        r = self.rows.setdefault(metric, dict(compared=0, agree=0, disagree=0, ref_inconclusive=0, ex_inconclusive=0,
+                                              max_rel=0.0))
         r["compared"] += 1
         r[cls.replace("-", "_")] += 1
-        if rel is not None and math.isfinite(rel) and cls != "ref-inconclusive":
+        if rel is not None and math.isfinite(rel) and cls not in ("ref-inconclusive", "ex-inconclusive"):
             r["max_rel"] = max(r["max_rel"], rel)
         if cls == "disagree" and detail is not None:
             self.dis.append(dict(metric=metric, **detail))
@@ -735,7 +738,14 @@ def compare_design(m, t: Tally, idx, cases: Path):
         ivs_ex = [tuple(map(float, x)) for x in cols[f"{key}_stable_intervals"][0]]
         rows, ends = compare_family(R, fam, crit_ex, ivs_ex, refc)
         frec = dict(family=key, n_ex=len(crit_ex), n_ref=len(refc["crit"]), problems=[])
+        conclusive = bool(cols[f"{key}_conclusive"][0])
+        frec["exotune_conclusive"] = conclusive
         for r in rows:
+            if not conclusive and r["kind"] != "matched":
+                # exotune declared the family inconclusive (no interval is claimed): a critical value
+                # it did not list is not a disagreement, it is tallied apart
+                t.add("human_critical_value", "ex-inconclusive")
+                continue
             if r["kind"] == "matched":
                 ok = r["dv"] <= TOL["critical_value"] and r["df"] <= TOL["critical_freq"]
                 t.add("human_critical_value", "agree" if r["dv"] <= TOL["critical_value"] else "disagree", r["dv"],
@@ -921,11 +931,13 @@ def main(argv=None):
         print(f"[L{i:3d}] exotune {lm:.9g} reference {r['reference']:.9g} rel {r['diff']:.1e} at {r['loop']} "
               f"{r['member']} {r['cls']} verdicts {r['verdict_check']} {r['seconds']:.1f} s", flush=True)
     print()
-    hdr = f"{'metric':34s} {'compared':>8s} {'agree':>6s} {'disagree':>8s} {'max rel diff':>12s} {'ref-inconcl':>11s}"
+    hdr = (f"{'metric':34s} {'compared':>8s} {'agree':>6s} {'disagree':>8s} {'max rel diff':>12s} {'ref-inconcl':>11s} "
+           f"{'ex-inconcl':>10s}")
     print(hdr)
     print("-" * len(hdr))
     for k, r in t.rows.items():
-        print(f"{k:34s} {r['compared']:8d} {r['agree']:6d} {r['disagree']:8d} {r['max_rel']:12.2e} {r['ref_inconclusive']:11d}")
+        print(f"{k:34s} {r['compared']:8d} {r['agree']:6d} {r['disagree']:8d} {r['max_rel']:12.2e} {r['ref_inconclusive']:11d} "
+              f"{r['ex_inconclusive']:10d}")
     print(f"\n{len(recs)} designs ({sum('refused' in r for r in recs)} refused), {len(lat)} latency designs, "
           f"{time.perf_counter() - t0:.0f} s; disagreements: {len(t.dis)}; cases in {cases}")
     if args.json:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..numerics.engine import compiled
-from ..numerics.quasipoly import DIP_RISE_UNEVEN, bisect_roots, dip_candidates, golden_max
+from ..numerics.quasipoly import DIP_RISE_UNEVEN, bisect_roots, dip_candidates, dip_rise, golden_max
 from .batch_result import PassivityBatch
 from .brackets import pair_roots
 from .charfun import CharTerms
@@ -315,7 +315,8 @@ def _inserter(counts):
 def _dips(D0, D1, task, w, c):
     """Lobes of Im C7 > 0, and gaps of Im C7 < 0 inside a band, narrower than the samples.
     Candidates: samples j where sin arg C7 (= Im C7/|C7|) may hide the other sign between its
-    neighbours (:func:`~exotune.numerics.quasipoly.dip_candidates`). −s·Im(Δ10·conj Δ00) = −s|Δ00|² Im C7 is maximized on [w_{j−1}, w_{j+1}] by
+    neighbours (:func:`~exotune.numerics.quasipoly.dip_candidates`, with the factor of
+    :func:`~exotune.numerics.quasipoly.dip_rise` for the spacing of the three samples). −s·Im(Δ10·conj Δ00) = −s|Δ00|² Im C7 is maximized on [w_{j−1}, w_{j+1}] by
     golden section; where its maximum is positive (Im C7 changes sign), that point is returned.
 
     Returns ``(after, w, c7)``: the index of the sample each new point follows, the point [rad/s]
@@ -327,7 +328,7 @@ def _dips(D0, D1, task, w, c):
     with np.errstate(invalid="ignore", divide="ignore"):
         sn = np.imag(c) / np.abs(c)
     j = np.arange(1, n - 1)
-    cand, sg = dip_candidates(sn[j - 1], sn[j], sn[j + 1], rise=DIP_RISE_UNEVEN)
+    cand, sg = dip_candidates(sn[j - 1], sn[j], sn[j + 1], rise=dip_rise(w[j] - w[j - 1], w[j + 1] - w[j]))
     cand &= (task[j - 1] == task[j]) & (task[j + 1] == task[j])
     j, sg = j[cand], sg[cand]
     if j.size == 0:

@@ -35,14 +35,15 @@ from .engine import resolve_engine as _engine
 from .poly import degree, leading, pder
 from .budgets import MAX_TASK_LEAVES
 
-__all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots", "golden_max", "dip_candidates", "DIP_RISE", "DIP_RISE_UNEVEN"]
+__all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots", "golden_max", "dip_candidates", "dip_rise", "DIP_RISE", "DIP_RISE_UNEVEN"]
 
 ARG_STEP = 0.8  # max accepted phase step per interval [rad] (any value < π keeps unwrapping exact)
 DER_STEP = 1.0  # max accepted (b − a)·|Δ'/Δ(b) − Δ'/Δ(a)| per interval
 MAX_LEVELS = 64
 # a sampled local minimum of a function of one sign is searched for the other sign when it is
 # nearer to 0 than DIP_RISE times its rise to the higher neighbour (see dip_candidates): evenly
-# spaced samples, and unevenly spaced ones (the leaves' ends)
+# spaced samples, and unevenly spaced ones (the passivity samples: at least DIP_RISE_UNEVEN, more
+# where the neighbouring cells differ in length, see dip_rise)
 DIP_RISE = 0.5
 DIP_RISE_UNEVEN = 2.0
 _TAN_ARG = float(np.tan(ARG_STEP))
@@ -513,6 +514,34 @@ def golden_max(f, a_, b_, iters: int = 40, where: bool = False):
     return (f(wm), wm) if where else f(wm)
 
 
+def dip_rise(h1, h2, least: float = DIP_RISE_UNEVEN):
+    """The dip test's factor for a sample between cells of lengths ``h1`` and ``h2``:
+    max(``least``, 1/(ρ(1 + ρ))) with ρ = min(h1, h2)/max(h1, h2) (infinite when a cell is empty).
+
+    A parabola through three samples whose middle one is the nearest to 0 dips below it by at most
+    1/(4ρ(1 + ρ)) times the rise to the higher neighbour (the bound is attained when the other
+    neighbour is level with the middle sample); this factor keeps four times that margin, so a
+    minimum of the other sign between samples of any spacing is searched
+    (docs/method.md#passivity-of-the-operator-compliance).
+
+    Parameters
+    ----------
+    h1, h2 : numpy.ndarray
+        The lengths of the cells before and after the middle sample (≥ 0).
+    least : float, optional
+        The smallest factor.
+
+    Returns
+    -------
+    numpy.ndarray
+        The factor for :func:`dip_candidates`.
+    """
+    h1, h2 = np.asarray(h1, float), np.asarray(h2, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.minimum(h1, h2) / np.maximum(h1, h2)
+        return np.maximum(least, np.where(rho > 0, 1.0 / (rho * (1.0 + rho)), np.inf))
+
+
 def dip_candidates(uq, up, un, rise: float = DIP_RISE):
     """Which middle points of three consecutive samples ``(uq, up, un)`` of one sign s may hide a
     pair of sign changes between the outer two: s·u has a local minimum at the middle point that is
@@ -521,15 +550,15 @@ def dip_candidates(uq, up, un, rise: float = DIP_RISE):
     A smooth minimum sampled evenly (a parabola, or a sinusoid at 8 points per period) lies below
     its sampled value by at most a quarter of that rise, so with ``DIP_RISE`` (½) a minimum of the
     other sign always passes the test, with a factor 2 to spare. Unevenly spaced samples have no
-    such bound (the minimum can sit deep in the longer cell): ``DIP_RISE_UNEVEN`` (2) is a wider
-    net, checked against dense references by the metrics campaign (docs/benchmarks.md).
+    bound that ignores their spacing (the minimum can sit deep in the longer cell): they use
+    :func:`dip_rise`, at least ``DIP_RISE_UNEVEN`` (2).
 
     Parameters
     ----------
     uq, up, un : numpy.ndarray
         The normalized function at the three points (NaN: never a candidate).
-    rise : float, optional
-        The factor of the test.
+    rise : float or numpy.ndarray, optional
+        The factor of the test (one per point: :func:`dip_rise`).
 
     Returns
     -------

@@ -357,3 +357,43 @@ def test_complex_path_with_real_data_equals_real_path(g0, g1, gain_exp, t_frac):
     Nc, okc = _count(p0.astype(complex), p1.astype(complex), T, v0=np.array([v0]))
     assert okc
     assert Nc == Nr
+
+
+@settings(max_examples=300, deadline=None)
+@given(h1=st.floats(1e-6, 1.0), h2=st.floats(1e-6, 1.0), vertex=st.floats(0.0, 1.0), depth=st.floats(1e-9, 10.0),
+       curv=st.floats(1e-3, 1e3), sign=st.sampled_from([1.0, -1.0]))
+def test_the_uneven_dip_net_catches_every_parabola_of_the_other_sign(h1, h2, vertex, depth, curv, sign):
+    """A parabola sampled at −h1, 0, h2 whose middle sample is the nearest to 0 and whose minimum
+    between the outer samples has the other sign is a candidate with the factor of dip_rise, for
+    any spacing (the bound 1/(4ρ(1 + ρ)) it keeps four times)."""
+    from exotune.numerics.quasipoly import dip_candidates, dip_rise
+
+    xv = -h1 + vertex * (h1 + h2)  # the vertex, anywhere between the outer samples
+    f = lambda x: sign * (curv * (x - xv) ** 2 - depth)  # noqa: E731
+    uq, up, un = f(-h1), f(0.0), f(h2)
+    s = np.sign(up)
+    assume(s == sign and sign * uq > 0 and sign * un > 0)  # all three samples of one sign
+    assume(sign * up <= sign * uq and sign * up < sign * un)  # the middle one nearest to 0
+    cand, sg = dip_candidates(np.array([uq]), np.array([up]), np.array([un]), rise=dip_rise(h1, h2))
+    assert cand[0] and sg[0] == sign
+    # the fixed factor of evenly spaced samples misses some of them: the spacing matters
+    assert dip_rise(h1, h2) >= 2.0
+
+
+def test_dip_rise_values():
+    from exotune.numerics.quasipoly import dip_rise
+
+    np.testing.assert_allclose(dip_rise(np.array([1.0, 1.0, 0.1, 1.0]), np.array([1.0, 0.1, 1.0, 0.01])),
+                               [2.0, 1 / (0.1 * 1.1), 1 / (0.1 * 1.1), 1 / (0.01 * 1.01)], rtol=1e-15)
+    assert np.isinf(dip_rise(0.0, 1.0)) and np.isinf(dip_rise(0.0, 0.0))
+
+
+def test_a_minimum_deep_in_the_longer_cell_is_missed_by_a_fixed_factor_and_found_with_dip_rise():
+    """(x + 0.5)² − 0.01 sampled at −1, 0 and 0.05: the samples are 0.24, 0.24, 0.2925 (rise
+    0.0525 from the middle, 0.24 to go), the minimum −0.01 lies in the longer cell."""
+    from exotune.numerics.quasipoly import dip_candidates, dip_rise
+
+    f = lambda x: (x + 0.5) ** 2 - 0.01  # noqa: E731
+    u = [np.array([f(x)]) for x in (-1.0, 0.0, 0.05)]
+    assert not dip_candidates(*u, rise=2.0)[0][0]
+    assert dip_candidates(*u, rise=dip_rise(1.0, 0.05))[0][0]

@@ -106,6 +106,16 @@ if AVAILABLE:
         return y
 
     @njit(cache=True, inline="always")
+    def _dip_rise(h1, h2, least):
+        """The dip test's factor for cells of lengths h1 and h2 around a sample
+        (:func:`exotune.numerics.quasipoly.dip_rise`)."""
+        lo = min(h1, h2)
+        if not (lo > 0.0):
+            return math.inf
+        rho = lo / max(h1, h2)
+        return max(least, 1.0 / (rho * (1.0 + rho)))
+
+    @njit(cache=True, inline="always")
     def _sin_arg(c):
         """Im c / |c| (NaN where c is 0 or not finite)."""
         return c.imag / abs(c)
@@ -244,7 +254,7 @@ if AVAILABLE:
                 uq = up
                 up = un
                 un = _sin_arg(fc[j + 1])
-                if not _is_dip(uq, up, un, rise):
+                if not _is_dip(uq, up, un, _dip_rise(fw[j] - fw[j - 1], fw[j + 1] - fw[j], rise)):
                     continue
                 s = 1.0 if up > 0 else -1.0
                 wd, gd = _dip(cA0, cA1, cB0, cB1, t, T, fw[j - 1], fw[j + 1], -s, 0, 1.0, 0.0, iters)
@@ -293,7 +303,8 @@ def c7_samples(qa, qb, lv: dict, lift_min: float, tail_steps: int, max_ripple: i
     max_ripple : int
         The most ripple points of one design (more: partial coverage, no ripple points).
     rise : float
-        The dip test's factor (:func:`exotune.numerics.quasipoly.dip_candidates`).
+        The dip test's least factor (:func:`exotune.numerics.quasipoly.dip_rise`: larger where the
+        cells around a sample differ in length).
     iters : int
         Golden-section steps of a dip search.
 
