@@ -52,8 +52,9 @@ sweep column refines minima by golden section on a 40/decade grid; the reference
 refinement is ~1e-7).
 
 Classification: ``agree``; ``disagree`` (outside tolerance, after the reference was refined);
-``ex-inconclusive`` (a critical value exotune does not list in a family it reports inconclusive:
-it claims no interval there, so this is no disagreement; tallied apart); ``ref-inconclusive``
+``ex-inconclusive`` (a critical value exotune does not list, or lists off the tolerance, in a
+family it reports inconclusive: it claims no interval there, so this is no disagreement; tallied
+apart); ``ref-inconclusive``
 (the reference cannot settle it: a band peak within 5 % of the 0.1° listing
 threshold, a band end beyond which |Im C7| stays below exotune's float resolution 1e-8 |C7| (exotune
 extends the band to infinity), a crossing at a range end to 1e-9, a double (tangent) crossing, a shallow −3 dB
@@ -740,19 +741,20 @@ def compare_design(m, t: Tally, idx, cases: Path):
         frec = dict(family=key, n_ex=len(crit_ex), n_ref=len(refc["crit"]), problems=[])
         conclusive = bool(cols[f"{key}_conclusive"][0])
         frec["exotune_conclusive"] = conclusive
+        # exotune declared the family inconclusive (no interval is claimed): a critical value it did
+        # not list, or one off the tolerance, is not a disagreement; it is tallied apart
+        bad = "disagree" if conclusive else "ex-inconclusive"
         for r in rows:
             if not conclusive and r["kind"] != "matched":
-                # exotune declared the family inconclusive (no interval is claimed): a critical value
-                # it did not list is not a disagreement, it is tallied apart
                 t.add("human_critical_value", "ex-inconclusive")
                 continue
             if r["kind"] == "matched":
                 ok = r["dv"] <= TOL["critical_value"] and r["df"] <= TOL["critical_freq"]
-                t.add("human_critical_value", "agree" if r["dv"] <= TOL["critical_value"] else "disagree", r["dv"],
+                t.add("human_critical_value", "agree" if r["dv"] <= TOL["critical_value"] else bad, r["dv"],
                       dict(det, family=key, **r))
-                t.add("human_critical_freq", "agree" if r["df"] <= TOL["critical_freq"] else "disagree", r["df"],
+                t.add("human_critical_freq", "agree" if r["df"] <= TOL["critical_freq"] else bad, r["df"],
                       dict(det, family=key, **r))
-                if not ok:
+                if not ok and conclusive:
                     frec["problems"].append(r)
             elif r["kind"] == "exotune-only":
                 # a genuine crossing missed by the reference grid (point check passes) or a spurious one

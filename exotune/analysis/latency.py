@@ -39,6 +39,7 @@ import numpy as np
 
 from ..model.humans import HumanFamily, family_split
 from ..numerics.poly import pad_cols, padd, pmul
+from ..numerics.quasipoly import golden_max
 
 __all__ = ["batch_latency_margin", "loop_latency_margins", "member_latency_margins", "design_loops",
            "qp_latency_margin", "family_latency_margin", "tail_bound", "GRID_PER_DECADE", "GRID_DECADES"]
@@ -315,20 +316,9 @@ def _member_margin(loop: _Loop, p: float, w, vals, T):
 
 def _golden(f, a, b, n: int):
     """Golden-section search of the vectorized ``f`` over [a, b] (arrays), ``n`` steps: the smallest
-    value reached and where."""
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    for _ in range(n):
-        lb = fc <= fd  # the minimum lies in [a, d]: d ← c, a new c; else in [c, b]: c ← d, a new d
-        a = np.where(lb, a, c)
-        b = np.where(lb, d, b)
-        c_new = np.where(lb, b - g * (b - a), d)
-        d_new = np.where(lb, c, a + g * (b - a))
-        f_new = f(np.where(lb, c_new, d_new))
-        fc, fd = np.where(lb, f_new, fd), np.where(lb, fc, f_new)
-        c, d = c_new, d_new
-    return np.fmin(fc, fd), np.where(fc <= fd, c, d)
+    value reached and where (:func:`~exotune.numerics.quasipoly.golden_max` of −f)."""
+    m, x = golden_max(lambda x: -f(x), a, b, n, where=True, best=True)
+    return -m, x
 
 
 def _narrow_crossings(loop: _Loop, p, per_row: bool, w, P0, P1, sg):

@@ -476,7 +476,7 @@ def bisect_roots(fun, task: np.ndarray, a: np.ndarray, b: np.ndarray, fa: np.nda
     return 0.5 * (a + b)
 
 
-def golden_max(f, a_, b_, iters: int = 40, where: bool = False):
+def golden_max(f, a_, b_, iters: int = 40, where: bool = False, best: bool = False):
     """Maximum of the vectorized ``f`` on each bracket [a_, b_] by ``iters`` golden-section steps
     (numpy reference of :func:`exotune.numerics.kernels.golden_max`, the same iteration).
 
@@ -490,11 +490,14 @@ def golden_max(f, a_, b_, iters: int = 40, where: bool = False):
         Golden-section steps (one new evaluation each).
     where : bool, optional
         Also return where each maximum was found.
+    best : bool, optional
+        Return the larger of the two final interior points (NaN ignored) instead of evaluating ``f``
+        once more at the final bracket's midpoint.
 
     Returns
     -------
     numpy.ndarray, or (numpy.ndarray, numpy.ndarray) when ``where``
-        ``f`` at the final bracket's midpoint, and that midpoint.
+        ``f`` at the final bracket's midpoint (``best``: at the better interior point), and that point.
     """
     gr = 0.5 * (np.sqrt(5) - 1)
     c1 = b_ - gr * (b_ - a_)
@@ -510,8 +513,12 @@ def golden_max(f, a_, b_, iters: int = 40, where: bool = False):
         fn = f(new)
         f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
         c1, c2 = c1n, c2n
-    wm = 0.5 * (a_ + b_)
-    return (f(wm), wm) if where else f(wm)
+    if best:
+        fm, wm = np.fmax(f1, f2), np.where(f1 >= f2, c1, c2)
+    else:
+        wm = 0.5 * (a_ + b_)
+        fm = f(wm)
+    return (fm, wm) if where else fm
 
 
 def dip_rise(h1, h2, least: float = DIP_RISE_UNEVEN):
