@@ -118,7 +118,7 @@ if AVAILABLE:
 _MODES = {"cross": 0, "mag": 1, "excess": 2}
 
 
-def _pair_args(qa, qb):
+def pair_args(qa, qb):
     cA0, cA1 = coefficients(qa)
     cB0, cB1 = coefficients(qb)
     if cA0.dtype != cB0.dtype:
@@ -160,7 +160,7 @@ def pair_values(qa, qb, mode: str, task, w, k: int = 0, factor: complex = 1.0, c
     factor = complex(factor)
     out = np.empty(len(task))
     if len(task):
-        _values(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), np.ascontiguousarray(w, dtype=float),
+        _values(*pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), np.ascontiguousarray(w, dtype=float),
                 _MODES[mode], int(k), factor.real, factor.imag, _cvals(c, qa.n), out)
     return out
 
@@ -198,7 +198,7 @@ def pair_roots(qa, qb, mode: str, task, a, b, fa, fb, k: int = 0, factor: comple
     out = np.empty(len(task))
     if len(task):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
-        _illinois(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), f(fa), f(fb),
+        _illinois(*pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), f(fa), f(fb),
                   _MODES[mode], int(k), factor.real, factor.imag, _cvals(c, qa.n), out)
     return out
 
@@ -260,7 +260,7 @@ def golden_max(qa, qb, mode: str, task, a, b, iters: int = 40, where: bool = Fal
     out_w = np.empty(len(task))
     if len(task):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
-        _golden_max(*_pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), _MODES[mode], int(iters),
+        _golden_max(*pair_args(qa, qb), np.ascontiguousarray(task, dtype=np.int64), f(a), f(b), _MODES[mode], int(iters),
                     out, out_w)
     return (out, out_w) if where else out
 
@@ -371,7 +371,7 @@ if AVAILABLE:
             fb.real * fb.real + fb.imag * fb.imag)
 
     @njit(cache=True)
-    def _dip(cA0, cA1, cB0, cB1, t, T, lo, hi, sg, k, fre, fim, iters):
+    def dip_search(cA0, cA1, cB0, cB1, t, T, lo, hi, sg, k, fre, fim, iters):
         """Golden-section minimum of sg·g on [lo, hi]: (where, g there)."""
         gr = 0.5 * (math.sqrt(5.0) - 1.0)
         c1 = hi - gr * (hi - lo)
@@ -424,9 +424,9 @@ if AVAILABLE:
                     oga[n] = gp
                     ogb[n] = g
                     n += 1
-                elif _is_dip(uq, up, u, rise):
+                elif is_dip(uq, up, u, rise):
                     sg = 1.0 if up > 0 else -1.0
-                    wd, gd = _dip(cA0, cA1, cB0, cB1, t, T, wq, w, sg, k, fre, fim, iters)
+                    wd, gd = dip_search(cA0, cA1, cB0, cB1, t, T, wq, w, sg, k, fre, fim, iters)
                     if sg * gd < 0.0:
                         otask[n] = t
                         oa[n] = wq
@@ -448,7 +448,7 @@ if AVAILABLE:
         return n
 
     @njit(cache=True, inline="always")
-    def _is_dip(uq, up, u, rise):
+    def is_dip(uq, up, u, rise):
         """Normalized values at three consecutive points of one sign s: s·u has a local minimum
         at the middle one, nearer to 0 than ``rise`` times its rise to the higher neighbour
         (:func:`exotune.numerics.quasipoly.dip_candidates`)."""
@@ -494,6 +494,6 @@ def subsample_brackets(qa, qb, k: int, factor: complex, st, sa, sb, iters: int =
     n = 0
     if len(st):
         f = lambda x: np.ascontiguousarray(x, dtype=float)  # noqa: E731
-        n = _subsample(*_pair_args(qa, qb), np.ascontiguousarray(st, dtype=np.int64), f(sa), f(sb), M, int(k),
+        n = _subsample(*pair_args(qa, qb), np.ascontiguousarray(st, dtype=np.int64), f(sa), f(sb), M, int(k),
                        factor.real, factor.imag, int(iters), float(rise), *out)
     return tuple(x[:n] for x in out)

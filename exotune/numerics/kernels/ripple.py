@@ -12,17 +12,17 @@ import math
 import numpy as np
 
 from .common import AVAILABLE, coefficients, njit
-from .pair import _pair_args
+from .pair import pair_args
 
 if AVAILABLE:
     from .common import cdiv, eval_quasi, horner
-    from .pair import _dip, _is_dip
+    from .pair import dip_search, is_dip
 
 __all__ = ["ripple_frame", "c7_samples"]
 
 if AVAILABLE:
 
-    @njit(cache=True, inline="always")
+    @njit(cache=True)
     def _frame_at(cA1, cB1, t, T, x, d0, d1, lift_min):
         """(flag, G) of the frozen ripple at one sample ω = x of a delayed design (T > 0)."""
         ar, ai, _, _ = horner(cA1, t, x)
@@ -105,6 +105,13 @@ if AVAILABLE:
         y[: x.shape[0]] = x
         return y
 
+    @njit(cache=True)
+    def _pair(cA0, cA1, cB0, cB1, t, T, x):
+        """Δa(jx) and Δb(jx) of row t (a call, not inlined: it keeps the compilation short)."""
+        v0, _ = eval_quasi(cA0, cA1, t, T, x)
+        v1, _ = eval_quasi(cB0, cB1, t, T, x)
+        return v0, v1
+
     @njit(cache=True, inline="always")
     def _dip_rise(h1, h2, least):
         """The dip test's factor for cells of lengths h1 and h2 around a sample
@@ -121,11 +128,146 @@ if AVAILABLE:
         return c.imag / abs(c)
 
     @njit(cache=True)
+    def _leaf_ends(la, lb, va0, va1, vb0, vb1, i, e, sw, s0, s1):
+        """The leaves i..e−1 of one design: the a-end of the first leaf with a > 0, then every
+        b-end, into (sw, s0, s1); returns their number."""
+        m = 0
+        for lf in range(i, e):
+            if not (la[lf] > 0):
+                continue
+            if m == 0:
+                sw[0] = la[lf]
+                s0[0] = va0[lf]
+                s1[0] = va1[lf]
+                m = 1
+            sw[m] = lb[lf]
+            s0[m] = vb0[lf]
+            s1[m] = vb1[lf]
+            m += 1
+        return m
+
+    @njit(cache=True)
+    def _frame_tail(cA0, cA1, cB0, cB1, t, T, m, sw, s0, s1, sf, sg, lift_min, tail_steps, over):
+        """The frame of the m samples of a delayed design and, when the last is flagged, its tail:
+        octaves while the ripple can lift the phase, and one more (``over[t]`` when the last one
+        still can); returns the number of samples."""
+        for j in range(m):
+            sf[j], sg[j] = _frame_at(cA1, cB1, t, T, sw[j], s0[j], s1[j], lift_min)
+        if not sf[m - 1]:
+            return m
+        wl = sw[m - 1]
+        lastf = -1
+        for k in range(tail_steps):
+            x = wl * 2.0 ** (k + 1)
+            v0, v1 = _pair(cA0, cA1, cB0, cB1, t, T, x)
+            sw[m + k] = x
+            s0[m + k] = v0
+            s1[m + k] = v1
+            sf[m + k], sg[m + k] = _frame_at(cA1, cB1, t, T, x, v0, v1, lift_min)
+            if sf[m + k]:
+                lastf = k
+        if lastf == tail_steps - 1:
+            over[t] = True
+        return m + (min(lastf + 2, tail_steps) if lastf >= 0 else 1)
+
+    @njit(cache=True)
+    def _ripple_cells(T, m, sw, sf, sg, max_ripple, rn, rk, rp, rd):
+        """The ripple phase of every flagged cell of one design: the number of quarter periods
+        ψ = kπ/2 inside (rn), the first k (rk), ψ at the cell's a-end (rp) and its increase (rd);
+        returns the total (numpy reference: ``_ripple_phase``)."""
+        q = 0.5 * math.pi
+        total = 0
+        for j in range(m - 1):
+            rn[j] = 0
+            if not (sf[j] or sf[j + 1]):
+                continue
+            gq = cdiv(sg[j + 1], sg[j])
+            dpsi = (sw[j + 1] - sw[j]) * T - math.atan2(gq.imag, gq.real)
+            psi_a = sw[j] * T - math.atan2(sg[j].imag, sg[j].real) + 0.5 * math.pi
+            if not (np.isfinite(dpsi) and np.isfinite(psi_a) and dpsi > 0):
+                continue
+            k0 = math.floor(psi_a / q) + 1
+            k1 = math.ceil((psi_a + dpsi) / q) - 1
+            rn[j] = int(min(max(k1 - k0 + 1, 0.0), 4.0 * max_ripple))
+            rk[j] = k0
+            rp[j] = psi_a
+            rd[j] = dpsi
+            total += rn[j]
+        return total
+
+    @njit(cache=True)
+    def _fill(cA0, cA1, cB0, cB1, t, T, m, ripple, sw, s0, s1, rn, rk, rp, rd, fw, fc):
+        """C7 at the samples of one design in order: each base sample, then (``ripple``) its cell's
+        ripple points (numpy reference: ``_ripple_points``); returns their number."""
+        q = 0.5 * math.pi
+        p = 0
+        for j in range(m):
+            fw[p] = sw[j]
+            fc[p] = cdiv(s1[j], s0[j])
+            p += 1
+            if j == m - 1 or not ripple:
+                continue
+            wa = sw[j]
+            wb = sw[j + 1]
+            lo = np.nextafter(wa, np.inf)
+            hi = np.nextafter(wb, -np.inf)
+            for r in range(rn[j]):
+                x = wa + ((rk[j] + r) * q - rp[j]) / rd[j] * (wb - wa)
+                x = min(max(x, lo), hi)
+                v0, v1 = _pair(cA0, cA1, cB0, cB1, t, T, x)
+                fw[p] = x
+                fc[p] = cdiv(v1, v0)
+                p += 1
+        return p
+
+    @njit(cache=True)
+    def _find_dips(cA0, cA1, cB0, cB1, t, T, M, fw, fc, rise, iters, da, dw):
+        """Lobes and gaps narrower than the samples of one design: golden section of
+        Im(Δ00 conj Δ10) between the neighbours of each candidate (numpy reference: ``_dips``);
+        the sample each point follows (da, increasing: two neighbours are never both candidates)
+        and the point (dw); returns their number."""
+        nd = 0
+        up = _sin_arg(fc[0])
+        un = _sin_arg(fc[1]) if M > 1 else math.nan
+        for j in range(1, M - 1):
+            uq = up
+            up = un
+            un = _sin_arg(fc[j + 1])
+            if not is_dip(uq, up, un, _dip_rise(fw[j] - fw[j - 1], fw[j + 1] - fw[j], rise)):
+                continue
+            s = 1.0 if up > 0 else -1.0
+            wd, gd = dip_search(cA0, cA1, cB0, cB1, t, T, fw[j - 1], fw[j + 1], -s, 0, 1.0, 0.0, iters)
+            if s * gd > 0:
+                da[nd] = j - 1 if wd < fw[j] else j
+                dw[nd] = wd
+                nd += 1
+        return nd
+
+    @njit(cache=True)
+    def _emit(cA0, cA1, cB0, cB1, t, T, M, fw, fc, nd, da, dw, n, o_t, o_w, o_c):
+        """The samples of one design with the dips' points merged in, from position n of the
+        output; returns the new end."""
+        r = 0
+        for j in range(M):
+            o_t[n] = t
+            o_w[n] = fw[j]
+            o_c[n] = fc[j]
+            n += 1
+            if r < nd and da[r] == j:
+                v0, v1 = _pair(cA0, cA1, cB0, cB1, t, T, dw[r])
+                o_t[n] = t
+                o_w[n] = dw[r]
+                o_c[n] = cdiv(v1, v0)
+                n += 1
+                r += 1
+        return n
+
+    @njit(cache=True)
     def _samples(cA0, cA1, cB0, cB1, Ts, lt, la, lb, va0, va1, vb0, vb1, lift_min, tail_steps, max_ripple, rise,
                  iters, over):
         """One pass per design over its leaves: the samples of C7 in order (numpy reference and
-        description: :func:`exotune.analysis.operator_passivity._samples`). Returns (task, w, c, n)."""
-        q = 0.5 * math.pi
+        description: :func:`exotune.analysis.operator_passivity._samples`). Returns (task, w, c, n).
+        The stages are functions of their own; this loop owns the scratch arrays and grows them."""
         n_l = lt.shape[0]
         cap = n_l + 64
         o_t = np.empty(cap, np.int64)
@@ -134,19 +276,11 @@ if AVAILABLE:
         n = 0
         # per-design scratch: base samples (leaf ends and tail) with their frame, the cells' ripple
         # phase, the samples with the ripple points, the dips
-        sw = np.empty(64)
-        s0 = np.empty(64, np.complex128)
-        s1 = np.empty(64, np.complex128)
+        sw, s0, s1, sg = np.empty(64), np.empty(64, np.complex128), np.empty(64, np.complex128), np.empty(64, np.complex128)
         sf = np.empty(64, np.bool_)
-        sg = np.empty(64, np.complex128)
-        rn = np.empty(64, np.int64)
-        rk = np.empty(64)
-        rp = np.empty(64)
-        rd = np.empty(64)
-        fw = np.empty(64)
-        fc = np.empty(64, np.complex128)
-        da = np.empty(64, np.int64)
-        dw = np.empty(64)
+        rn, rk, rp, rd = np.empty(64, np.int64), np.empty(64), np.empty(64), np.empty(64)
+        fw, fc = np.empty(64), np.empty(64, np.complex128)
+        da, dw = np.empty(64, np.int64), np.empty(64)
         i = 0
         while i < n_l:
             t = lt[i]
@@ -154,133 +288,27 @@ if AVAILABLE:
             while e < n_l and lt[e] == t:
                 e += 1
             need = e - i + 1 + tail_steps
-            sw = _grow(sw, need)
-            s0 = _grow(s0, need)
-            s1 = _grow(s1, need)
-            sf = _grow(sf, need)
-            sg = _grow(sg, need)
-            m = 0
-            for lf in range(i, e):  # the a-end of the first leaf with a > 0, then every b-end
-                if not (la[lf] > 0):
-                    continue
-                if m == 0:
-                    sw[0] = la[lf]
-                    s0[0] = va0[lf]
-                    s1[0] = va1[lf]
-                    m = 1
-                sw[m] = lb[lf]
-                s0[m] = vb0[lf]
-                s1[m] = vb1[lf]
-                m += 1
+            sw, s0, s1, sf, sg = _grow(sw, need), _grow(s0, need), _grow(s1, need), _grow(sf, need), _grow(sg, need)
+            m = _leaf_ends(la, lb, va0, va1, vb0, vb1, i, e, sw, s0, s1)
             i = e
             if m == 0:
                 continue
             T = Ts[t]
             total = 0
             if T > 0.0:
-                for j in range(m):
-                    sf[j], sg[j] = _frame_at(cA1, cB1, t, T, sw[j], s0[j], s1[j], lift_min)
-                if sf[m - 1]:  # the tail: octaves while the ripple can lift the phase, and one more
-                    wl = sw[m - 1]
-                    lastf = -1
-                    for k in range(tail_steps):
-                        x = wl * 2.0 ** (k + 1)
-                        v0, _ = eval_quasi(cA0, cA1, t, T, x)
-                        v1, _ = eval_quasi(cB0, cB1, t, T, x)
-                        sw[m + k] = x
-                        s0[m + k] = v0
-                        s1[m + k] = v1
-                        sf[m + k], sg[m + k] = _frame_at(cA1, cB1, t, T, x, v0, v1, lift_min)
-                        if sf[m + k]:
-                            lastf = k
-                    if lastf == tail_steps - 1:
-                        over[t] = True
-                    m += min(lastf + 2, tail_steps) if lastf >= 0 else 1
-                rn = _grow(rn, m)
-                rk = _grow(rk, m)
-                rp = _grow(rp, m)
-                rd = _grow(rd, m)
-                for j in range(m - 1):  # the ripple phase of each flagged cell
-                    rn[j] = 0
-                    if not (sf[j] or sf[j + 1]):
-                        continue
-                    gq = cdiv(sg[j + 1], sg[j])
-                    dpsi = (sw[j + 1] - sw[j]) * T - math.atan2(gq.imag, gq.real)
-                    psi_a = sw[j] * T - math.atan2(sg[j].imag, sg[j].real) + 0.5 * math.pi
-                    if not (np.isfinite(dpsi) and np.isfinite(psi_a) and dpsi > 0):
-                        continue
-                    k0 = math.floor(psi_a / q) + 1
-                    k1 = math.ceil((psi_a + dpsi) / q) - 1
-                    rn[j] = int(min(max(k1 - k0 + 1, 0.0), 4.0 * max_ripple))
-                    rk[j] = k0
-                    rp[j] = psi_a
-                    rd[j] = dpsi
-                    total += rn[j]
+                m = _frame_tail(cA0, cA1, cB0, cB1, t, T, m, sw, s0, s1, sf, sg, lift_min, tail_steps, over)
+                rn, rk, rp, rd = _grow(rn, m), _grow(rk, m), _grow(rp, m), _grow(rd, m)
+                total = _ripple_cells(T, m, sw, sf, sg, max_ripple, rn, rk, rp, rd)
                 if total > max_ripple or over[t]:  # partial coverage: no ripple points
                     total = 0
-                    for j in range(m - 1):
-                        rn[j] = 0
-            # the samples in order: each base sample, then its cell's ripple points
             M = m + total
-            fw = _grow(fw, M)
-            fc = _grow(fc, M)
-            p = 0
-            for j in range(m):
-                fw[p] = sw[j]
-                fc[p] = cdiv(s1[j], s0[j])
-                p += 1
-                if j == m - 1 or total == 0:
-                    continue
-                wa = sw[j]
-                wb = sw[j + 1]
-                lo = np.nextafter(wa, np.inf)
-                hi = np.nextafter(wb, -np.inf)
-                for r in range(rn[j]):
-                    x = wa + ((rk[j] + r) * q - rp[j]) / rd[j] * (wb - wa)
-                    x = min(max(x, lo), hi)
-                    v0, _ = eval_quasi(cA0, cA1, t, T, x)
-                    v1, _ = eval_quasi(cB0, cB1, t, T, x)
-                    fw[p] = x
-                    fc[p] = cdiv(v1, v0)
-                    p += 1
-            # lobes and gaps narrower than the samples: golden section of Im(Δ00 conj Δ10) between
-            # the neighbours of each candidate; at most one new point follows a sample
-            da = _grow(da, M)
-            dw = _grow(dw, M)
-            nd = 0
-            up = _sin_arg(fc[0])
-            un = _sin_arg(fc[1]) if M > 1 else math.nan
-            for j in range(1, M - 1):
-                uq = up
-                up = un
-                un = _sin_arg(fc[j + 1])
-                if not _is_dip(uq, up, un, _dip_rise(fw[j] - fw[j - 1], fw[j + 1] - fw[j], rise)):
-                    continue
-                s = 1.0 if up > 0 else -1.0
-                wd, gd = _dip(cA0, cA1, cB0, cB1, t, T, fw[j - 1], fw[j + 1], -s, 0, 1.0, 0.0, iters)
-                if s * gd > 0:
-                    da[nd] = j - 1 if wd < fw[j] else j
-                    dw[nd] = wd
-                    nd += 1
+            fw, fc = _grow(fw, M), _grow(fc, M)
+            _fill(cA0, cA1, cB0, cB1, t, T, m, total > 0, sw, s0, s1, rn, rk, rp, rd, fw, fc)
+            da, dw = _grow(da, M), _grow(dw, M)
+            nd = _find_dips(cA0, cA1, cB0, cB1, t, T, M, fw, fc, rise, iters, da, dw)
             need = n + M + nd
-            if need > o_t.shape[0]:
-                o_t = _grow(o_t, need)
-                o_w = _grow(o_w, need)
-                o_c = _grow(o_c, need)
-            r = 0
-            for j in range(M):
-                o_t[n] = t
-                o_w[n] = fw[j]
-                o_c[n] = fc[j]
-                n += 1
-                if r < nd and da[r] == j:
-                    v0, _ = eval_quasi(cA0, cA1, t, T, dw[r])
-                    v1, _ = eval_quasi(cB0, cB1, t, T, dw[r])
-                    o_t[n] = t
-                    o_w[n] = dw[r]
-                    o_c[n] = cdiv(v1, v0)
-                    n += 1
-                    r += 1
+            o_t, o_w, o_c = _grow(o_t, need), _grow(o_w, need), _grow(o_c, need)
+            n = _emit(cA0, cA1, cB0, cB1, t, T, M, fw, fc, nd, da, dw, n, o_t, o_w, o_c)
         return o_t, o_w, o_c, n
 
 
@@ -325,7 +353,7 @@ def c7_samples(qa, qb, lv: dict, lift_min: float, tail_steps: int, max_ripple: i
     docs/method.md#passivity-of-the-operator-compliance; numpy reference:
     :func:`exotune.analysis.operator_passivity._samples`.
     """
-    cA0, cA1, cB0, cB1, T = _pair_args(qa, qb)
+    cA0, cA1, cB0, cB1, T = pair_args(qa, qb)
     over = np.zeros(T.shape[0], np.bool_)
     c = lambda x: np.ascontiguousarray(x, dtype=complex)  # noqa: E731
     task, w, c7, n = _samples(cA0, cA1, cB0, cB1, T, np.ascontiguousarray(lv["task"], dtype=np.int64),
