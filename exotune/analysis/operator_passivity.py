@@ -366,7 +366,8 @@ def _ripple_phase(wa, wb, T, ga, gb):
     q = 0.5 * np.pi
     k0 = np.where(ok, np.floor(psi_a / q) + 1, 0)
     k1 = np.where(ok, np.ceil((psi_a + dpsi) / q) - 1, -1)
-    n = np.minimum(np.maximum(k1 - k0 + 1, 0), 4.0 * MAX_RIPPLE_SAMPLES).astype(np.int64)
+    cnt = k1 - k0 + 1
+    n = np.where(cnt > 0, np.minimum(cnt, 4.0 * MAX_RIPPLE_SAMPLES), 0).astype(np.int64)  # NaN: none
     return n, k0, psi_a, dpsi
 
 

@@ -116,16 +116,19 @@ if AVAILABLE:
     def _dip_rise(h1, h2, least):
         """The dip test's factor for cells of lengths h1 and h2 around a sample
         (:func:`exotune.numerics.quasipoly.dip_rise`)."""
-        lo = min(h1, h2)
-        if not (lo > 0.0):
+        if not (h1 > 0.0 and h2 > 0.0):  # an empty cell (or NaN)
             return math.inf
-        rho = lo / max(h1, h2)
-        return max(least, 1.0 / (rho * (1.0 + rho)))
+        rho = min(h1, h2) / max(h1, h2)
+        d = rho * (1.0 + rho)
+        if not (d > 0.0):  # an infinite cell: numba's float division by 0 would raise
+            return math.inf
+        return max(least, 1.0 / d)
 
     @njit(cache=True, inline="always")
     def _sin_arg(c):
-        """Im c / |c| (NaN where c is 0 or not finite)."""
-        return c.imag / abs(c)
+        """Im c / |c| (NaN where c is 0 or not finite; numba's float division by 0 would raise)."""
+        a = abs(c)
+        return c.imag / a if a != 0.0 else math.nan
 
     @njit(cache=True)
     def _leaf_ends(la, lb, va0, va1, vb0, vb1, i, e, sw, s0, s1):
@@ -186,9 +189,12 @@ if AVAILABLE:
             psi_a = sw[j] * T - math.atan2(sg[j].imag, sg[j].real) + 0.5 * math.pi
             if not (np.isfinite(dpsi) and np.isfinite(psi_a) and dpsi > 0):
                 continue
-            k0 = math.floor(psi_a / q) + 1
-            k1 = math.ceil((psi_a + dpsi) / q) - 1
-            rn[j] = int(min(max(k1 - k0 + 1, 0.0), 4.0 * max_ripple))
+            k0 = np.floor(psi_a / q) + 1.0
+            k1 = np.ceil((psi_a + dpsi) / q) - 1.0
+            cnt = k1 - k0 + 1.0
+            if not (cnt > 0.0):  # also NaN (an overflowed phase): no point
+                continue
+            rn[j] = int(min(cnt, 4.0 * max_ripple))
             rk[j] = k0
             rp[j] = psi_a
             rd[j] = dpsi

@@ -125,3 +125,30 @@ def test_compiled_samples_equal_the_numpy_reference(name, leaves):
     assert np.all(np.diff(w)[task[1:] == task[:-1]] >= 0)  # ordered by frequency within a design
     if name in ("RIPPLE_LOBES", "random"):
         assert task.size > lv["task"].size + D0.n  # the ripple points are there
+
+
+def test_degenerate_samples_neither_raise_nor_differ_from_the_numpy_reference():
+    """C7 = 0 at a sample (Δ10 = 0: sin arg C7 is 0/0), an empty cell (a leaf of zero length) and a
+    non-finite value: numba's float division by zero raises where numpy gives NaN; the compiled
+    pass must give the reference's samples."""
+    D0, D1, lv = _leaves(batch_config(design_from_mapping(campaign_designs.RIPPLE_LOBES), {}), 1)
+    lv = {k: (list(v) if k in ("va", "vb") else v) for k, v in lv.items()}
+    n = lv["task"].size
+    ins = n // 2
+    lv["task"] = np.insert(lv["task"], ins, lv["task"][ins])  # a leaf of zero length
+    lv["a"] = np.insert(lv["a"], ins, lv["a"][ins])
+    lv["b"] = np.insert(lv["b"], ins, lv["a"][ins])
+    lv["va"] = [np.insert(v, ins, v[ins]) for v in lv["va"]]
+    lv["vb"] = [np.insert(v, ins, v[ins]) for v in lv["vb"]]
+    lv["vb"][1] = lv["vb"][1].copy()
+    lv["vb"][1][ins + 3] = 0.0  # C7 = 0 at a sample
+    lv["vb"][0] = lv["vb"][0].copy()
+    lv["vb"][0][ins + 6] = np.nan  # a non-finite Δ00
+    task, w, c, over = c7_samples(D0, D1, lv, op.RIPPLE_MIN_DEG, op.TAIL_STEPS, op.MAX_RIPPLE_SAMPLES, DIP_RISE_UNEVEN)
+    with numpy_engine(), np.errstate(all="ignore"):
+        task_np, w_np, c_np, over_np = op._samples(D0, D1, lv)
+    np.testing.assert_array_equal(task, task_np)
+    np.testing.assert_array_equal(over, over_np)
+    np.testing.assert_allclose(w, w_np, rtol=1e-4)
+    assert np.sum(c == 0) == np.sum(c_np == 0) >= 1
+    assert np.sum(np.isnan(c)) == np.sum(np.isnan(c_np)) >= 1
