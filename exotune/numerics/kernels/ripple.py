@@ -305,7 +305,9 @@ if AVAILABLE:
                 m = _frame_tail(cA0, cA1, cB0, cB1, t, T, m, sw, s0, s1, sf, sg, lift_min, tail_steps, over)
                 rn, rk, rp, rd = _grow(rn, m), _grow(rk, m), _grow(rp, m), _grow(rd, m)
                 total = _ripple_cells(T, m, sw, sf, sg, max_ripple, rn, rk, rp, rd)
-                if total > max_ripple or over[t]:  # partial coverage: no ripple points
+                if total > max_ripple:  # partial coverage: no ripple points
+                    over[t] = True
+                if over[t]:
                     total = 0
             M = m + total
             fw, fc = _grow(fw, M), _grow(fc, M)

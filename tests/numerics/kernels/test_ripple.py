@@ -152,3 +152,27 @@ def test_degenerate_samples_neither_raise_nor_differ_from_the_numpy_reference():
     np.testing.assert_allclose(w, w_np, rtol=1e-4)
     assert np.sum(c == 0) == np.sum(c_np == 0) >= 1
     assert np.sum(np.isnan(c)) == np.sum(np.isnan(c_np)) >= 1
+
+
+@pytest.mark.parametrize("max_ripple", [1, 3, 10])
+def test_a_design_over_the_ripple_budget_has_partial_coverage_in_both_engines(monkeypatch, max_ripple):
+    """More ripple points than the budget: no ripple points and the partial-coverage flag (NaN
+    maximum, no bands), in the compiled pass as in the reference (the compiled pass once dropped
+    the points without raising the flag)."""
+    D0, D1, lv = _leaves(batch_config(design_from_mapping(campaign_designs.RIPPLE_LOBES), {}), 1)
+    monkeypatch.setattr(op, "MAX_RIPPLE_SAMPLES", max_ripple)
+    task, w, c, over = c7_samples(D0, D1, lv, op.RIPPLE_MIN_DEG, op.TAIL_STEPS, max_ripple, DIP_RISE_UNEVEN)
+    with numpy_engine():
+        task_np, w_np, c_np, over_np = op._samples(D0, D1, lv)
+    assert over[0] and over_np[0]
+    np.testing.assert_array_equal(task, task_np)
+    np.testing.assert_allclose(w, w_np, rtol=1e-4)
+    res = op.passivity(_Side(D0, D1, lv))
+    assert np.isnan(res.max_phase_excess_deg[0]) and res.nonpassive_band_hz[0] == []
+
+
+class _Side:
+    """The human side as passivity reads it: its leaves at z0 = 0."""
+
+    def __init__(self, D0, D1, lv):
+        self.leaves = {(0.0, 0.0, 0.0): (D0, D1, lv)}
