@@ -265,16 +265,13 @@ def _tail(D0, D1, task, w, d0, d1):
 
 
 def _frame(D0, D1, task, w, d0, d1):
-    """The frozen delay ripple at each sample (compiled: :func:`exotune.numerics.kernels.ripple_frame`):
-    whether its crest A0 + |G| of |Δ00|² Im C7 is positive and can lift the phase by
+    """The frozen delay ripple at each sample (the numpy reference; the compiled pass
+    :func:`exotune.numerics.kernels.c7_samples` computes it per sample, as does
+    :func:`exotune.numerics.kernels.ripple_frame`): whether its crest A0 + |G| of |Δ00|² Im C7 is positive and can lift the phase by
     ``RIPPLE_MIN_DEG`` or more (bounded with |Δ00| ≥ |P00| − |P01| and |Δ10| ≥ |P10| − |P11|; a
     non-positive bound counts), and G (docs/method.md#passivity-of-the-operator-compliance).
     Δ00 = P00 + P01 e^{−sT} and Δ10 = P10 + P11 e^{−sT}; the delayed parts P01, P11 are evaluated,
     P00 and P10 follow from Δ00 and Δ10. No delay: no flag, G = 0."""
-    if compiled():
-        from ..numerics import kernels as _fastphase
-
-        return _fastphase.ripple_frame(D0, D1, task, w, d0, d1, RIPPLE_MIN_DEG)
     flag = np.zeros(task.size, bool)
     g = np.zeros(task.size, complex)
     dl = np.flatnonzero(D0.T[task] > 0)
