@@ -28,7 +28,7 @@ import numpy as np
 
 from ..numerics.engine import compiled
 from .loop import NEAR_UNIT as ROUND_NEAR
-from .loop import ROUNDING_TRIALS, Measured, split_delay
+from .loop import ROUNDING_TRIALS, Measured, plant_stack, split_delay
 from .sos import bilinear_batch, df2t_batch, sos_ss_batch, tustin_sections_batch
 
 __all__ = ["RIGID_TOL", "NEAR_UNIT", "BatchLoops", "Loop", "batch_controller", "expm_stack"]
@@ -335,42 +335,8 @@ class BatchLoops:
             h = {q: np.full(k, float(loop.human.get(q, 0.0))) for q in ("inertia", "damping", "stiffness")}
             h[loop.param] = v
             hm, hb, hk = h["inertia"], h["damping"], h["stiffness"]
-        mass, first_order = loop.structure()
-        names = ["theta_m", "omega_m"] + ([] if locked else ["theta_j", "omega_j"])
-        names += ["theta_h", "omega_h"] if mass else ["theta_h"] if first_order else []
-        n = len(names)
-        ix = {s: i for i, s in enumerate(names)}
-        eye = np.eye(n)
-        e = lambda s: np.broadcast_to(eye[ix[s]], (k, n))  # noqa: E731
-        zero = np.zeros((k, n))
-        th_m, om_m = e("theta_m"), e("omega_m")
-        th_j = zero if locked else e("theta_j")
-        om_j = zero if locked else e("omega_j")
-        c = lambda x: x[:, None]  # noqa: E731
-        if loop.human is None:
-            tau_c = zero
-        elif "theta_h" in ix:
-            tau_c = c(Kc) * (e("theta_h") - th_j)
-        else:
-            s = Kc + hk
-            tau_c = -c(np.where(s > 0, Kc * hk / np.where(s > 0, s, 1.0), 0.0)) * th_j
-        tau_s = c(Ks) * (th_j - th_m)
-        dtau_s = c(Ks) * (om_j - om_m)
-        A = np.zeros((k, n, n))
-        B = np.zeros((k, n))
-        A[:, ix["theta_m"]] = om_m
-        A[:, ix["omega_m"]] = (tau_s - c(Bm) * om_m) / c(Jm)
-        B[:, ix["omega_m"]] = 1.0 / Jm
-        if not locked:
-            A[:, ix["theta_j"]] = om_j
-            A[:, ix["omega_j"]] = (tau_c - tau_s - c(be) * om_j - c(ke) * th_j) / c(Jj + me)
-        if mass:
-            A[:, ix["theta_h"]] = e("omega_h")
-            A[:, ix["omega_h"]] = (-tau_c - c(hb) * e("omega_h") - c(hk) * e("theta_h")) / c(hm)
-        elif first_order:
-            A[:, ix["theta_h"]] = (-tau_c - c(hk) * e("theta_h")) / c(hb)
-        C = np.stack([th_m, om_m, tau_s, dtau_s, tau_c], axis=1)
-        return A, B, C
+        return plant_stack((Jm, Bm, Ks, Jj, Kc), (hm, hb, hk), (me, be, ke),
+                           (locked, loop.human is not None, *loop.structure()))
 
     def zoh(self, A: np.ndarray, B: np.ndarray, f: np.ndarray):
         """Stacks (Φ, Γ0, Γ1) of :func:`exotune.sampled.loop.zoh_fractional` (fractions ``f`` per job)."""

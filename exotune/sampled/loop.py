@@ -36,7 +36,7 @@ import scipy.linalg
 
 from ..numerics.statespace import tf2ss
 
-__all__ = ["Measured", "plant_ss", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
+__all__ = ["Measured", "plant_ss", "plant_structure", "plant_stack", "loop_matrices", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
            "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "loop_spectra", "tustin", "prewarped",
            "zoh_fractional", "split_delay", "default_prewarp"]
 
@@ -81,52 +81,114 @@ def plant_ss(plant, human: dict | None = None, env: str | dict = "free"):
     ValueError
         When ``env`` is a string other than ``"free"`` or ``"locked"``.
     """
-    g = lambda x: float(np.asarray(x).reshape(-1)[0])  # noqa: E731
-    Jm, Bm, Ks, Jj, Kc = g(plant.J_m), g(plant.B_m), g(plant.K_s), g(plant.J_j), g(plant.K_c)
-    locked = env == "locked"
-    me = be = ke = 0.0
-    if isinstance(env, dict):
-        me, be, ke = (float(env.get(k, 0.0)) for k in ("inertia", "damping", "stiffness"))
-    elif env not in ("free", "locked"):
+    g = lambda x: np.asarray(x, dtype=float).reshape(-1)[:1]  # noqa: E731
+    A, B, C = plant_stack((g(plant.J_m), g(plant.B_m), g(plant.K_s), g(plant.J_j), g(plant.K_c)),
+                          *_node_arrays([human], [env]), plant_structure(human, env))
+    return A[0], B[0][:, None], C[0]
+
+
+def plant_structure(human: dict | None, env: str | dict = "free") -> tuple[bool, bool, bool, bool]:
+    """The state layout :func:`plant_ss` chooses: (locked, a human node, θ_h and ω_h states, θ_h
+    state only). A human with inertia has both states, a massless damped one θ_h only, a massless
+    undamped one none (its spring in series with K_c).
+
+    Parameters
+    ----------
+    human : dict or None
+        The human node, as in :func:`plant_ss`.
+    env : str or dict, optional
+        The environment, as in :func:`plant_ss`.
+
+    Returns
+    -------
+    tuple of bool
+        (locked, human present, mass states, first-order state).
+
+    Raises
+    ------
+    ValueError
+        When ``env`` is a string other than ``"free"`` or ``"locked"``.
+    """
+    if not isinstance(env, dict) and env not in ("free", "locked"):
         raise ValueError(f"unknown environment {env!r}")
-    hm = hb = hk = 0.0
-    if human is not None:
-        hm, hb, hk = (float(human.get(k, 0.0)) for k in ("inertia", "damping", "stiffness"))
+    if human is None:
+        return env == "locked", False, False, False
+    mass = float(human.get("inertia", 0.0)) > 0
+    return env == "locked", True, mass, (not mass) and float(human.get("damping", 0.0)) > 0
+
+
+def _node_arrays(humans: list, envs: list):
+    """(inertia, damping, stiffness) arrays of the human nodes and of the environments (zeros where absent)."""
+    keys = ("inertia", "damping", "stiffness")
+    hum = [tuple(float(h.get(q, 0.0)) for q in keys) if h is not None else (0.0, 0.0, 0.0) for h in humans]
+    env = [tuple(float(e.get(q, 0.0)) for q in keys) if isinstance(e, dict) else (0.0, 0.0, 0.0) for e in envs]
+    return tuple(np.array(x) for x in zip(*hum)), tuple(np.array(x) for x in zip(*env))
+
+
+def plant_stack(joint: tuple, human: tuple, env: tuple, structure: tuple[bool, bool, bool, bool]):
+    """Stacks of :func:`plant_ss` for k members of one state layout: the one construction of the
+    plant matrices (the single design's, :func:`loop_spectra`'s and the sweep's
+    :class:`~exotune.sampled.batch.BatchLoops`).
+
+    Parameters
+    ----------
+    joint : tuple of numpy.ndarray
+        (J_m [kg·m²], B_m [N·m·s/rad], K_s [N·m/rad], J_j [kg·m²], K_c [N·m/rad]), each (k,).
+    human : tuple of numpy.ndarray
+        The human node's (inertia [kg·m²], damping [N·m·s/rad], stiffness [N·m/rad]), each (k,).
+    env : tuple of numpy.ndarray
+        The environment's (inertia, damping, stiffness) on θ_j, each (k,) (unused when locked).
+    structure : tuple of bool
+        :func:`plant_structure` of the members.
+
+    Returns
+    -------
+    A : numpy.ndarray
+        (k, n, n) state matrices over the states of :func:`plant_ss`.
+    B : numpy.ndarray
+        (k, n) input columns of τ_m [N·m].
+    C : numpy.ndarray
+        (k, 5, n) output matrices of the :data:`Measured` signals.
+    """
+    Jm, Bm, Ks, Jj, Kc = joint
+    hm, hb, hk = human
+    me, be, ke = env
+    locked, has_human, mass, first_order = structure
+    k = hm.shape[0]
     names = ["theta_m", "omega_m"] + ([] if locked else ["theta_j", "omega_j"])
-    if human is not None and hm > 0:
-        names += ["theta_h", "omega_h"]
-    elif human is not None and hb > 0:
-        names += ["theta_h"]
+    names += ["theta_h", "omega_h"] if mass else ["theta_h"] if first_order else []
     n = len(names)
     ix = {s: i for i, s in enumerate(names)}
-    A = np.zeros((n, n))
-    B = np.zeros((n, 1))
-    # linear forms (row vectors over the states) of the signals
     eye = np.eye(n)
-    th_m = eye[ix["theta_m"]]
-    om_m = eye[ix["omega_m"]]
-    th_j = np.zeros(n) if locked else eye[ix["theta_j"]]
-    om_j = np.zeros(n) if locked else eye[ix["omega_j"]]
-    if human is None:
-        tau_c = np.zeros(n)
+    e = lambda s: np.broadcast_to(eye[ix[s]], (k, n))  # noqa: E731  (linear forms over the states)
+    zero = np.zeros((k, n))
+    th_m, om_m = e("theta_m"), e("omega_m")
+    th_j = zero if locked else e("theta_j")
+    om_j = zero if locked else e("omega_j")
+    c = lambda x: x[:, None]  # noqa: E731
+    if not has_human:
+        tau_c = zero
     elif "theta_h" in ix:
-        tau_c = Kc * (eye[ix["theta_h"]] - th_j)
+        tau_c = c(Kc) * (e("theta_h") - th_j)
     else:  # massless, undamped: K_c in series with k
-        tau_c = -Kc * hk / (Kc + hk) * th_j if (Kc + hk) > 0 else np.zeros(n)
-    tau_s = Ks * (th_j - th_m)
-    dtau_s = Ks * (om_j - om_m)
-    A[ix["theta_m"]] = om_m
-    A[ix["omega_m"]] = (tau_s - Bm * om_m) / Jm
-    B[ix["omega_m"], 0] = 1.0 / Jm
+        s = Kc + hk
+        tau_c = -c(np.where(s > 0, Kc * hk / np.where(s > 0, s, 1.0), 0.0)) * th_j
+    tau_s = c(Ks) * (th_j - th_m)
+    dtau_s = c(Ks) * (om_j - om_m)
+    A = np.zeros((k, n, n))
+    B = np.zeros((k, n))
+    A[:, ix["theta_m"]] = om_m
+    A[:, ix["omega_m"]] = (tau_s - c(Bm) * om_m) / c(Jm)
+    B[:, ix["omega_m"]] = 1.0 / Jm
     if not locked:
-        A[ix["theta_j"]] = om_j
-        A[ix["omega_j"]] = (tau_c - tau_s - be * om_j - ke * th_j) / (Jj + me)
-    if "omega_h" in ix:
-        A[ix["theta_h"]] = eye[ix["omega_h"]]
-        A[ix["omega_h"]] = (-tau_c - hb * eye[ix["omega_h"]] - hk * eye[ix["theta_h"]]) / hm
-    elif "theta_h" in ix:
-        A[ix["theta_h"]] = (-tau_c - hk * eye[ix["theta_h"]]) / hb
-    C = np.vstack([th_m, om_m, tau_s, dtau_s, tau_c])
+        A[:, ix["theta_j"]] = om_j
+        A[:, ix["omega_j"]] = (tau_c - tau_s - c(be) * om_j - c(ke) * th_j) / c(Jj + me)
+    if mass:
+        A[:, ix["theta_h"]] = e("omega_h")
+        A[:, ix["omega_h"]] = (-tau_c - c(hb) * e("omega_h") - c(hk) * e("theta_h")) / c(hm)
+    elif first_order:
+        A[:, ix["theta_h"]] = (-tau_c - c(hk) * e("theta_h")) / c(hb)
+    C = np.stack([th_m, om_m, tau_s, dtau_s, tau_c], axis=1)
     return A, B, C
 
 
@@ -480,27 +542,51 @@ def closed_loop_matrix(A, B, C, ctrl: DiscreteController, zoh=None) -> np.ndarra
     numpy.ndarray
         The loop's square state matrix: plant states, controller states and d + 1 past commands.
     """
-    Ts = 1.0 / ctrl.sample_rate_hz
-    d, f = split_delay(ctrl.delay_s, Ts)
-    Phi, G0, G1 = zoh_fractional(A, B, Ts, f) if zoh is None else zoh
-    n, nz, ns = A.shape[0], ctrl.Ac.shape[0], d + 1
+    if zoh is None:
+        zoh = zoh_fractional(A, B, 1.0 / ctrl.sample_rate_hz, split_delay(ctrl.delay_s, 1.0 / ctrl.sample_rate_hz)[1])
+    return loop_matrices(*(x[None] for x in zoh), C[None], ctrl)[0]
+
+
+def loop_matrices(Phi, G0, G1, C, ctrl: DiscreteController) -> np.ndarray:
+    """:func:`closed_loop_matrix` of k held plants that share the controller: the one assembly
+    of the loop matrix (state order [x; z; τ_cmd[k−1], …, τ_cmd[k−d−1]]).
+
+    Parameters
+    ----------
+    Phi : numpy.ndarray
+        (k, n, n) e^{A T_s} of :func:`zoh_fractional`.
+    G0, G1 : numpy.ndarray
+        (k, n, 1) Γ0 and Γ1 of :func:`zoh_fractional`.
+    C : numpy.ndarray
+        (k, 5, n) output matrices of :func:`plant_ss`.
+    ctrl : DiscreteController
+        The discrete controller (its rate and delay set the shift register).
+
+    Returns
+    -------
+    numpy.ndarray
+        (k, N, N) loop matrices: plant states, controller states and d + 1 past commands.
+    """
+    d, _f = split_delay(ctrl.delay_s, 1.0 / ctrl.sample_rate_hz)
+    k, n = Phi.shape[0], Phi.shape[1]
+    nz, ns = ctrl.Ac.shape[0], d + 1
     N = n + nz + ns
-    M = np.zeros((N, N))
+    M = np.zeros((k, N, N))
     # τ_cmd[k] = Cc z + Dc C x
-    u = np.zeros(N)
-    u[:n] = (ctrl.Dc @ C).reshape(-1)
-    u[n:n + nz] = ctrl.Cc.reshape(-1)
+    u = np.zeros((k, N))
+    u[:, :n] = (ctrl.Dc @ C)[:, 0, :]
+    u[:, n:n + nz] = ctrl.Cc.reshape(-1)
     s0 = n + nz  # shift state j (0-based) holds τ_cmd[k−1−j]
     cur = u if d == 0 else _unit(N, s0 + d - 1)  # τ_cmd[k−d]
     old = _unit(N, s0 + d)  # τ_cmd[k−d−1]
-    top = np.zeros((n, N))
-    top[:, :n] = Phi
-    M[:n] = top + np.outer(G0[:, 0], cur) + np.outer(G1[:, 0], old)
-    M[n:n + nz, :n] = ctrl.Bc @ C
-    M[n:n + nz, n:n + nz] = ctrl.Ac
-    M[s0] = u
+    top = np.zeros((k, n, N))
+    top[:, :, :n] = Phi
+    M[:, :n] = top + G0 * (cur[:, None, :] if cur.ndim == 2 else cur) + G1 * old
+    M[:, n:n + nz, :n] = ctrl.Bc @ C
+    M[:, n:n + nz, n:n + nz] = ctrl.Ac
+    M[:, s0] = u
     j = np.arange(1, ns)
-    M[s0 + j, s0 + j - 1] = 1.0  # the delay line: a shift register
+    M[:, s0 + j, s0 + j - 1] = 1.0  # the delay line: a shift register
     return M
 
 
@@ -795,9 +881,10 @@ def _rigid_index(lam: np.ndarray, position_feedback: bool, human, env, rigid_tol
 
 def loop_spectra(plant, ctrl: DiscreteController, position_feedback: bool, humans: list, env: str | dict | list = "free",
                  rigid_tol: float = 1e-7) -> list:
-    """:func:`loop_eigenvalues` for several human (or environment) nodes at once: the matrix
-    exponentials and the eigenvalue problems of loops of equal size run on stacks. Each result is
-    bit for bit the point-wise one (scipy's ``expm`` and numpy's ``eigvals`` treat every matrix of a
+    """:func:`loop_eigenvalues` for several human (or environment) nodes at once: the plant
+    matrices (:func:`plant_stack`), the matrix exponentials, the loop matrices
+    (:func:`loop_matrices`) and the eigenvalue problems of loops of one state layout run on
+    stacks. Each result is bit for bit the point-wise one (scipy's ``expm`` and numpy's ``eigvals`` treat every matrix of a
     stack as they treat it alone; tested).
 
     Parameters
@@ -831,19 +918,27 @@ def loop_spectra(plant, ctrl: DiscreteController, position_feedback: bool, human
     envs = env if isinstance(env, list) else [env] * len(humans)
     Ts = 1.0 / ctrl.sample_rate_hz
     _d, f = split_delay(ctrl.delay_s, Ts)
-    parts = [plant_ss(plant, h, e) for h, e in zip(humans, envs)]
+    g = lambda x: np.asarray(x, dtype=float).reshape(-1)[:1]  # noqa: E731
+    joint = (g(plant.J_m), g(plant.B_m), g(plant.K_s), g(plant.J_j), g(plant.K_c))
     groups: dict = {}
-    for i, (A, B, _C) in enumerate(parts):
-        groups.setdefault((A.shape, B.shape), []).append(i)
+    for i, (h, e) in enumerate(zip(humans, envs)):
+        groups.setdefault(plant_structure(h, e), []).append(i)
     out: list = [None] * len(humans)
-    for idx in groups.values():
-        E0, E1 = _zoh_exponentials(np.stack([_augmented(parts[i][0], parts[i][1]) for i in idx]), Ts, f)
-        Ms = np.stack([_finite(closed_loop_matrix(*parts[i], ctrl, zoh=_zoh_blocks(parts[i][0].shape[0], E0[k], E1[k])))
-                       for k, i in enumerate(idx)])
+    for structure, idx in groups.items():
+        k = len(idx)
+        human, env_ = _node_arrays([humans[i] for i in idx], [envs[i] for i in idx])
+        A, B, C = plant_stack(tuple(np.broadcast_to(x, (k,)) for x in joint), human, env_, structure)
+        n = A.shape[1]
+        aug = np.zeros((k, n + 1, n + 1))
+        aug[:, :n, :n] = A
+        aug[:, :n, n] = B
+        E0, E1 = _zoh_exponentials(aug, Ts, f)
+        Phi0 = E0[:, :n, :n]
+        Ms = _finite(loop_matrices(Phi0 @ E1[:, :n, :n], E0[:, :n, n:], Phi0 @ E1[:, :n, n:], C, ctrl))
         lams = np.linalg.eigvals(Ms)
-        for k, i in enumerate(idx):
-            drop = _rigid_index(lams[k], position_feedback, humans[i], envs[i], rigid_tol)
-            out[i] = lams[k] if drop is None else np.delete(lams[k], drop)
+        for k_, i in enumerate(idx):
+            drop = _rigid_index(lams[k_], position_feedback, humans[i], envs[i], rigid_tol)
+            out[i] = lams[k_] if drop is None else np.delete(lams[k_], drop)
     return out
 
 

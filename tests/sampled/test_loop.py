@@ -376,3 +376,67 @@ def test_spectral_verdict_drops_the_rigid_body_mode_only_when_asked():
     M = np.diag([0.5, 1.0])
     assert spectral_verdict(M)[0] is None
     assert spectral_verdict(M, rigid_tol=1e-7) == (True, 0.5, pytest.approx(spectral_verdict(M, rigid_tol=1e-7)[2]))
+
+
+def _physical_plant(p, hm, hb, hk):
+    """The plant of docs/method.md#physical-model written out state by state (θ_m, θ̇_m, θ_j, θ̇_j,
+    θ_h, θ̇_h), independently of plant_stack's linear forms."""
+    Jm, Bm, Ks, Jj, Kc = (float(np.ravel(x)[0]) for x in (p.J_m, p.B_m, p.K_s, p.J_j, p.K_c))
+    A = np.array([[0, 1, 0, 0, 0, 0],
+                  [-Ks / Jm, -Bm / Jm, Ks / Jm, 0, 0, 0],
+                  [0, 0, 0, 1, 0, 0],
+                  [Ks / Jj, 0, -(Ks + Kc) / Jj, 0, Kc / Jj, 0],
+                  [0, 0, 0, 0, 0, 1],
+                  [0, 0, Kc / hm, 0, -(Kc + hk) / hm, -hb / hm]])
+    B = np.array([[0.0], [1.0 / Jm], [0], [0], [0], [0]])
+    C = np.array([[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [-Ks, 0, Ks, 0, 0, 0], [0, -Ks, 0, Ks, 0, 0],
+                  [0, 0, -Kc, 0, Kc, 0]], dtype=float)
+    return A, B, C
+
+
+@settings(max_examples=25, deadline=None)
+@given(members=st.lists(st.tuples(st.floats(1e-4, 10.0), st.floats(0.0, 20.0), st.floats(0.0, 500.0)),
+                        min_size=1, max_size=5),
+       delay_samples=st.sampled_from([0.0, 0.4, 1.0, 3.5]))
+def test_stacked_plant_and_loop_matrices_match_the_equations(members, delay_samples):
+    """plant_stack (the one plant construction: plant_ss, loop_spectra and the sweep's BatchLoops)
+    against the equations written out by hand, and the stacked loop assembly against the layout
+    [x; z; τ_cmd[k−1] … τ_cmd[k−d−1]] built entry by entry; stacks equal their members alone."""
+    from exotune.sampled.loop import loop_matrices, plant_stack, plant_structure, split_delay
+
+    cfg, cs = _cfg(delay=delay_samples / 1000.0)
+    p = cfg.plant
+    ctrl = discretize(cs, p, 1000.0)
+    hm, hb, hk = (np.array(x) for x in zip(*members))
+    k = hm.size
+    joint = tuple(np.full(k, float(np.ravel(x)[0])) for x in (p.J_m, p.B_m, p.K_s, p.J_j, p.K_c))
+    A, B, C = plant_stack(joint, (hm, hb, hk), (np.zeros(k),) * 3, plant_structure({"inertia": 1.0}))
+    Ts = 1e-3
+    d, f = split_delay(ctrl.delay_s, Ts)
+    zoh = [zoh_fractional(A[i], B[i][:, None], Ts, f) for i in range(k)]
+    M = loop_matrices(*(np.stack([z[j] for z in zoh]) for j in range(3)), C, ctrl)
+    nz = ctrl.Ac.shape[0]
+    for i in range(k):
+        Ar, Br, Cr = _physical_plant(p, hm[i], hb[i], hk[i])
+        np.testing.assert_allclose(A[i], Ar, rtol=1e-13, atol=0)
+        np.testing.assert_array_equal(B[i][:, None], Br)
+        np.testing.assert_allclose(C[i], Cr, rtol=1e-13, atol=0)
+        single = plant_ss(p, {"inertia": hm[i], "damping": hb[i], "stiffness": hk[i]})
+        assert all(np.array_equal(x, y) for x, y in zip(single, (A[i], B[i][:, None], C[i])))
+        assert np.array_equal(M[i], closed_loop_matrix(*single, ctrl))
+        Phi, G0, G1 = zoh[i]
+        N = 6 + nz + d + 1
+        u = np.concatenate([(ctrl.Dc @ Cr)[0], ctrl.Cc[0], np.zeros(d + 1)])
+        ref = np.zeros((N, N))
+        ref[:6, :6] = Phi
+        if d == 0:
+            ref[:6] += G0 @ u[None, :]
+        else:
+            ref[:6, 6 + nz + d - 1] += G0[:, 0]
+        ref[:6, 6 + nz + d] += G1[:, 0]
+        ref[6:6 + nz, :6] = ctrl.Bc @ Cr
+        ref[6:6 + nz, 6:6 + nz] = ctrl.Ac
+        ref[6 + nz] = u
+        for j in range(1, d + 1):
+            ref[6 + nz + j, 6 + nz + j - 1] = 1.0
+        np.testing.assert_allclose(M[i], ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
