@@ -160,8 +160,8 @@ def plant_stack(joint: tuple, human: tuple, env: tuple, structure: tuple[bool, b
     n = len(names)
     ix = {s: i for i, s in enumerate(names)}
     eye = np.eye(n)
-    e = lambda s: np.broadcast_to(eye[ix[s]], (k, n))  # noqa: E731  (linear forms over the states)
-    zero = np.zeros((k, n))
+    e = lambda s: eye[ix[s]:ix[s] + 1]  # noqa: E731  (linear forms over the states, (1, n): broadcast over k)
+    zero = np.zeros((1, n))
     th_m, om_m = e("theta_m"), e("omega_m")
     th_j = zero if locked else e("theta_j")
     om_j = zero if locked else e("omega_j")
@@ -188,7 +188,9 @@ def plant_stack(joint: tuple, human: tuple, env: tuple, structure: tuple[bool, b
         A[:, ix["omega_h"]] = (-tau_c - c(hb) * e("omega_h") - c(hk) * e("theta_h")) / c(hm)
     elif first_order:
         A[:, ix["theta_h"]] = (-tau_c - c(hk) * e("theta_h")) / c(hb)
-    C = np.stack([th_m, om_m, tau_s, dtau_s, tau_c], axis=1)
+    C = np.empty((k, 5, n))
+    for row, form in enumerate((th_m, om_m, tau_s, dtau_s, tau_c)):
+        C[:, row] = form
     return A, B, C
 
 
