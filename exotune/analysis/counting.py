@@ -88,16 +88,16 @@ class RootCounter:
         R0 = np.concatenate([pad(i[3][0] if i[3] is not None else i[0], w0) for i in self.items]).real
         R1 = np.concatenate([pad(i[3][1] if i[3] is not None else i[1], w1) for i in self.items]).real
         has_reg = np.concatenate([np.full(i[0].shape[0], i[3] is not None) for i in self.items])
+        groups, base = [], 0
+        for i in self.items:
+            g = np.arange(i[0].shape[0]) if i[4] is None else np.asarray(i[4], np.int64)
+            groups.append(base + g)
+            base += int(g.max()) + 1 if g.size else 0
+        group = np.concatenate(groups)
         if (engine is None and compiled()) or engine == "numba":
             from ..numerics import kernels as _fastphase
             from ..numerics.quasipoly import ARG_STEP, DER_STEP, MAX_LEVELS
 
-            groups, base = [], 0
-            for i in self.items:
-                g = np.arange(i[0].shape[0]) if i[4] is None else np.asarray(i[4], np.int64)
-                groups.append(base + g)
-                base += int(g.max()) + 1 if g.size else 0
-            group = np.concatenate(groups)
             self.N, self.r, self.ok = _fastphase.count_tasks(P0, P1, T, R0, R1, has_reg, ARG_STEP, DER_STEP, MAX_LEVELS,
                                                              group=group)
             return
@@ -105,7 +105,7 @@ class RootCounter:
         v0 = np.where(has_reg, R0s[:, 0] + R1s[:, 0], np.nan)
         if not cplx:
             v0 = None
-        N, ok = count_rhp(QP(trim_poly(P0s), trim_poly(P1s), T), v0=v0)
+        N, ok = count_rhp(QP(trim_poly(P0s), trim_poly(P1s), T), v0=v0, group=group)
         self.N, self.r, self.ok = N, r, ok
 
     def result(self, h):

@@ -33,7 +33,7 @@ import numpy as np
 
 from .engine import resolve_engine as _engine
 from .poly import degree, leading, pder
-from .budgets import MAX_TASK_LEAVES
+from .budgets import MAX_GROUP_EVALS, MAX_TASK_EVALS, MAX_TASK_LEAVES
 
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots", "golden_max", "dip_candidates", "dip_rise", "DIP_RISE", "DIP_RISE_UNEVEN"]
 
@@ -159,7 +159,7 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, engine: str | 
 
 
 def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None, extra_ok=None,
-                    geometric: bool = False):
+                    geometric: bool = False, max_evals: int | None = None, cut=None):
     """Adaptive refinement of per-task frequency grids.
 
     ``evalfn(idx, w) -> list[(val, der)]`` evaluates the tracked functions at s = jω.
@@ -192,6 +192,14 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         An extra acceptance test of an interval, as described above.
     geometric : bool, optional
         Split wide intervals at their geometric mean.
+    max_evals : int or None, optional
+        Budget per task in evaluations (the argument-principle counts: ``MAX_TASK_EVALS``, as
+        :func:`exotune.numerics.kernels.phase_sums`) instead of ``MAX_TASK_LEAVES`` leaves.
+    cut : callable or None, optional
+        ``cut(task, a, b, va, vb) -> bool array``: an accepted leaf that holds what the search is
+        for (the first −3 dB crossing of the amplification bandwidth); nothing right of the
+        leftmost such leaf of a task is refined further, as the compiled kernel stops its
+        left-to-right search there (so a task is not exhausted by a range it does not need).
 
     Returns
     -------
@@ -220,6 +228,9 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
     resolved = np.ones(ntask, bool)
     exhausted = np.zeros(ntask, bool)
     nleaf = np.zeros(ntask, np.int64)
+    nev = np.zeros(ntask, np.int64)
+    nev[tasks] = K
+    limit = np.full(ntask, np.inf)  # per task: refine nothing right of this (``cut``)
     out_t, out_a, out_b = [], [], []
     out_va = [[] for _ in range(nf)]
     out_vb = [[] for _ in range(nf)]
@@ -270,16 +281,24 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
                 out_va[i].append(va[i][stop])
                 out_vb[i].append(vb[i][stop])
         go = ~stop
+        if cut is not None:
+            j = np.nonzero(stop & ~bad)[0]
+            if j.size:
+                hit = cut(ti[j], a[j], b[j], [x[j] for x in va], [x[j] for x in vb])
+                np.minimum.at(limit, ti[j[hit]], b[j[hit]])
+            go &= a < limit[ti]
         nleaf += np.bincount(ti[stop], minlength=ntask)
         # the compiled kernel's per-task budget (MAX_TASK_LEAVES): a task whose leaves would pass
         # it is dropped, unresolved (the same verdicts; its partial leaves may differ)
-        over = nleaf + 2 * np.bincount(ti[go], minlength=ntask) > MAX_TASK_LEAVES
+        ngo = np.bincount(ti[go], minlength=ntask)
+        over = nleaf + 2 * ngo > MAX_TASK_LEAVES if max_evals is None else nev + ngo > max_evals
         if over.any():
             resolved[over] = False
             exhausted[over] = True
             go &= ~over[ti]
         if not go.any():
             break
+        nev += np.bincount(ti[go], minlength=ntask)
         ti, a, b = ti[go], a[go], b[go]
         va = [x[go] for x in va]
         vb = [x[go] for x in vb]
@@ -308,6 +327,7 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         "vb": [cat(x, complex) for x in out_vb],
         "resolved": resolved,
         "exhausted": exhausted,
+        "evaluations": nev,
     }
     order = np.lexsort((res["a"], res["task"]))
     for key in ("task", "a", "b"):
@@ -334,25 +354,65 @@ def leaves_pair(qa: QP, qb: QP, grid: np.ndarray, valid: np.ndarray, magnitude_o
         from . import kernels as _fastphase
 
         return _fastphase.leaves2(qa, qb, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS, lthr=lthr)
-    return adaptive_leaves(lambda i, w: [qa.eval(i, w), qb.eval(i, w)], qa.n, grid, valid, extra_ok=magnitude_ok)
+    def first_crossing(t, a, b, va, vb):
+        # the compiled kernel's stop: a leaf clearly bracketing the first −3 dB down-crossing
+        lev = np.exp(lthr[t])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return (np.abs(va[0] / va[1]) > lev * (1.0 + 1e-9)) & (np.abs(vb[0] / vb[1]) < lev * (1.0 - 1e-9))
+
+    return adaptive_leaves(lambda i, w: [qa.eval(i, w), qb.eval(i, w)], qa.n, grid, valid, extra_ok=magnitude_ok,
+                           cut=None if lthr is None else first_crossing)
 
 
 def phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None):
     """Σ of the accepted principal phase steps of Δ(jω) over each task's grid, and whether every
     interval was resolved. ``engine``: "numba" (compiled kernel, default when numba is
     installed and EXOTUNE_NUMPY_ONLY is unset) or "numpy" (the reference implementation)."""
+    total, resolved, _, _ = _phase_sums_counted(q, grid, valid, engine)
+    return total, resolved
+
+
+def _phase_sums_counted(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None):
+    """:func:`phase_sums` with, per task, the evaluations spent and whether MAX_TASK_EVALS ran out
+    (both engines spend the same evaluations: one per grid point, one per split)."""
     if _engine(engine) == "numba":
         from . import kernels as _fastphase
 
-        total, resolved, _ = _fastphase.phase_sums(q.p0, q.p1, q.T, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS)
-        return total, resolved
-    lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid, geometric=True)
+        total, resolved, cnt = _fastphase.phase_sums(q.p0, q.p1, q.T, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS)
+        return total, resolved, cnt, valid & ~resolved & (cnt >= MAX_TASK_EVALS)
+    lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid, geometric=True, max_evals=MAX_TASK_EVALS)
     with np.errstate(divide="ignore", invalid="ignore"):
         steps = np.angle(lv["vb"][0] / lv["va"][0])
-    return np.bincount(lv["task"], weights=steps, minlength=q.n), lv["resolved"]
+    return np.bincount(lv["task"], weights=steps, minlength=q.n), lv["resolved"], lv["evaluations"], lv["exhausted"]
 
 
-def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
+def _group_budget(ok: np.ndarray, valid: np.ndarray, evals: np.ndarray, exhausted: np.ndarray, group: np.ndarray):
+    """Consecutive tasks of one ``group`` share MAX_GROUP_EVALS, in queue order, as in
+    :func:`exotune.numerics.kernels.count_tasks`: a task gets min(MAX_TASK_EVALS, what is left) and
+    is unresolved when it needs more; once the group's budget is spent the rest are unresolved."""
+    ok = ok.copy()
+    spent = np.where(valid, np.where(exhausted, MAX_TASK_EVALS, evals), 0)
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    for lo, hi in zip(starts, np.r_[starts[1:], group.size]):
+        if spent[lo:hi].sum() <= MAX_GROUP_EVALS:
+            continue  # the whole group fits: nothing changes
+        left = MAX_GROUP_EVALS
+        for t in range(lo, hi):
+            if not valid[t]:
+                continue
+            if left <= 0:
+                ok[t] = False
+                continue
+            b = min(MAX_TASK_EVALS, left)
+            if exhausted[t] or evals[t] > b:
+                ok[t] = False
+                left -= b
+            else:
+                left -= evals[t]
+    return ok
+
+
+def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2, group: np.ndarray | None = None):
     """Number of zeros of Δ in the open RHP, by the argument principle (module docstring).
 
     ``v0`` optionally overrides Δ(j0) (a real number per row): used for the hysteretic
@@ -371,6 +431,9 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
         Δ(j0) per row, overriding the evaluated value (NaN keeps it); None for none.
     per_decade : int, optional
         Initial grid points per decade of frequency.
+    group : numpy.ndarray or None, optional
+        Work-budget group per row: consecutive rows with the same id share MAX_GROUP_EVALS (as
+        :func:`exotune.numerics.kernels.count_tasks`); None: every row its own group.
 
     Returns
     -------
@@ -395,7 +458,9 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2):
     wmax = omega_max(p0, p1)
     valid = np.isfinite(wmax)
     grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=per_decade)
-    total, resolved = phase_sums(q, grid, valid)
+    total, resolved, evals, exhausted = _phase_sums_counted(q, grid, valid)
+    if group is not None:
+        resolved = _group_budget(resolved, valid, evals, exhausted, np.asarray(group))
     idx = np.arange(ntask)
     vmax, _ = q.eval(idx, np.where(valid, wmax, 1.0), deriv=False)
     n = degree(p0)

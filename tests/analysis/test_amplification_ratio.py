@@ -85,3 +85,28 @@ def test_batched_verdicts_equal_single_designs():
             assert batch[k][i] == pytest.approx(one[k][0], rel=1e-9)
         for k in ("minimum_phase", "locked_stable", "conclusive"):
             assert batch[k][i] == one[k][0]
+
+
+def test_both_engines_find_the_first_crossing_before_a_long_delay_winding():
+    """An extreme design (29.6 ms delay, the −3 dB level at 7.2 Hz, the delay's phase winding up
+    to the search's 10⁹ rad/s): the compiled search goes left to right and stops at the first
+    −3 dB crossing; the numpy reference refines level by level and used to spend its budget on
+    the range beyond the crossing and report the bandwidth undefined (NaN). It now refines
+    nothing right of a leaf that brackets the first crossing: the same bandwidth in both."""
+    from exotune.analysis.batch import analyze_batch
+    from exotune.config import batch_config, load_design
+    from exotune.numerics.engine import numpy_engine
+
+    design = {"plant.motor_inertia": 0.00010294999468113419, "plant.motor_damping": 6.9162747754371106,
+              "plant.sea_stiffness": 91.46899571009024, "plant.joint_inertia": 3.4419044324681547,
+              "plant.cuff_stiffness": 327.55838921413925, "design.amplification": 6.424915459186619,
+              "design.felt_inertia": 0.00012049691715046248, "design.felt_damping": 56.673529217156776,
+              "design.zeta": 0.013950582764259277, "design.zeta_hat": 89.92893461867502,
+              "implementation.delay_s": 0.029592385513960626}
+    cfg = batch_config(load_design("examples/paper.yaml"), {k: np.array([v]) for k, v in design.items()})
+    with np.errstate(all="ignore"):
+        a = analyze_batch(cfg).amplification.bandwidth_hz[0]
+        with numpy_engine():
+            b = analyze_batch(cfg).amplification.bandwidth_hz[0]
+    assert np.isfinite(a) and a == pytest.approx(7.2475, rel=1e-4)
+    assert b == pytest.approx(a, rel=1e-9)

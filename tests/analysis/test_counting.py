@@ -124,3 +124,46 @@ def test_free_stability_of_the_paper_design_and_of_a_destabilizing_delay():
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     v = free_stability(char_terms(cfg.plant, cs, 1))
     assert not v["stable"][0] and v["n_rhp"][0] > 0
+
+
+# Extreme designs (the paper example's parameters scaled by up to 10⁴ either way) on which the
+# engines once disagreed about whether a verdict was conclusive: the numpy reference gave a count a
+# budget of 100 000 leaves (the frequency sets' budget) instead of 200 000 evaluations, and its
+# family sub-interval counts no shared budget per family (docs/benchmarks.md#work-budgets).
+_LONG_WINDING = {  # free, locked and amplification counts of about 10⁵ evaluations each
+    "plant.motor_inertia": 0.0012778699540307108, "plant.motor_damping": 4794.385795964856,
+    "plant.sea_stiffness": 593.2398609717865, "plant.joint_inertia": 1.6697971080861416,
+    "plant.cuff_stiffness": 17223630.08521481, "design.amplification": 1.1574959041315844,
+    "design.felt_inertia": 0.5078638392320824, "design.felt_damping": 3806.0003058581715,
+    "design.zeta": 0.6141940968213624, "design.zeta_hat": 18.983109013154156,
+    "implementation.delay_s": 0.0035549255028860883}
+_FAMILY_OVER_BUDGET = {  # the spring family's sub-interval counts need more than their shared budget
+    "plant.motor_inertia": 0.00010131685239030305, "plant.motor_damping": 0.7944039963770619,
+    "plant.sea_stiffness": 0.15677674762966032, "plant.joint_inertia": 4.8040274936434046e-05,
+    "plant.cuff_stiffness": 3871.5750804310255, "design.amplification": 127.47459641543331,
+    "design.felt_inertia": 0.40854135214500986, "design.felt_damping": 0.006023196344337474,
+    "design.zeta": 0.010440169650284426, "design.zeta_hat": 0.019258027097804952,
+    "implementation.delay_s": 0.1403082333312994}
+
+
+def test_both_engines_spend_the_same_work_budgets_on_extreme_designs():
+    """The same verdict and the same conclusive flag in both engines: the long winding's counts
+    fit the counts' budget of evaluations (conclusive, unstable: it has right-half-plane roots,
+    e.g. 5.150 ± 14.32j found by a high-order Padé approximation refined by Newton's method on the
+    exact characteristic function), and the spring family spends its shared budget in both."""
+    from exotune.analysis.batch import analyze_batch
+    from exotune.config import batch_config, load_design
+    from exotune.numerics.engine import numpy_engine
+
+    base = load_design("examples/paper.yaml")
+    cfg = batch_config(base, {k: np.array([_LONG_WINDING[k], _FAMILY_OVER_BUDGET[k]]) for k in _LONG_WINDING})
+    with np.errstate(all="ignore"):
+        a = analyze_batch(cfg).to_columns()
+        with numpy_engine():
+            b = analyze_batch(cfg).to_columns()
+    assert a["free_conclusive"][0] and not a["free_stable"][0]
+    assert a["locked_conclusive"][0] and a["amplification_conclusive"][0]
+    assert not a["human1_spring_conclusive"][1]
+    for k in a:
+        if k.endswith(("_stable", "_robust", "_conclusive")):
+            np.testing.assert_array_equal(np.asarray(a[k]), np.asarray(b[k]), err_msg=k)
