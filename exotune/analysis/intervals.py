@@ -140,7 +140,10 @@ class FamilySide:
         for i, fam in enumerate(self.fams):
             R = self.results[i]
             N, r, ok = counter.result(R["handle"])
-            st = ok & (N == 0) & (r <= allowed_rigid)
+            # a design whose crossing search is incomplete (budget spent, unresolved or invalid
+            # leaves) may miss critical values: its sub-intervals are not known to be one sign
+            # each, so none is reported stable (the counts alone do not make an interval)
+            st = ok & (N == 0) & (r <= allowed_rigid) & R["leaves_ok"][R["rep_t"]]
             bv, bo = R["bounds"]
             Nd = len(bo) - 1
             conclusive = R["leaves_ok"].copy()
@@ -166,7 +169,7 @@ class FamilySide:
                 stv = okv & (Nv == 0) & (rv <= allowed_rigid)
                 for t_v, p_, s_, ok_ in zip(R["ver_t"].tolist(), R["ver_p"].tolist(), stv.tolist(), okv.tolist()):
                     edges = bv[bo[t_v] + 1: bo[t_v + 1] - 1].tolist()
-                    if not ok_ or R["too_many"][t_v] or any(abs(p_ - e) <= 1e-6 * max(abs(e), 1e-300) for e in edges):
+                    if not ok_ or not R["leaves_ok"][t_v] or any(abs(p_ - e) <= 1e-6 * max(abs(e), 1e-300) for e in edges):
                         continue
                     if s_ != any(a <= p_ <= b for a, b in intervals[t_v]):
                         mismatches[t_v].append(p_)

@@ -42,7 +42,11 @@ def _human_lines(h: dict, yn) -> list[str]:
         L += _box_lines(h, yn)
         return L
     L.append(f"  {h['kind']:17s} {h['parameter']} in [{h['range'][0]:.6g}, {h['range'][1]:.6g}] {h['unit']}: robust {yn(h['robust'])}")
-    L.append(f"    stable on {_fmt_iv(h['stable_intervals'], h['unit'])}")
+    if h.get("conclusive") is False and not h["stable_intervals"]:
+        L.append("    inconclusive: its critical values or root counts were not decided (a work budget spent or "
+                 "float resolution; docs/method.md#stable-intervals-of-a-human-family), so no interval is claimed stable")
+    else:
+        L.append(f"    stable on {_fmt_iv(h['stable_intervals'], h['unit'])}")
     for c in h["critical"][:TEXT_LIST_MAX]:
         L.append(f"    boundary at {h['parameter']} = {c['value']:.6g} {h['unit']} (crossing at {c['frequency_hz']:.4g} Hz)")
     if len(h["critical"]) > TEXT_LIST_MAX:

@@ -260,3 +260,39 @@ def test_a_crossing_pair_between_subsampled_points_is_found(engine):
     for v, fr in ref:
         assert any(abs(c - v) <= 1e-7 * v and abs(g - fr) <= 1e-7 * fr for c, g in crit), (v, fr, crit)
     assert len(crit) == len(ref)
+
+
+# An extreme design (seed 1 of the engines' comparison on designs scaled by up to 10⁴ either way)
+# whose mass family spends its frequency-set budget: the numpy engine's search left holes (its
+# leaves began at 1 308 rad/s) and missed the critical values 0.00562, 0.00953 and 0.451 kg·m²
+# (confirmed by a 60-digit solve), and the family's one sub-interval [0.001, 1.0] was listed as
+# stable from a single root count although members 0.007 and 0.7 kg·m² have two right-half-plane
+# roots each (dense independent counts).
+_INCOMPLETE_SEARCH = {
+    "plant.motor_inertia": 0.0018147072447371245, "plant.motor_damping": 110524.54585089687,
+    "plant.sea_stiffness": 428677.92219534103, "plant.joint_inertia": 0.0024677694081762062,
+    "plant.cuff_stiffness": 6956011.61076777, "design.amplification": 5.273805582995577,
+    "design.felt_inertia": 0.0010751553813098948, "design.felt_damping": 0.05755282407880323,
+    "design.zeta": 0.007522083453361869, "design.zeta_hat": 25.46382135452923,
+    "implementation.delay_s": 9.792565520193372e-05}
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_an_incomplete_frequency_search_lists_no_stable_interval(engine):
+    """A family whose crossing search is incomplete may miss critical values, so no sub-interval
+    is known to be one sign: it is inconclusive and lists no stable interval (in both engines),
+    and indeed members inside the range are unstable."""
+    import contextlib
+
+    from exotune.numerics.engine import numpy_engine
+
+    cfg = batch_config(load_design("examples/paper.yaml"), {k: np.array([v]) for k, v in _INCOMPLETE_SEARCH.items()})
+    with np.errstate(all="ignore"), (numpy_engine() if engine == "numpy" else contextlib.nullcontext()):
+        fam = analyze_batch(cfg).humans[0]
+    assert fam.kind == "mass" and not fam.conclusive[0] and not fam.robust[0]
+    assert fam.stable_intervals[0] == []
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    with np.errstate(all="ignore"):
+        for m, n_rhp in ((0.007, 2), (0.7, 2)):
+            got = coupled_stable(cfg.plant, cs, 1, human={"inertia": m, "damping": 0.0})
+            assert got["conclusive"][0] and got["n_rhp"][0] == n_rhp

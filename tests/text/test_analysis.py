@@ -81,3 +81,15 @@ def test_optional_sections():
             "confirmed by the root search") in lines
     assert "  DISAGREEMENT at human0 at 0.5: exotune says stable, but Δ has a root at 0.25 + 12j rad/s" in lines
     assert not any(ln.startswith("warning:") for ln in lines)
+
+
+def test_an_inconclusive_family_without_intervals_says_so():
+    """No interval listed because the family is inconclusive reads as such, not as 'stable on
+    none' (which would claim every member unstable); a conclusive family with none keeps it."""
+    h = {**_rep()["humans"][0], "stable_intervals": [], "critical": [], "conclusive": False,
+         "lowest_stable_value_below_range_top": None}
+    lines = format_report(_rep(humans=[h])).splitlines()
+    assert not any(ln.startswith("    stable on") for ln in lines)
+    assert any(ln.startswith("    inconclusive: ") and "no interval is claimed stable" in ln for ln in lines)
+    lines = format_report(_rep(humans=[{**h, "conclusive": True}])).splitlines()
+    assert "    stable on none" in lines
