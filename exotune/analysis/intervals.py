@@ -26,7 +26,7 @@ from .brackets import pair_roots
 from .charfun import CharTerms, trim_poly
 from .counting import RootCounter
 
-__all__ = ["FamilySide", "family_intervals", "family_wmax", "classify", "classify_numpy", "subsample_brackets",
+__all__ = ["FamilySide", "family_intervals", "family_wmax", "classify", "classify_numpy", "subsample_brackets", "critical_uncertainty",
            "MAX_FAMILY_PIECES", "NEAR_REAL_RAD", "SIN_NEAR"]
 
 
@@ -110,19 +110,24 @@ class FamilySide:
                 cp = np.concatenate([pc, p_at0])
                 cw = np.concatenate([ws, np.zeros(Nd)])
                 inside = np.isfinite(cp) & (cp > fam.lo) & (cp < fam.hi)
-                ct_, cp, cw = ct_[inside], cp[inside], cw[inside]
+                cu = np.zeros(cp.size)
+                near = np.nonzero(inside[:tk.size])[0]
+                cu[near] = critical_uncertainty(g, D0, D1, k, factor, tk[near], ws[near], pc[near],
+                                                (ba[near], bb[near]), (bga[near], bgb[near]))
+                ct_, cp, cw, cu = ct_[inside], cp[inside], cw[inside], cu[inside]
                 order = np.lexsort((cp, ct_))
-                ct_, cp, cw = ct_[order], cp[order], cw[order]
-                bounds, crit = _bounds(Nd, ct_, cp, cw, fam.lo, fam.hi)
+                ct_, cp, cw, cu = ct_[order], cp[order], cw[order], cu[order]
+                bounds, crit = _bounds(Nd, ct_, cp, cw, fam.lo, fam.hi, cu)
                 # a design with more critical values in the range than MAX_FAMILY_PIECES is not
                 # counted piece by piece (each count is bounded, their number is not): inconclusive
                 too_many = np.diff(bounds[1]) - 1 > MAX_FAMILY_PIECES
-                rep_t, rep_p, rep_ab = _representatives(*bounds)
+                bounds, bu = bounds[:2], bounds[2]
+                rep_t, rep_p, rep_ab = _representatives(*bounds, bu)
                 if too_many.any():
                     kept = ~too_many[rep_t]
-                    rep_t, rep_p, rep_ab = rep_t[kept], rep_p[kept], (rep_ab[0][kept], rep_ab[1][kept])
+                    rep_t, rep_p, rep_ab = rep_t[kept], rep_p[kept], tuple(x[kept] for x in rep_ab)
                 h = _queue_points(counter, D0, D1, phi, factor, rep_t, rep_p)
-                res = dict(bounds=bounds, crit=crit, rep_t=rep_t, rep_ab=rep_ab, handle=h,
+                res = dict(bounds=bounds, bounds_uncertainty=bu, crit=crit, rep_t=rep_t, rep_ab=rep_ab, handle=h,
                            leaves_ok=lv["valid"] & lv["resolved"] & ~too_many, too_many=too_many)
                 if self.verify:
                     # independent check of the interval structure: exact counts at a grid of values
@@ -151,11 +156,14 @@ class FamilySide:
             # sub-interval j of design rep_t[j] is [sa[j], sb[j]] (same order as the counts);
             # runs of consecutive stable sub-intervals of one design are the stable intervals
             t_ = R["rep_t"]
-            sa, sb = R["rep_ab"]
+            sa, sb, ua, ub = R["rep_ab"]
             first = np.r_[True, t_[1:] != t_[:-1]] if t_.size else np.zeros(0, bool)
             starts = st & (first | ~np.r_[False, st[:-1]])
             ends = st & np.r_[(t_[1:] != t_[:-1]) | ~st[1:], True] if t_.size else np.zeros(0, bool)
-            run_t, run_a, run_b = t_[starts], sa[starts], sb[ends]
+            # an end at a critical value known only to ±u (critical_uncertainty) moves inward by u
+            run_t, run_a, run_b = t_[starts], sa[starts] + ua[starts], sb[ends] - ub[ends]
+            kept = run_a < run_b
+            run_t, run_a, run_b = run_t[kept], run_a[kept], run_b[kept]
             intervals = [[] for _ in range(Nd)]
             for t, a, b in zip(run_t.tolist(), run_a.tolist(), run_b.tolist()):
                 intervals[t].append([a, b])
@@ -167,9 +175,11 @@ class FamilySide:
             if "ver_handle" in R:
                 Nv, rv, okv = counter.result(R["ver_handle"])
                 stv = okv & (Nv == 0) & (rv <= allowed_rigid)
+                bu = R["bounds_uncertainty"]
                 for t_v, p_, s_, ok_ in zip(R["ver_t"].tolist(), R["ver_p"].tolist(), stv.tolist(), okv.tolist()):
-                    edges = bv[bo[t_v] + 1: bo[t_v + 1] - 1].tolist()
-                    if not ok_ or not R["leaves_ok"][t_v] or any(abs(p_ - e) <= 1e-6 * max(abs(e), 1e-300) for e in edges):
+                    edges = zip(bv[bo[t_v] + 1: bo[t_v + 1] - 1].tolist(), bu[bo[t_v] + 1: bo[t_v + 1] - 1].tolist())
+                    if not ok_ or not R["leaves_ok"][t_v] or any(abs(p_ - e) <= max(1e-6 * max(abs(e), 1e-300), u)
+                                                                 for e, u in edges):
                         continue
                     if s_ != any(a <= p_ <= b for a, b in intervals[t_v]):
                         mismatches[t_v].append(p_)
@@ -373,34 +383,42 @@ def _queue_points(counter: RootCounter, D0: QP, D1: QP, phi, factor: complex, ro
     return counter.add(P0, P1, D0.T[rows], reg, group=rows)
 
 
-def _bounds(Nd, ct_, cp, cw, lo, hi):
+def _bounds(Nd, ct_, cp, cw, lo, hi, cu):
     """Sub-interval bounds of every design, flat: design t owns ``bv[bo[t]:bo[t + 1]]`` = lo, its
-    distinct critical values (ascending), hi; and the list of critical (value, frequency [Hz]) per
-    design. The crossings arrive sorted by (design, value); a value within 1e-12 (relative) of the
-    last kept one of its design is the same critical value."""
+    distinct critical values (ascending), hi; their uncertainties ``bu`` (``cu`` of the critical
+    values, the largest of those merged; 0 at lo and hi); and the list of critical (value,
+    frequency [Hz]) per design. The crossings arrive sorted by (design, value); a value within
+    1e-12 (relative) of the last kept one of its design is the same critical value."""
     crit = [[] for _ in range(Nd)]
     keep = np.zeros(len(cp), bool)
-    last_t, last_p = -1, lo
+    unc = np.array(cu, dtype=float)
+    last_t, last_p, last_j = -1, lo, -1
     for j, (t, p, w) in enumerate(zip(ct_.tolist(), cp.tolist(), cw.tolist())):
         crit[t].append((p, w / (2 * np.pi)))
         if t != last_t:
             last_t, last_p = t, lo
         if p > last_p * (1 + 1e-12):
             keep[j] = True
-            last_p = p
+            last_p, last_j = p, j
+        else:
+            unc[last_j] = max(unc[last_j], unc[j])
     tk, pk = ct_[keep], cp[keep]
     nk = np.bincount(tk, minlength=Nd)
     bo = np.r_[0, np.cumsum(nk + 2)]
     bv = np.empty(bo[-1])
+    bu = np.zeros(bo[-1])
     bv[bo[:-1]] = lo
     bv[bo[1:] - 1] = hi
     kstart = np.r_[0, np.cumsum(nk)][:-1]
-    bv[bo[tk] + 1 + np.arange(tk.size) - kstart[tk]] = pk
-    return (bv, bo), crit
+    at = bo[tk] + 1 + np.arange(tk.size) - kstart[tk]
+    bv[at] = pk
+    bu[at] = unc[keep]
+    return (bv, bo, bu), crit
 
 
-def _representatives(bv, bo):
-    """One value inside each sub-interval (geometric mean when positive): (design, value, (a, b))."""
+def _representatives(bv, bo, bu):
+    """One value inside each sub-interval (geometric mean when positive): (design, value,
+    (a, b, uncertainty of a, uncertainty of b))."""
     Nd = len(bo) - 1
     last = np.zeros(len(bv), bool)
     last[bo[1:] - 1] = True
@@ -409,7 +427,7 @@ def _representatives(bv, bo):
     rep_t = np.repeat(np.arange(Nd), np.diff(bo) - 1)
     with np.errstate(invalid="ignore"):
         rep_p = np.where((a > 0) & (b > 0), np.sqrt(a * b), 0.5 * (a + b))
-    return rep_t, rep_p, (a, b)
+    return rep_t, rep_p, (a, b, bu[j], bu[j + 1])
 
 
 def family_wmax(D0: QP, D1: QP, phi, factor, lo, hi):
@@ -496,3 +514,87 @@ def _min_abs_affine(c_lo, c_hi, n_lo, n_hi):
     t = np.where(np.abs(d) > 0, t, 0.0)
     return np.abs(c_lo + t * d)
 
+
+
+# relative rounding of one evaluation of g (Horner's rule on both factors, complex arithmetic, the
+# delay factor), per term, times the sum of the terms' moduli: a pessimistic bound that only flags
+CROSSING_ROUNDING = 8.0 * np.finfo(float).eps
+# critical values whose flagged bound is below this (relative) are reported as found: every
+# ordinary crossing (none of 21 019 crossings of 3 000 benchmark-sweep designs reaches it)
+CRITICAL_EXACT_RTOL = 1e-6
+
+
+def critical_uncertainty(g, D0: QP, D1: QP, k: int, factor: complex, task, w, p, bracket, signs):
+    """How far each critical value may lie from where the crossing function's zero was found.
+
+    Where the crossing curve −Δ_0/(f φ Δ1) runs almost along the real axis, g = Im[Δ_0 conj(f (jω)^k
+    Δ1)] changes by less than its rounding over a band of frequencies, and its zero is known only to
+    that band (docs/method.md#stable-intervals-of-a-human-family). A pessimistic rounding bound
+    (the sum of the terms' moduli over |g'|) flags such crossings; for a flagged one the band is
+    measured: g is sampled at ω(1 ± 2^m·10⁻¹⁴) and the band reaches the sample after the farthest
+    one whose sign is not that of its side of the bracket. The critical value's uncertainty is
+    twice |dp/dω| times the band (an estimate, as the sampled-data rounding estimate; the band
+    ends at the bracket's ends at the latest). 0 for crossings not flagged (every ordinary one: the value is
+    then reported as found, to float precision of g).
+
+    Parameters
+    ----------
+    g : callable
+        ``g(task, w)``: the crossing function at the frequencies ``w`` of the rows ``task``.
+    D0, D1 : QP
+        Δ_0 and Δ1 of the family's side.
+    k : int
+        The power of s in φ (1, s or s²: k = 0, 1, 2).
+    factor : complex
+        1, or 1 + jη for the hysteretic human.
+    task : numpy.ndarray
+        The design row of each crossing.
+    w : numpy.ndarray
+        The crossing frequencies [rad/s].
+    p : numpy.ndarray
+        The critical values (the family parameter's unit).
+    bracket : tuple of numpy.ndarray
+        The ends (a, b) [rad/s] of the bracket each crossing was refined in.
+    signs : tuple of numpy.ndarray
+        g at those ends.
+
+    Returns
+    -------
+    numpy.ndarray
+        The uncertainty of each critical value, in the family parameter's unit (0: as found).
+    """
+    out = np.zeros(task.size)
+    if task.size == 0:
+        return out
+    with np.errstate(all="ignore"):
+        a, da = D0.eval(task, w)
+        c, dc = D1.eval(task, w)
+        s = 1j * w
+        b = factor * s**k * c
+        db = factor * 1j * ((k * s ** (k - 1) * c if k else 0.0) + s**k * dc)  # d/dω
+        da = 1j * da
+        mod = lambda q: np.sum(np.abs(q.p0[task]) * w[:, None] ** np.arange(q.p0.shape[1]), axis=1) + np.sum(  # noqa: E731
+            np.abs(q.p1[task]) * w[:, None] ** np.arange(q.p1.shape[1]), axis=1)
+        terms = D0.p0.shape[1] + D1.p0.shape[1] + 4
+        dg = CROSSING_ROUNDING * terms * (mod(D0) * np.abs(b) + np.abs(a) * np.abs(factor) * w**k * mod(D1))
+        dpdw = np.abs((da * b - a * db) / b**2)
+        bound = dpdw * dg / np.abs(np.imag(da * np.conj(b) + a * np.conj(db)))
+        flag = ~(bound <= CRITICAL_EXACT_RTOL * np.abs(p))
+    if not flag.any():
+        return out
+    j = np.nonzero(flag)[0]
+    r = 1e-14 * 2.0 ** np.arange(52)  # relative offsets up to 2.3e1
+    band = np.zeros(j.size)
+    for side, end, sg in ((-1.0, bracket[0][j], signs[0][j]), (1.0, bracket[1][j], signs[1][j])):
+        x = w[j, None] * (1.0 + side * r[None, :])
+        inside = (x - end[:, None]) * side < 0  # strictly between the crossing and the bracket's end
+        with np.errstate(all="ignore"):
+            gx = g(np.repeat(task[j], r.size), x.ravel()).reshape(x.shape)
+        wrong = inside & ~(np.sign(gx) == np.sign(sg)[:, None])
+        m = np.where(wrong.any(axis=1), r.size - 1 - np.argmax(wrong[:, ::-1], axis=1), -1)
+        # the next sample, or the bracket's end (where g has its side's sign) when that is nearer
+        reach = np.minimum(np.where(m + 1 < r.size, r[np.minimum(m + 1, r.size - 1)] * w[j], np.inf),
+                           np.abs(end - w[j]))
+        band = np.maximum(band, reach)
+    out[j] = 2.0 * dpdw[j] * band
+    return np.where(np.isnan(out), np.inf, out)

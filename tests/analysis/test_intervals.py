@@ -172,9 +172,9 @@ def test_single_design_report_verifies_intervals(monkeypatch):
     good = analyze_design(cfg).to_dict()["humans"][0]
     assert good["verification_mismatches"] == [] and good["verified_points"] == 64
 
-    def no_crossings(Nd, ct_, cp, cw, lo, hi):
+    def no_crossings(Nd, ct_, cp, cw, lo, hi, cu):
         bv = np.tile([lo, hi], Nd).astype(float)
-        return (bv, np.arange(Nd + 1) * 2), [[] for _ in range(Nd)]
+        return (bv, np.arange(Nd + 1) * 2, np.zeros(bv.size)), [[] for _ in range(Nd)]
 
     monkeypatch.setattr(intervals_mod, "_bounds", no_crossings)
     bad = analyze_design(cfg).to_dict()["humans"][0]
@@ -262,6 +262,18 @@ def test_a_crossing_pair_between_subsampled_points_is_found(engine):
     assert len(crit) == len(ref)
 
 
+def _first_family(design: dict, engine: str, verify: int = 0):
+    """(config, first human family's batch result) of one design of dotted fields on the paper
+    example, analysed by the compiled or the numpy engine."""
+    import contextlib
+
+    from exotune.numerics.engine import numpy_engine
+
+    cfg = batch_config(load_design("examples/paper.yaml"), {k: np.array([v]) for k, v in design.items()})
+    with np.errstate(all="ignore"), (numpy_engine() if engine == "numpy" else contextlib.nullcontext()):
+        return cfg, analyze_batch(cfg, verify=verify).humans[0]
+
+
 # An extreme design (seed 1 of the engines' comparison on designs scaled by up to 10⁴ either way)
 # whose mass family spends its frequency-set budget: the numpy engine's search left holes (its
 # leaves began at 1 308 rad/s) and missed the critical values 0.00562, 0.00953 and 0.451 kg·m²
@@ -282,13 +294,7 @@ def test_an_incomplete_frequency_search_lists_no_stable_interval(engine):
     """A family whose crossing search is incomplete may miss critical values, so no sub-interval
     is known to be one sign: it is inconclusive and lists no stable interval (in both engines),
     and indeed members inside the range are unstable."""
-    import contextlib
-
-    from exotune.numerics.engine import numpy_engine
-
-    cfg = batch_config(load_design("examples/paper.yaml"), {k: np.array([v]) for k, v in _INCOMPLETE_SEARCH.items()})
-    with np.errstate(all="ignore"), (numpy_engine() if engine == "numpy" else contextlib.nullcontext()):
-        fam = analyze_batch(cfg).humans[0]
+    cfg, fam = _first_family(_INCOMPLETE_SEARCH, engine)
     assert fam.kind == "mass" and not fam.conclusive[0] and not fam.robust[0]
     assert fam.stable_intervals[0] == []
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
@@ -296,3 +302,52 @@ def test_an_incomplete_frequency_search_lists_no_stable_interval(engine):
         for m, n_rhp in ((0.007, 2), (0.7, 2)):
             got = coupled_stable(cfg.plant, cs, 1, human={"inertia": m, "damping": 0.0})
             assert got["conclusive"][0] and got["n_rhp"][0] == n_rhp
+
+
+# An extreme design whose mass family's crossing curve runs almost along the real axis near
+# 2 055 Hz: Im p/|p| changes by about 1e-14 per Hz there, less than its rounding, so the zero of the
+# crossing function is known only to about ±0.5 Hz. The critical value is 0.00167987764 kg·m²
+# (a 60-digit solve on the same coefficients); the engines found 0.00167986 and 0.00168010, and the
+# numpy engine's stable interval ended above it (members with a root at Re s ≈ +5e-12 1/s).
+_FLAT_CROSSING = {
+    "plant.motor_inertia": 0.0010458714366119086, "plant.motor_damping": 10044.414430545505,
+    "plant.sea_stiffness": 587.706560659785, "plant.joint_inertia": 0.192505724447506,
+    "plant.cuff_stiffness": 277553.19944311574, "design.amplification": 5.09602651153281,
+    "design.felt_inertia": 132.94092989258726, "design.felt_damping": 0.006183248083771571,
+    "design.zeta": 0.412412069094039, "design.zeta_hat": 0.0016008331981020938,
+    "implementation.delay_s": 8.00630261723297e-06}
+_FLAT_CRITICAL = 0.00167987764
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_an_interval_end_at_an_ill_conditioned_crossing_stays_on_the_stable_side(engine):
+    """The end moves inward by the measured rounding band of its critical value: below the true
+    value in both engines, by less than 1 %; the 64-point verification finds no mismatch."""
+    _cfg, fam = _first_family(_FLAT_CROSSING, engine, verify=64)
+    assert fam.conclusive[0] and fam.verification_mismatches[0] == []
+    (lo, hi), = fam.stable_intervals[0]
+    assert lo == 0.001 and 0.99 * _FLAT_CRITICAL < hi < _FLAT_CRITICAL
+
+
+def test_ordinary_critical_values_are_reported_as_found():
+    """critical_uncertainty is 0 for the paper example's crossings (their rounding bound is far
+    below 1e-6 relative), so its intervals end exactly at the critical values."""
+    from exotune.analysis.intervals import critical_uncertainty
+    from exotune.numerics.quasipoly import QP
+
+    cfg = load_design("examples/paper.yaml")
+    res = analyze_batch(cfg).humans[0]
+    (crit_p, crit_hz), = res.critical[0][:1]
+    assert res.stable_intervals[0][0][0] == crit_p
+    # the degenerate extreme: Δ0(s) = 1 − s², Δ1 = 1, so p(jω) = −(1 + ω²) is real at every ω and g is
+    # rounding noise alone: the bound flags it and the band found reaches the bracket's ends
+    D0 = QP(np.array([[1.0, 0.0, -1.0]]), np.zeros((1, 1)), np.zeros(1))
+    D1 = QP(np.array([[1.0]]), np.zeros((1, 1)), np.zeros(1))
+    rng = np.random.default_rng(0)
+
+    def g(task, w):
+        return 1e-16 * rng.standard_normal(np.shape(w))
+
+    u = critical_uncertainty(g, D0, D1, 0, 1.0, np.array([0]), np.array([1.0]), np.array([-2.0]),
+                             (np.array([0.5]), np.array([2.0])), (np.array([1.0]), np.array([-1.0])))
+    assert u[0] > 0.1
