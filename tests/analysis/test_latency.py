@@ -302,3 +302,27 @@ def test_lightly_damped_light_mass_margin_matches_the_polynomial_roots(zeta):
     got = float(analyze_batch(batch_config(design_from_mapping(mapping), {}), latency=True).latency_margin_s[0])
     assert 1e-3 < ref < 1e-2
     assert got == pytest.approx(ref, rel=1e-6)
+
+
+def test_the_margin_on_a_crossing_curve_uses_a_polished_member():
+    """An extreme design (no delay, a soft cuff, a heavy joint) whose latency margin is set on the
+    light end of its mass family's crossing curve: the member p of a curve point comes from a
+    quadratic whose expanded coefficients cancel, and the compiled engine's margin was 5.4e-4
+    (relative) below the true 3.18851432e-7 s (a 40–60-digit solve on the loop's own coefficients);
+    off-by-5e-3 points could as well lie above it. Polished by Newton steps on |P0|² − |P1|²
+    evaluated directly, both engines give the true margin to 1e-7."""
+    from exotune.config import batch_config, load_design
+    from exotune.numerics.engine import numpy_engine
+
+    design = {"plant.motor_inertia": 9.271046498782819e-05, "plant.motor_damping": 5907.451056279231,
+              "plant.sea_stiffness": 2439.9487908136, "plant.joint_inertia": 142.59735774106716,
+              "plant.cuff_stiffness": 4.496049772562441, "design.amplification": 2.8682735333315077,
+              "design.felt_inertia": 440.3620856281912, "design.felt_damping": 11.951751349780928,
+              "design.zeta": 0.5702590653018137, "design.zeta_hat": 0.40488408958158034,
+              "implementation.delay_s": 0.0}
+    cfg = batch_config(load_design("examples/paper.yaml"), {k: np.array([v]) for k, v in design.items()})
+    with np.errstate(all="ignore"):
+        a = analyze_batch(cfg, latency=True).latency_margin_s[0]
+        with numpy_engine():
+            b = analyze_batch(cfg, latency=True).latency_margin_s[0]
+    assert a == pytest.approx(3.18851432e-7, rel=1e-7) and b == pytest.approx(3.18851432e-7, rel=1e-7)

@@ -69,6 +69,17 @@ if AVAILABLE:
             pm = r2 if math.isnan(r1) else (r1 if math.isnan(r2) else min(r1, r2))
         else:
             pm = r2 if math.isnan(r1) else (r1 if math.isnan(r2) else max(r1, r2))
+        for _ in range(2):  # Newton polish of p on G evaluated directly (analysis.latency._polish_member)
+            P0 = A0 + pm * B0
+            P1 = A1 + pm * B1
+            G = _abs2(P0) - _abs2(P1)
+            dG = 2.0 * (B0 * P0.conjugate() - B1 * P1.conjugate()).real
+            if not dG != 0.0:
+                break
+            q = pm - G / dG
+            Gq = _abs2(A0 + q * B0) - _abs2(A1 + q * B1)
+            if math.isfinite(q) and abs(Gq) < abs(G):
+                pm = q
         if not (math.isfinite(pm) and pm >= lo and pm <= hi):
             return np.inf
         P1 = A1 + pm * B1
