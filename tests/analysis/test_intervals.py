@@ -321,12 +321,13 @@ _FLAT_CRITICAL = 0.00167987764
 
 @pytest.mark.parametrize("engine", ["compiled", "numpy"])
 def test_an_interval_end_at_an_ill_conditioned_crossing_stays_on_the_stable_side(engine):
-    """The end moves inward by the measured rounding band of its critical value: below the true
-    value in both engines, by less than 1 %; the 64-point verification finds no mismatch."""
+    """The end moves inward by the rounding bound of its critical value: below the true value in
+    both engines (the bound is pessimistic: about 19 % here); the 64-point verification finds no
+    mismatch."""
     _cfg, fam = _first_family(_FLAT_CROSSING, engine, verify=64)
     assert fam.conclusive[0] and fam.verification_mismatches[0] == []
     (lo, hi), = fam.stable_intervals[0]
-    assert lo == 0.001 and 0.99 * _FLAT_CRITICAL < hi < _FLAT_CRITICAL
+    assert lo == 0.001 and 0.5 * _FLAT_CRITICAL < hi < _FLAT_CRITICAL
 
 
 def test_ordinary_critical_values_are_reported_as_found():
@@ -340,14 +341,11 @@ def test_ordinary_critical_values_are_reported_as_found():
     (crit_p, crit_hz), = res.critical[0][:1]
     assert res.stable_intervals[0][0][0] == crit_p
     # the degenerate extreme: Δ0(s) = 1 − s², Δ1 = 1, so p(jω) = −(1 + ω²) is real at every ω and g is
-    # rounding noise alone: the bound flags it and the band found reaches the bracket's ends
+    # rounding noise alone (g' = 0): no bound, the critical value is unknown
     D0 = QP(np.array([[1.0, 0.0, -1.0]]), np.zeros((1, 1)), np.zeros(1))
     D1 = QP(np.array([[1.0]]), np.zeros((1, 1)), np.zeros(1))
-    rng = np.random.default_rng(0)
-
-    def g(task, w):
-        return 1e-16 * rng.standard_normal(np.shape(w))
-
-    u = critical_uncertainty(g, D0, D1, 0, 1.0, np.array([0]), np.array([1.0]), np.array([-2.0]),
-                             (np.array([0.5]), np.array([2.0])), (np.array([1.0]), np.array([-1.0])))
-    assert u[0] > 0.1
+    assert critical_uncertainty(D0, D1, 0, 1.0, np.array([0]), np.array([1.0]), np.array([-2.0]))[0] == np.inf
+    # a well-conditioned crossing of the same kind: Δ0 = 1 + s, Δ1 = 1, p(jω) = −1 − jω real at ω = 0 only;
+    # at ω = 1e-3 with p = −1 the bound is tiny and reported as 0
+    D0 = QP(np.array([[1.0, 1.0]]), np.zeros((1, 1)), np.zeros(1))
+    assert critical_uncertainty(D0, D1, 0, 1.0, np.array([0]), np.array([1e-3]), np.array([-1.0]))[0] == 0.0
