@@ -395,11 +395,11 @@ def _bounds(Nd, ct_, cp, cw, lo, hi, cu):
     for j, (t, p, w) in enumerate(zip(ct_.tolist(), cp.tolist(), cw.tolist())):
         crit[t].append((p, w / (2 * np.pi)))
         if t != last_t:
-            last_t, last_p = t, lo
+            last_t, last_p, last_j = t, lo, -1
         if p > last_p * (1 + 1e-12):
             keep[j] = True
             last_p, last_j = p, j
-        else:
+        elif last_j >= 0:  # the same critical value as the last kept one (at lo: none to merge into)
             unc[last_j] = max(unc[last_j], unc[j])
     tk, pk = ct_[keep], cp[keep]
     nk = np.bincount(tk, minlength=Nd)

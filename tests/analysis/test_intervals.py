@@ -349,3 +349,17 @@ def test_ordinary_critical_values_are_reported_as_found():
     # at ω = 1e-3 with p = −1 the bound is tiny and reported as 0
     D0 = QP(np.array([[1.0, 1.0]]), np.zeros((1, 1)), np.zeros(1))
     assert critical_uncertainty(D0, D1, 0, 1.0, np.array([0]), np.array([1e-3]), np.array([-1.0]))[0] == 0.0
+
+
+def test_merged_critical_values_keep_the_larger_uncertainty_of_their_own_design():
+    """Two crossings within 1e-12 of each other are one critical value with the larger of their
+    uncertainties; a crossing at a design's range end merges into nothing (not into the previous
+    design's last critical value)."""
+    import exotune.analysis.intervals as intervals_mod
+
+    ct_ = np.array([0, 0, 1])
+    cp = np.array([0.5, 0.5 * (1 + 1e-13), 0.1 * (1 + 1e-13)])
+    (bv, bo, bu), crit = intervals_mod._bounds(2, ct_, cp, np.ones(3), 0.1, 1.0, np.array([1e-3, 2e-3, 9.0]))
+    assert bv.tolist() == [0.1, 0.5, 1.0, 0.1, 1.0]
+    assert bu.tolist() == [0.0, 2e-3, 0.0, 0.0, 0.0]
+    assert [len(c) for c in crit] == [2, 1]
