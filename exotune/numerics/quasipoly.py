@@ -159,7 +159,8 @@ def omega_max(p0: np.ndarray, p1: np.ndarray, frac: float = 0.25, engine: str | 
 
 
 def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | None = None, extra_ok=None,
-                    geometric: bool = False, max_evals: int | None = None, cut=None):
+                    geometric: bool = False, max_evals: int | None = None, cut=None, max_leaves=None,
+                    depth0=None):
     """Adaptive refinement of per-task frequency grids.
 
     ``evalfn(idx, w) -> list[(val, der)]`` evaluates the tracked functions at s = jω.
@@ -200,6 +201,12 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         for (the first −3 dB crossing of the amplification bandwidth); nothing right of the
         leftmost such leaf of a task is refined further, as the compiled kernel stops its
         left-to-right search there (so a task is not exhausted by a range it does not need).
+    max_leaves : numpy.ndarray or None, optional
+        Leaf budget per task (T,) instead of ``MAX_TASK_LEAVES`` (what is left of it when a search
+        is continued cell by cell, :func:`leaves_pair`).
+    depth0 : numpy.ndarray or None, optional
+        Halvings already spent per task (T,): a grid cell that is itself a half of a half… of an
+        initial cell reaches the resolution floor ``MAX_LEVELS`` as that initial cell would.
 
     Returns
     -------
@@ -267,8 +274,10 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         if extra_ok is not None:
             ok &= extra_ok(ti, a, b, va, vb, da, db) | bad
             floor = floor | (ok_phase & (h <= 1e-9 * np.maximum(np.abs(b), 1e-300)))
-        if level == MAX_LEVELS:
+        if depth0 is None and level == MAX_LEVELS:
             floor[:] = True
+        elif depth0 is not None:
+            floor |= level + depth0[ti] >= MAX_LEVELS
         stop = ok | floor | bad
         unres = (floor & ~ok_phase) | bad
         if unres.any():
@@ -291,7 +300,8 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
         # the compiled kernel's per-task budget (MAX_TASK_LEAVES): a task whose leaves would pass
         # it is dropped, unresolved (the same verdicts; its partial leaves may differ)
         ngo = np.bincount(ti[go], minlength=ntask)
-        over = nleaf + 2 * ngo > MAX_TASK_LEAVES if max_evals is None else nev + ngo > max_evals
+        budget = MAX_TASK_LEAVES if max_leaves is None else max_leaves
+        over = nleaf + 2 * ngo > budget if max_evals is None else nev + ngo > max_evals
         if over.any():
             resolved[over] = False
             exhausted[over] = True
@@ -354,14 +364,84 @@ def leaves_pair(qa: QP, qb: QP, grid: np.ndarray, valid: np.ndarray, magnitude_o
         from . import kernels as _fastphase
 
         return _fastphase.leaves2(qa, qb, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS, lthr=lthr)
+
+    def evalfn(i, w):
+        return [qa.eval(i, w), qb.eval(i, w)]
+
+    if lthr is None:
+        return adaptive_leaves(evalfn, qa.n, grid, valid)
+
     def first_crossing(t, a, b, va, vb):
         # the compiled kernel's stop: a leaf clearly bracketing the first −3 dB down-crossing
         lev = np.exp(lthr[t])
         with np.errstate(divide="ignore", invalid="ignore"):
             return (np.abs(va[0] / va[1]) > lev * (1.0 + 1e-9)) & (np.abs(vb[0] / vb[1]) < lev * (1.0 - 1e-9))
 
-    return adaptive_leaves(lambda i, w: [qa.eval(i, w), qb.eval(i, w)], qa.n, grid, valid, extra_ok=magnitude_ok,
-                           cut=None if lthr is None else first_crossing)
+    lv = adaptive_leaves(evalfn, qa.n, grid, valid, extra_ok=magnitude_ok, cut=first_crossing)
+    if lv["exhausted"].any():
+        lv = _rescan_left_to_right(lv, evalfn, qa.n, grid, magnitude_ok, first_crossing)
+    return lv
+
+
+def _rescan_left_to_right(lv: dict, evalfn, ntask: int, grid: np.ndarray, extra_ok, cut) -> dict:
+    """The tasks of a level-by-level bandwidth search that spent their leaf budget, searched again
+    from the left as the compiled kernel does (depth first): the budget is spent only left of the
+    first −3 dB crossing, and a task stops at the cell whose leaves bracket it.
+
+    Each round refines every such task's leftmost pending cell level by level; a cell that would
+    pass the task's remaining budget is replaced by its two halves (the same halves the refinement
+    makes, with their depth), so memory stays bounded by one cell per task and the leaves are the
+    compiled kernel's."""
+    redo = lv["exhausted"]
+    left = np.where(redo, MAX_TASK_LEAVES, 0).astype(np.int64)
+    resolved = np.ones(ntask, bool)
+    exhausted = np.zeros(ntask, bool)
+    pending = {int(t): [(grid[t, j], grid[t, j + 1], 0) for j in range(grid.shape[1] - 2, -1, -1)]
+               for t in np.nonzero(redo)[0]}
+    parts = []
+    while pending:
+        ts = np.array(sorted(pending))
+        cells = np.array([pending[t].pop() for t in ts])
+        g = np.zeros((ntask, 2))
+        g[ts] = cells[:, :2]
+        depth = np.zeros(ntask, np.int64)
+        depth[ts] = cells[:, 2]
+        act = np.zeros(ntask, bool)
+        act[ts] = True
+        cell = adaptive_leaves(evalfn, ntask, g, act, extra_ok=extra_ok, cut=cut, max_leaves=left, depth0=depth)
+        spent = cell["exhausted"] & act
+        for t, (a, b, d) in zip(ts, cells):
+            if spent[t] and left[t] > 0 and d < MAX_LEVELS:
+                m = 0.5 * (a + b)
+                pending[t] += [(m, b, d + 1), (a, m, d + 1)]
+            elif spent[t]:
+                exhausted[t] = True
+                pending[t] = []
+        t = cell["task"]
+        kept = ~spent[t]
+        leaf = {key: cell[key][kept] for key in ("task", "a", "b")}
+        leaf["va"] = [x[kept] for x in cell["va"]]
+        leaf["vb"] = [x[kept] for x in cell["vb"]]
+        parts.append(leaf)
+        left -= np.bincount(leaf["task"], minlength=ntask)
+        resolved &= cell["resolved"] | spent | ~act
+        with np.errstate(invalid="ignore", divide="ignore"):
+            clean = np.logical_and.reduce([np.isfinite(x) & (x != 0) for x in leaf["va"] + leaf["vb"]])
+            hit = leaf["task"][clean & cut(leaf["task"], leaf["a"], leaf["b"], leaf["va"], leaf["vb"])]
+        for t in set(hit.tolist()) | {t for t in pending if not pending[t]}:
+            pending.pop(t, None)
+    keep = ~redo[lv["task"]]
+    out = {key: np.concatenate([lv[key][keep]] + [c[key] for c in parts]) for key in ("task", "a", "b")}
+    for end in ("va", "vb"):
+        out[end] = [np.concatenate([lv[end][i][keep]] + [c[end][i] for c in parts]) for i in range(len(lv[end]))]
+    order = np.lexsort((out["a"], out["task"]))
+    for key in ("task", "a", "b"):
+        out[key] = out[key][order]
+    for end in ("va", "vb"):
+        out[end] = [x[order] for x in out[end]]
+    out["resolved"] = np.where(redo, resolved & ~exhausted, lv["resolved"])
+    out["exhausted"] = exhausted
+    return out
 
 
 def phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None):

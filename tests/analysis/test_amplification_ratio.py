@@ -110,3 +110,52 @@ def test_both_engines_find_the_first_crossing_before_a_long_delay_winding():
             b = analyze_batch(cfg).amplification.bandwidth_hz[0]
     assert np.isfinite(a) and a == pytest.approx(7.2475, rel=1e-4)
     assert b == pytest.approx(a, rel=1e-9)
+
+
+def test_the_numpy_search_rescans_left_to_right_when_its_budget_is_spent():
+    """Three extreme designs (a 0.59 s delay winding up to the search's top frequency; a −3 dB
+    level at 6.6e-4 Hz; a crossing at 4e5 Hz inside a grid cell that alone needs half the budget):
+    the numpy reference, refining level by level, spent its leaf budget before it had bracketed the
+    first −3 dB crossing and reported the bandwidth undefined (NaN) where the compiled left-to-right
+    search found it. The spent tasks are now searched again from the left, a cell at a time and a
+    cell that would spend the rest of the budget in halves: the same bandwidth in both engines, at
+    dc/√2 and with |C6/C5| above the level on a dense grid below it."""
+    from exotune.analysis.charfun import amplification_qps
+    from exotune.config import batch_config, load_design
+    from exotune.numerics.engine import numpy_engine
+
+    designs = [
+        {"plant.motor_inertia": 2.277063130143581, "plant.motor_damping": 0.24111069774415736,
+         "plant.sea_stiffness": 1115.2353558422326, "plant.joint_inertia": 139.72668728019983,
+         "plant.cuff_stiffness": 311592.3914445048, "design.amplification": 1109.553832318745,
+         "design.felt_inertia": 5.502103757453938e-05, "design.felt_damping": 0.0007181494064485406,
+         "design.zeta": 73.41484458868145, "design.zeta_hat": 0.47157095047520586,
+         "implementation.delay_s": 0.5933039590287728},
+        {"plant.motor_inertia": 0.00010740719051431116, "plant.motor_damping": 15165.186841326125,
+         "plant.sea_stiffness": 137.4566347415377, "plant.joint_inertia": 9.701210095778573e-06,
+         "plant.cuff_stiffness": 6501706.630247029, "design.amplification": 1243.8066023360318,
+         "design.felt_inertia": 748.334659231224, "design.felt_damping": 74.22892164139893,
+         "design.zeta": 1.9083506187247399, "design.zeta_hat": 4.424770325137179,
+         "implementation.delay_s": 0.00031680717780757634},
+        {"plant.motor_inertia": 0.38363909090996356, "plant.motor_damping": 2.5247609592203597,
+         "plant.sea_stiffness": 72.18186012144703, "plant.joint_inertia": 34.07348545647694,
+         "plant.cuff_stiffness": 0.8060079725553395, "design.amplification": 8.301843150694715,
+         "design.felt_inertia": 0.10739228734581596, "design.felt_damping": 712.0487711774216,
+         "design.zeta": 0.010998511437691162, "design.zeta_hat": 0.003449926289213124,
+         "implementation.delay_s": 0.01905597829941735},
+    ]
+    cfg = batch_config(load_design("examples/paper.yaml"), {k: np.array([d[k] for d in designs]) for k in designs[0]})
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    num, den = amplification_qps(cfg.plant, cs, 3)
+    with np.errstate(all="ignore"):
+        dc, bw = dc_and_bandwidth(num, den)
+        with numpy_engine():
+            dc_np, bw_np = dc_and_bandwidth(num, den)
+    assert np.all(np.isfinite(bw)) and bw_np == pytest.approx(bw, rel=1e-9)
+    level = np.abs(dc) / np.sqrt(2)
+    for i in range(3):
+        w = 2 * np.pi * np.r_[np.geomspace(bw[i] * 1e-6, bw[i], 100_000)[:-1], bw[i]]
+        rows = np.full(w.size, i)
+        mag = np.abs(num.eval(rows, w, deriv=False)[0] / den.eval(rows, w, deriv=False)[0])
+        assert mag[-1] == pytest.approx(level[i], rel=1e-6)
+        assert np.all(mag[:-1] >= level[i] * (1 - 1e-6))
