@@ -140,7 +140,7 @@ def design(source, *, plots=None) -> DesignSummary:
     """
     from .analysis import design_report
 
-    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)})
+    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)}, dir_names={"`plots`": ("*.png",)})
     cfg = load_design(source)
     with numpy_engine():
         r = design_report(cfg)
@@ -212,7 +212,7 @@ def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
     from .controllerfile.verdicts import analyze_of_record
 
     cross_check = flag_value("cross_check", cross_check)
-    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)})
+    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)}, dir_names={"`plots`": ("*.png",)})
     cfg = load_design(source)
     with numpy_engine():
         r = analyze_of_record(cfg)
@@ -272,7 +272,8 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     from .config.yamlio import spec_base
     from .sweeps import run_sweep
 
-    check_outputs([spec, spec_base(spec)], out_dirs={"`out`": path_value("out", out, required=True)})
+    check_outputs([spec, spec_base(spec)], out_dirs={"`out`": path_value("out", out, required=True)},
+                  dir_names={"`out`": ("manifest.json", "chunks/*")})
     return run_sweep(spec, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
                      chunk_size=chunk_size, progress=progress)
 
@@ -314,7 +315,7 @@ def report(sweep_dir, out=None) -> SweepReport:
         sweep_dir = sweep_dir.directory
     sweep_dir, out = path_value("sweep_dir", sweep_dir, required=True), path_value("out", out)
     check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"`out`": out},
-                  protected_dirs=[os.path.join(sweep_dir, "chunks")])
+                  protected_dirs=[os.path.join(sweep_dir, "chunks")], dir_names={"`out`": ("*.png", "*.md")})
     return make_report(sweep_dir, out)
 
 
@@ -563,7 +564,8 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
             raise TypeError("codegen needs a written controller file (export it to a path first)")
         source = source.path
     allow_uncertified = flag_value("allow_uncertified", allow_uncertified)
-    check_outputs([source], out_dirs={"`out`": path_value("out", out, required=True)})
+    check_outputs([source], out_dirs={"`out`": path_value("out", out, required=True)},
+                  dir_names={"`out`": ("*.c", "*.h")})
     return write_c_sources(source, out, allow_uncertified=allow_uncertified)
 
 
@@ -642,7 +644,7 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
                 for i, m in enumerate(maps)]
         return identify_plant(logs if several else logs[0], filter_hz=filter_hz, friction=friction, fix=fix)
     check_outputs([*(source if several else [source]), validate], outputs={"`out`": out, "`frf_csv`": frf_csv},
-                  out_dirs={"`plots`": plots})
+                  out_dirs={"`plots`": plots}, dir_names={"`plots`": ("*.png", "*.csv")})
     r = identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
                       friction=friction, fix=fix, validate=validate, folds=folds)
     if frf_csv is not None:
@@ -779,7 +781,7 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
-    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)})
+    check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)}, dir_names={"`plots`": ("*.png",)})
     check_run_options(scenario, start, human_inertia, duration)  # bad options before the file is loaded
     check_joint_angle(joint_angle)
     fs = _rate_override(sample_rate_hz)

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import errno
+import fnmatch
 import json
 import math
 import os
@@ -97,7 +99,9 @@ def write_atomic(path, data: str | bytes) -> None:
 
     The data go to a temporary file in the destination directory, are flushed and fsync'ed, and
     the file is moved into place with :func:`os.replace`. Missing parent directories are created.
-    On any error the temporary file is removed and ``path`` is left untouched.
+    On any error the temporary file is removed and ``path`` is left untouched. A symbolic link is
+    followed (its target is replaced, the link kept); an existing path that is not a regular file
+    (a device, a FIFO, a socket) is refused, never replaced.
 
     Parameters
     ----------
@@ -109,9 +113,16 @@ def write_atomic(path, data: str | bytes) -> None:
     Raises
     ------
     OSError
-        When the file cannot be written (naming ``path``).
+        When the file cannot be written, or ``path`` exists and is not a regular file (naming
+        ``path``).
     """
     path = os.fspath(path)
+    if os.path.islink(path):  # replace the link's target, keep the link
+        path = os.path.realpath(path)
+    if os.path.exists(path) and not os.path.isfile(path):
+        # a device, FIFO or socket: replacing it would destroy it (e.g. ``-o /dev/null`` as root)
+        raise OSError(errno.EEXIST, "exists and is not a regular file (a device, FIFO or socket); outputs are "
+                                    "written by replacing a file", path)
     if isinstance(data, str):
         data = data.encode("utf-8")
     parent = os.path.dirname(os.path.abspath(path))
@@ -313,12 +324,27 @@ def _check_parent(label: str, path: str) -> None:
                                                       f"({len(os.fsencode(part))} bytes; at most {name_max - extra})")
 
 
+def _refuse_inputs_inside(label: str, directory: str, inputs: list[str], names) -> None:
+    """ConfigError when an input lies in ``directory`` under a name the command writes there."""
+    from .errors import ConfigError
+
+    real = os.path.realpath(directory)
+    for inp in inputs:
+        rel = os.path.relpath(os.path.realpath(inp), real)
+        if rel.startswith(os.pardir) or os.path.isabs(rel):
+            continue
+        hit = next((pat for pat in names if fnmatch.fnmatch(rel, pat)), None)
+        if hit is not None:
+            raise ConfigError(directory, f"the {label} output directory would overwrite the input {inp} (it writes "
+                                         f"{hit} files there); choose another directory or move the input")
+
+
 def _inside(path: str, directory: str) -> bool:
     p, d = os.path.realpath(path), os.path.realpath(directory)
     return p == d or p.startswith(d.rstrip(os.sep) + os.sep)
 
 
-def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> None:
+def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=(), dir_names=None) -> None:
     """Refuse, before any work, outputs that cannot be written or would overwrite an input.
 
     Parameters
@@ -334,14 +360,19 @@ def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> 
         Label (``"`plots`"``) → path of a *directory* to write into (``None``: not given).
     protected_dirs : sequence of str or os.PathLike
         Directories no output may be in (a sweep's ``chunks``).
+    dir_names : dict, optional
+        Label of a directory output → the names (glob patterns, relative to the directory) of the
+        files the command writes there: an input with such a name in that directory is refused.
 
     Raises
     ------
     exotune.errors.ConfigError
         ``<path>: …`` (the output's label in the reason) when an output is (or is the same file as,
         by inode) an input or another output, when a file output names a directory (an
-        existing one, or a path ending in ``/``), when a directory output is an existing file,
-        or when the nearest existing ancestor of an output is not a writable directory.
+        existing one, or a path ending in ``/``) or exists and is not a regular file (a device, a
+        FIFO: outputs replace files), when a directory output is an existing file or would write
+        over an input (``dir_names``), or when the nearest existing ancestor of an output is not a
+        writable directory.
 
     References
     ----------
@@ -370,7 +401,11 @@ def check_outputs(inputs=(), outputs=None, out_dirs=None, protected_dirs=()) -> 
         if is_dir:
             if os.path.lexists(path) and not os.path.isdir(path):
                 raise ConfigError(path, f"exists and is not a directory ({label} needs a directory)")
+            _refuse_inputs_inside(label, path, ins, (dir_names or {}).get(label, ()))
         elif path.endswith(("/", os.sep)) or os.path.isdir(path):
             raise ConfigError(path, f"is a directory; {label} needs a file path")
+        elif os.path.exists(path) and not os.path.isfile(path):
+            raise ConfigError(path, f"exists and is not a regular file (a device, FIFO or socket); the {label} "
+                                    "output is written by replacing a file, so give a file path")
         _check_parent(label, path)
         seen.append((label, path))

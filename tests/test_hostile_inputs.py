@@ -348,6 +348,10 @@ OUTPUTS = {
     "design --plots onto the input": lambda t: (["design", _copy(PAPER, t / "in.yaml"), "--plots", t / "in.yaml"],
                                                 "--plots "),
     "analyze --plots onto a file": lambda t: (["analyze", PAPER, "--plots", _copy(PAPER, t / "x.yaml")], "--plots "),
+    "export -o a FIFO": lambda t: (["export", "--allow-uncertified", PAPER, "--sample-rate-hz", "1000", "-o",
+                                    (os.mkfifo(t / "fifo"), t / "fifo")[1]], "-o "),
+    "design --plots into a directory holding the input under a figure's name": lambda t: (
+        ["design", _copy(PAPER, t / "bode_C4.png"), "--plots", t], "--plots "),
     "sweep -o onto the spec": lambda t: (["sweep", (t / "s.yaml", (t / "s.yaml").write_text(
         f"base: {PAPER}\naxes:\n  design.amplification: [2.0, 4.0]\n"))[0], "-o", t / "s.yaml"], "-o "),
 }

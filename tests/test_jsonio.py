@@ -187,3 +187,43 @@ def test_check_outputs_refuses_a_name_too_long_for_the_file_system(tmp_path):
     check_outputs(outputs={"`out`": tmp_path / ("c" * (limit - TMP_NAME_EXTRA))})
     write_atomic(tmp_path / ("c" * (limit - TMP_NAME_EXTRA)), "ok")
     assert list(tmp_path.iterdir()) == [tmp_path / ("c" * (limit - TMP_NAME_EXTRA))]
+
+
+def test_write_atomic_follows_a_link_and_refuses_devices_and_fifos(tmp_path):
+    """A symbolic link keeps pointing at its target, which gets the new content; a FIFO (and a
+    device such as /dev/null, where we run as root) is refused and left as it was, never replaced
+    by a regular file."""
+    target = tmp_path / "real.yaml"
+    target.write_text("old\n")
+    link = tmp_path / "link.yaml"
+    link.symlink_to(target)
+    write_atomic(link, "new\n")
+    assert link.is_symlink() and target.read_text() == "new\n"
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(OSError, match="not a regular file"):
+        write_atomic(fifo, "x")
+    assert fifo.is_fifo()
+    with pytest.raises(ConfigError, match="not a regular file"):
+        check_outputs([], outputs={"-o": str(fifo)})
+    with pytest.raises(ConfigError, match="not a regular file"):
+        check_outputs([], outputs={"-o": os.devnull})
+    assert fifo.is_fifo() and not os.path.isfile(os.devnull)
+    assert list(tmp_path.iterdir()) and not [p for p in tmp_path.iterdir() if p.name.startswith(".tmp-")]
+
+
+def test_check_outputs_refuses_a_directory_output_that_would_overwrite_an_input(tmp_path):
+    """codegen writes exotune_controller.h into its directory: an input of that name there is
+    refused; an input the command does not write (another name) is fine."""
+    inp = tmp_path / "exotune_controller.h"
+    inp.write_text("controller: …\n")
+    with pytest.raises(ConfigError, match="would overwrite the input"):
+        check_outputs([str(inp)], out_dirs={"-o": str(tmp_path)}, dir_names={"-o": ("*.c", "*.h")})
+    other = tmp_path / "controller.yaml"
+    other.write_text("controller: …\n")
+    check_outputs([str(other)], out_dirs={"-o": str(tmp_path)}, dir_names={"-o": ("*.c", "*.h")})
+    sub = tmp_path / "chunks"
+    sub.mkdir()
+    (sub / "spec.yaml").write_text("x\n")
+    with pytest.raises(ConfigError, match="chunks/\\*"):
+        check_outputs([str(sub / "spec.yaml")], out_dirs={"-o": str(tmp_path)}, dir_names={"-o": ("chunks/*",)})

@@ -131,6 +131,7 @@ class FamilySide:
                 if self.verify:
                     # independent check of the interval structure: exact counts at a grid of values
                     vp = np.geomspace(fam.lo, fam.hi, self.verify) if fam.lo > 0 else np.linspace(fam.lo, fam.hi, self.verify)
+                    vp = np.clip(vp, fam.lo, fam.hi)  # geomspace(v, v) is not exactly v
                     ver_t = np.repeat(np.arange(Nd), vp.size)
                     ver_p = np.tile(vp, Nd)
                     res.update(ver_t=ver_t, ver_p=ver_p, ver_handle=_queue_points(counter, D0, D1, phi, factor, ver_t, ver_p))
@@ -161,7 +162,8 @@ class FamilySide:
             ends = st & np.r_[(t_[1:] != t_[:-1]) | ~st[1:], True] if t_.size else np.zeros(0, bool)
             # an end at a critical value known only to ±u (critical_uncertainty) moves inward by u
             run_t, run_a, run_b = t_[starts], sa[starts] + ua[starts], sb[ends] - ub[ends]
-            kept = run_a < run_b
+            # (a single-value family, lo = hi, has one sub-interval [lo, lo]: a point, kept)
+            kept = (run_a < run_b) | ((run_a == run_b) & (fam.lo == fam.hi))
             run_t, run_a, run_b = run_t[kept], run_a[kept], run_b[kept]
             intervals = [[] for _ in range(Nd)]
             for t, a, b in zip(run_t.tolist(), run_a.tolist(), run_b.tolist()):

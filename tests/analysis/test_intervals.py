@@ -363,3 +363,34 @@ def test_merged_critical_values_keep_the_larger_uncertainty_of_their_own_design(
     assert bv.tolist() == [0.1, 0.5, 1.0, 0.1, 1.0]
     assert bu.tolist() == [0.0, 2e-3, 0.0, 0.0, 0.0]
     assert [len(c) for c in crit] == [2, 1]
+
+
+@pytest.mark.parametrize("engine", ["numba", "numpy"])
+def test_a_single_value_family_is_robust_exactly_when_its_member_is_stable(engine):
+    """A range lo = hi (``inertia: 0.5`` in a design file) is one member: robust, with the stable
+    interval [lo, lo], exactly when a direct root count of that member is stable. It used to be
+    reported not robust and inconclusive (the one-point interval was dropped, so the 64-point
+    verification disagreed), which also zeroed its latency margin and made optimize refuse it."""
+    import contextlib
+
+    from exotune.numerics.engine import numpy_engine
+
+    base = load_design(ROOT / "examples" / "paper.yaml")
+    cfg = batch_config(base, {"design.amplification": np.array([4.0, 8.0, 30.0])})
+    values = (("mass", "inertia", 0.5), ("mass", "inertia", 0.002), ("spring", "stiffness", 100.0),
+              ("spring", "stiffness", 5e4))
+    humans = tuple(HumanFamily(kind, param, v, v, damping=0.0) for kind, param, v in values)
+    cfg = dataclasses.replace(cfg, humans=humans, environment=())
+    cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
+    with np.errstate(all="ignore"), (numpy_engine() if engine == "numpy" else contextlib.nullcontext()):
+        fams = analyze_batch(cfg, verify=64).humans
+    seen = set()
+    for fam, (kind, param, v) in zip(fams, values):
+        direct = coupled_stable(cfg.plant, cs, 3, human={param: v})
+        assert np.all(direct["conclusive"]) and np.all(fam.conclusive)
+        assert fam.verification_mismatches == [[], [], []]
+        np.testing.assert_array_equal(fam.robust, direct["stable"])
+        for t in range(3):
+            assert fam.stable_intervals[t] == ([[v, v]] if direct["stable"][t] else [])
+            seen.add(bool(direct["stable"][t]))
+    assert seen == {True, False}  # both verdicts are exercised
