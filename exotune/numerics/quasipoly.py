@@ -452,18 +452,56 @@ def phase_sums(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = 
     return total, resolved
 
 
-def _phase_sums_counted(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None):
-    """:func:`phase_sums` with, per task, the evaluations spent and whether MAX_TASK_EVALS ran out
-    (both engines spend the same evaluations: one per grid point, one per split)."""
+def _phase_sums_counted(q: QP, grid: np.ndarray, valid: np.ndarray, engine: str | None = None, max_evals=None):
+    """:func:`phase_sums` with, per task, the evaluations spent and whether its budget ran out
+    (both engines spend the same evaluations: one per grid point, one per split). ``max_evals``
+    (numpy engine): the budget per task, a number or one per task (default MAX_TASK_EVALS)."""
     if _engine(engine) == "numba":
         from . import kernels as _fastphase
 
         total, resolved, cnt = _fastphase.phase_sums(q.p0, q.p1, q.T, grid, valid, ARG_STEP, DER_STEP, MAX_LEVELS)
         return total, resolved, cnt, valid & ~resolved & (cnt >= MAX_TASK_EVALS)
-    lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid, geometric=True, max_evals=MAX_TASK_EVALS)
+    budget = MAX_TASK_EVALS if max_evals is None else max_evals
+    lv = adaptive_leaves(lambda idx, w: [q.eval(idx, w)], q.n, grid, valid, geometric=True, max_evals=budget)
     with np.errstate(divide="ignore", invalid="ignore"):
         steps = np.angle(lv["vb"][0] / lv["va"][0])
     return np.bincount(lv["task"], weights=steps, minlength=q.n), lv["resolved"], lv["evaluations"], lv["exhausted"]
+
+
+def _phase_sums_grouped(q: QP, grid: np.ndarray, valid: np.ndarray, group: np.ndarray):
+    """:func:`_phase_sums_counted` on the numpy engine where consecutive tasks of one ``group``
+    share MAX_GROUP_EVALS in queue order, as in :func:`exotune.numerics.kernels.count_tasks`: a
+    task gets min(MAX_TASK_EVALS, what is left) and is unresolved when it needs more.
+
+    All tasks first run together, each within an equal share of its group's budget (so the work in
+    flight, and the memory, stay bounded by the group budget even for a family of 1 000 sub-interval
+    counts); a task that needed more is run again alone with the budget the queue order leaves it.
+    A task that fits its share gets the same result as with the compiled kernel's allowance, which
+    is never smaller than the share."""
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]]) if group.size else np.zeros(0, int)
+    ends = np.r_[starts[1:], group.size]
+    share = np.repeat(np.minimum(MAX_TASK_EVALS, MAX_GROUP_EVALS // np.maximum(ends - starts, 1)), ends - starts)
+    total, resolved, evals, exhausted = _phase_sums_counted(q, grid, valid, engine="numpy", max_evals=share)
+    resolved, evals, exhausted = resolved.copy(), evals.copy(), exhausted.copy()
+    for lo, hi in zip(starts, ends):
+        left = MAX_GROUP_EVALS
+        for t in range(lo, hi):
+            if not valid[t]:
+                continue
+            if left <= 0:
+                resolved[t] = False
+                continue
+            b = min(MAX_TASK_EVALS, left)
+            if exhausted[t] and share[t] < b:  # stopped by its share only: run it alone with its allowance
+                one = _phase_sums_counted(q.take(np.array([t])), grid[t:t + 1], np.ones(1, bool), engine="numpy",
+                                          max_evals=b)
+                total[t], resolved[t], evals[t], exhausted[t] = (x[0] for x in one)
+            if exhausted[t] or evals[t] > b:
+                resolved[t] = False
+                left -= b
+            else:
+                left -= evals[t]
+    return total, resolved, evals, exhausted
 
 
 def _group_budget(ok: np.ndarray, valid: np.ndarray, evals: np.ndarray, exhausted: np.ndarray, group: np.ndarray):
@@ -538,9 +576,12 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2, group: 
     wmax = omega_max(p0, p1)
     valid = np.isfinite(wmax)
     grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=per_decade)
-    total, resolved, evals, exhausted = _phase_sums_counted(q, grid, valid)
-    if group is not None:
-        resolved = _group_budget(resolved, valid, evals, exhausted, np.asarray(group))
+    if group is not None and _engine(None) != "numba":
+        total, resolved, _, _ = _phase_sums_grouped(q, grid, valid, np.asarray(group))
+    else:
+        total, resolved, evals, exhausted = _phase_sums_counted(q, grid, valid)
+        if group is not None:
+            resolved = _group_budget(resolved, valid, evals, exhausted, np.asarray(group))
     idx = np.arange(ntask)
     vmax, _ = q.eval(idx, np.where(valid, wmax, 1.0), deriv=False)
     n = degree(p0)
