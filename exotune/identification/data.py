@@ -1,6 +1,6 @@
 """A log of measured signals for plant identification: a CSV file with a header row naming the
 columns (SI units, joint-reflected, the sign conventions of docs/method.md#physical-model), one
-row per sample at a constant rate.
+row per sample at a constant rate; lines starting with ``#`` are comments (the rig's notes).
 
 References
 ----------
@@ -20,8 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
+from ..units import fmt_num
 
-__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "MAX_SIGNAL", "JITTER", "MeasuredLog", "read_log", "log_from_columns"]
+__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "MAX_SIGNAL", "JITTER", "MeasuredLog", "read_log", "log_from_columns",
+           "same_samples"]
 
 # column → (unit, meaning); t, theta_m and tau_s are required, and tau_m or tau_cmd
 COLUMNS = {
@@ -67,26 +69,47 @@ class MeasuredLog:
         return "tau_cmd" in self.signals
 
 
+def same_samples(a: MeasuredLog, b: MeasuredLog) -> bool:
+    """Whether two logs hold the same measured samples (the same columns, every one but the time
+    column equal value for value): the same run given twice, whatever the files' names.
+
+    Parameters
+    ----------
+    a, b : MeasuredLog
+        The logs.
+
+    Returns
+    -------
+    bool
+        True when every measured signal is the same.
+    """
+    return (a.samples == b.samples and set(a.signals) == set(b.signals)
+            and all(np.array_equal(a.signals[c], b.signals[c]) for c in a.signals if c != "t"))
+
+
 def _check_time(t: np.ndarray) -> float:
     """The step [s] of a time column relative to its first sample (a straight line fitted to the
-    stamps); every step within
-    :data:`JITTER` of the median step (dropped, repeated or reordered samples are refused
-    wherever they are, whatever the magnitude of t)."""
+    stamps); the stamps strictly increasing (a repeated or reordered sample is named first) and
+    every step within :data:`JITTER` of the median step (dropped samples are refused wherever they
+    are, whatever the magnitude of t). Samples count from 0, the first row of data."""
     dt = np.diff(t)
+    back = np.flatnonzero(~(dt > 0))
+    if back.size:
+        k = int(back[0])
+        d = float(dt[k])
+        why = f"not increasing at sample {k + 1} " + (f"(the time of sample {k} again)" if d == 0 else
+                                                      f"(step {fmt_num(d)} s from sample {k})")
+        raise ConfigError("t", why + ": the rows must be in time order")
     step = float(np.median(dt))
-    if not step > 0:
-        raise ConfigError("t", f"not increasing (median step {step:.6g})")
     bad = np.flatnonzero(np.abs(dt - step) > JITTER * step)
     if bad.size:
         k = int(bad[0])
         d = float(dt[k])
-        if d <= 0:
-            why = f"not increasing after sample {k} (step {d:.6g})"
-        elif d > 1.5 * step:
-            why = (f"about {round(d / step) - 1} sample(s) missing after sample {k} (step {d:.6g}, median "
-                   f"{step:.6g})")
+        if d > 1.5 * step:
+            why = (f"about {round(d / step) - 1} sample(s) missing after sample {k} (step {fmt_num(d)} s, median "
+                   f"{fmt_num(step)} s)")
         else:
-            why = f"step {d:.6g} after sample {k} is not the median step {step:.6g} within {JITTER:.0%}"
+            why = f"step {fmt_num(d)} s after sample {k} is not the median step {fmt_num(step)} s within {JITTER:.0%}"
         raise ConfigError("t", why + ": a constant rate is needed")
     i = np.arange(t.size) - (t.size - 1) / 2.0
     return float(np.dot(i, t - t.mean()) / np.dot(i, i))  # the least-squares step: jitter averages out
@@ -197,7 +220,8 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
 
 def read_log(path, delay_s="0", sample_rate_hz: float | None = None) -> MeasuredLog:
     """Read a measured log (CSV: a header row of column names, then one row of numbers per
-    sample) through the guarded reader and check it (:func:`log_from_columns`).
+    sample; lines starting with ``#`` are comments, skipped, above the header or between rows)
+    through the guarded reader and check it (:func:`log_from_columns`).
 
     The rows are parsed by pyarrow's CSV reader (multi-threaded, in C; a 60 s log at 10 kHz in
     about 0.3 s), the time column as text and taken relative to its first stamp in decimal
@@ -256,7 +280,10 @@ def _fast_columns(path) -> dict | None:
         with os.fdopen(fd, "rb") as fh:
             if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
                 return None
-            header = [h.strip() for h in next(csv.reader([fh.readline(1 << 16).decode("utf-8-sig").rstrip("\r\n")]))]
+            line = fh.readline(1 << 16).decode("utf-8-sig")
+            while line.lstrip().startswith("#"):  # comment lines above the header
+                line = fh.readline(1 << 16).decode("utf-8")
+            header = [h.strip() for h in next(csv.reader([line.rstrip("\r\n")]), [])]
             if not header or len(set(header)) != len(header) or any(h not in COLUMNS for h in header):
                 return None
             body = fh.tell()
@@ -341,23 +368,37 @@ def _decimal_time(t, t0):
         return np.array([float(decimal.Decimal(x.strip()) - base) for x in t.to_pylist()]), t0
 
 
+def _is_number(x: str) -> bool:
+    try:
+        float(x)
+    except ValueError:
+        return False
+    return True
+
+
 def _row_columns(raw: bytes, path) -> dict:
-    """The columns of a CSV log read row by row (every cell through ``float``), naming the row and
-    the value that is not a number."""
+    """The columns of a CSV log read row by row (every cell through ``float``), naming the line
+    and the value that is not a number; blank lines and comment lines (starting with ``#``) are
+    skipped."""
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise ConfigError(str(path), "not UTF-8 text (a CSV log is expected)") from None
-    rows = [r for r in csv.reader(io.StringIO(text)) if r and any(x.strip() for x in r)]
+    reader = csv.reader(io.StringIO(text))
+    rows = [(reader.line_num, r) for r in reader  # blank lines and comment lines (# …) skipped
+            if r and any(x.strip() for x in r) and not r[0].lstrip().startswith("#")]
     if not rows:
         raise ConfigError(str(path), "empty: a header row and one row per sample are expected")
-    header = [h.strip() for h in rows[0]]
+    line, header = rows[0][0], [h.strip() for h in rows[0][1]]
+    if all(_is_number(h) for h in header):
+        raise ConfigError(f"{path}:{line}", f"a row of numbers, not a header: the first line (after # comments) "
+                          f"names the columns ({', '.join(COLUMNS)})")
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise ConfigError(dup, "column named twice")
     cols = {h: [] for h in header}
     t0 = None
-    for i, r in enumerate(rows[1:], start=2):
+    for i, r in rows[1:]:
         if len(r) != len(header):
             raise ConfigError(f"{path}:{i}", f"{len(r)} values, the header names {len(header)} columns")
         for h, x in zip(header, r):

@@ -41,8 +41,9 @@ import numpy as np
 from ..config.batch import OVERRIDABLE
 from ..errors import ConfigError
 from ..numerics.threads import one_blas_thread
-from .data import MeasuredLog
-from .diagnose import diagnose, fit_delays, regression, screen_delays
+from ..units import fmt_num
+from .data import MeasuredLog, same_samples
+from .diagnose import diagnose, fit_delays, lhs, regression, screen_delays
 from .filters import discretization_bound, svf
 from .regress import CORRELATION_TIME_CONSTANTS, Design, NotExcited
 from .result import EquationFit, ParameterEstimate, PlantEstimate
@@ -96,8 +97,9 @@ def parse_fix(fix) -> dict:
     ------
     ConfigError
         Field ``fix``: neither a mapping nor a collection of strings (a number, a single string),
-        an unknown name, a value that is not a finite number (a bool is not one), or one the
-        design file refuses (J_m, K_s, J_j, K_c ≤ 0; B_m or F_c < 0).
+        an unknown name, a value that is not a finite number (a bool is not one), one the
+        design file refuses (J_m, K_s, J_j, K_c ≤ 0; B_m or F_c < 0), or a parameter given two
+        different values (``J_m=1`` and ``motor_inertia=2``; the same value twice is accepted).
     """
     if fix is None:
         return {}
@@ -109,7 +111,7 @@ def parse_fix(fix) -> dict:
         raise ConfigError("fix", f"expected a mapping {{NAME: VALUE}} or a list of 'NAME=VALUE' strings, got "
                           f"{type(fix).__name__} {fix!r}")
     by_symbol = {sym.lower(): key for key, sym, _u in _FIXABLE.values()}
-    out = {}
+    out, given = {}, {}
     for name, value in items:
         key = name.strip() if name.strip() in _FIXABLE else by_symbol.get(name.strip().lower())
         if key is None:
@@ -127,7 +129,12 @@ def parse_fix(fix) -> dict:
         op, bound = OVERRIDABLE.get(f"plant.{key}", (">=", 0.0))
         if not (v > bound if op == ">" else v >= bound):
             raise ConfigError("fix", f"{name}={value!r}: {key} must be {op} {bound:g} {_FIXABLE[key][2]}")
+        if key in out and out[key] != v:  # the same value twice (under two names) is no conflict
+            unit = _FIXABLE[key][2]
+            raise ConfigError("fix", f"{key} is fixed twice, to {fmt_num(out[key])} {unit} ({given[key]}) and to "
+                              f"{fmt_num(v)} {unit} ({name.strip()}={str(value).strip()}): give it one value")
         out[key] = v
+        given.setdefault(key, f"{name.strip()}={str(value).strip()}")
     return out
 
 
@@ -149,6 +156,12 @@ def _as_logs(log) -> list:
         if other.delay_samples != first.delay_samples:
             raise ConfigError("delay_s", f"{other.source} gives {other.delay_samples} samples of delay, "
                               f"{first.source} {first.delay_samples}")
+    for j, other in enumerate(logs[1:], start=2):
+        i = next((i for i, lg in enumerate(logs[: j - 1], start=1) if same_samples(lg, other)), None)
+        if i is not None:
+            what = "given twice" if logs[i - 1].source == other.source else f"the same samples as {logs[i - 1].source}"
+            raise ConfigError(other.source, f"{what} (logs {i} and {j}): identified together, one run would count "
+                              "twice and shrink the standard errors by √2 without new data; give each run once")
     return logs
 
 
@@ -174,7 +187,10 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
     friction : bool
         Add Coulomb friction F_c·sign(θ̇_m) to the motor equation (the paper's δ_f) and estimate F_c.
     fix : mapping or iterable of "NAME=VALUE", optional
-        Known parameters (:func:`parse_fix`): moved to the equations' left-hand sides.
+        Known parameters (:func:`parse_fix`): moved to the equations' left-hand sides. An
+        equation whose parameters are all fixed is fitted for its offset and transients only:
+        its fit (R², RMS residual) checks the fixed values, and it still gives a held command's
+        delay.
 
     Returns
     -------
@@ -186,8 +202,9 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
     Raises
     ------
     ConfigError
-        A filter corner out of range, too short a log, a bad ``fix``, logs that cannot be
-        identified together, or a log that excites no parameter at all.
+        A filter corner out of range or too low for the log, too short a log, a bad ``fix``,
+        logs that cannot be identified together (different columns, rates or delays; the same
+        samples twice), or a log that excites no parameter at all.
 
     References
     ----------
@@ -204,13 +221,7 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
     shortest = min(lg.samples for lg in logs)
     auto = first.tau_m_held and first.delay_samples is None
     max_delay = min(int(math.ceil(MAX_DELAY_S * fs)), shortest // 10) if auto else (first.delay_samples or 0)
-    skips = [max(int(math.ceil(TRANSIENT_TIME_CONSTANTS / (2 * math.pi * fh) * lg.sample_rate_hz)), max_delay)
-             for lg in logs]
-    for lg, skip in zip(logs, skips):
-        if lg.samples - skip < MIN_FIT_SAMPLES:
-            raise ConfigError("t", f"{lg.samples} samples leave {max(lg.samples - skip, 0)} after the filter's transient "
-                              f"({skip} samples at {fh:g} Hz): at least {MIN_FIT_SAMPLES} are needed"
-                              + (f" ({lg.source})" if len(logs) > 1 else ""))
+    skips = [_skip(lg, fh, max_delay, filter_hz is not None, len(logs) > 1) for lg in logs]
     sig = FilteredLogs(logs, fh, skips)
     lag = int(math.ceil(CORRELATION_TIME_CONSTANTS * fs / (2 * math.pi * fh)))
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):
@@ -224,6 +235,28 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
                                model_errors=tuple(ModelError(k, v, why) for k, v, why in errors))
 
 
+def _skip(lg, fh: float, max_delay: int, given: bool, several: bool) -> int:
+    """The samples of ``lg`` dropped at its start: the filter's transient (5 time constants at
+    the corner ``fh`` [Hz]), at least ``max_delay``; refused when fewer than
+    :data:`MIN_FIT_SAMPLES` would remain (naming the corner when it was ``given``, else the log)."""
+    fs, n = lg.sample_rate_hz, lg.samples
+    transient = TRANSIENT_TIME_CONSTANTS / (2 * math.pi * fh) * fs  # [samples]; inf for a subnormal corner
+    if transient <= n and n - max(int(math.ceil(transient)), max_delay) >= MIN_FIT_SAMPLES:
+        return max(int(math.ceil(transient)), max_delay)
+    skip = max(math.ceil(transient) if math.isfinite(transient) else math.inf, max_delay)
+    why = (f"{n} samples leave {max(n - skip, 0)} after the filter's transient ({fmt_num(skip)} samples at "
+           f"{fmt_num(fh)} Hz): at least {MIN_FIT_SAMPLES} are needed")
+    room = n - MIN_FIT_SAMPLES - 1  # the transient's samples that would leave enough (one for the rounding up)
+    if given and room > max_delay:
+        lowest = TRANSIENT_TIME_CONSTANTS * fs / (2 * math.pi * room)
+        e = 10.0 ** (math.floor(math.log10(lowest)) - 2)
+        lowest = math.ceil(lowest / e) * e  # three digits, rounded up
+        if lowest <= fs / 4:
+            raise ConfigError("filter_hz", f"{fmt_num(fh)} Hz is too low for {lg.source}: {why} (a corner of "
+                              f"{fmt_num(lowest, 3)} Hz or more leaves them)")
+    raise ConfigError("t", why + (f" ({lg.source})" if several else ""))
+
+
 def _equations(friction: bool) -> dict:
     eqs = {name: (list(pars), needs, unit, text, list(_ROWS[name][1]), _ROWS[name][0])
            for name, (pars, needs, unit, text) in _EQUATIONS.items()}
@@ -234,6 +267,13 @@ def _equations(friction: bool) -> dict:
     return eqs
 
 
+def _estimable(log, friction: bool) -> list:
+    """The parameters the columns of ``log`` give (those of every equation whose columns it has)."""
+    S = log.signals
+    return [key for pars, needs, *_rest in _equations(friction).values()
+            if all(c in S or (c == "tau_m" and "tau_cmd" in S) for c in needs) for key, _s, _u in pars]
+
+
 def _delay(sig, eq, fixed, fs, auto, max_delay, reach) -> dict:
     """The delay of a held command: given, or (auto) the whole number of samples up to
     :data:`MAX_DELAY_S` with the smallest motor-equation residual; with the residuals it explains
@@ -242,7 +282,7 @@ def _delay(sig, eq, fixed, fs, auto, max_delay, reach) -> dict:
     held = sig.applied(0)
     y_fixed = tuple(a - b for a, b in zip(y0, held))  # H[τ_s] less the fixed terms
     try:
-        design = Design(cols, sig.modes())
+        design = Design(cols, sig.modes(), [a.size for a in y0])  # no column: J_m, B_m fixed, the residual only
     except NotExcited:
         design = None
     best = max_delay
@@ -290,16 +330,17 @@ def _identify(logs, sig, eqs, fixed, delay, delay_info, lag, friction) -> tuple:
                         for key, _s, _u in pars if key not in fixed]
             continue
         y, cols, free = regression(sig, eq, fixed, delay)
-        if free:
-            attempted += 1
-            new, record, bad = _fit_equation(name, text, off_unit, needs, y, cols, free, sig, lag, disc)
-            params += new
-            fits += record
-            failed += bad
-            w, e = diagnose(name, {q.key: q for q in new}, sig, friction_eq, fixed, friction, delay, lag, MIN_T,
-                            delay_info)
-            warnings += w
-            errors += e
+        attempted += bool(free)
+        # every parameter fixed: the offset and transients alone are fitted, the residual reported
+        y_eq = y if len(free) == len(pars) else lhs(sig, eq[5], delay)  # R² about the equation as written
+        new, record, bad = _fit_equation(name, text, off_unit, needs, (y, y_eq), cols, free, sig, lag, disc)
+        params += new
+        fits += record
+        failed += bad
+        w, e = diagnose(name, {q.key: q for q in new}, sig, friction_eq, fixed, friction, delay, lag, MIN_T,
+                        delay_info)
+        warnings += w
+        errors += e
         for expr in _LAST_USE[name]:
             sig.drop(expr)
     if attempted and not any(not q.fixed for q in params):
@@ -312,17 +353,20 @@ def _identify(logs, sig, eqs, fixed, delay, delay_info, lag, friction) -> tuple:
     return est, warnings, errors
 
 
-def _fit_equation(name, text, off_unit, needs, y, cols, free, sig, lag, disc) -> tuple[list, list, list]:
+def _fit_equation(name, text, off_unit, needs, ys, cols, free, sig, lag, disc) -> tuple[list, list, list]:
     """One equation's least squares: its parameters (those significant), its fit record, and the
-    parameters it could not identify with the reason and the column to name."""
+    parameters it could not identify with the reason and the column to name. ``ys``: the
+    left-hand side per log with the fixed terms moved to it, and as written (for R²); with no
+    free parameter only the offset and transients are fitted (the fixed values' residual)."""
+    y, y_eq = ys
     what = " and ".join(sym for _k, sym, _u in free)
     try:
-        design = Design(cols, sig.modes())
+        design = Design(cols, sig.modes(), [a.size for a in y])
         fit = design.fit(y)
     except NotExcited as e:
         return [], [], [(key, f"the log does not excite {what} ({e})", needs[0]) for key, _s, _u in free]
     p = len(free)
-    cov = design.covariance(fit, lag)
+    cov = design.covariance(fit, lag) if p else np.zeros((0, 0))
     if name in _DYNAMIC:
         cov = cov + np.diag((disc * fit.beta) ** 2)
     params, failed = [], []
@@ -332,7 +376,7 @@ def _fit_equation(name, text, off_unit, needs, y, cols, free, sig, lag, disc) ->
         else:
             params.append(ParameterEstimate(key, sym, float(v), float(e), unit))
     record = EquationFit(text, tuple(k for k, _s, _u in free), float(fit.nuisance[0][0]), off_unit,
-                         _r2(y, fit, sig.modes()), fit.rms(), "N·m", tuple(tuple(float(c) for c in row) for row in cov[:p, :p]))
+                         _r2(y_eq, fit, sig.modes()), fit.rms(), "N·m", tuple(tuple(float(c) for c in row) for row in cov[:p, :p]))
     return params, [record], failed
 
 
@@ -386,7 +430,9 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     Raises
     ------
     ConfigError
-        Bad input (``--folds`` with several logs among it).
+        Bad input (``--folds`` with several logs among it); a ``validate`` log holding the same
+        samples as a fitting log (not held out); ``out`` with every parameter the log's columns
+        give fixed (nothing to write).
 
     References
     ----------
@@ -406,6 +452,14 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
                           "on a log not fitted on (`validate` LOG.csv)")
     logs = [read_log(p, delay_s=delay_s, sample_rate_hz=sample_rate_hz) for p in paths]
     other = None if validate is None else read_log(validate, delay_s=delay_s, sample_rate_hz=sample_rate_hz)
+    left = [k for k in _estimable(logs[0], friction) if k not in fix and k != FRICTION[0]]
+    if out is not None and not left:
+        raise ConfigError("fix", f"every plant parameter the columns of {logs[0].source} give is fixed: nothing is "
+                          "left to identify and write to `out` (without it, the fixed values' residuals are reported)")
+    for lg in logs if other is not None else ():
+        if same_samples(lg, other):
+            raise ConfigError("validate", f"{other.source} holds the same samples as the fitting log {lg.source}: a "
+                              "validation on it is not held out (give a run not fitted on, or `folds`)")
     est = identify_plant(logs, filter_hz=filter_hz, friction=friction, fix=fix)
     log = logs[0]
     del logs[1:]

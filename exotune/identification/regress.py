@@ -100,7 +100,9 @@ class Design:
     a sequence of per-log arrays; ``modes``: per log the filters' start-up transients (3, K_log),
     zero beyond their K_log samples. Each log's unknowns are the free parameters (shared) and its
     own sensor offset (a constant column: the filtered constant H[1] differs from 1 by a
-    transient, in the modes' span) and three transient coefficients.
+    transient, in the modes' span) and three transient coefficients. ``lengths``: each log's
+    samples, needed when there is no free column (an equation whose parameters are all fixed:
+    only its offset and transients are fitted, its residual still measured).
 
     Raises
     ------
@@ -110,8 +112,9 @@ class Design:
 
     q = 4  # per log: the offset and three transients
 
-    def __init__(self, free, modes):
+    def __init__(self, free, modes, lengths=None):
         self.p, self.logs = len(free), len(modes)
+        self.lengths = [int(part.size) for part in free[0]] if free else [int(k) for k in lengths]
         with np.errstate(over="ignore", invalid="ignore"):
             fmax = np.array([max(float(np.max(np.abs(part))) if part.size else 0.0 for part in col) for col in free])
         if np.any(fmax == 0):
@@ -163,7 +166,7 @@ class Design:
                 g[a, b] = np.dot(C[a], C[b]) / (d[a] * d[b])
             g[a, p] = C[a].sum() / d[a]
             g[a, p + 1:] = M @ C[a][:K] / d[a]
-        g[p, p] = C[0].size
+        g[p, p] = self.lengths[i]
         g[p, p + 1:] = M.sum(axis=1)
         g[p + 1:, p + 1:] = M @ M.T
         return np.triu(g) + np.triu(g, 1).T
@@ -174,7 +177,7 @@ class Design:
 
     @property
     def n(self) -> int:
-        return int(sum(C[0].size for C in self.cols))
+        return int(sum(self.lengths))
 
     @property
     def unknowns(self) -> int:
@@ -193,7 +196,7 @@ class Design:
         C, M = self.cols[i], self.modes[i]
         p, K = self.p, M.shape[1]
         Z = np.asarray(z, float).reshape(p + self.q, -1)
-        out = np.empty((Z.shape[1], C[0].size))
+        out = np.empty((Z.shape[1], self.lengths[i]))
         for k in range(Z.shape[1]):
             out[k] = Z[p, k]
             for c, d, zj in zip(C, self.div, Z[:p, k]):

@@ -248,7 +248,7 @@ class PlantEstimate(Result):
                          + "".join(f", {k} samples {v:.3g}" for k, v in d.get("rms_residual_neighbours", {}).items()) + ")")
         for f in self.fits:
             lines.append(f"  fit {f.equation}: R² {f.r2:.6f}, RMS residual {f.rms_residual:.3g} {f.residual_unit}, "
-                         f"offset {f.offset:.3g} {f.offset_unit}")
+                         f"offset {f.offset:.3g} {f.offset_unit}" + ("" if f.parameters else " (every parameter fixed)"))
         for k, why in self.missing + self.not_identified:
             lines.append(f"  {k}: not identified ({why})")
         for w in self.warnings:

@@ -36,6 +36,6 @@ def validation_text(v) -> str:
     for t in v.residual_tests:
         lines.append(f"    residuals of {t.output}: {'white' if t.white else 'not white'} (bound ±{t.auto_bound:.2g}), "
                      f"{'independent of' if t.independent else 'correlated with'} {t.input_name} "
-                     f"(largest at lag {t.peak_lag}, bound ±{t.cross_bound:.2g})")
+                     f"(largest at lag {t.peak_lag} samples, bound ±{t.cross_bound:.2g})")
     lines += [f"  warning: {w}" for w in v.warnings]
     return "\n".join(lines)

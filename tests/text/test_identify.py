@@ -24,7 +24,7 @@ def test_validation_lines():
         "    simulated θ_m from τ_m, τ_s: NRMSE 4.56 % (fit 95.4 %), 5000 samples, fold 1/3",
         "    frequency response motor (τ_m → θ_m): coherent (γ² ≥ 0.9) in 2 bins, 2–5 Hz; J_m within its band, "
         "B_m departs 12 % at 7.5 Hz",
-        "    residuals of θ_m: white (bound ±0.05), correlated with τ_m (largest at lag 0, bound ±0.1)",
+        "    residuals of θ_m: white (bound ±0.05), correlated with τ_m (largest at lag 0 samples, bound ±0.1)",
         "  warning: check the units",
     ]
 
