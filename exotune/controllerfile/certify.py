@@ -30,6 +30,7 @@ from .build import close
 from .cellbound import loop_cell
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
+from .hysteretic import hysteretic_problems
 from .latency import requirement_problems, sampled_latency_margin
 from .model import ControllerFile, as_controller_file
 from .results import Certificate
@@ -516,7 +517,7 @@ def sampled_decision(doc: ControllerFile | dict, sa: dict | None = None) -> tupl
     if sa is None:
         sa = sampled_analysis(cf)
     lm = sampled_latency_margin(cf, sa, position_feedback(cf.controller), lambda d: sampled_analysis(d, proof=False))
-    return sa, lm, sampled_problems(sa) + requirement_problems(lm)
+    return sa, lm, sampled_problems(sa) + requirement_problems(lm) + hysteretic_problems(cf, sa)
 
 
 def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[str]]:
@@ -551,6 +552,7 @@ def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[
         if bad:
             problems.append(f"gain schedule at joint angle {e.joint_angle_rad:g} rad (ratio {e.ratio:g}): "
                             f"not stable for {', '.join(bad)}")
+        problems += hysteretic_problems(cf.entry_view(e), sa_e, f"gain schedule at joint angle {e.joint_angle_rad:g} rad: ")
         mism += _prediction_mismatches(e.predicted_sampled, sa_e,
                                        f"gain_schedule[{e.joint_angle_rad:g} rad].predicted_sampled")
     return entries, problems, mism

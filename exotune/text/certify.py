@@ -15,7 +15,8 @@ def family_line(h: dict) -> str:
     ----------
     h : dict
         One family of a sampled-data analysis (kind, parameter, unit, range, box, verdict and
-        ``stable_intervals``, or ``skipped`` / ``not_certifiable``).
+        ``stable_intervals``, or ``skipped`` (with a hysteretic family's ``continuous_check``) /
+        ``not_certifiable``).
 
     Returns
     -------
@@ -27,7 +28,15 @@ def family_line(h: dict) -> str:
         head += f" × {q} [{a:g}, {b:g}] {PARAM_UNITS.get(q, '')}".rstrip()
     head += ": "
     if "skipped" in h:
-        return head + "skipped (" + h["skipped"] + ")"
+        line = head + "skipped (" + h["skipped"] + ")"
+        c = h.get("continuous_check")
+        if c is None:
+            return line
+        if not c["checked"]:
+            return line + "; not checked in continuous time either (" + c["reason"] + ")"
+        verdict = "robust" if c["robust"] else ("inconclusive" if not c["conclusive"] else "NOT robust")
+        return (line + f"; continuous time, exact delay: {verdict}, stable in "
+                + interval_text(c["stable_intervals"], h["unit"], empty="nowhere") + " (not the sampled-data loop)")
     if "not_certifiable" in h:
         return head + "not certifiable (" + h["not_certifiable"] + ")"
     return (head + ("robust" if h["robust"] else "NOT robust")

@@ -1,0 +1,107 @@
+"""exotune.controllerfile.hysteretic: the hysteretic humans that the sampled-data analysis skips are
+checked on the continuous-time loop of the file's design; a family not robust there refuses the
+file (export and certify), a hand-tuned file says it could not check them."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from exotune.controllerfile.hysteretic import hysteretic_problems
+
+ROOT = Path(__file__).resolve().parents[2]
+SKIP = "hysteretic damping is not rational: it has no finite-dimensional sampled-data model"
+
+
+def _raw(zeta_hat: float) -> dict:
+    """The `exotune init` design at 1 kHz with ζ̂ = ``zeta_hat`` and a hysteretic family."""
+    from exotune.config import read_yaml
+
+    raw = read_yaml(ROOT / "examples" / "paper.yaml")
+    raw["design"]["zeta_hat"] = zeta_hat
+    raw["implementation"]["sample_rate_hz"] = 1000.0
+    raw["humans"] = [{"kind": "spring", "stiffness": [1.0, 300.0], "damping": 0.0},
+                     {"kind": "complex_stiffness", "stiffness": [10.0, 1000.0], "eta": 0.2}]
+    raw["environment"] = [{"kind": "locked"}]
+    return raw
+
+
+def _doc(raw: dict) -> dict:
+    from exotune.controllerfile import build_export, design_at_rate
+
+    doc = build_export(design_at_rate(raw, 1000.0), 1000.0, analyses=False)
+    return yaml.safe_load(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+
+
+def _skipped_sa() -> dict:
+    return {"humans": [{"kind": "spring", "parameter": "stiffness", "unit": "N·m/rad", "range": [1.0, 300.0],
+                        "robust": True, "stable_intervals": [[1.0, 300.0]]},
+                       {"kind": "complex_stiffness", "parameter": "stiffness", "unit": "N·m/rad",
+                        "range": [10.0, 1000.0], "skipped": SKIP}]}
+
+
+def _member_stable(raw: dict, k: float) -> bool:
+    """The continuous verdict of one hysteretic member k(1 + 0.2j), as a single-value family."""
+    from exotune.analysis import analyze_batch
+    from exotune.config import design_from_mapping
+
+    one = copy.deepcopy(raw)
+    one["humans"] = [{"kind": "complex_stiffness", "stiffness": k, "eta": 0.2}]
+    fam = analyze_batch(design_from_mapping(one)).humans[0]
+    assert fam.conclusive[0]
+    return bool(fam.robust[0])
+
+
+def test_a_hysteretic_family_unstable_in_continuous_time_refuses_the_file():
+    raw = _raw(5.0)
+    sa = _skipped_sa()
+    problems = hysteretic_problems(_doc(raw), sa)
+    check = sa["humans"][1]["continuous_check"]
+    assert check["checked"] and check["conclusive"] and not check["robust"]
+    (lo, hi), = check["stable_intervals"]
+    assert lo == 10.0 and 300.0 < hi < 1000.0
+    assert len(problems) == 1 and "complex_stiffness stiffness [10, 1000] N·m/rad: not robust" in problems[0]
+    # the interval end against member-by-member verdicts
+    assert _member_stable(raw, 0.98 * hi) and not _member_stable(raw, 1.02 * hi)
+    assert "continuous_check" not in sa["humans"][0]
+
+
+def test_a_robust_hysteretic_family_is_reported_as_checked_in_continuous_time_only():
+    sa = _skipped_sa()
+    assert hysteretic_problems(_doc(_raw(0.7)), sa) == []
+    check = sa["humans"][1]["continuous_check"]
+    assert check["checked"] and check["robust"] and check["stable_intervals"] == [[10.0, 1000.0]]
+    assert "not rational" in check["model"]
+
+
+def test_a_hand_tuned_file_says_its_hysteretic_family_is_not_checked():
+    doc = _doc(_raw(5.0))
+    doc["provenance"]["hand_tuned"] = True
+    sa = _skipped_sa()
+    assert hysteretic_problems(doc, sa) == []
+    assert sa["humans"][1]["continuous_check"]["checked"] is False
+    assert "hand-tuned" in sa["humans"][1]["continuous_check"]["reason"]
+
+
+def test_export_refuses_and_certify_does_not_certify_it(tmp_path):
+    """End to end: export writes nothing unless allowed; the file written anyway is NOT CERTIFIED
+    with the hysteretic family named, and its text shows the continuous check."""
+    from exotune import api
+    from exotune.errors import RunFailed
+
+    src = tmp_path / "d.yaml"
+    src.write_text(yaml.safe_dump(_raw(5.0), sort_keys=False, allow_unicode=True))
+    out = tmp_path / "c.yaml"
+    with np.errstate(all="ignore"):
+        with pytest.raises(RunFailed, match="complex_stiffness stiffness"):
+            api.export(src, out=out, require_latency_margin_s=0.0)
+        assert not out.exists()
+        api.export(src, out=out, require_latency_margin_s=0.0, allow_uncertified=True)
+        cert = api.certify(out)
+    assert not cert.certified
+    assert any("complex_stiffness" in p and "continuous-time" in p for p in cert.to_dict()["problems"])
+    assert "continuous time, exact delay: NOT robust" in cert.to_text()
