@@ -38,6 +38,7 @@ MAX_YAML_BYTES = 1 << 20  # 1 MiB: the largest controller file exotune writes is
 MAX_JSON_BYTES = 16 << 20  # 16 MiB: a sweep manifest of ~10^5 chunks
 MAX_DEPTH = 64  # nesting levels of mappings/lists (exotune's files use at most 8)
 MAX_YAML_NODES = 250_000  # nodes of a YAML document once its aliases are expanded
+MAX_INT_DIGITS = 4300  # Python's limit for converting a decimal string to an int
 
 
 def _mib(n: int) -> str:
@@ -148,6 +149,11 @@ def _check_duplicate_keys(node, path: str = "", seen_nodes: set | None = None) -
         for k, v in node.value:
             key = k.value if isinstance(k, yaml.ScalarNode) else None
             sub = join_path(path, (str(key),)) if key is not None else path
+            if isinstance(k, yaml.ScalarNode) and k.tag not in (_STR_TAG, _MERGE_TAG):
+                kind = k.tag.rsplit(":", 1)[-1]
+                raise ConfigError(path or "<top level>", f"the key {excerpt(k.value, 40)!r} at line {k.start_mark.line + 1} "
+                                  f"is a YAML {kind}, not a name (keys are names such as motor_inertia; quote it "
+                                  "if it is meant as one)")
             if key is not None:
                 if key in seen:
                     raise ConfigError(
@@ -155,9 +161,31 @@ def _check_duplicate_keys(node, path: str = "", seen_nodes: set | None = None) -
                     )
                 seen[key] = k.start_mark.line
             _check_duplicate_keys(v, sub, seen_nodes)
+        _check_merged_keys(node, path)
     elif isinstance(node, yaml.SequenceNode):
         for i, v in enumerate(node.value):
             _check_duplicate_keys(v, f"{path}[{i}]", seen_nodes)
+
+
+_STR_TAG, _MERGE_TAG = "tag:yaml.org,2002:str", "tag:yaml.org,2002:merge"
+
+
+def _check_merged_keys(node, path: str) -> None:
+    """Refuse a key written both in a mapping and in what it merges (``<<: *base``): YAML lets the
+    written one win silently, which hides a mistake as a duplicate key would."""
+    merged = [v for k, v in node.value if isinstance(k, yaml.ScalarNode) and k.tag == _MERGE_TAG]
+    if not merged:
+        return
+    own = {k.value: k.start_mark.line for k, _v in node.value if isinstance(k, yaml.ScalarNode) and k.tag == _STR_TAG}
+    sources = [m for v in merged for m in (v.value if isinstance(v, yaml.SequenceNode) else [v])]
+    for src in sources:
+        if not isinstance(src, yaml.MappingNode):
+            continue
+        for k, _v in src.value:
+            if isinstance(k, yaml.ScalarNode) and k.value in own:
+                raise ConfigError(join_path(path, (str(k.value),)),
+                                  f"duplicate key (line {own[k.value] + 1}, and merged by << from line "
+                                  f"{k.start_mark.line + 1}): give it once")
 
 
 class _Loader(yaml.SafeLoader):
@@ -174,6 +202,9 @@ class _Loader(yaml.SafeLoader):
 
     def construct_yaml_int(self, node):
         v = self.construct_scalar(node)
+        if len(v) > MAX_INT_DIGITS:
+            raise ConfigError(self.source_name, f"an integer of {len(v)} digits at line {node.start_mark.line + 1}: "
+                                                f"too long to be a number here (at most {MAX_INT_DIGITS} digits)")
         if v.startswith("0o"):
             return int(v[2:], 8)
         if v.startswith("0x"):
@@ -187,11 +218,12 @@ class _Loader(yaml.SafeLoader):
         self._depth = 0
         self._segments: list = []
         self._sizes: dict[int, int] = {}
+        self._depths: dict[int, int] = {}  # collection levels of each composed node, aliases expanded
         return super().compose_document()
 
     def compose_node(self, parent, index):
         """Compose one node, refusing nesting deeper than :data:`MAX_DEPTH` levels (before the
-        recursion goes deeper) and documents that expand, aliases counted as copies, to more than
+        recursion goes deeper; an alias counts as the subtree it names, where it is used) and documents that expand, aliases counted as copies, to more than
         :data:`MAX_YAML_NODES` nodes. Each node's expanded size is kept, so an alias costs O(1)."""
         if self.check_event(yaml.AliasEvent):
             anchor = self.peek_event().anchor
@@ -200,6 +232,9 @@ class _Loader(yaml.SafeLoader):
                 mark = self.peek_event().start_mark
                 raise ConfigError(self.source_name, f"recursive alias *{excerpt(anchor, 40)} at line {mark.line + 1} "
                                                     "(an alias inside the node it names)")
+            if node is not None and self._depth + self._depths.get(id(node), 0) > MAX_DEPTH:
+                # the alias expands to a subtree that nests past the limit where it is used
+                raise _depth_error(self.source_name, [x for x in self._segments if x is not None] + [f"*{anchor}"])
             return super().compose_node(parent, index)
         if isinstance(index, int):
             seg = index
@@ -219,8 +254,11 @@ class _Loader(yaml.SafeLoader):
             self._segments.pop()
         if isinstance(node, yaml.SequenceNode):
             size = 1 + sum(self._sizes.get(id(c), 1) for c in node.value)
+            self._depths[id(node)] = 1 + max((self._depths.get(id(c), 0) for c in node.value), default=0)
         elif isinstance(node, yaml.MappingNode):
             size = 1 + sum(self._sizes.get(id(k), 1) + self._sizes.get(id(v), 1) for k, v in node.value)
+            self._depths[id(node)] = 1 + max((max(self._depths.get(id(k), 0), self._depths.get(id(v), 0))
+                                              for k, v in node.value), default=0)
         else:
             size = 1
         if size > MAX_YAML_NODES:

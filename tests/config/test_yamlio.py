@@ -113,3 +113,47 @@ def test_spec_base(tmp_path):
     assert spec_base(spec) is None
     assert spec_base({"base": "x.yaml"}) is None
     assert spec_base(tmp_path / "missing.yaml") is None
+
+
+def test_aliases_count_for_the_nesting_depth_where_they_are_used():
+    """40 anchors, each a 58-level nest of the previous one, passed the depth check (each node on
+    its own is shallow) and reached 2 320 levels once expanded: a RecursionError in the JSON view
+    of certify. The depth of an aliased subtree now counts where the alias is used."""
+    level = 58
+    lines = ["a0: &a0 " + "[" * level + "0" + "]" * level]
+    for i in range(1, 40):
+        lines.append(f"a{i}: &a{i} " + "[" * level + f"*a{i - 1}" + "]" * level)
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text("\n".join(lines), "deep.yaml")
+    assert ei.value.field == "deep.yaml" and f"nested more than {MAX_DEPTH} levels" in ei.value.reason
+    assert "*a0" in ei.value.reason
+    shallow = "a: &a [[1]]\nb: [[*a]]\n"  # 4 levels once expanded: fine
+    assert load_yaml_text(shallow) == {"a": [[1]], "b": [[[[1]]]]}
+
+
+@pytest.mark.parametrize("text, field, contains", [
+    ("plant:\n  1: 2\n", "plant", "the key '1' at line 2 is a YAML int, not a name"),
+    ("plant:\n  ~: 2\n", "plant", "is a YAML null, not a name"),
+    ("true: 1\n", "<top level>", "is a YAML bool, not a name"),
+])
+def test_keys_that_are_not_names_are_refused(text, field, contains):
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text(text)
+    assert ei.value.field == field and contains in ei.value.reason
+    assert load_yaml_text("plant:\n  '1': 2\n") == {"plant": {"1": 2}}  # a quoted key is a name
+
+
+def test_a_key_written_and_merged_is_a_duplicate():
+    text = "base: &b {motor_inertia: 99.0}\nplant:\n  <<: *b\n  motor_inertia: 0.44\n"
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text(text)
+    assert ei.value.field == "plant.motor_inertia" and "merged by <<" in ei.value.reason
+    ok = load_yaml_text("base: &b {motor_inertia: 99.0}\nplant:\n  <<: *b\n  motor_damping: 1.0\n")
+    assert ok["plant"] == {"motor_inertia": 99.0, "motor_damping": 1.0}  # merging without a collision works
+
+
+def test_an_integer_too_long_to_convert_is_named_with_its_line():
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text("x: 1\ny: " + "9" * 5000 + "\n", "big.yaml")
+    assert ei.value.field == "big.yaml" and "an integer of 5000 digits at line 2" in ei.value.reason
+    assert load_yaml_text("x: " + "9" * 400)["x"] == int("9" * 400)  # long but convertible: validation names it
