@@ -315,7 +315,7 @@ def report(sweep_dir, out=None) -> SweepReport:
         sweep_dir = sweep_dir.directory
     sweep_dir, out = path_value("sweep_dir", sweep_dir, required=True), path_value("out", out)
     check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"`out`": out},
-                  protected_dirs=[os.path.join(sweep_dir, "chunks")], dir_names={"`out`": ("*.png", "*.md")})
+                  protected_dirs=[os.path.join(sweep_dir, "chunks")], dir_names={"`out`": ("*.png", "*.md", "*.csv")})
     return make_report(sweep_dir, out)
 
 

@@ -131,6 +131,24 @@ class _Group(click.Group):
             raise InputError(f"{where}: {e.strerror or e}") from None
 
 
+class _Int(click.IntRange):
+    """An integer option: decimal digits as a YAML file writes an integer (``1_000``, ``1e3``,
+    non-ASCII digits are refused, naming the option, though Python's ``int`` reads some), within
+    the range given (click's range message)."""
+
+    def convert(self, value, param, ctx):
+        from .options import INTEGER_TEXT
+
+        if isinstance(value, str) and not INTEGER_TEXT.fullmatch(value.strip(" \t\r\n")):
+            self.fail(f"{value!r} is not a valid integer (decimal digits, without '_')", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+#: The seeds the optimizer's generators accept: 0 … 2**32 − 1 (``exotune.optimization.spec.MAX_SEED``,
+#: not imported: the command line loads no library module before a command runs).
+MAX_SEED = 2**32 - 1
+
+
 def _note_first_compile() -> None:
     """One stderr line while the compiled kernels are built for this machine (first batch run)."""
     from .numerics.engine import compiled, kernels_cached
@@ -238,11 +256,11 @@ def analyze_cmd(design_file, as_json, plots, cross_check):
 @cli.command("sweep")
 @click.argument("spec_file", metavar="SPEC.yaml")
 @click.option("-o", "--out", "out", required=True, metavar="DIR", help="Output directory (resumable).")
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="Local worker processes.")
+@click.option("--workers", type=_Int(min=1), default=None, help="Local worker processes.")
 @click.option("--dask", "dask_address", default=None, metavar="ADDRESS", help="Run on this Dask scheduler.")
-@click.option("--sample", type=click.IntRange(min=1), default=None, metavar="N", help="Random sample of N grid points.")
-@click.option("--seed", type=int, default=None, metavar="S", help="Seed for --sample.")
-@click.option("--chunk-size", type=click.IntRange(min=1), default=None, metavar="N", help="Design points per chunk.")
+@click.option("--sample", type=_Int(min=1), default=None, metavar="N", help="Random sample of N grid points.")
+@click.option("--seed", type=_Int(), default=None, metavar="S", help="Seed for --sample.")
+@click.option("--chunk-size", type=_Int(min=1), default=None, metavar="N", help="Design points per chunk.")
 def sweep_cmd(spec_file, out, workers, dask_address, sample, seed, chunk_size):
     """Vectorized, chunked, resumable parameter sweep.
 
@@ -276,7 +294,8 @@ def report_cmd(sweep_dir, out):
 @cli.command("optimize")
 @click.argument("spec_file", metavar="SPEC.yaml")
 @click.option("-o", "--out", "out", required=True, metavar="DESIGN.yaml", help="Optimized design file to write.")
-@click.option("--seed", type=click.IntRange(min=0), default=None, metavar="S", help="Seed (deterministic per seed).")
+@click.option("--seed", type=_Int(min=0, max=MAX_SEED), default=None, metavar="S",
+              help="Seed, 0 to 4294967295 (deterministic per seed).")
 @click.option("--pareto", "pareto_csv", default=None, metavar="FILE.csv",
               help="Also write the Pareto front (objective vs robust fraction) as CSV.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
@@ -371,7 +390,7 @@ def codegen_cmd(controller_file, out, allow_uncertified):
               help="A known parameter (design-file key or symbol, SI units); repeatable.")
 @click.option("--validate", "validate", default=None, metavar="LOG2.csv",
               help="Validate on a second log: simulated-output NRMSE, residual tests, frequency responses.")
-@click.option("--folds", "folds", default=None, type=int, metavar="K", help="K-fold cross-validation on LOG.csv itself.")
+@click.option("--folds", "folds", default=None, type=_Int(), metavar="K", help="K-fold cross-validation on LOG.csv itself.")
 @click.option("--plots", "plots", metavar="DIR", default=None,
               help="Write the Bode overlays and residual tests (PNG) and frequency_response.csv to DIR.")
 @click.option("--frf-csv", "frf_csv", default=None, metavar="FRF.csv", help="Write the measured frequency responses (CSV).")
@@ -415,11 +434,11 @@ def identify_cmd(ctx, log_files, out, delay_s, filter_hz, sample_rate_hz, fricti
 @click.option("--rms-nm", "rms_nm", default=None, metavar="A", help="RMS of the command [N·m] (or --peak-nm).")
 @click.option("--period-s", "period_s", default=None, metavar="S",
               help="Period [s], whole samples (default 1/f_lo): the frequency resolution is 1/period.")
-@click.option("--periods", "periods", default=None, type=int, metavar="P", help="Number of periods (default: 20 s, ≥ 2).")
+@click.option("--periods", "periods", default=None, type=_Int(), metavar="P", help="Number of periods (default: 20 s, ≥ 2).")
 @click.option("--duration-s", "duration_s", default=None, metavar="S", help="Whole periods within this duration [s].")
 @click.option("--lines", "lines", default="all", show_default=True, type=click.Choice(["all", "odd", "random-odd", "log"]),
               help="Which harmonics of 1/period in the band are excited.")
-@click.option("--seed", "seed", default=None, type=int, metavar="S", help="The draw of --lines random-odd.")
+@click.option("--seed", "seed", default=None, type=_Int(), metavar="S", help="The draw of --lines random-odd.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s, periods, duration_s, lines, seed,
                as_json):

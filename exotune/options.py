@@ -6,10 +6,36 @@ from __future__ import annotations
 
 import math
 import os
+import re
 
 from .errors import ConfigError
 
-__all__ = ["number_value", "flag_value", "path_value"]
+__all__ = ["number_value", "flag_value", "path_value", "NUMBER_TEXT", "INTEGER_TEXT"]
+
+#: A number's text as a YAML 1.2 file writes a decimal number (core schema: ``2.5``, ``1e3``,
+#: ``-0.5``, ``.5``, ``3.``), surrounding blanks aside. Python's ``float`` also reads ``1_000``,
+#: non-ASCII digits and ``infinity``, which a design file refuses: so does the command line.
+NUMBER_TEXT = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?")
+#: An integer's text (YAML 1.2 core schema, decimal).
+INTEGER_TEXT = re.compile(r"[-+]?[0-9]+")
+#: The spellings of a non-finite number (``nan``, ``inf``, ``-.inf``, ``Infinity``, …).
+_NON_FINITE_TEXT = re.compile(r"[-+]?\.?(?:inf|infinity|nan)", re.IGNORECASE)
+_HINT = "(write it as a design file does: ASCII digits, an optional '.' and exponent, no '_')"
+
+
+def _number_text(name: str, text, noun: str) -> None:
+    """Refuse the text of a number that YAML 1.2 would not read as one (``1_000``, ``١٠``)."""
+    s = text.decode("utf-8", "replace") if isinstance(text, bytes) else text
+    s = s.strip(" \t\r\n")
+    if NUMBER_TEXT.fullmatch(s):
+        return
+    if _NON_FINITE_TEXT.fullmatch(s):
+        raise ConfigError(name, f"must be a finite number, got {text!r}")
+    try:
+        float(s)
+    except (TypeError, ValueError, OverflowError):
+        raise ConfigError(name, f"expected {noun}, got {text!r}") from None
+    raise ConfigError(name, f"expected {noun}, got {text!r} {_HINT}")
 
 
 def _is_bool(value) -> bool:
@@ -46,7 +72,8 @@ def number_value(name: str, text, positive: bool = False, noun: str = "a number"
     ------
     exotune.errors.ConfigError
         When the value is a bool (or, unless ``strings``, a string), is not a finite number, or is
-        not positive when required.
+        not positive when required. A string must be a number as YAML 1.2 writes it (``1_000``,
+        non-ASCII digits and ``infinity`` are refused although Python's ``float`` reads them).
 
     Examples
     --------
@@ -55,6 +82,8 @@ def number_value(name: str, text, positive: bool = False, noun: str = "a number"
     """
     if _is_bool(text) or (not strings and isinstance(text, (str, bytes))):
         raise ConfigError(name, f"expected {noun}, got {text!r}")
+    if isinstance(text, (str, bytes)):
+        _number_text(name, text, noun)
     try:
         v = float(text)
     except (TypeError, ValueError, OverflowError):

@@ -182,7 +182,18 @@ def test_bad_input_exit_2(tmp_path, old, new, field, command):
 USAGE_ERRORS = [
     # (case, arguments ({out} is a path inside tmp_path), named option, words of the reason)
     ("workers-zero", ["sweep", "spec.yaml", "-o", "{out}", "--workers", "0"], "--workers", "0 is not in the range x>=1"),
-    ("seed-negative", ["optimize", "spec.yaml", "-o", "{out}/d.yaml", "--seed", "-1"], "--seed", "-1 is not in the range x>=0"),
+    ("seed-negative", ["optimize", "spec.yaml", "-o", "{out}/d.yaml", "--seed", "-1"], "--seed",
+     "-1 is not in the range 0<=x<=4294967295"),
+    ("seed-2**32", ["optimize", "spec.yaml", "-o", "{out}/d.yaml", "--seed", "4294967296"], "--seed",
+     "4294967296 is not in the range 0<=x<=4294967295"),
+    ("seed-underscore", ["optimize", "spec.yaml", "-o", "{out}/d.yaml", "--seed", "1_0"], "--seed",
+     "'1_0' is not a valid integer"),
+    ("workers-underscore", ["sweep", "spec.yaml", "-o", "{out}", "--workers", "1_0"], "--workers",
+     "'1_0' is not a valid integer"),
+    ("rate-underscore", ["export", PAPER, "-o", "{out}/c.yaml", "--sample-rate-hz", "1_000"], "--sample-rate-hz",
+     "expected a number of Hz, got '1_000'"),
+    ("duration-underscore", ["simulate", PAPER, "--scenario", "light-mass", "--sample-rate-hz", "1000",
+                             "--duration", "1_0", "--plots", "{out}"], "--duration", "expected a number, got '1_0'"),
     ("missing-sample-rate", ["export", PAPER, "-o", "{out}/c.yaml"], "--sample-rate-hz",
      "the design sets no implementation.sample_rate_hz"),
     ("unknown-scenario", ["simulate", PAPER, "--scenario", "moonwalk", "--plots", "{out}"], "--scenario",
@@ -215,7 +226,7 @@ def test_usage_error_subprocess(tmp_path):
     r = subprocess.run(_exotune_cmd() + ["optimize", "spec.yaml", "-o", str(tmp_path / "d.yaml"), "--seed", "-1"],
                        capture_output=True, text=True, env=env, timeout=60)
     assert r.returncode == 2 and r.stdout == ""
-    assert r.stderr.strip().splitlines() == ["exotune: error: --seed: -1 is not in the range x>=0."]
+    assert r.stderr.strip().splitlines() == ["exotune: error: --seed: -1 is not in the range 0<=x<=4294967295."]
     assert list(tmp_path.iterdir()) == []
 
 
@@ -507,7 +518,8 @@ def test_a_spec_key_named_like_an_option_is_named_as_the_spec_key(tmp_path):
                    "seed: -3\n")
     res = CliRunner().invoke(cli, ["optimize", str(opt), "-o", str(tmp_path / "best.yaml")])
     assert res.exit_code == 2, res.output
-    assert res.output.startswith("exotune: error: seed: expected a non-negative integer, got -3"), res.output
+    assert res.output.startswith("exotune: error: seed: expected an integer from 0 to 4294967295 (2**32 − 1), "
+                                 "got -3"), res.output
     assert "--seed" not in res.output and not (tmp_path / "best.yaml").exists()
     opt.write_text("base: design.yaml\nobjective: amplification\nfree:\n  design.amplification: [1.5, 40.0]\n")
     with pytest.raises(ConfigError) as e:

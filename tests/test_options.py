@@ -88,3 +88,27 @@ def test_paths_that_are_paths_pass():
     with pytest.raises(ConfigError) as ei:
         path_value("out", None, required=True)
     assert ei.value.field == "out" and ei.value.reason == "expected a path (str or os.PathLike), got NoneType None"
+
+
+@pytest.mark.parametrize("text", ["1_000", "1_000.5", "1e1_0", "١٠٠٠", "１０", "0x10", "1,5", "1 000"])
+def test_a_number_yaml_would_not_read_is_refused(text):
+    """``--sample-rate-hz 1_000`` was 1000 (Python's ``float`` reads ``1_000`` and non-ASCII
+    digits) while a design file refuses ``1_000``: the command line's numbers are now the numbers
+    YAML 1.2 reads, and the error names the option and the value as typed."""
+    with pytest.raises(ConfigError) as ei:
+        number_value("--sample-rate-hz", text, positive=True, noun="a number of Hz")
+    assert ei.value.field == "--sample-rate-hz"
+    assert ei.value.reason.startswith(f"expected a number of Hz, got {text!r}")
+
+
+@pytest.mark.parametrize("text", ["Infinity", "-inf", ".inf", "-.inf", ".nan", "NaN"])
+def test_the_non_finite_spellings_say_finite(text):
+    with pytest.raises(ConfigError) as ei:
+        number_value("--duration", text)
+    assert ei.value.reason == f"must be a finite number, got {text!r}"
+
+
+@pytest.mark.parametrize("text, value", [("1000", 1000.0), ("+1e3", 1000.0), (".5", 0.5), ("3.", 3.0),
+                                         ("-2.5E-3", -2.5e-3), ("0300", 300.0), ("\t7\n", 7.0)])
+def test_the_numbers_yaml_reads_pass(text, value):
+    assert number_value("--x", text) == value

@@ -75,7 +75,8 @@ from .schema import (
     ImplementationIn,
     SeaFileIn,
 )
-from .validate import FILTER_KEYS, check_delay_samples, fmt_value, kind_of, validate_model
+from ..units import fmt_num
+from .validate import FILTER_KEYS, LIMITS, check_delay_samples, fmt_value, in_limits, kind_of, limit_text, validate_model
 from .yamlio import read_yaml
 
 __all__ = [
@@ -258,6 +259,53 @@ def _check_nyquist(impl: ImplementationIn) -> None:
             )
 
 
+#: The plant parameters a transmission ratio r reflects (× r²), with the kind of their accepted range.
+REFLECTED = (("motor_inertia", "motor inertia", "inertia"), ("motor_damping", "motor damping", "damping"),
+             ("sea_stiffness", "SEA stiffness", "stiffness"))
+
+
+def _ratio_window(plant) -> tuple[str, str]:
+    """The transmission ratios [–] this plant accepts: within :data:`LIMITS` ``ratio``, and keeping
+    every reflected parameter (× ratio²) within its range; both ends as text, rounded inwards to
+    four significant digits (so that a ratio written as printed is accepted)."""
+    lo, _open, hi, _unit = LIMITS["ratio"]
+    for key, _what, kind in REFLECTED:
+        x = float(getattr(plant, key))
+        a, _open, b, _unit = LIMITS[kind]
+        if x > 0:
+            lo, hi = max(lo, math.sqrt(a / x)), min(hi, math.sqrt(b / x))
+
+    def inward(v: float, up: bool) -> str:
+        q = 10.0 ** (math.floor(math.log10(v)) - 3)
+        n = round(v / q, 6)  # (1e-3 / 1e-6 is 1000.0000000000001)
+        return fmt_num((math.ceil(n) if up else math.floor(n)) * q, 4)
+
+    return inward(lo, True), inward(hi, False)
+
+
+def _transmission_errors(plant, transmission) -> list[ConfigError]:
+    """One error per ``transmission.ratio`` entry that reflects the motor inertia, motor damping or
+    SEA stiffness (the plant's × ratio², as the gain schedule uses them) out of its accepted range
+    (docs/design-file.md#input-limits-and-accepted-ranges): the ratio is named, not the plant field
+    the analysis would otherwise refuse."""
+    errors = []
+    for i, r in enumerate(transmission.ratio):
+        for key, what, kind in REFLECTED:
+            x = float(getattr(plant, key))
+            if in_limits(x * r * r, kind):
+                continue
+            unit = LIMITS[kind][3]
+            lo, hi = _ratio_window(plant)
+            errors.append(ConfigError(
+                f"transmission.ratio[{i}]",
+                f"the {what} at ratio {fmt_num(r)}, plant.{key} × ratio² = {fmt_num(x)} {unit} × {fmt_num(r)}² = "
+                f"{fmt_num(x * r * r)} {unit}, is out of the accepted range {limit_text(kind)} (the motor inertia, "
+                f"motor damping and SEA stiffness scale with ratio²; with this plant the ratios must lie in "
+                f"[{lo}, {hi}] (–); docs/design-file.md#input-limits-and-accepted-ranges)"))
+            break
+    return errors
+
+
 def _implementation(impl: ImplementationIn) -> Implementation:
     def f2(f):
         return None if f is None else SecondOrderFilter(f.cutoff_hz, f.damping)
@@ -368,6 +416,8 @@ def design_from_mapping(mapping: dict, source: str | None = None) -> DesignConfi
     if top is not None:
         impl_in = top.implementation if top.implementation is not None else ImplementationIn()
         _attempt(errors, _check_nyquist, impl_in)
+        if top.transmission is not None:
+            errors.extend(_transmission_errors(top.plant, top.transmission))
     humans, humans_raw, envs, envs_raw = [], [], [], []
     for i, item in enumerate(_entries(mapping, "humans", top)):
         parsed = _attempt(errors, parse_human, i, item)

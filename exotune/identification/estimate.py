@@ -78,6 +78,15 @@ _FIXABLE = {key: (key, sym, unit) for pars, *_ in _EQUATIONS.values() for key, s
 _FIXABLE[FRICTION[0]] = FRICTION
 
 
+def _number_text(text: str) -> bool:
+    """Whether ``text`` is a number as a design file writes one (YAML 1.2, or inf/nan spelled out:
+    those are refused afterwards as not finite)."""
+    from ..options import NUMBER_TEXT
+
+    t = text.strip()
+    return bool(NUMBER_TEXT.fullmatch(t)) or t.lstrip("+-").lower() in ("inf", ".inf", "nan", ".nan", "infinity")
+
+
 def parse_fix(fix) -> dict:
     """``{key: value}`` from a mapping or from ``NAME=VALUE`` strings (NAME a design-file key
     such as ``motor_damping`` or its symbol such as ``B_m``; ``coulomb_friction`` / ``F_c``).
@@ -118,7 +127,8 @@ def parse_fix(fix) -> dict:
             raise ConfigError("fix", f"{name!r} is not a plant parameter (known: {', '.join(_FIXABLE)} or their "
                               "symbols J_m, B_m, K_s, J_j, K_c, F_c), as NAME=VALUE")
         try:
-            v = float(value) if not isinstance(value, bool) else None
+            # text as a design file reads it (YAML 1.2 numbers: no '1_000'); a number as given
+            v = None if isinstance(value, bool) or (isinstance(value, str) and not _number_text(value)) else float(value)
         except (TypeError, ValueError, OverflowError):
             v = None
         if v is None:

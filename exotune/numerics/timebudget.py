@@ -28,6 +28,7 @@ import time
 import numpy as np
 
 from ..errors import ConfigError
+from ..units import fmt_num
 from .threads import one_blas_thread
 
 __all__ = ["DEFAULT_TIME_BUDGET_S", "time_budget", "check_time", "eig_seconds", "refuse_if_over", "check_budget_option",
@@ -107,7 +108,7 @@ def check_time() -> None:
     d = _DEADLINE.get()
     if d is not None and time.monotonic() > d[0]:
         _deadline, seconds, what, hint, tail = d
-        raise ConfigError(FIELD, f"{what} exceeded the time budget of {seconds:g} s and was stopped ({hint}, or "
+        raise ConfigError(FIELD, f"{what} exceeded the time budget of {fmt_num(seconds)} s and was stopped ({hint}, or "
                                  f"raise `{FIELD}`){tail}")
 
 
@@ -170,6 +171,6 @@ def refuse_if_over(problems: int, states: int, seconds: float, what: str, hint: 
     est = problems * eig_seconds(states)
     if est > seconds:
         raise ConfigError(FIELD, f"{what} needs at least {problems} eigenvalue problems of a {states}-state loop "
-                                 f"matrix, about {est:.0f} s on this machine, over the time budget of {seconds:g} s "
-                                 f"({hint}, or raise `{FIELD}`){tail}")
+                                 f"matrix, about {fmt_num(est, 2)} s on this machine, over the time budget of "
+                                 f"{fmt_num(seconds)} s ({hint}, or raise `{FIELD}`){tail}")
     return est

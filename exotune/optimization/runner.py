@@ -13,7 +13,39 @@ from .result import OptimizeResult
 from .search import optimize
 from .spec import load_optimize_spec, optimized_design_mapping
 
-__all__ = ["run_optimize"]
+__all__ = ["run_optimize", "pareto_header"]
+
+
+def pareto_header(spec) -> list[str]:
+    """The column names of the ``--pareto`` CSV, each ``name [unit]``: the objective under its
+    name in the spec, ``robust_fraction``, then each free parameter's dotted path (SI units,
+    joint-reflected; ``1`` for a dimensionless number, as in the files exotune writes).
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The problem (:func:`~exotune.optimization.spec.load_optimize_spec`).
+
+    Returns
+    -------
+    list of str
+        One name per column, in the rows' order.
+
+    References
+    ----------
+    docs/optimize-spec.md#result.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> pareto_header(SimpleNamespace(objective="felt_inertia", free={"design.felt_inertia": (0.1, 1.0, "lin")}))
+    ['felt_inertia [kg·m²]', 'robust_fraction [1]', 'design.felt_inertia [kg·m²]']
+    """
+    from ..units import path_unit
+    from .spec import OBJECTIVES
+
+    unit = OBJECTIVES[spec.objective][2].split(" (")[0]  # "kg·m² (felt inertia, minimized)": the unit
+    return [f"{spec.objective} [{unit}]", "robust_fraction [1]", *(f"{p} [{path_unit(p)}]" for p in spec.free)]
 
 
 def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
@@ -67,6 +99,7 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> Op
     write_atomic(out, head + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True))
     if pareto_csv is not None:
         cols = ["objective", "robust_fraction", *spec.free]
-        text = ",".join(cols) + "\n" + "".join(",".join(repr(float(row[c])) for c in cols) + "\n" for row in r["pareto"])
+        text = ",".join(pareto_header(spec)) + "\n" + "".join(",".join(repr(float(row[c])) for c in cols) + "\n"
+                                                             for row in r["pareto"])
         write_atomic(pareto_csv, text)
     return OptimizeResult.from_report(r, out)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config.validate import number_field
+from ..config.validate import fmt_value, number_field
 from ..errors import ConfigError
 
 __all__ = ["OBJECTIVES", "CONSTRAINTS", "DEFAULT_LATENCY_MARGIN_S", "LATENCY_CHECKS", "OptimizeSpec",
@@ -46,6 +46,8 @@ PENDING = {"plant_uncertainty_margin": "the plant-uncertainty margin is not impl
 BOOL = ("robust", "free_stable", "locked_stable", "nominal_passive")
 BOOL_DEFAULT = {"robust": True, "free_stable": True, "locked_stable": True, "nominal_passive": False}
 KEYS = ("base", "objective", "free", "constraints", "seed", "budget")
+#: the largest seed (numpy's generators take 0 … 2**32 − 1)
+MAX_SEED = 2**32 - 1
 #: default latency margin without a sample rate [s] (with one: one sample period)
 DEFAULT_LATENCY_MARGIN_S = 0.0005
 #: extra delays m·k/K (k = 1..K) checked per candidate for the constraint latency_margin_s ≥ m
@@ -191,6 +193,16 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
     return cons, how
 
 
+def _seed(s, in_file: bool) -> int:
+    """The search's seed: an integer in [0, :data:`MAX_SEED`] (the seeds numpy's generators take),
+    else :class:`ConfigError` on ``seed`` (``in_file``: the spec's key, not the keyword)."""
+    if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s <= MAX_SEED:
+        huge = isinstance(s, int) and s.bit_length() > 256  # (its decimal text may be too long to print)
+        got = f"an integer of {s.bit_length()} bits" if huge else fmt_value(s)
+        raise ConfigError("seed", f"expected an integer from 0 to {MAX_SEED} (2**32 − 1), got {got}", in_file=in_file)
+    return s
+
+
 def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     """Read and validate an optimization spec (a YAML path or a mapping).
 
@@ -199,7 +211,8 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     spec : str, os.PathLike or dict
         The spec (docs/optimize-spec.md); a ``base`` path is relative to the spec file.
     seed : int, optional
-        Overrides the spec's ``seed`` (the command line's ``--seed``).
+        Overrides the spec's ``seed`` (the command line's ``--seed``); from 0 to 2**32 − 1, as the
+        spec's.
 
     Returns
     -------
@@ -220,6 +233,7 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     from ..sweeps.spec import load_base
 
     mapping, root, source = _read(spec)
+    s = _seed(mapping.get("seed", 0) if seed is None else seed, in_file=seed is None)  # before any work
     cfg, _ = load_base(mapping["base"], root)
     objective = mapping.get("objective", "amplification")
     if not isinstance(objective, str) or objective not in OBJECTIVES:
@@ -229,10 +243,6 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     if what.startswith(("design.", "plant.", "implementation.")) and what not in free:
         raise ConfigError("objective", f"{objective} is the parameter {what}: list it under free with its bounds")
     cons, how = _constraints(cfg, mapping.get("constraints"))
-    s = mapping.get("seed", 0) if seed is None else seed
-    if isinstance(s, bool) or not isinstance(s, int) or s < 0:
-        # in_file: the spec's own key when the keyword of the same name was not given
-        raise ConfigError("seed", f"expected a non-negative integer, got {s!r}", in_file=seed is None)
     budget = mapping.get("budget", default_budget(len(free)))
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 50:
         raise ConfigError("budget", f"expected an integer ≥ 50, got {budget!r}")

@@ -4,19 +4,21 @@ consistency checks), or a design file exported in memory at a sample rate."""
 from __future__ import annotations
 
 from ..config import read_yaml
+from ..config.validate import in_limits, limit_text
 from ..controllerfile import ControllerFile, as_controller_file, build_export, checked_controller, design_at_rate, load_controller
 from ..controllerfile.certify import certify
 from ..errors import ConfigError
 from ..options import number_value
-from .plant import MIN_HUMAN_INERTIA
+from ..units import fmt_num
 
 __all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "check_human_inertia", "check_joint_angle"]
 
 
 def check_human_inertia(value: float | None, field: str = "human_inertia") -> float | None:
-    """A human inertia [kg·m²] for a simulation: None (the scenario's), or at least
-    ``MIN_HUMAN_INERTIA`` (below it the cuff mode √(K_c/m) is beyond double precision and the
-    sampled-data model overflows), else :class:`ConfigError` naming ``field``.
+    """A human inertia [kg·m²] for a simulation: None (the scenario's), or a number within the
+    accepted range of a design file's inertias (:data:`exotune.config.validate.LIMITS`
+    ``inertia``, [1e-9, 1e6] kg·m²: a design file's human family could not hold it otherwise),
+    else :class:`ConfigError` naming ``field``.
 
     Parameters
     ----------
@@ -33,18 +35,27 @@ def check_human_inertia(value: float | None, field: str = "human_inertia") -> fl
     Raises
     ------
     exotune.errors.ConfigError
-        When ``value`` is not a finite number or is below ``MIN_HUMAN_INERTIA``.
+        When ``value`` is not a finite number or lies outside the accepted range.
 
     References
     ----------
-    docs/cli.md#simulate.
+    docs/cli.md#simulate; docs/design-file.md#input-limits-and-accepted-ranges.
+
+    Examples
+    --------
+    >>> check_human_inertia(0.02)
+    0.02
+    >>> check_human_inertia(1e300)
+    Traceback (most recent call last):
+    ...
+    exotune.errors.ConfigError: human_inertia: 1e+300 kg·m² is out of the accepted range [1e-9, 1e6] kg·m² of an inertia in a design file (docs/design-file.md#input-limits-and-accepted-ranges)
     """
     if value is None:
         return None
     value = number_value(field, value, noun="a number of kg·m²", strings=False)
-    if not value >= MIN_HUMAN_INERTIA:
-        raise ConfigError(field, f"{value!r} kg·m² is below {MIN_HUMAN_INERTIA:g} kg·m²: the cuff mode √(K_c/m) is "
-                                 "then beyond double precision (the sampled-data model overflows)")
+    if not in_limits(value, "inertia"):
+        raise ConfigError(field, f"{fmt_num(value)} kg·m² is out of the accepted range {limit_text('inertia')} of an "
+                                 "inertia in a design file (docs/design-file.md#input-limits-and-accepted-ranges)")
     return value
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from ..controllerfile import ControllerFile, Runtime, as_controller_file
 from ..errors import ConfigError
 from ..options import number_value
+from ..units import fmt_num
 from .engine import bumpless_start, check_start, simulate, strip_dob
 from .load import check_human_inertia
 from .result import SimulationRun
@@ -189,15 +190,29 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     """Refuse, before anything runs, a run longer than :data:`MAX_SAMPLES` samples (its time series
     and its time would exceed what a single run may take; docs/cli.md#simulate), or shorter than
     :data:`MIN_SAMPLES` (too short for a verdict: its envelope cannot be fitted, and "marginal"
-    would be a claim the run does not support).
+    would be a claim the run does not support). The samples are counted as the run counts them
+    (duration × rate, rounded), and the message gives both counts exactly with the longest run in
+    seconds at that rate.
+
+    Parameters
+    ----------
+    sample_rate_hz : float
+        The run's sample rate [Hz].
+    duration_s : float
+        The run's length [s].
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        On ``duration``, when the run is too long or too short.
 
     Examples
     --------
     >>> check_budget(1000.0, 6.0)
-    >>> check_budget(1000.0, 1e6)
+    >>> check_budget(1000.0, 10001.0)
     Traceback (most recent call last):
     ...
-    exotune.errors.ConfigError: duration: 1e+06 s at 1000 Hz is 1e+09 samples; a run is limited to 1e+07 samples (shorten `duration` or lower the rate)
+    exotune.errors.ConfigError: duration: 10001 s at 1000 Hz is 10001000 samples, over the limit of 10000000 samples per run (10000 s at 1000 Hz; shorten `duration` or lower the rate)
     >>> check_budget(1000.0, 0.005)
     Traceback (most recent call last):
     ...
@@ -205,12 +220,15 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     """
     n = sample_rate_hz * duration_s
     if n < MIN_SAMPLES:
-        raise ConfigError("duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a verdict needs "
-                                      f"a run of at least {MIN_SAMPLES} samples ({MIN_SAMPLES / sample_rate_hz:g} s at "
-                                      "this rate)")
-    if not n <= MAX_SAMPLES:
-        raise ConfigError("duration", f"{duration_s:g} s at {sample_rate_hz:g} Hz is {n:.3g} samples; a run is limited "
-                                        f"to {MAX_SAMPLES:.0e} samples (shorten `duration` or lower the rate)")
+        raise ConfigError("duration", f"{fmt_num(duration_s)} s at {fmt_num(sample_rate_hz)} Hz is {fmt_num(n, 3)} samples; "
+                                      f"a verdict needs a run of at least {MIN_SAMPLES} samples "
+                                      f"({fmt_num(MIN_SAMPLES / sample_rate_hz)} s at this rate)")
+    if not (math.isfinite(n) and round(n) <= MAX_SAMPLES):  # the run's own count: round(duration × rate)
+        count = f"{round(n)}" if n < 1e15 else f"about {fmt_num(n, 3)}"  # exact where a float counts exactly
+        raise ConfigError("duration", f"{fmt_num(duration_s)} s at {fmt_num(sample_rate_hz)} Hz is {count} samples, "
+                                      f"over the limit of {MAX_SAMPLES} samples per run "
+                                      f"({fmt_num(MAX_SAMPLES / sample_rate_hz)} s at {fmt_num(sample_rate_hz)} Hz; "
+                                      "shorten `duration` or lower the rate)")
 
 
 def check_run_options(name, start: str = "bumpless", human_inertia: float | None = None,

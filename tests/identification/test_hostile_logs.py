@@ -215,3 +215,16 @@ def test_comment_lines_are_skipped(tmp_path, held):
     with pytest.raises(ConfigError) as e:
         read_log(headless)
     assert e.value.field == f"{headless}:1" and e.value.reason.startswith("a row of numbers, not a header")
+
+
+def test_a_fixed_value_is_read_as_a_design_file_reads_numbers():
+    """`--fix J_m=1_000` went through float(), which reads 1000; a design file (YAML 1.2) and the
+    other number options refuse '1_000'."""
+    from exotune.errors import ConfigError
+    from exotune.identification.estimate import parse_fix
+
+    assert parse_fix(["J_m=0.44", "B_m= 1e1"]) == {"motor_inertia": 0.44, "motor_damping": 10.0}
+    with pytest.raises(ConfigError, match="must be a number"):
+        parse_fix(["J_m=1_000"])
+    with pytest.raises(ConfigError, match="finite"):
+        parse_fix(["J_m=inf"])

@@ -50,6 +50,24 @@ def test_refuse_if_over_names_the_work():
     assert refuse_if_over(1, 4, 10.0, "x", "y") < 10.0
 
 
+def test_refuse_if_over_prints_a_small_estimate_in_significant_digits(monkeypatch):
+    """``--time-budget-s 1e-9`` read "about 0 s on this machine, over the time budget": the
+    estimate was rounded to whole seconds. It now keeps two significant digits."""
+    import re
+
+    import exotune.numerics.timebudget as tb
+
+    monkeypatch.setattr(tb, "eig_seconds", lambda n, repeats=3: 1.2e-5)
+    with pytest.raises(ConfigError) as e:
+        refuse_if_over(194, 18, 1e-9, "exporting at 1000 Hz", "lower the rate")
+    assert "about 0.0023 s on this machine, over the time budget of 1e-09 s" in e.value.reason, e.value.reason
+    m = re.search(r"about (\S+) s on this machine", e.value.reason)
+    assert float(m.group(1)) > 0
+    with pytest.raises(ConfigError) as e:
+        refuse_if_over(10**6, 18, 5.0, "exporting at 1000 Hz", "lower the rate")
+    assert "about 12 s on this machine, over the time budget of 5 s" in e.value.reason
+
+
 def _run(args):
     res = CliRunner().invoke(cli, args)
     assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)

@@ -45,11 +45,27 @@ def test_the_written_design_loads_and_holds_the_optimum(run):
 def test_the_pareto_front_is_written_as_csv(run):
     res, _, csv = run
     lines = csv.read_text().splitlines()
-    assert lines[0] == "objective,robust_fraction,design.amplification"
+    assert lines[0] == "amplification [1],robust_fraction [1],design.amplification [1]"
     rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
     assert len(rows) == len(res.to_dict()["pareto"]) >= 1
     np.testing.assert_array_equal(rows[:, 0], rows[:, 2])  # the objective is α
     assert np.all((rows[:, 1] >= 0) & (rows[:, 1] <= 1))
+
+
+def test_every_pareto_column_carries_its_unit(tmp_path):
+    """The ``--pareto`` header was ``objective,robust_fraction,…`` without units: each column is
+    now ``name [unit]`` (the objective under its name), the unit of the free parameter's path."""
+    import csv
+
+    spec = {**_spec(), "objective": "felt_inertia",
+            "free": {"design.felt_inertia": [0.05, 0.5], "implementation.dob.cutoff_hz": [20.0, 80.0]}}
+    run_optimize(spec, tmp_path / "a.yaml", pareto_csv=tmp_path / "front.csv")
+    with open(tmp_path / "front.csv", newline="", encoding="utf-8") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["felt_inertia [kg·m²]", "robust_fraction [1]", "design.felt_inertia [kg·m²]",
+                       "implementation.dob.cutoff_hz [Hz]"]
+    assert len(rows) >= 2 and all(len(r) == 4 for r in rows[1:])
+    assert [float(x) for x in rows[1]]  # the rows stay numbers
 
 
 def test_the_seed_argument_overrides_the_spec(tmp_path):

@@ -80,3 +80,20 @@ def test_the_base_is_required_and_the_spec_must_be_a_mapping(base):
     assert e.value.field == "base"
     with pytest.raises(ConfigError):
         load_optimize_spec(42)
+
+
+@pytest.mark.parametrize("seed, got", [(2**32, "4294967296"), (10**23, "100000000000000000000000"),
+                                       (-1, "-1"), (10**400, "an integer of 1329 bits"), (1.5, "1.5")],
+                         ids=["2**32", "1e23", "negative", "1e400", "float"])
+def test_a_seed_outside_numpys_range_is_refused_up_front(base, seed, got):
+    """``seed: 100000000000000000000000`` (or ``--seed 4294967296``) ran until numpy refused it
+    with "Seed must be between 0 and 2**32 - 1", naming no field. Now the spec's key (or the
+    keyword) is named with the range, before the base design is even read."""
+    reason = f"expected an integer from 0 to 4294967295 (2**32 − 1), got {got}"
+    with pytest.raises(ConfigError) as e:  # the spec's key
+        load_optimize_spec(_spec({"not": "a design"}, seed=seed))
+    assert (e.value.field, e.value.reason, e.value.in_file) == ("seed", reason, True)
+    with pytest.raises(ConfigError) as e:  # the keyword (--seed)
+        load_optimize_spec(_spec({"not": "a design"}), seed=seed)
+    assert (e.value.field, e.value.reason, e.value.in_file) == ("seed", reason, False)
+    assert load_optimize_spec(_spec(base), seed=2**32 - 1).seed == 2**32 - 1

@@ -59,9 +59,21 @@ def test_a_joint_angle_that_is_not_a_finite_number_is_refused(angle, reason):
 @pytest.mark.parametrize("value, reason", [(True, "expected a number of kg·m², got True"),
                                            ("0.02", "expected a number of kg·m², got '0.02'"),
                                            (math.nan, "must be a finite number"),
-                                           (1e-20, "below 1e-15 kg·m²")])
+                                           (1e-20, "out of the accepted range [1e-9, 1e6] kg·m²")])
 def test_a_human_inertia_must_be_a_number_in_range(value, reason):
     with pytest.raises(ConfigError) as ei:
         check_human_inertia(value)
     assert ei.value.field == "human_inertia" and reason in ei.value.reason
     assert check_human_inertia(None) is None and check_human_inertia(2) == 2.0
+
+
+@pytest.mark.parametrize("value", [1e300, 1.0000001e6, 9.99e-10])
+def test_a_human_inertia_has_the_design_files_range(value):
+    """``--human-inertia 1e300`` ran ("decaying") although a design file refuses a human inertia
+    beyond 1e6 kg·m²: the simulation's human takes the design file's range, both ends included."""
+    with pytest.raises(ConfigError) as ei:
+        check_human_inertia(value)
+    assert ei.value.field == "human_inertia"
+    assert ei.value.reason.endswith("kg·m² is out of the accepted range [1e-9, 1e6] kg·m² of an inertia in a design "
+                                    "file (docs/design-file.md#input-limits-and-accepted-ranges)")
+    assert check_human_inertia(1e6) == 1e6 and check_human_inertia(1e-9) == 1e-9
