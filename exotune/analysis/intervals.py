@@ -186,6 +186,9 @@ class FamilySide:
                         mismatches[t_v].append(p_)
                 bad = np.array([bool(m) for m in mismatches], dtype=bool)
                 conclusive &= ~bad
+            # an inconclusive design claims no interval stable (a sub-interval count or the
+            # verification undecided: what it lists would not be a decided structure)
+            intervals = [iv if conclusive[t] else [] for t, iv in enumerate(intervals)]
             out.append(FamilyBatch(kind=fam.kind, robust=robust & conclusive, stable_intervals=intervals,
                                    conclusive=conclusive, critical=R["crit"],
                                    verification_mismatches=mismatches if self.verify else None))

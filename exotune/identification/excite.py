@@ -232,6 +232,9 @@ def _periods(period_samples: int, fs: float, periods, duration_s) -> int:
     return n
 
 
+MIN_AMPLITUDE_NM = 1e-9  # [N·m] the smallest amplitude of a command (far below any actuator's resolution)
+
+
 def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_nm=None, period_s=None,
                         periods=None, duration_s=None, lines: str = "all", seed: int | None = None) -> Excitation:
     """A Schroeder-phased multisine command over [``f_lo_hz``, ``f_hi_hz``] (module docstring).
@@ -285,6 +288,9 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     kind, amp = ("peak", _number("peak_nm", peak_nm)) if peak_nm is not None else ("rms", _number("rms_nm", rms_nm))
     if amp > MAX_SIGNAL:  # identify refuses a logged torque beyond it (check the units)
         raise ConfigError(f"{kind}_nm", f"{amp:.6g} N·m is beyond {MAX_SIGNAL:.0e} N·m (check the units)")
+    if amp < MIN_AMPLITUDE_NM:  # (its samples' squares would underflow: the RMS and crest factor undefined)
+        raise ConfigError(f"{kind}_nm", f"{amp:.6g} N·m is below {MIN_AMPLITUDE_NM:.0e} N·m: no actuator resolves "
+                                        "it (check the units)")
     if lines not in SELECTIONS:
         raise ConfigError("lines", f"{lines!r}: one of {', '.join(SELECTIONS)}")
     if seed is not None and lines != "random-odd":

@@ -210,3 +210,16 @@ def test_frequency_responses_of_a_periodic_command_are_read_at_its_lines():
                     dev = np.abs(p.values[fr.coherent] / p.estimate - 1)
                     assert np.max(dev) < 1e-2 and np.median(dev) < 1e-4, (fr.name, p.symbol)
     assert command_period(np.concatenate([[0.0], u]), 1) == 2048 and command_period(cols["theta_m"]) is None
+
+
+@pytest.mark.parametrize("kw", [{"peak_nm": 1e-200}, {"rms_nm": 1e-300}, {"peak_nm": 1e-10}])
+def test_an_amplitude_no_actuator_resolves_is_refused(kw):
+    """1e-200 N·m made the RMS underflow to 0: a ZeroDivisionError in the crest factor (a
+    traceback from `exotune excite`). Amplitudes below 1e-9 N·m are refused, naming the option."""
+    from exotune.errors import ConfigError
+    from exotune.identification.excite import schroeder_multisine
+
+    with pytest.raises(ConfigError) as ei:
+        schroeder_multisine(1000.0, 1.0, 40.0, **kw)
+    assert ei.value.field == next(iter(kw)) and "below 1e-09 N·m" in ei.value.reason
+    assert schroeder_multisine(1000.0, 1.0, 40.0, peak_nm=1e-9).crest_factor > 1
