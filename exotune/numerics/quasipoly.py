@@ -475,44 +475,36 @@ def _phase_sums_grouped(q: QP, grid: np.ndarray, valid: np.ndarray, group: np.nd
 
     All tasks first run together, each within an equal share of its group's budget (so the work in
     flight, and the memory, stay bounded by the group budget even for a family of 1 000 sub-interval
-    counts); a task that needed more is run again alone with the budget the queue order leaves it.
-    A task that fits its share gets the same result as with the compiled kernel's allowance, which
-    is never smaller than the share."""
+    counts); a task that needed more is run again alone with the budget the queue order leaves it
+    (:func:`_group_budget`'s ``rerun``). A task that fits its share gets the same result as with the
+    compiled kernel's allowance, which is never smaller than the share. Returns (total, resolved)."""
     starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]]) if group.size else np.zeros(0, int)
     ends = np.r_[starts[1:], group.size]
     share = np.repeat(np.minimum(MAX_TASK_EVALS, MAX_GROUP_EVALS // np.maximum(ends - starts, 1)), ends - starts)
     total, resolved, evals, exhausted = _phase_sums_counted(q, grid, valid, engine="numpy", max_evals=share)
-    resolved, evals, exhausted = resolved.copy(), evals.copy(), exhausted.copy()
-    for lo, hi in zip(starts, ends):
-        left = MAX_GROUP_EVALS
-        for t in range(lo, hi):
-            if not valid[t]:
-                continue
-            if left <= 0:
-                resolved[t] = False
-                continue
-            b = min(MAX_TASK_EVALS, left)
-            if exhausted[t] and share[t] < b:  # stopped by its share only: run it alone with its allowance
-                one = _phase_sums_counted(q.take(np.array([t])), grid[t:t + 1], np.ones(1, bool), engine="numpy",
-                                          max_evals=b)
-                total[t], resolved[t], evals[t], exhausted[t] = (x[0] for x in one)
-            if exhausted[t] or evals[t] > b:
-                resolved[t] = False
-                left -= b
-            else:
-                left -= evals[t]
-    return total, resolved, evals, exhausted
+
+    def rerun(t, b):
+        if not (exhausted[t] and share[t] < b):
+            return None  # its share was enough: the result stands
+        one = _phase_sums_counted(q.take(np.array([t])), grid[t:t + 1], np.ones(1, bool), engine="numpy", max_evals=b)
+        total[t] = one[0][0]
+        return one[1][0], one[2][0], one[3][0]
+
+    return total, _group_budget(resolved, valid, evals, exhausted, group, rerun)
 
 
-def _group_budget(ok: np.ndarray, valid: np.ndarray, evals: np.ndarray, exhausted: np.ndarray, group: np.ndarray):
+def _group_budget(ok: np.ndarray, valid: np.ndarray, evals: np.ndarray, exhausted: np.ndarray, group: np.ndarray,
+                  rerun=None):
     """Consecutive tasks of one ``group`` share MAX_GROUP_EVALS, in queue order, as in
     :func:`exotune.numerics.kernels.count_tasks`: a task gets min(MAX_TASK_EVALS, what is left) and
-    is unresolved when it needs more; once the group's budget is spent the rest are unresolved."""
-    ok = ok.copy()
+    is unresolved when it needs more; once the group's budget is spent the rest are unresolved.
+    ``rerun(t, allowance)``: optionally counts task t again with its allowance, returning its new
+    (resolved, evaluations, exhausted), or None to keep the result it has."""
+    ok, evals, exhausted = ok.copy(), evals.copy(), exhausted.copy()
     spent = np.where(valid, np.where(exhausted, MAX_TASK_EVALS, evals), 0)
     starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
     for lo, hi in zip(starts, np.r_[starts[1:], group.size]):
-        if spent[lo:hi].sum() <= MAX_GROUP_EVALS:
+        if rerun is None and spent[lo:hi].sum() <= MAX_GROUP_EVALS:
             continue  # the whole group fits: nothing changes
         left = MAX_GROUP_EVALS
         for t in range(lo, hi):
@@ -522,6 +514,9 @@ def _group_budget(ok: np.ndarray, valid: np.ndarray, evals: np.ndarray, exhauste
                 ok[t] = False
                 continue
             b = min(MAX_TASK_EVALS, left)
+            again = rerun(t, b) if rerun is not None else None
+            if again is not None:
+                ok[t], evals[t], exhausted[t] = again
             if exhausted[t] or evals[t] > b:
                 ok[t] = False
                 left -= b
@@ -577,7 +572,7 @@ def count_rhp(qp: QP, v0: np.ndarray | None = None, per_decade: int = 2, group: 
     valid = np.isfinite(wmax)
     grid = log_grid(np.where(valid, wmax, 1.0), decades=6, per_decade=per_decade)
     if group is not None and _engine(None) != "numba":
-        total, resolved, _, _ = _phase_sums_grouped(q, grid, valid, np.asarray(group))
+        total, resolved = _phase_sums_grouped(q, grid, valid, np.asarray(group))
     else:
         total, resolved, evals, exhausted = _phase_sums_counted(q, grid, valid)
         if group is not None:
