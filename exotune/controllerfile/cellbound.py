@@ -36,8 +36,10 @@ proven bound, not a sample.
 Floating-point rounding: the inexact inverse of the eigenvector matrix (the discs are those of
 X M X⁻¹, exactly similar to M, bounded entry by entry through R_X = XV − I) and the rounding of the products
 X M_k V (≤ 2γ_n|X||M_k||V|) are bounded; the rounding of the matrix exponentials that make the
-loop matrix is not propagated (as for every sampled-data verdict: the loop is the ZOH
-discretization exact up to that rounding).
+loop matrix is **estimated** (:func:`exotune.sampled.loop.expm_rounding`: the exponential computed
+again in balanced coordinates, plus 64u(1 + ‖X_b‖₁)·max|e^{X_b}|) and added to the remainder β — an
+estimate, not a bound: a light human mass on the cuff spring makes ‖A T_s‖ ~1e8 and the
+exponential's entries then carry absolute errors of ~1e-9 that can decide a near-undamped mode.
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ import math
 
 import numpy as np
 
-from ..sampled.loop import split_delay
+from ..sampled.loop import expm_rounding, split_delay
 
 __all__ = ["disc_test", "loop_cell", "taylor_expm", "ORDER", "AFFINE_RTOL"]
 
@@ -199,11 +201,17 @@ def taylor_expm(Na: np.ndarray, dN: np.ndarray, t: float, order: int) -> list:
     list of numpy.ndarray
         c_0, …, c_K, each (m, m).
     """
+    return _taylor_with_rounding(Na, dN, t, order)[0]
+
+
+def _taylor_with_rounding(Na: np.ndarray, dN: np.ndarray, t: float, order: int):
+    """(:func:`taylor_expm`'s coefficients, their rounding estimates entry by entry,
+    :func:`exotune.sampled.loop.expm_rounding` of the block-bidiagonal exponential)."""
     from scipy.linalg import expm
 
     m = Na.shape[0]
     if t == 0.0:
-        return [np.eye(m)] + [np.zeros((m, m))] * order
+        return [np.eye(m)] + [np.zeros((m, m))] * order, [np.zeros((m, m))] * (order + 1)
     K = order + 1
     big = np.zeros((K * m, K * m))
     for k in range(K):
@@ -211,7 +219,8 @@ def taylor_expm(Na: np.ndarray, dN: np.ndarray, t: float, order: int) -> list:
         if k + 1 < K:
             big[k * m:(k + 1) * m, (k + 1) * m:(k + 2) * m] = dN * t
     E = expm(big)
-    return [E[:m, k * m:(k + 1) * m] for k in range(K)]
+    err = expm_rounding(big, E)
+    return [E[:m, k * m:(k + 1) * m] for k in range(K)], [err[:m, k * m:(k + 1) * m] for k in range(K)]
 
 
 def _plant_terms(A, B, dA, t0: float, t1: float):
@@ -235,9 +244,12 @@ def _plant_terms(A, B, dA, t0: float, t1: float):
     nd = float(np.linalg.norm(scale(dN), 2))
     # ‖D⁻¹e^{N(s)τ}D‖ ≤ e^{μ⁺τ}, μ(N(s)) ≤ μ(N(½)) + ½‖D⁻¹ΔN D‖ (subadditive logarithmic norm)
     g = math.exp(max(max(_lognorm(scale(N0)), _lognorm(scale(N1))) + 0.5 * nd, 0.0) * (t0 + t1))
-    c0, c1 = taylor_expm(N0, dN, t0, ORDER), taylor_expm(N1, dN, t1, ORDER)
+    (c0, e0), (c1, e1) = _taylor_with_rounding(N0, dN, t0, ORDER), _taylor_with_rounding(N1, dN, t1, ORDER)
     W = [sum(c0[j] @ c1[k - j] for j in range(k + 1))[:n] for k in range(ORDER + 1)]  # Cauchy product
-    return W, sc, g, (t0 + t1) * nd
+    # the exponentials' rounding carried through the products, to first order, entry by entry
+    dW = [sum(e0[j] @ np.abs(c1[k - j]) + np.abs(c0[j]) @ e1[k - j] for j in range(k + 1))[:n]
+          for k in range(ORDER + 1)]
+    return W, dW, sc, g, (t0 + t1) * nd
 
 
 def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float) -> tuple[bool, float]:
@@ -286,7 +298,7 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
     n = A.shape[0]
     M0 = closed_loop_matrix(A, B, C, ctrl)
     t0, t1, d, R = _layout(ctrl, n, C)
-    W, sc, g, h = _plant_terms(A, B, dA, t0, t1)
+    W, dW, sc, g, h = _plant_terms(A, B, dA, t0, t1)
     if np.max(np.abs(M0[:n] - W[0] @ R)) > AFFINE_RTOL * max(float(np.max(np.abs(M0))), 1.0):
         return False, -math.inf  # the loop's layout is not the one this module knows
     nz = ctrl.Ac.shape[0]
@@ -310,9 +322,15 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
     left = np.zeros((N, n))
     left[:n, :n] = np.diag(sc[:n])
     right, beta = R / sc[:, None], rho * h ** (K + 1)
+    # the rounding of the exponentials (estimated, :func:`exotune.sampled.loop.expm_rounding`): the
+    # plant rows' terms δᵏ(δW_k R + δW_{k−1} R1), |δ| ≤ ½, are (U D_x)·Δ·(D⁻¹R) and (U D_x)·Δ'·(D⁻¹R1)
+    # with ‖Δ‖₂ ≤ Σ_k 2⁻ᵏ‖D_x⁻¹ δW_k D‖_F (and Δ' alike from δW_{k−1})
+    scaled = [float(np.linalg.norm(e * sc[None, :] / sc[:n, None])) for e in dW]
+    beta += sum(0.5 ** k * x for k, x in enumerate(scaled))
     if np.any(R1):
         right = np.vstack([right, R1 / sc[:, None]])
         beta += rho * (0.5 * h ** (K + 1) + (K + 1) * h ** K)
+        beta += sum(0.5 ** k * scaled[k - 1] for k in range(1, K + 1))
     rigid = None
     if not (grounded or any(_grounds(*member(v)) for v in (a, b))):
         rigid = _rigid_vector(M0, ctrl, closed_loop_matrix, (Aa, Ba, Ca), (Ab, Bb, Cb))

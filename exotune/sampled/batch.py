@@ -28,7 +28,7 @@ import numpy as np
 
 from ..numerics.engine import compiled
 from .loop import NEAR_UNIT as ROUND_NEAR
-from .loop import ROUNDING_TRIALS, Measured, plant_stack, split_delay
+from .loop import ROUNDING_TRIALS, Measured, plant_stack, split_delay, zoh_fractional, zoh_rounding
 from .sos import bilinear_batch, df2t_batch, sos_ss_batch, tustin_sections_batch
 
 __all__ = ["RIGID_TOL", "NEAR_UNIT", "BatchLoops", "Loop", "batch_controller", "expm_stack"]
@@ -444,8 +444,32 @@ class BatchLoops:
                 stable[pos] = rho[pos] < 1.0
                 near = np.nonzero(np.abs(rho[pos] - 1.0) < NEAR_UNIT)[0]
                 if near.size and rounding:
-                    stable[pos[near]] = _rounding_verdict(M[near], lam[near])
+                    jobs = pos[near]
+                    trial = self._zoh_trial(des[jobs], loop, v[jobs], delay[jobs])
+                    stable[jobs] = _rounding_verdict(M[near], lam[near], trial)
         return rho, eig, stable
+
+
+    def _zoh_trial(self, des, loop: Loop, v, delay):
+        """``trial(rng, j)``: the loop matrices of jobs ``j`` (positions in ``des``) with their
+        zero-order hold perturbed within its rounding estimate (:func:`exotune.sampled.loop.zoh_rounding`,
+        plus the difference between this engine's exponentials and scipy's), reassembled; the
+        draws in the order of certify's (:func:`exotune.sampled.loop.loop_verdict`)."""
+        A, B, C = self.plant(des, loop, v)
+        d, f = self.split_delay(delay)
+        Phi, G0, G1 = self.zoh(A, B, f)
+        err = [np.zeros_like(Phi), np.zeros_like(G0), np.zeros_like(G1)]
+        for i in range(des.size):
+            ref = zoh_fractional(A[i], B[i][:, None], self.Ts, float(f[i]))
+            est = zoh_rounding(A[i], B[i][:, None], self.Ts, float(f[i]))
+            for e, x, r, q in zip(err, (Phi[i], G0[i], G1[i]), ref, est):
+                e[i] = np.abs(x - r.reshape(x.shape)) + q.reshape(x.shape)
+
+        def trial(rng, j):
+            moved = [x[j] + e[j] * rng.uniform(-1.0, 1.0, x.shape[1:]) for x, e in zip((Phi, G0, G1), err)]
+            return self._assemble(des[j], *moved, C[j], int(d[0]), bool(f[0] > 0))
+
+        return trial
 
 
 def _pad(k: int) -> np.ndarray:
@@ -454,11 +478,12 @@ def _pad(k: int) -> np.ndarray:
     return 0.5 * np.arange(1, k + 1) / (k + 1)
 
 
-def _rounding_verdict(M: np.ndarray, lam: np.ndarray) -> np.ndarray:
+def _rounding_verdict(M: np.ndarray, lam: np.ndarray, trial=None) -> np.ndarray:
     """:func:`exotune.sampled.loop.spectral_verdict` is True, on a stack (eigenvalues ``lam``, the
     rigid-body one already set to 0): every |λ| plus its rounding estimate (ten times its largest
-    move under ``ROUNDING_TRIALS`` relative 8ε perturbations of the entries, the same
-    pseudo-random ones as certify's; at least 4Nε) below 1."""
+    move under ``ROUNDING_TRIALS`` perturbations: ``trial(rng, j)`` the stack ``j`` with its
+    zero-order hold perturbed within its rounding, then relative 8ε perturbations of the entries,
+    the same pseudo-random ones as certify's; at least 4Nε) below 1."""
     k, N, _ = M.shape
     mod = np.abs(lam)
     eps = np.finfo(float).eps
@@ -467,11 +492,12 @@ def _rounding_verdict(M: np.ndarray, lam: np.ndarray) -> np.ndarray:
     alive = np.all(mod + err < 1.0, axis=1)  # the estimates only grow: a matrix not stable here never is
     rng = np.random.default_rng(0)
     for _ in range(ROUNDING_TRIALS):
-        pert = 1.0 + 8.0 * eps * rng.uniform(-1.0, 1.0, (N, N))  # drawn every trial: the same sequence as certify's
         j = np.nonzero(alive)[0]
         if not j.size:
             break
-        wp = _eigvals_or_inf(M[j] * pert)
+        base = M[j] if trial is None else trial(rng, j)  # drawn every trial: the same sequence as certify's
+        pert = 1.0 + 8.0 * eps * rng.uniform(-1.0, 1.0, (N, N))
+        wp = _eigvals_or_inf(base * pert)
         moved = np.min(np.abs(wp[:, None, :] - lam[j, :, None]), axis=2)
         err[j] = np.where(near[j], np.maximum(err[j], 10.0 * moved), err[j])
         alive[j] = np.all(mod[j] + err[j] < 1.0, axis=1)

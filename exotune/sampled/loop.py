@@ -38,7 +38,7 @@ from ..numerics.statespace import tf2ss
 
 __all__ = ["Measured", "plant_ss", "plant_structure", "plant_stack", "loop_matrices", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
            "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "loop_spectra", "tustin", "prewarped",
-           "zoh_fractional", "split_delay", "default_prewarp"]
+           "zoh_fractional", "zoh_rounding", "expm_rounding", "split_delay", "default_prewarp"]
 
 # sampled signals the controller may use (order of the plant's output vector)
 Measured = ("theta_m", "omega_m", "tau_s", "dtau_s", "tau_c")
@@ -739,7 +739,8 @@ def loop_verdict(plant, ctrl: DiscreteController, position_feedback: bool, human
         When the loop matrix overflows, or when an active time budget is spent.
     """
     M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
-    return _verdict(M, lam, None if drop is None else rigid_tol)
+    trial = lambda rng: _zoh_trial(plant_ss(plant, human, env), ctrl, M, rng)  # noqa: E731
+    return _verdict(M, lam, None if drop is None else rigid_tol, trial)
 
 
 NEAR_UNIT = 1e-4  # eigenvalues whose modulus is this close to 1 get a rounding estimate
@@ -784,8 +785,10 @@ def spectral_verdict(M: np.ndarray, rigid_tol: float | None = None) -> tuple[boo
     return _verdict(M, np.linalg.eigvals(M), rigid_tol)
 
 
-def _verdict(M: np.ndarray, w: np.ndarray, rigid_tol: float | None) -> tuple[bool | None, float, float]:
-    """:func:`spectral_verdict` of ``M`` whose eigenvalues ``w`` (``np.linalg.eigvals(M)``) are known."""
+def _verdict(M: np.ndarray, w: np.ndarray, rigid_tol: float | None, trial=None) -> tuple[bool | None, float, float]:
+    """:func:`spectral_verdict` of ``M`` whose eigenvalues ``w`` (``np.linalg.eigvals(M)``) are known;
+    ``trial(rng)`` gives one perturbed matrix (default: every entry by a relative 8ε; a sampled-data
+    loop adds the rounding of its zero-order hold, :func:`zoh_rounding`)."""
     if M.size == 0:
         return True, 0.0, 0.0
     keep = np.ones(w.size, dtype=bool)
@@ -800,7 +803,7 @@ def _verdict(M: np.ndarray, w: np.ndarray, rigid_tol: float | None) -> tuple[boo
     if near.size:
         rng = np.random.default_rng(0)
         for _ in range(ROUNDING_TRIALS):
-            wp = np.linalg.eigvals(M * (1.0 + 8.0 * np.finfo(float).eps * rng.uniform(-1.0, 1.0, M.shape)))
+            wp = np.linalg.eigvals(_relative_trial(M, rng) if trial is None else trial(rng))
             moved = np.min(np.abs(wp[None, :] - w[near, None]), axis=1)
             err[near] = np.maximum(err[near], 10.0 * moved)
     mod, err = mod[keep], err[keep]
@@ -812,6 +815,86 @@ def _verdict(M: np.ndarray, w: np.ndarray, rigid_tol: float | None) -> tuple[boo
     if mod[i] + err[i] < 1.0:
         return True, rho, float(err[i])
     return None, rho, float(err[i])
+
+
+def _relative_trial(M: np.ndarray, rng) -> np.ndarray:
+    """``M`` with every entry perturbed by a relative 8ε (one rounding trial of :func:`spectral_verdict`)."""
+    return M * (1.0 + 8.0 * np.finfo(float).eps * rng.uniform(-1.0, 1.0, M.shape))
+
+
+def _zoh_trial(plant_matrices, ctrl: DiscreteController, M: np.ndarray, rng) -> np.ndarray:
+    """One rounding trial of a sampled-data loop matrix ``M``: its zero-order hold (Φ, Γ0, Γ1)
+    perturbed entry by entry within the rounding estimate of :func:`zoh_rounding`, the loop
+    assembled again, then every entry perturbed by a relative 8ε."""
+    A, B, C = plant_matrices
+    Ts = 1.0 / ctrl.sample_rate_hz
+    _d, f = split_delay(ctrl.delay_s, Ts)
+    zoh = zoh_fractional(A, B, Ts, f)
+    err = zoh_rounding(A, B, Ts, f)
+    moved = [x + e * rng.uniform(-1.0, 1.0, x.shape) for x, e in zip(zoh, err)]
+    Mt = loop_matrices(*(x[None] for x in moved), C[None], ctrl)[0]
+    return _relative_trial(Mt if Mt.shape == M.shape else M, rng)
+
+
+def expm_rounding(X: np.ndarray, E: np.ndarray) -> np.ndarray:
+    """Entry-by-entry estimate of the rounding error of ``E``, the floating-point exponential of
+    ``X`` (docs/method.md#sampled-data, "Rounding"): the difference from the exponential computed
+    again in balanced coordinates (X = T X_b T⁻¹, e^X = T e^{X_b} T⁻¹, T diagonal) plus
+    64u(1 + ‖X_b‖₁) times the largest entry of e^{X_b}, mapped back through T. Scaling and squaring
+    loses accuracy in proportion to ‖X‖: a light human mass on the stiff cuff spring makes ‖A T_s‖
+    ~1e8 while its spectrum is ~1e2, and the exponential's entries then carry absolute errors of
+    1e-9 that a relative 8ε perturbation of the loop matrix does not represent.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        Square matrix (m, m).
+    E : numpy.ndarray
+        Its computed exponential (m, m).
+
+    Returns
+    -------
+    numpy.ndarray
+        Non-negative (m, m) estimate of |E − e^X| entry by entry.
+    """
+    Xb, (sc, _perm) = scipy.linalg.matrix_balance(X, permute=False, separate=True)
+    sc = np.asarray(sc, dtype=float)
+    ratio = sc[:, None] / sc[None, :]
+    Eb = scipy.linalg.expm(Xb)
+    u = 0.5 * np.finfo(float).eps
+    uniform = 64.0 * u * (1.0 + float(np.linalg.norm(Xb, 1))) * float(np.max(np.abs(Eb)))
+    return np.abs(E - Eb * ratio) + uniform * ratio
+
+
+def zoh_rounding(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
+    """Rounding estimates (entry by entry, absolute) of (Φ, Γ0, Γ1) of :func:`zoh_fractional`,
+    from :func:`expm_rounding` of its one or two exponentials.
+
+    Parameters
+    ----------
+    A : numpy.ndarray
+        Continuous state matrix (n, n).
+    B : numpy.ndarray
+        Continuous input matrix (n, m).
+    Ts : float
+        Sample period [s].
+    f : float
+        Fraction of a sample of the delay, 0 ≤ f < 1.
+
+    Returns
+    -------
+    dPhi, dGamma0, dGamma1 : numpy.ndarray
+        Non-negative estimates of the errors of Φ (n, n), Γ0 (n, m) and Γ1 (n, m).
+    """
+    n = A.shape[0]
+    X = _augmented(A, B)
+    E0, E1 = _zoh_exponentials(X, Ts, f)
+    e0 = expm_rounding(X * ((1.0 - f) * Ts), E0)
+    if f == 0.0:
+        return e0[:n, :n], e0[:n, n:], np.zeros_like(B)
+    e1 = expm_rounding(X * (f * Ts), E1)
+    P0, P1 = np.abs(E0[:n, :n]), np.abs(E1[:n, :n])
+    return (e0[:n, :n] @ P1 + P0 @ e1[:n, :n], e0[:n, n:], e0[:n, :n] @ np.abs(E1[:n, n:]) + P0 @ e1[:n, n:])
 
 
 def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,

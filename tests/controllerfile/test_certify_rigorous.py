@@ -163,3 +163,25 @@ def test_loop_cell_on_the_ungrounded_family(template_doc):
     ok, margin = loop_cell(plant, ctrl, False, member, a, b, math.sqrt(a * b))
     assert ok and 0 < margin < 0.01
     assert not loop_cell(plant, ctrl, False, member, a, b, 2 * b)[0]
+
+
+def test_the_exponentials_rounding_estimate_enters_the_cell_proof(template_doc, monkeypatch):
+    """loop_cell adds the estimated rounding of its matrix exponentials (expm_rounding) to the
+    remainder: the margin with the estimate is below the margin with the estimate set to zero,
+    by a little (the relaxed arm at 1 kHz stays proven), and a light mass's is below by more."""
+    from exotune.controllerfile import cellbound
+
+    plant, ctrl = plant_from_file(template_doc), discrete_from_file(template_doc)
+    member = lambda v: ({"inertia": v, "damping": 0.0}, "free")  # noqa: E731
+
+    def margins(a, b):
+        with_est = loop_cell(plant, ctrl, False, member, a, b, math.sqrt(a * b))
+        with monkeypatch.context() as mp:
+            mp.setattr(cellbound, "expm_rounding", lambda X, E: np.zeros_like(E))
+            without = loop_cell(plant, ctrl, False, member, a, b, math.sqrt(a * b))
+        return with_est, without
+
+    (ok, m), (ok0, m0) = margins(0.1, 0.1 * 1.05)
+    assert ok and ok0 and m < m0 and m0 - m < 1e-9
+    (_ok, m), (_ok0, m0) = margins(1e-5, 1e-5 * (1 + 1e-6))
+    assert m < m0 and m0 - m > 1e-12

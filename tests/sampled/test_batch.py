@@ -110,9 +110,10 @@ def test_a_batch_of_one_given_controller_has_its_loop_eigenvalues(delay, human, 
 @pytest.mark.parametrize("engine", ["compiled", "numpy"])
 def test_verdicts_within_the_rounding_band_are_certifys(batch, engine):
     """Loops whose spectral radius lies within 1e-6 of 1 (on both sides of a latency boundary of
-    the locked loop) are decided by the rounding estimate exactly as the point-wise
-    spectral_verdict decides them (inconclusive is not stable) — on both engines, the early stop of
-    the estimate included."""
+    the locked loop) are decided by the rounding estimate as the point-wise spectral_verdict decides
+    them (inconclusive is not stable) — on both engines, the early stop of the estimate included —
+    except that within 1e-12 of 1 the zero-order hold's rounding (expm_rounding, which
+    spectral_verdict on a bare matrix cannot know) may only turn "stable" into "not stable"."""
     from contextlib import nullcontext
 
     from exotune.numerics.engine import numpy_engine
@@ -138,6 +139,8 @@ def test_verdicts_within_the_rounding_band_are_certifys(batch, engine):
         assert (rho < 1.0).any() and (rho > 1.0).any()
         ((_pos, M),) = bl.matrices(np.zeros(offsets.size, np.int64), loop, np.zeros(offsets.size), delays)
         want = [spectral_verdict(m)[0] is True for m in M]
-    assert stable.tolist() == want, (rho - 1.0, stable)
+    clear = np.abs(offsets) > 1e-9 / slope
+    assert stable[clear].tolist() == np.asarray(want)[clear].tolist(), (rho - 1.0, stable)
+    assert not (stable & ~np.asarray(want)).any(), (rho - 1.0, stable)
     assert any(want) and not all(want)
     assert not stable[rho >= 1.0].any()

@@ -440,3 +440,105 @@ def test_stacked_plant_and_loop_matrices_match_the_equations(members, delay_samp
         for j in range(1, d + 1):
             ref[6 + nz + j, 6 + nz + j - 1] = 1.0
         np.testing.assert_allclose(M[i], ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+
+
+# --- the zero-order hold's rounding (expm_rounding): a light human mass on the cuff spring ------------
+
+LIGHT = """\
+plant: {motor_inertia: 0.44, motor_damping: 17.9, sea_stiffness: 1180.0, joint_inertia: 0.29, cuff_stiffness: 300.0}
+design: {amplification: 8.0, felt_inertia: 0.25, felt_damping: 1.0, zeta: 0.7, zeta_hat: 0.7}
+implementation:
+  delay_s: 0.001
+  sample_rate_hz: 1000.0
+  gv_filter: {cutoff_hz: 80.0, damping: 0.7}
+  derivative_filter: {cutoff_hz: 100.0}
+  dob: {cutoff_hz: 60.0, damping: 0.7}
+humans:
+- {kind: mass, inertia: 3.0391953823131e-09}
+environment:
+- {kind: locked}
+"""
+LIGHT_MASS = 3.0391953823131e-09  # kg·m²: the cuff-spring resonance ω ≈ 3e5 rad/s is all but undamped
+
+
+def _mp_expm(X: np.ndarray, digits: int = 40) -> np.ndarray:
+    mp = pytest.importorskip("mpmath")
+    with mp.workdps(digits):
+        E = mp.expm(mp.matrix(X.tolist()))
+        return np.array([[float(E[i, j]) for j in range(X.shape[1])] for i in range(X.shape[0])])
+
+
+@pytest.mark.parametrize("inertia", [1e-9, LIGHT_MASS, 1e-7, 1e-5, 1e-3, 1.0])
+@pytest.mark.parametrize("env", ["free", "locked"])
+@pytest.mark.parametrize("frac", [1.0, 0.37])
+def test_expm_rounding_covers_the_exponentials_error_against_40_digits(inertia, env, frac):
+    """The estimate is at least the true error of scipy's exponential entry by entry (40-digit
+    mpmath reference) on the augmented plant of a light to heavy human mass, where scaling and
+    squaring of ‖A T_s‖ up to 1e8 leaves absolute errors of 1e-7 that a relative 8ε perturbation
+    of the loop matrix does not represent."""
+    import scipy.linalg
+
+    from exotune.sampled.loop import expm_rounding
+
+    A, B, _C = plant_ss(BASE.plant, {"inertia": inertia, "damping": 0.0, "stiffness": 0.0}, env)
+    n = A.shape[0]
+    X = np.zeros((n + 1, n + 1))
+    X[:n, :n], X[:n, n:] = A * (1e-3 * frac), B * (1e-3 * frac)
+    E = scipy.linalg.expm(X)
+    err = np.abs(E - _mp_expm(X))
+    est = expm_rounding(X, E)
+    assert np.all(est >= 0.0)
+    assert np.all(err <= est), np.max(err / np.maximum(est, 1e-300))
+
+
+def test_a_near_undamped_light_mass_is_not_called_stable_by_certify_nor_the_batch(tmp_path):
+    """A 3.04e-9 kg·m² mass on the cuff: in double precision the loop's radius is 1 − 2.9e-13 with a
+    relative-8ε rounding estimate of 5.5e-14 ("stable", CERTIFIED before), while the loop built
+    from a 50-digit zero-order hold has its mode on the unit circle to 1e-17. With the hold's
+    rounding estimated (expm_rounding) the verdict is inconclusive in certify's loop_verdict,
+    not stable in the sweep's batch, and export refuses the file."""
+    mp = pytest.importorskip("mpmath")
+    import exotune
+    from exotune.controllerfile import load_controller_file
+    from exotune.controllerfile.fileio import discrete_from_file, plant_from_file
+    from exotune.errors import RunFailed
+    from exotune.sampled.batch import BatchLoops, Loop
+    from exotune.sampled.loop import loop_matrices, loop_verdict, spectral_verdict, split_delay
+
+    src = tmp_path / "light.yaml"
+    src.write_text(LIGHT)
+    with pytest.raises(RunFailed, match="inconclusive"):
+        exotune.export(src, out=tmp_path / "refused.yaml")
+    assert not (tmp_path / "refused.yaml").exists()
+    out = tmp_path / "c.yaml"
+    exotune.export(src, out=out, allow_uncertified=True)
+    cf = load_controller_file(out)
+    ctrl, plant = discrete_from_file(cf), plant_from_file(cf)
+    human = {"inertia": LIGHT_MASS, "damping": 0.0, "stiffness": 0.0}
+    A, B, C = plant_ss(plant, human, "free")
+    M = closed_loop_matrix(A, B, C, ctrl)
+    stable_bare, rho, _ = spectral_verdict(M, rigid_tol=1e-7)
+    assert stable_bare is True and 1.0 - rho < 1e-11  # what the relative estimate alone says
+    # the truth: the same loop with its hold from a 50-digit exponential
+    Ts = 1.0 / cf.sample_rate_hz
+    d, f = split_delay(cf.delay_s, Ts)
+    assert f == 0.0
+    n = A.shape[0]
+    X = np.zeros((n + 1, n + 1))
+    X[:n, :n], X[:n, n:] = A, B
+    with mp.workdps(50):
+        Ex = mp.expm(mp.matrix((X * Ts).tolist()))
+        Phi = mp.matrix([[Ex[i, j] for j in range(n)] for i in range(n)])
+        G0 = mp.matrix([[Ex[i, n]] for i in range(n)])
+        Mhp = mp.matrix(loop_matrices(np.zeros((1, n, n)), np.zeros((1, n, 1)), np.zeros((1, n, 1)), C[None], ctrl)[0].tolist())
+        ref = loop_matrices(np.zeros((1, n, n)), np.ones((1, n, 1)), np.zeros((1, n, 1)), C[None], ctrl)[0][:n]
+        for i in range(n):
+            for j in range(M.shape[1]):
+                Mhp[i, j] = (Phi[i, j] if j < n else 0) + G0[i, 0] * mp.mpf(float(ref[i, j]))
+        ev = sorted(mp.eig(Mhp, left=False, right=False), key=lambda e: abs(e - 1))
+        true_margin = 1 - max(abs(e) for e in ev[1:])  # the rigid-body z = 1 set aside
+    assert abs(true_margin) < (1.0 - rho) / 100  # float's margin is a rounding artefact
+    assert loop_verdict(plant, ctrl, False, human)[0] is None
+    bl = BatchLoops.of_controller(plant, ctrl, False)
+    loop = Loop("h", human={"kind": "mass", "inertia": 1.0, "damping": 0.0, "stiffness": 0.0}, param="inertia")
+    assert not bl.spectra(np.zeros(1, np.int64), loop, np.array([LIGHT_MASS]))[2][0]
