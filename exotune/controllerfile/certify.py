@@ -517,7 +517,8 @@ def sampled_decision(doc: ControllerFile | dict, sa: dict | None = None) -> tupl
     if sa is None:
         sa = sampled_analysis(cf)
     lm = sampled_latency_margin(cf, sa, position_feedback(cf.controller), lambda d: sampled_analysis(d, proof=False))
-    return sa, lm, sampled_problems(sa) + requirement_problems(lm) + hysteretic_problems(cf, sa)
+    hyst = hysteretic_problems(cf, sa, margin=lm)  # first: it may bound the margin
+    return sa, lm, sampled_problems(sa) + requirement_problems(lm) + hyst
 
 
 def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[str]]:

@@ -69,6 +69,10 @@ def margin_line(lm: dict) -> str:
     c = lm.get("critical")
     if c:
         head += f", critical {c['loop']}" + (f" at {c['parameter']} = {c['value']:.6g} {c['unit']}" if c["parameter"] else "")
+    b = lm.get("bound")
+    if b:
+        head += (f" (the hysteretic family's continuous-time margin bounds it: it has no sampled-data model; "
+                 f"the sampled-data loops alone {_ms(b['sampled_extra_delay_s'])})")
     if lm["extra_delay_s"] == 0.0:
         head += " (" + lm["method"] + ")"
     head += f"; predicted continuous {_ms(lm.get('predicted_continuous_s'))}"

@@ -49,6 +49,10 @@ def format_margins(margins: dict | None) -> list[str]:
         if c:
             L.append(f"    critical: {c['loop']}" + (f" at {c['parameter']} = {fmt_num(c['value'], 6)} {c['unit']}"
                                                    if c.get("parameter") else ""))
+        b = lm.get("bound")
+        if b:
+            L.append(f"    bounded by the hysteretic family's continuous-time margin ({b['model']}); the sampled-data "
+                     f"loops alone tolerate {b['sampled_extra_delay_s'] * 1e3:.4g} ms")
         lm = margins.get("latency_continuous")
         L.append("  continuous-time figure (exact delay, no sampling; not what the runtime tolerates):")
     if lm:

@@ -105,3 +105,48 @@ def test_export_refuses_and_certify_does_not_certify_it(tmp_path):
     assert not cert.certified
     assert any("complex_stiffness" in p and "continuous-time" in p for p in cert.to_dict()["problems"])
     assert "continuous time, exact delay: NOT robust" in cert.to_text()
+
+
+def test_a_hysteretic_family_that_tolerates_less_delay_bounds_the_margin_of_record():
+    """The sampled-data latency margin covers only the rational loops. With a strongly hysteretic
+    family (η = 9.999 over [100, 1e9] N·m/rad) the continuous loop with that human goes unstable at
+    less extra delay than the sampled free and locked loops (3.41 ms): the margin of record is that
+    family's continuous-time margin, named as critical, the sampled figure kept under ``bound``.
+    Checked against the continuous verdicts of the family just below and above the bound."""
+    from exotune.analysis import analyze_batch
+    from exotune.config import batch_config, design_from_mapping
+    from exotune.controllerfile.certify import sampled_decision
+    from exotune.numerics.engine import numpy_engine
+
+    raw = _raw(0.7)
+    raw["design"].update(amplification=8.0, felt_inertia=0.25, felt_damping=1.0, zeta=0.7)
+    raw["humans"] = [{"kind": "spring", "stiffness": [100.0, 300.0], "damping": 0.0},
+                     {"kind": "complex_stiffness", "stiffness": [100.0, 1e9], "eta": 9.999}]
+    doc = _doc(raw)
+    sa, lm, problems = sampled_decision(doc)
+    b = lm["bound"]
+    assert lm["critical"]["loop"] == "human1_complex_stiffness" and b["loop"] == "human1_complex_stiffness"
+    assert lm["extra_delay_s"] < b["sampled_extra_delay_s"]
+    assert lm["extra_delay_samples"] == pytest.approx(lm["extra_delay_s"] * 1000.0, rel=1e-12)
+    T, dT = 0.001, lm["extra_delay_s"]
+    one = copy.deepcopy(raw)
+    one["humans"] = [raw["humans"][1]]
+    cfg = batch_config(design_from_mapping(one), {"implementation.delay_s": np.array([T + dT * (1 - 1e-3), T + dT * (1 + 1e-3)])})
+    with numpy_engine():
+        fam = analyze_batch(cfg).humans[0]
+    assert fam.robust.tolist() == [True, False]
+    # a requirement between the bound and the sampled figure refuses the file
+    doc["requirements"] = {"latency_margin_s": 0.5 * (dT + b["sampled_extra_delay_s"])}
+    _sa, lm2, problems2 = sampled_decision(doc)
+    assert any(p.startswith("latency margin") for p in problems2)
+    assert not any(p.startswith("latency margin") for p in problems)
+
+
+def test_no_bound_when_the_hysteretic_family_tolerates_more():
+    """The template-like design: the hysteretic family [10, 1000] N·m/rad, η = 0.2 tolerates more
+    delay than the sampled rational loops, so the margin of record is theirs, without ``bound``."""
+    from exotune.controllerfile.certify import sampled_decision
+
+    sa, lm, problems = sampled_decision(_doc(_raw(0.7)))
+    assert "bound" not in lm and not lm["critical"]["loop"].endswith("complex_stiffness")
+    assert sa["humans"][1]["continuous_check"]["robust"] is True
