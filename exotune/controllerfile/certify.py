@@ -30,7 +30,7 @@ from .build import close
 from .cellbound import loop_cell
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
-from .hysteretic import hysteretic_problems
+from .hysteretic import hysteretic_problems, hysteretic_problems_many
 from .latency import requirement_problems, sampled_latency_margin
 from .model import ControllerFile, as_controller_file
 from .results import Certificate
@@ -541,9 +541,10 @@ def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[
         Where an entry's ``predicted_sampled`` differs from the analysis.
     """
     cf = as_controller_file(doc)
-    entries, problems, mism = [], [], []
+    entries, problems, mism, hyst = [], [], [], []
     for e in cf.gain_schedule.entries:
         sa_e = sampled_analysis(cf.entry_view(e))
+        hyst.append((cf.entry_view(e), sa_e, f"gain schedule at joint angle {e.joint_angle_rad:g} rad: "))
         bad = [f"{h['kind']} {h['parameter']}" for h in sa_e["humans"] + sa_e["environment"]
                if "skipped" not in h and not h.get("robust")]
         bad += [k for k in ("free_stable", "locked_stable") if not sa_e[k]]
@@ -553,9 +554,10 @@ def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[
         if bad:
             problems.append(f"gain schedule at joint angle {e.joint_angle_rad:g} rad (ratio {e.ratio:g}): "
                             f"not stable for {', '.join(bad)}")
-        problems += hysteretic_problems(cf.entry_view(e), sa_e, f"gain schedule at joint angle {e.joint_angle_rad:g} rad: ")
         mism += _prediction_mismatches(e.predicted_sampled, sa_e,
                                        f"gain_schedule[{e.joint_angle_rad:g} rad].predicted_sampled")
+    for more in hysteretic_problems_many(hyst):  # one continuous-time batch for every entry
+        problems += more
     return entries, problems, mism
 
 

@@ -17,13 +17,16 @@ docs/method.md#one-model-of-record; docs/controller-file.md (certify).
 
 from __future__ import annotations
 
+import copy
+import json
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .model import ControllerFile, as_controller_file
 
-__all__ = ["hysteretic_problems", "CONTINUOUS_CHECK_MODEL"]
+__all__ = ["hysteretic_problems", "hysteretic_problems_many", "CONTINUOUS_CHECK_MODEL"]
 
 CONTINUOUS_CHECK_MODEL = ("continuous time, exact delay, the file's design section (a hysteretic human is not "
                           "rational: the sampled-data loop has no finite-dimensional model of it)")
@@ -36,7 +39,7 @@ def hysteretic_problems(doc: ControllerFile | dict, sa: dict, where: str = "", m
     latency ``margin``, the families are also checked at the margin's total delay: one that is
     not robust there bounds the margin of record by its own continuous-time latency margin
     (``margin`` is updated in place, with a ``bound`` entry), since nothing else measures how much
-    delay the loop with that human tolerates.
+    delay the loop with that human tolerates. A batch of one of :func:`hysteretic_problems_many`.
 
     Parameters
     ----------
@@ -61,35 +64,126 @@ def hysteretic_problems(doc: ControllerFile | dict, sa: dict, where: str = "", m
     ----------
     Paper §IV (coupled stability with the person); docs/method.md#one-model-of-record.
     """
+    return hysteretic_problems_many([(doc, sa, where)], margin)[0]
+
+
+def hysteretic_problems_many(items: list, margin: dict | None = None) -> list[list[str]]:
+    """:func:`hysteretic_problems` of several controller documents (a file and its gain-schedule
+    entries' views), their continuous-time analyses run as one batch where their designs differ
+    only in overridable numbers (the entries' reflected plants).
+
+    Parameters
+    ----------
+    items : list of (ControllerFile or dict, dict, str)
+        (document, its sampled-data analysis, prefix of its problems) per document.
+    margin : dict or None, optional
+        The sampled-data latency margin of the first document, bounded in place.
+
+    Returns
+    -------
+    list of list of str
+        The problems of each document, in the order of ``items``.
+
+    References
+    ----------
+    Paper §IV (coupled stability with the person); docs/method.md#one-model-of-record.
+    """
+    rows, jobs = [], []  # rows: (mapping, delay [s]); jobs: (item, cf, idx, row of the file's delay)
+    for k, (doc, sa, _where) in enumerate(items):
+        cf = as_controller_file(doc)
+        idx = [i for i, h in enumerate(sa["humans"]) if "skipped" in h and h.get("kind") == "complex_stiffness"]
+        if not idx:
+            continue
+        if cf.provenance.hand_tuned is True or cf.implementation is None:
+            for i in idx:
+                sa["humans"][i]["continuous_check"] = {
+                    "model": CONTINUOUS_CHECK_MODEL, "checked": False,
+                    "reason": "a hand-tuned controller has no continuous design to analyse the family on"}
+            continue
+        mapping = {"plant": cf.plant.values(), "design": cf.design.values(), "implementation": cf.implementation.mapping,
+                   "humans": [cf.certify.humans[i] for i in idx], "environment": []}
+        jobs.append((k, cf, idx, len(rows)))
+        rows.append((mapping, float(cf.delay_s)))
+    dT = None if margin is None else margin.get("extra_delay_s")
+    probe = bool(jobs) and jobs[0][0] == 0 and dT is not None and math.isfinite(dT) and dT > 0.0
+    if probe:
+        rows.append((rows[0][0], float(jobs[0][1].delay_s) + dT))
+    fams = _analyze_rows(rows)
+    out: list[list[str]] = [[] for _ in items]
+    if probe and all(f.robust for f in fams[0]) and not all(f.robust for f in fams[-1]):
+        from ..config import design_from_mapping
+
+        _bound_margin(design_from_mapping(rows[0][0]), jobs[0][2], margin, float(jobs[0][1].sample_rate_hz))
+    for k, _cf, idx, r in jobs:
+        _doc, sa, where = items[k]
+        out[k] = _problems(sa, idx, fams[r], where)
+    return out
+
+
+@dataclass(frozen=True)
+class _Member:
+    """One family's continuous verdicts in one design of :func:`_analyze_rows`."""
+
+    robust: bool
+    conclusive: bool
+    stable_intervals: list
+
+
+def _analyze_rows(rows: list) -> list[list[_Member]]:
+    """The hysteretic families of each (mapping, delay) row on the numpy engine: rows whose mappings
+    differ only in overridable numbers run as one batch (:func:`exotune.config.batch_config`)."""
     from ..analysis import analyze_batch
-    from ..config import batch_config, design_from_mapping
+    from ..config import OVERRIDABLE, batch_config, design_from_mapping
     from ..numerics.engine import numpy_engine
 
-    cf = as_controller_file(doc)
-    idx = [i for i, h in enumerate(sa["humans"]) if "skipped" in h and h.get("kind") == "complex_stiffness"]
-    if not idx:
-        return []
-    if cf.provenance.hand_tuned is True or cf.implementation is None:
-        for i in idx:
-            sa["humans"][i]["continuous_check"] = {
-                "model": CONTINUOUS_CHECK_MODEL, "checked": False,
-                "reason": "a hand-tuned controller has no continuous design to analyse the family on"}
-        return []
-    mapping = {"plant": cf.plant.values(), "design": cf.design.values(), "implementation": cf.implementation.mapping,
-               "humans": [cf.certify.humans[i] for i in idx], "environment": []}
-    cfg = design_from_mapping(mapping)
-    dT = None if margin is None else margin.get("extra_delay_s")
-    probe = dT is not None and math.isfinite(dT) and dT > 0.0
-    with numpy_engine():
-        fams = analyze_batch(batch_config(cfg, {"implementation.delay_s": np.array([cf.delay_s, cf.delay_s + dT])})
-                             if probe else cfg).humans
+    groups: dict = {}
+    for r, (mapping, _delay) in enumerate(rows):
+        key = json.dumps(_strip(mapping, OVERRIDABLE), sort_keys=True, default=str)
+        groups.setdefault(key, []).append(r)
+    out: list = [None] * len(rows)
+    for members in groups.values():
+        first = rows[members[0]][0]
+        over = {path: np.array([_leaf(rows[r][0], path) for r in members], dtype=float)
+                for path in OVERRIDABLE if _leaf(first, path) is not None and path != "implementation.delay_s"}
+        over["implementation.delay_s"] = np.array([rows[r][1] for r in members])
+        with numpy_engine():
+            fams = analyze_batch(batch_config(design_from_mapping(first), over)).humans
+        for j, r in enumerate(members):
+            out[r] = [_Member(bool(f.robust[j]), bool(f.conclusive[j]), [list(iv) for iv in f.stable_intervals[j]])
+                      for f in fams]
+    return out
+
+
+def _leaf(mapping: dict, path: str):
+    """The number at a dotted ``path`` of a design mapping, or None when absent."""
+    x = mapping
+    for part in path.split("."):
+        if not isinstance(x, dict) or x.get(part) is None:
+            return None
+        x = x[part]
+    return x if isinstance(x, (int, float)) and not isinstance(x, bool) else None
+
+
+def _strip(mapping: dict, paths) -> dict:
+    """A copy of ``mapping`` without the numbers at ``paths`` (presence kept): the key of a batch."""
+    out = copy.deepcopy(mapping)
+    for path in paths:
+        *head, last = path.split(".")
+        x = out
+        for part in head:
+            x = x.get(part) if isinstance(x, dict) else None
+        if isinstance(x, dict) and isinstance(x.get(last), (int, float)) and not isinstance(x.get(last), bool):
+            x[last] = "number"
+    return out
+
+
+def _problems(sa: dict, idx: list[int], fams: list, where: str) -> list[str]:
+    """Record the checks ``fams`` of the families ``idx`` of ``sa`` and word the refusals."""
     problems = []
-    if probe and all(f.robust[0] for f in fams) and not all(f.robust[1] for f in fams):
-        _bound_margin(cfg, idx, margin, float(cf.sample_rate_hz))
     for i, fam in zip(idx, fams):
         h = sa["humans"][i]
-        check = {"model": CONTINUOUS_CHECK_MODEL, "checked": True, "robust": bool(fam.robust[0]),
-                 "conclusive": bool(fam.conclusive[0]), "stable_intervals": [list(iv) for iv in fam.stable_intervals[0]]}
+        check = {"model": CONTINUOUS_CHECK_MODEL, "checked": True, "robust": fam.robust,
+                 "conclusive": fam.conclusive, "stable_intervals": fam.stable_intervals}
         h["continuous_check"] = check
         if check["robust"]:
             continue

@@ -150,3 +150,23 @@ def test_no_bound_when_the_hysteretic_family_tolerates_more():
     sa, lm, problems = sampled_decision(_doc(_raw(0.7)))
     assert "bound" not in lm and not lm["critical"]["loop"].endswith("complex_stiffness")
     assert sa["humans"][1]["continuous_check"]["robust"] is True
+
+
+def test_the_batch_of_documents_gives_each_its_own_checks():
+    """hysteretic_problems_many runs documents that differ only in overridable numbers (here the
+    plant, as gain-schedule entries do) as one batch: each document gets exactly the checks and
+    problems that hysteretic_problems gives it alone — a robust and a not-robust design side by side."""
+    from exotune.controllerfile.hysteretic import hysteretic_problems_many
+
+    docs = [_doc(_raw(0.7)), _doc(_raw(5.0)), _doc(_raw(0.7))]
+    docs[2]["plant"]["motor_inertia"]["value"] *= 1.25
+    alone = []
+    for d in docs:
+        sa = _skipped_sa()
+        alone.append((hysteretic_problems(d, sa), sa))
+    sas = [_skipped_sa() for _ in docs]
+    together = hysteretic_problems_many([(d, sa, "") for d, sa in zip(docs, sas)])
+    for (problems, sa), got, sa_b in zip(alone, together, sas):
+        assert got == problems
+        assert sa_b["humans"][1]["continuous_check"] == sa["humans"][1]["continuous_check"]
+    assert not together[0] and together[1]
