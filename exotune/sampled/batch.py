@@ -28,7 +28,7 @@ import numpy as np
 
 from ..numerics.engine import compiled
 from .loop import NEAR_UNIT as ROUND_NEAR
-from .loop import ROUNDING_TRIALS, Measured, plant_stack, split_delay, zoh_fractional, zoh_rounding
+from .loop import ROUNDING_TRIALS, Measured, expm_rounding, plant_stack, split_delay
 from .sos import bilinear_batch, df2t_batch, sos_ss_batch, tustin_sections_batch
 
 __all__ = ["RIGID_TOL", "NEAR_UNIT", "BatchLoops", "Loop", "batch_controller", "expm_stack"]
@@ -452,24 +452,40 @@ class BatchLoops:
 
     def _zoh_trial(self, des, loop: Loop, v, delay):
         """``trial(rng, j)``: the loop matrices of jobs ``j`` (positions in ``des``) with their
-        zero-order hold perturbed within its rounding estimate (:func:`exotune.sampled.loop.zoh_rounding`,
-        plus the difference between this engine's exponentials and scipy's), reassembled; the
-        draws in the order of certify's (:func:`exotune.sampled.loop.loop_verdict`)."""
+        zero-order hold perturbed within its rounding estimate (:func:`zoh_error`), reassembled;
+        the draws in the order of certify's (:func:`exotune.sampled.loop.loop_verdict`)."""
         A, B, C = self.plant(des, loop, v)
         d, f = self.split_delay(delay)
         Phi, G0, G1 = self.zoh(A, B, f)
-        err = [np.zeros_like(Phi), np.zeros_like(G0), np.zeros_like(G1)]
-        for i in range(des.size):
-            ref = zoh_fractional(A[i], B[i][:, None], self.Ts, float(f[i]))
-            est = zoh_rounding(A[i], B[i][:, None], self.Ts, float(f[i]))
-            for e, x, r, q in zip(err, (Phi[i], G0[i], G1[i]), ref, est):
-                e[i] = np.abs(x - r.reshape(x.shape)) + q.reshape(x.shape)
+        err = self.zoh_error(A, B, f)
 
         def trial(rng, j):
             moved = [x[j] + e[j] * rng.uniform(-1.0, 1.0, x.shape[1:]) for x, e in zip((Phi, G0, G1), err)]
             return self._assemble(des[j], *moved, C[j], int(d[0]), bool(f[0] > 0))
 
         return trial
+
+    def zoh_error(self, A: np.ndarray, B: np.ndarray, f: np.ndarray):
+        """Rounding estimates (entry by entry) of the stacks (Φ, Γ0, Γ1) of :meth:`zoh`, from
+        :func:`exotune.sampled.loop.expm_rounding` of its exponentials (this engine's)."""
+        k, n = B.shape
+        M = np.zeros((k, n + 1, n + 1))
+        M[:, :n, :n] = A
+        M[:, :n, n] = B
+        X0 = M * ((1.0 - f) * self.Ts)[:, None, None]
+        E0 = expm_stack(X0)
+        e0 = expm_rounding(X0, E0, expm_stack)
+        dPhi, dG0, dG1 = e0[:, :n, :n].copy(), e0[:, :n, n].copy(), np.zeros((k, n))
+        frac = f > 0
+        if frac.any():
+            X1 = M[frac] * (f[frac] * self.Ts)[:, None, None]
+            E1 = expm_stack(X1)
+            e1 = expm_rounding(X1, E1, expm_stack)
+            P0 = np.abs(E0[frac, :n, :n])
+            dPhi[frac] = e0[frac, :n, :n] @ np.abs(E1[:, :n, :n]) + P0 @ e1[:, :n, :n]
+            dG1[frac] = (np.einsum("kij,kj->ki", e0[frac, :n, :n], np.abs(E1[:, :n, n]))
+                         + np.einsum("kij,kj->ki", P0, e1[:, :n, n]))
+        return dPhi, dG0, dG1
 
 
 def _pad(k: int) -> np.ndarray:
