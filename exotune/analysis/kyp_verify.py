@@ -30,6 +30,8 @@ from fractions import Fraction
 
 import numpy as np
 
+from ..numerics.poly import is_hurwitz
+
 __all__ = ["lmi_holds", "positive_on_axis", "SAFETY"]
 
 SAFETY = 10.0  # factor on the rounding bounds of lmi_holds
@@ -78,25 +80,6 @@ def _frac(c) -> list[Fraction]:
     while len(out) > 1 and out[-1] == 0:
         out.pop()
     return out
-
-
-def _hurwitz(den: list[Fraction]) -> bool:
-    """Routh array of an ascending polynomial, exactly: every root in Re s < 0."""
-    a = den[::-1]  # descending
-    if a[0] < 0:
-        a = [-x for x in a]
-    if any(x <= 0 for x in a):  # a Hurwitz polynomial has all coefficients positive
-        return False
-    r0, r1 = a[0::2], a[1::2]
-    while r1:
-        if r1[0] <= 0:
-            return False
-        r1p = r1 + [Fraction(0)] * (len(r0) - len(r1))
-        nxt = [r0[i + 1] - r0[0] * r1p[i + 1] / r1[0] for i in range(len(r0) - 1)]
-        while nxt and nxt[-1] == 0:
-            nxt.pop()
-        r0, r1 = r1, nxt
-    return True
 
 
 def _pmul(a, b):
@@ -158,7 +141,7 @@ def positive_on_axis(num, den) -> tuple[bool, str]:
     n, d = _frac(num), _frac(den)
     if not any(d):
         return False, "zero denominator"
-    if not _hurwitz(d):
+    if not is_hurwitz([float(x) for x in d]):
         return False, "the denominator is not Hurwitz (exact Routh test)"
     # num(jω) = Σ n_k j^k ω^k; Re[num conj(den)] = E_n E_d + O_n O_d in x = ω², where
     # num(jω) = E_n(x) + jω O_n(x) with E_n = Σ n_2k (−x)^k, O_n = Σ n_2k+1 (−x)^k

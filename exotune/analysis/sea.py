@@ -56,7 +56,7 @@ def sea_report(cfg) -> SeaReport:
     import numpy as np
 
     from ..model.plant import Plant
-    from ..numerics.poly import as_poly, padd, pmul, pscale
+    from ..numerics.poly import as_poly, is_hurwitz, padd, pmul, pscale
     from ..model.shaping import (
         GAIN_UNITS_DEFLECTION,
         GAIN_UNITS_TORQUE,
@@ -84,8 +84,10 @@ def sea_report(cfg) -> SeaReport:
 
     poles = c5.poles()
     rigid = bool(c5.den[0] == 0)  # exact pole at s = 0 (K1 = 0): rigid-body mode, not an instability
-    nonzero = poles[np.abs(poles) > 0] if rigid else poles
-    stable = bool(np.all(nonzero.real < 0))
+    # every other pole in Re s < 0, decided exactly (Routh on the coefficients): poles on the
+    # imaginary axis (a lossless SEA, B_m + B1 = 0) come back from the eigenvalue solver with
+    # rounding-sized real parts of either sign, and a pole that K1 puts within 1e-300 of 0 as 0
+    stable = is_hurwitz(np.ravel(c5.den)[1:] if rigid else np.ravel(c5.den))
     res_hz, res_peak = resonance(c5)
     max_ph, max_hz = phase_extremum(c4, sign=+1)
     min_ph, min_hz = phase_extremum(c4, sign=-1)

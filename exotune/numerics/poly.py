@@ -38,6 +38,7 @@ __all__ = [
     "strip_common_low_zeros",
     "trim_high",
     "poly_roots",
+    "is_hurwitz",
     "root_grid",
     "Rational",
 ]
@@ -549,3 +550,50 @@ def _member(a, index: int) -> np.ndarray:
         return a
     rows = a.reshape(-1, a.shape[-1])
     return rows[index if rows.shape[0] > 1 else 0]
+
+
+def is_hurwitz(coeffs) -> bool:
+    """Whether every root of a real polynomial lies in Re s < 0, decided exactly: the Routh array
+    in rational arithmetic on the floating-point coefficients as given (no tolerance). A root on
+    the imaginary axis (a row of zeros in the array) or at infinity is not Hurwitz.
+
+    Parameters
+    ----------
+    coeffs : array_like
+        Ascending coefficients c_0 … c_d (float; trailing zeros are dropped).
+
+    Returns
+    -------
+    bool
+        True when all d roots have negative real part (a nonzero constant is Hurwitz).
+
+    References
+    ----------
+    Routh (1877); Gantmacher, *The Theory of Matrices* II, ch. XV.
+
+    Examples
+    --------
+    >>> is_hurwitz([1.0, 2.0, 1.0]), is_hurwitz([1.0, 1.0, 1.0, 1.0]), is_hurwitz([6.0, 11.0, 6.0, 1.0])
+    (True, False, True)
+    """
+    from fractions import Fraction
+
+    a = [Fraction(float(x)) for x in np.ravel(coeffs)]
+    while len(a) > 1 and a[-1] == 0:
+        a.pop()
+    a = a[::-1]  # descending
+    if a[0] < 0:
+        a = [-x for x in a]
+    if any(x <= 0 for x in a):  # a Hurwitz polynomial has every coefficient of one sign
+        return False
+    rows, r0, r1 = 1, a[0::2], a[1::2]
+    while r1:
+        if r1[0] <= 0:
+            return False
+        rows += 1
+        r1p = r1 + [Fraction(0)] * (len(r0) - len(r1))
+        nxt = [r0[i + 1] - r0[0] * r1p[i + 1] / r1[0] for i in range(len(r0) - 1)]
+        while nxt and nxt[-1] == 0:
+            nxt.pop()
+        r0, r1 = r1, nxt
+    return rows == len(a)  # a row of zeros before the last: roots on the imaginary axis

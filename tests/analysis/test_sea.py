@@ -113,3 +113,24 @@ def test_gains_in_torque_units_give_the_same_report(k1, b1, k2, b2):
     for k in a["shape"]:
         assert b["shape"][k] == pytest.approx(a["shape"][k], rel=1e-9, abs=1e-9)
     assert b["c5_stable"] == a["c5_stable"] and b["passivity"]["passive"] == a["passivity"]["passive"]
+
+
+def test_a_lossless_sea_is_not_called_stable():
+    """B_m + B1 = 0 and B2 = 0: C5's poles lie on the imaginary axis (no damping anywhere); the
+    eigenvalue solver returns them with rounding-sized real parts, which read "stable" before. The
+    exact Routh test calls the SEA not stable; any damping makes it stable."""
+    r, g = _report(K1=20000.0, B1=-BM, K2=0.0, B2=0.0)
+    assert np.max(np.abs(_c5_poles(g).real)) < 1e-6  # on the axis up to rounding
+    assert not r["c5_stable"]
+    r2, _ = _report(K1=20000.0, B1=-BM + 1.0, K2=0.0, B2=0.0)
+    assert r2["c5_stable"]
+
+
+@pytest.mark.parametrize("k1, stable", [(1e-300, True), (-1e-300, False), (5e-324, True), (0.0, True)])
+def test_a_tiny_position_gain_is_decided_by_its_sign(k1, stable):
+    """K1 = ±1e-300 adds a pole at ∓5.6e-302 rad/s, which the eigenvalue solver returns as 0 (it
+    read UNSTABLE for +1e-300 while K1 = 0 read stable); the exact test decides it by the sign of
+    the constant term. K1 = 0 is the rigid-body mode, excused."""
+    r, _ = _report(K1=k1, B1=0.0, K2=0.0, B2=0.0)
+    assert r["c5_stable"] is stable
+    assert r["c5_rigid_body_mode"] is (k1 == 0.0)

@@ -5,7 +5,7 @@ import control
 import numpy as np
 import numpy.polynomial.polynomial as P
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -140,3 +140,33 @@ def test_rational_helpers():
     assert Rational.poly(np.array([1.0, 2.0])).to_control().num[0][0].tolist() == [2.0, 1.0]
     with pytest.raises(Exception):
         r.num = None  # frozen
+
+
+# --------------------------------------------------------------------- is_hurwitz (exact Routh)
+def test_is_hurwitz_on_known_polynomials():
+    from exotune.numerics.poly import is_hurwitz
+
+    assert is_hurwitz([6.0, 11.0, 6.0, 1.0])  # (s+1)(s+2)(s+3)
+    assert is_hurwitz([-6.0, -11.0, -6.0, -1.0])  # the same, negated
+    assert not is_hurwitz([1.0, 1.0, 1.0, 1.0])  # (s+1)(s²+1): roots ±j (a row of zeros in the array)
+    assert not is_hurwitz([1.0, 0.0, 1.0])  # s² + 1
+    assert not is_hurwitz([0.0, 1.0])  # a root at 0
+    assert not is_hurwitz([1.0, -1.0])  # s = 1
+    assert is_hurwitz([3.0]) and is_hurwitz([1.0, 0.0])  # a constant (trailing zeros dropped)
+    assert not is_hurwitz([1.0, 2.0, 2.0, 1.0, 1.0])  # all positive, roots in Re s > 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.floats(-3.0, 3.0), st.floats(0.0, 3.0)), min_size=1, max_size=4),
+       st.floats(0.1, 10.0))
+def test_is_hurwitz_agrees_with_the_roots(pairs, gain):
+    """Polynomials built from known roots, real parts at least 1e-2 away from the axis (the
+    coefficients' rounding moves a root far less): Hurwitz exactly when every root has Re < 0."""
+    from exotune.numerics.poly import is_hurwitz
+
+    roots = []
+    for re, im in pairs:
+        re = re if abs(re) >= 1e-2 else (1e-2 if re >= 0 else -1e-2)
+        roots += [complex(re, im), complex(re, -im)] if im > 1e-3 else [complex(re, 0.0)]
+    c = np.real(np.poly(roots))[::-1] * gain  # ascending
+    assert is_hurwitz(c) is all(r.real < 0 for r in roots)
