@@ -160,23 +160,48 @@ def sea(source) -> Any:
 
     Parameters
     ----------
-    source : path or Mapping
-        An SEA file: a plant and the four SEA gains (docs/design-file.md#sea-files).
+    source : str, os.PathLike, Mapping or SeaConfig
+        An SEA file: a plant and the four SEA gains (docs/design-file.md#sea-files), the same
+        content as a mapping (validated as the file is), or an SEA file already loaded
+        (:func:`exotune.config.load_sea`).
 
     Returns
     -------
     SeaReport
         Its compliances and verdicts; ``to_dict()`` is ``exotune sea --json``.
 
+    Raises
+    ------
+    ConfigError
+        The first invalid field and why.
+    TypeError
+        When ``source`` is neither a path, a mapping nor a SeaConfig.
+
     References
     ----------
     Paper §II-B.
+
+    Examples
+    --------
+    >>> r = sea({"plant": {"motor_inertia": 0.44, "motor_damping": 17.9, "sea_stiffness": 1180.0,
+    ...                    "joint_inertia": 0.29},
+    ...          "gains": {"units": "deflection", "K1": 69480.0, "B1": 1387.0, "K2": -41690.0, "B2": -1183.0}})
+    >>> r.to_dict()["c5_stable"], r.to_dict() == sea("examples/sea.yaml").to_dict() | {"source": None}
+    (True, True)
     """
     from .analysis import sea_report
-    from .config import load_sea
+    from .config import SeaConfig, load_sea, sea_from_mapping
 
+    if isinstance(source, SeaConfig):
+        cfg = source
+    elif isinstance(source, Mapping):
+        cfg = sea_from_mapping(dict(source))  # validated as the file is
+    elif isinstance(source, (str, os.PathLike)):
+        cfg = load_sea(source)
+    else:
+        raise TypeError(f"expected an SEA file path, a mapping or a SeaConfig, got {type(source).__name__}")
     with numpy_engine():
-        return sea_report(load_sea(source))
+        return sea_report(cfg)
 
 
 def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
@@ -467,8 +492,9 @@ def certify(source, *, precision: str | None = None, time_budget_s: float | str 
 
     Parameters
     ----------
-    source : path, Mapping or ExportedController
-        The controller file, its content, or the result of :func:`export`.
+    source : path, Mapping, ControllerFile or ExportedController
+        The controller file, its content, the file loaded
+        (:func:`exotune.controllerfile.load_controller_file`), or the result of :func:`export`.
     precision : {"float64", "float32"}, optional
         Analyse the file as if exported for this target arithmetic (``certify --precision``;
         docs/controller-file.md#precision); the file is not changed.
@@ -487,7 +513,7 @@ def certify(source, *, precision: str | None = None, time_budget_s: float | str 
         For an invalid controller file, a controller not built from its design section, or when
         the time budget is spent.
     TypeError
-        When ``source`` is neither a path, a mapping nor an ExportedController.
+        When ``source`` is neither a path, a mapping, a ControllerFile nor an ExportedController.
 
     References
     ----------
@@ -502,17 +528,20 @@ def certify(source, *, precision: str | None = None, time_budget_s: float | str 
     (True, ())
     """
     from .controllerfile.certify import certify as _certify
-    from .controllerfile import checked_controller_file, load_controller_file
+    from .controllerfile import ControllerFile, checked_controller_file, load_controller_file
     from .controllerfile.results import ExportedController
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
+    if isinstance(source, ControllerFile):
+        source = source.to_dict()  # validated again below, as a mapping is
     if isinstance(source, (str, os.PathLike)):
         doc = load_controller_file(source)
     elif isinstance(source, Mapping):
         doc = checked_controller_file(dict(source))  # validated as a file is
     else:
-        raise TypeError(f"expected a controller file path, a mapping or an ExportedController, got {type(source).__name__}")
+        raise TypeError("expected a controller file path, a mapping, a ControllerFile or an ExportedController, "
+                        f"got {type(source).__name__}")
     from .numerics.timebudget import check_budget_option, time_budget
 
     name = os.path.basename(source) if isinstance(source, (str, os.PathLike)) else "the controller file"
@@ -527,8 +556,11 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
 
     Parameters
     ----------
-    source : path or ExportedController
-        A controller file, or the result of :func:`export`; it is certified first.
+    source : str, os.PathLike or ExportedController
+        A controller file, or the result of :func:`export` written to a path; it is certified
+        first. Only a file: the generated C is stamped with the sha256 of the file's bytes, which
+        a mapping or a loaded ControllerFile does not have (write it first with
+        :func:`exotune.controllerfile.write_controller`).
     out : path
         Directory for ``exotune_controller.h``, ``exotune_controller.c`` and
         ``exotune_golden_test.c`` (all written or none).
@@ -542,6 +574,14 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
     GeneratedC
         Where the files went, the number of controllers and sections, the compiler flags, the
         file's sha256 and its certification (``certified``, ``reasons``).
+
+    Raises
+    ------
+    ConfigError
+        ``source``: not a file (a mapping, a ControllerFile, an ExportedController never written,
+        another object); an invalid file; a bad ``out`` or ``allow_uncertified``.
+    RunFailed
+        When the file does not certify and ``allow_uncertified`` is False.
 
     References
     ----------
@@ -561,8 +601,16 @@ def codegen(source, out, *, allow_uncertified: bool = False) -> GeneratedC:
 
     if isinstance(source, ExportedController):
         if source.path is None:
-            raise TypeError("codegen needs a written controller file (export it to a path first)")
+            raise ConfigError("source", "codegen needs the controller file itself, and this exported controller "
+                              "was never written: export it to a path (`out`) first")
         source = source.path
+    if not isinstance(source, (str, os.PathLike)):
+        what = ("a mapping" if isinstance(source, Mapping) else "a loaded ControllerFile"
+                if type(source).__name__ == "ControllerFile" else f"an object of type {type(source).__name__}")
+        raise ConfigError("source", f"codegen needs the controller file itself (a path, or an exported controller "
+                          f"written to one), got {what}: the generated C is stamped with the sha256 of the file's "
+                          "bytes, which only the file has (write it first with "
+                          "exotune.controllerfile.write_controller, then pass its path)")
     allow_uncertified = flag_value("allow_uncertified", allow_uncertified)
     check_outputs([source], out_dirs={"`out`": path_value("out", out, required=True)},
                   dir_names={"`out`": ("*.c", "*.h")})
@@ -733,9 +781,10 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
 
     Parameters
     ----------
-    source : path, Mapping, DesignConfig or ExportedController
+    source : path, Mapping, DesignConfig, ControllerFile or ExportedController
         A design file (with ``sample_rate_hz``) or a controller file, the same content as a
-        mapping (validated as the file is), a loaded design, or the result of :func:`export`.
+        mapping (validated as the file is), a loaded design, a loaded controller file, or the
+        result of :func:`export`.
     scenario : str
         ``locked-output``, ``dob-friction``, ``light-mass``, ``saturation`` or ``backlash``.
     sample_rate_hz : float, optional
@@ -747,7 +796,9 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     start : {"bumpless", "zero"}
         Initial controller state (``--start``).
     joint_angle : float, optional
-        Run the gain-schedule entry nearest this joint angle [rad] (``--joint-angle``).
+        Run the gain-schedule entry nearest this joint angle [rad] (``--joint-angle``), as the
+        runtime picks it; an angle outside the schedule's angles is refused (the file describes no
+        plant there). The result names the entry that ran (``gain_schedule_entry``).
     plots : path, optional
         Also write the time-series PNGs into this directory (``--plots``).
     progress : callable, optional
@@ -761,7 +812,10 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     Raises
     ------
     ConfigError
-        For bad input (a file, the scenario, an option) or an output that would overwrite an input.
+        For bad input (a file, the scenario, an option, a joint angle outside the gain schedule)
+        or an output that would overwrite an input.
+    TypeError
+        When ``source`` is none of the kinds above.
 
     References
     ----------
@@ -774,23 +828,27 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     >>> s["verdict"], round(s["delivered_amplification"]["value"], 4)
     ('decaying', 8.0)
     """
+    from .controllerfile import ControllerFile
     from .controllerfile.results import ExportedController
-    from .simulation import at_joint_angle, load_for_simulation, run_scenario
+    from .simulation import load_for_simulation, run_scenario
     from .simulation.load import check_joint_angle
     from .simulation.report import check_run_options
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
+    if isinstance(source, ControllerFile):
+        source = source.to_dict()  # validated again, as a mapping is
+    if not (isinstance(source, (str, os.PathLike, Mapping)) or (hasattr(source, "raw") and hasattr(source, "plant"))):
+        raise TypeError("expected a design or controller file path, a mapping, a DesignConfig, a ControllerFile or "
+                        f"an ExportedController, got {type(source).__name__}")
     check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)}, dir_names={"`plots`": ("*.png",)})
     check_run_options(scenario, start, human_inertia, duration)  # bad options before the file is loaded
     check_joint_angle(joint_angle)
     fs = _rate_override(sample_rate_hz)
     with numpy_engine():
         doc = load_for_simulation(source, fs)
-        if joint_angle is not None:
-            doc = at_joint_angle(doc, joint_angle)
         r = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,
-                         progress=progress)
+                         progress=progress, joint_angle=joint_angle)
     if plots is not None:
         from .jsonio import write_files
         from .plots.simulate import plot_simulation

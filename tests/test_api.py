@@ -232,12 +232,13 @@ def test_simulate_and_certify_accept_objects_and_validate_mappings(tmp_path):
     from exotune.errors import ConfigError
 
     design = ROOT / "examples" / "scheduled.yaml"
-    runs = [exotune.simulate(src, "locked-output", duration=0.3)
+    # 0.6 s: two periods of the locked loop's dominant 3.9 Hz oscillation (a shorter run is inconclusive)
+    runs = [exotune.simulate(src, "locked-output", duration=0.6)
             for src in (design, read_yaml(design), exotune.load_design(design))]
     assert runs[0].to_json() == runs[1].to_json() == runs[2].to_json()
     cf = exotune.export(design, 1000.0, tmp_path / "c.yaml")
-    from_file = exotune.simulate(cf, "locked-output", duration=0.3)
-    from_doc = exotune.simulate(cf.to_dict(), "locked-output", duration=0.3)
+    from_file = exotune.simulate(cf, "locked-output", duration=0.6)
+    from_doc = exotune.simulate(cf.to_dict(), "locked-output", duration=0.6)
     assert from_file.to_json() == from_doc.to_json()
     assert from_file.to_dict()["summary"]["verdict"] == runs[0].to_dict()["summary"]["verdict"] == "decaying"
     bad = cf.to_dict()
@@ -359,6 +360,54 @@ def test_certify_time_budget_is_a_library_keyword(tmp_path):
     assert exotune.certify(c, time_budget_s=600).certified
 
 
+def test_sea_accepts_a_path_a_mapping_and_a_loaded_file():
+    """h8 item 7: exotune.sea(mapping) raised a bare TypeError (config/design.py) although the API
+    takes a path, a mapping or a loaded object; the mapping is validated as the file is."""
+    import yaml
+
+    from exotune.config import load_sea
+
+    path = ROOT / "examples" / "sea.yaml"
+    want = exotune.sea(path).to_dict()
+    assert exotune.sea(str(path)).to_dict() == want
+    assert exotune.sea(load_sea(path)).to_dict() == want
+    assert exotune.sea(yaml.safe_load(path.read_text())).to_dict() == {**want, "source": None}
+    bad = yaml.safe_load(path.read_text())
+    bad["gains"]["B1"] = 1e308
+    _refused(lambda: exotune.sea(bad), "gains.B1", "[-1e9, 1e9]")
+    with pytest.raises(TypeError, match="an SEA file path, a mapping or a SeaConfig"):
+        exotune.sea(3.0)
+
+
+def test_codegen_refuses_what_has_no_file_bytes_naming_source(tmp_path):
+    """h8 item 7: exotune.codegen(mapping | ControllerFile) raised a bare TypeError (yamlio.py): the
+    generated C is stamped with the sha256 of the file's bytes, which only a file has. Refused as a
+    ConfigError naming ``source`` and the reason, nothing written; a written export still works."""
+    from exotune.controllerfile import load_controller_file
+
+    c = exotune.export(SCHED, 1000.0, tmp_path / "c.yaml")
+    for src, what in ((c.to_dict(), "got a mapping"), (load_controller_file(tmp_path / "c.yaml"),
+                                                         "got a loaded ControllerFile"),
+                      (42, "got an object of type int")):
+        e = _refused(lambda: exotune.codegen(src, tmp_path / "src"), "source", "codegen needs the controller file itself")
+        assert what in e.reason and "sha256 of the file's bytes" in e.reason
+    assert not (tmp_path / "src").exists()
+    g = exotune.codegen(c, tmp_path / "src")
+    assert g.certified and (tmp_path / "src" / "exotune_controller.c").exists()
+
+
+def test_certify_and_simulate_accept_a_loaded_controller_file(tmp_path):
+    """The controller file's loaded object (``load_controller_file``) is a loaded object too: certify
+    and simulate refused it with a bare TypeError."""
+    from exotune.controllerfile import load_controller_file
+
+    c = exotune.export(SCHED, 1000.0, tmp_path / "c.yaml")
+    cf = load_controller_file(tmp_path / "c.yaml")
+    assert exotune.certify(cf).to_dict() == exotune.certify(c).to_dict()
+    assert (exotune.simulate(cf, "locked-output", duration=0.6).to_json()
+            == exotune.simulate(c, "locked-output", duration=0.6).to_json())
+
+
 def test_sea_and_init_twins(tmp_path):
     assert exotune.sea(ROOT / "examples" / "sea.yaml").to_dict() == json.loads(
         CliRunner().invoke(cli, ["sea", str(ROOT / "examples" / "sea.yaml"), "--json"]).output)
@@ -386,6 +435,8 @@ def _refused(call, field: str, why: str = "") -> ConfigError:
     ({"joint_angle": math.nan}, "joint_angle", "finite"),  # was run at an arbitrary schedule entry
     ({"joint_angle": math.inf}, "joint_angle", "finite"),
     ({"joint_angle": "1.0"}, "joint_angle", "expected a number"),  # was a TypeError
+    ({"joint_angle": 100.0}, "joint_angle", "outside the gain schedule's joint angles [0, 2] rad"),  # ran at 2 rad
+    ({"joint_angle": 1e308}, "joint_angle", "outside the gain schedule's joint angles [0, 2] rad"),
     ({"human_inertia": True}, "human_inertia", "expected a number"),  # was run with 1 kg·m²
     ({"human_inertia": "0.02"}, "human_inertia", "expected a number"),  # was a TypeError
     ({"duration": True}, "duration", "expected a number"),  # was a 1 s run

@@ -134,8 +134,14 @@ def simulation_figure(rep: dict, ax=None):
         style.grid(a, which="major")
         a.legend(fontsize=7)
     g = sm["envelope_growth_rate"]["value"]
-    title = (f"exotune simulate — {rep['scenario']} at {rep['sample_rate_hz']:g} Hz: {sm['verdict']}"
-             + (f" (envelope growth {g:.3g} 1/s)" if g is not None and np.isfinite(g) else ""))
+    basis = sm.get("verdict_basis", "envelope")
+    if basis == "spectral_radius":  # the eigenvalues decided, not the envelope
+        why = f" (loop spectral radius {sm['loop_spectral_radius']['value']:.6g} > 1)"
+    elif basis == "none":
+        why = " (run too short to judge)"
+    else:
+        why = f" (envelope growth {g:.3g} 1/s)" if g is not None and np.isfinite(g) else ""
+    title = f"exotune simulate — {rep['scenario']} at {rep['sample_rate_hz']:g} Hz: {sm['verdict']}{why}"
     if ax is not None:
         ax.set_xlabel("time t [s]")
         ax.set_title(title, fontsize=9)

@@ -21,5 +21,6 @@ __getattr__, __dir__, __all__ = attach(
         "JointPlant": "plant",
         "load_for_simulation": "load",
         "at_joint_angle": "load",
+        "schedule_entry": "load",
     },
 )

@@ -6,12 +6,14 @@ from __future__ import annotations
 from ..config import read_yaml
 from ..config.validate import in_limits, limit_text
 from ..controllerfile import ControllerFile, as_controller_file, build_export, checked_controller, design_at_rate, load_controller
+from ..controllerfile.model import ScheduleEntry
 from ..controllerfile.certify import certify
 from ..errors import ConfigError
 from ..options import number_value
 from ..units import fmt_num
 
-__all__ = ["load_for_simulation", "at_joint_angle", "check_consistent", "check_human_inertia", "check_joint_angle"]
+__all__ = ["load_for_simulation", "schedule_entry", "at_joint_angle", "check_consistent", "check_human_inertia",
+           "check_joint_angle"]
 
 
 def check_human_inertia(value: float | None, field: str = "human_inertia") -> float | None:
@@ -179,9 +181,71 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
     return build_export(cfg, fs, source=name, analyses=False)  # the runtime's sections only
 
 
+def schedule_entry(doc: ControllerFile | dict, joint_angle_rad: float) -> ScheduleEntry:
+    """The gain-schedule entry ``simulate --joint-angle`` runs at ``joint_angle_rad`` [rad]: the
+    entry nearest it, as the runtime picks it (:meth:`~exotune.controllerfile.model.GainSchedule.nearest`),
+    for an angle within the schedule's angles. Beyond them the file describes no plant (the
+    transmission table ends there) — the runtime would still run the end entry, but a simulation
+    of that entry's plant would not be a simulation at the angle asked for — so such an angle is
+    refused.
+
+    Parameters
+    ----------
+    doc : ControllerFile or dict
+        The controller file.
+    joint_angle_rad : float
+        Joint angle [rad].
+
+    Returns
+    -------
+    ScheduleEntry
+        The entry.
+
+    Raises
+    ------
+    ConfigError
+        ``joint_angle`` (``--joint-angle``): not a finite number (:func:`check_joint_angle`), the
+        controller has no gain schedule, or the angle lies outside the schedule's angles (the
+        range in the message).
+
+    References
+    ----------
+    docs/cli.md#simulate; docs/design-file.md (the transmission's gain schedule).
+
+    Examples
+    --------
+    >>> from exotune.controllerfile import build_export, design_at_rate
+    >>> from exotune.config import read_yaml
+    >>> doc = build_export(design_at_rate(read_yaml("examples/scheduled.yaml"), 1000.0), 1000.0, analyses=False)
+    >>> schedule_entry(doc, 1.7).joint_angle_rad
+    1.5
+    >>> schedule_entry(doc, 100.0)
+    Traceback (most recent call last):
+    ...
+    exotune.errors.ConfigError: joint_angle: 100 rad is outside the gain schedule's joint angles [0, 2] rad: the file describes no plant there (entries at 0, 0.5, 1, 1.5, 2 rad); the runtime would run the nearest entry (2 rad), but its plant is not the joint's at 100 rad; give an angle in [0, 2] rad
+    """
+    joint_angle_rad = check_joint_angle(joint_angle_rad)
+    cf = as_controller_file(doc)
+    if cf.gain_schedule is None:
+        raise ConfigError("joint_angle", "the controller has no gain schedule (no transmission section)")
+    angles = [float(e.joint_angle_rad) for e in cf.gain_schedule.entries]
+    lo, hi = min(angles), max(angles)
+    if not lo <= joint_angle_rad <= hi:
+        end = hi if joint_angle_rad > hi else lo  # the end entry is the nearest
+        at = (f"entries at {', '.join(fmt_num(a) for a in angles)} rad" if len(angles) <= 8
+              else f"{len(angles)} entries")
+        raise ConfigError("joint_angle", f"{fmt_num(joint_angle_rad)} rad is outside the gain schedule's joint angles "
+                          f"[{fmt_num(lo)}, {fmt_num(hi)}] rad: the file describes no plant there ({at}); "
+                          "the runtime would run the nearest entry "
+                          f"({fmt_num(end)} rad), but its plant is not the joint's at "
+                          f"{fmt_num(joint_angle_rad)} rad; give an angle in [{fmt_num(lo)}, {fmt_num(hi)}] rad")
+    return cf.gain_schedule.nearest(joint_angle_rad)
+
+
 def at_joint_angle(doc: ControllerFile | dict, joint_angle_rad: float) -> ControllerFile:
-    """The controller document of the gain-schedule entry nearest ``joint_angle_rad`` [rad]: its
-    plant and controller in place of the nominal ones (``simulate --joint-angle``).
+    """The controller document of the gain-schedule entry :func:`schedule_entry` picks at
+    ``joint_angle_rad`` [rad] (the nearest, within the schedule's angles): its plant and controller
+    in place of the nominal ones (``simulate --joint-angle``).
 
     Parameters
     ----------
@@ -198,15 +262,11 @@ def at_joint_angle(doc: ControllerFile | dict, joint_angle_rad: float) -> Contro
     Raises
     ------
     ConfigError
-        ``joint_angle`` (``--joint-angle``): not a finite number (:func:`check_joint_angle`), or
-        the controller has no gain schedule.
+        ``joint_angle`` (``--joint-angle``), as :func:`schedule_entry`.
 
     References
     ----------
     docs/cli.md#simulate; paper §IV (the transmission's gain schedule).
     """
-    joint_angle_rad = check_joint_angle(joint_angle_rad)
     cf = as_controller_file(doc)
-    if cf.gain_schedule is None:
-        raise ConfigError("joint_angle", "the controller has no gain schedule (no transmission section)")
-    return cf.entry_view(cf.gain_schedule.nearest(joint_angle_rad))
+    return cf.entry_view(schedule_entry(cf, joint_angle_rad))

@@ -14,11 +14,11 @@ from ..errors import ConfigError
 from ..options import number_value
 from ..units import fmt_num
 from .engine import bumpless_start, check_start, simulate, strip_dob
-from .load import check_human_inertia
+from .load import check_human_inertia, schedule_entry
 from .result import SimulationRun
 from .scenarios import SCENARIOS, Nonlinearities, Scenario
-from .verdict import (FIT_FRACTION, MARGINAL_TOL, classify, dominant_frequency, envelope_growth,
-                      loop_spectral_radius)
+from .verdict import (FIT_FRACTION, MARGINAL_TOL, MIN_PERIODS, LoopSpectrum, classify, dominant_frequency,
+                      envelope_growth, judge, loop_spectrum)
 
 __all__ = ["run_scenario", "check_run_options", "summarize"]
 
@@ -29,9 +29,10 @@ def _q(value, unit: str, **extra) -> dict:
     return {"value": value, "unit": unit, **extra}
 
 
-def _judge(sim: dict, sc: Scenario) -> dict:
+def _judge(sim: dict, sc: Scenario, spectrum: LoopSpectrum | None) -> dict:
     """Verdict of a run from the envelopes of τ_s and τ_c: a live oscillation outranks one that died
-    out (the latest death outranks earlier ones); then the faster-growing one decides."""
+    out (the latest death outranks earlier ones); then the faster-growing one decides. The
+    envelope's verdict is then weighed against the linearized loop (:func:`~.verdict.judge`)."""
     s = sim["series"]
     lag = int(round(sim["sample_rate_hz"] / sc.push_hz)) if sc.push_hz > 0 else 1
     if s["t"].size < 2 * lag + 16:  # shorter than two push periods: the sample-to-sample change
@@ -43,8 +44,61 @@ def _judge(sim: dict, sc: Scenario) -> dict:
         if best is None or rank > best[0]:
             best = (rank, key, g, died)
     _, key, g, died = best
-    return {"verdict": classify(g, died, sim["diverged"] is not None), "growth": g, "died": died is not None,
-            "signal": key, "lag": lag}
+    envelope = classify(g, died, False)
+    run_s = s["t"].size / sim["sample_rate_hz"]
+    verdict, basis = judge(envelope, run_s, spectrum, died is not None, sim["diverged"] is not None)
+    j = {"verdict": verdict, "basis": basis, "envelope": envelope, "growth": g, "died": died is not None,
+         "died_at": died, "signal": key, "lag": lag}
+    j["reason"] = _reason(j, sim, run_s, spectrum)
+    return j
+
+
+def _envelope_words(j: dict) -> str:
+    """What the envelope shows, in words."""
+    g, sig = j["growth"], j["signal"]
+    if j["died"]:
+        return f"the oscillation of {sig} decayed to rounding level at t = {j['died_at']:.4g} s"
+    if g is None:
+        return f"the envelope of {sig} could not be fitted"
+    if j["envelope"] == "marginal":
+        return f"the oscillation of {sig} is sustained (|{g:.4g}| ≤ {MARGINAL_TOL} 1/s)"
+    return f"the oscillation of {sig} {'grows' if g > 0 else 'decays'} at {abs(g):.4g} 1/s"
+
+
+def _reason(j: dict, sim: dict, run_s: float, sp: LoopSpectrum | None) -> str:
+    """Why the run got its verdict, in words: which of the envelope and the eigenvalues decided,
+    and the run length against the periods an envelope needs."""
+    if j["basis"] == "stopped":
+        return f"the run stopped: {sim['diverged']}"
+    env = _envelope_words(j)
+    needed = sp.needed_run_s if sp is not None else None
+    periods = ("" if needed is None else f"{MIN_PERIODS:g} periods of the linearized loop's dominant oscillation at "
+               f"{sp.oscillation_hz:.4g} Hz ({MIN_PERIODS:g} × {sp.oscillation_period_s:.4g} s = {needed:.4g} s)")
+    short = needed is not None and run_s < needed and not j["died"]
+    too_short = f"the run ({run_s:g} s, {sim['series']['t'].size} samples) is shorter than {periods}"
+    if j["basis"] == "none":
+        return (f"{too_short}: its envelope ({env}) cannot tell growth from decay; a run of at least "
+                f"{needed:.4g} s can be judged")
+    if j["basis"] == "spectral_radius":
+        head = (f"the linearized loop's spectral radius {sp.spectral_radius:.6g} > 1 "
+                f"(growth {sp.growth_rate_per_s:.4g} 1/s)")
+        if short:
+            return f"{head} decides: {too_short}, too short for its envelope ({env}) to be judged"
+        return (f"{head} outranks the run's envelope ({env}): where they disagree the eigenvalue verdict wins, "
+                "and a loop with an eigenvalue outside the unit circle is never judged decaying")
+    return env + (f"; the run of {run_s:g} s lasts at least {periods}" if periods else "")
+
+
+def _null_reason(j: dict, sim: dict, sp: LoopSpectrum | None) -> str:
+    """Why the metrics of a growing or an inconclusive run are not measured (a steady value or a
+    peak of such a run is an artefact of its duration)."""
+    if sim["diverged"]:
+        return sim["diverged"]
+    if j["basis"] == "spectral_radius":
+        return f"the linearized loop grows (spectral radius {sp.spectral_radius:.6g} > 1)"
+    if j["verdict"] == "inconclusive":
+        return "the run is too short to be judged (see verdict_reason); its values would be artefacts of its length"
+    return _envelope_words(j)
 
 
 def _tail(n: int) -> slice:
@@ -73,7 +127,7 @@ def _metrics(sim: dict, sc: Scenario, alpha: float) -> dict:
     return out
 
 
-def summarize(sim: dict, sc: Scenario, alpha: float, rho: float | None) -> dict:
+def summarize(sim: dict, sc: Scenario, alpha: float, rho: "float | LoopSpectrum | None") -> dict:
     """Summary of one run.
 
     Parameters
@@ -84,16 +138,20 @@ def summarize(sim: dict, sc: Scenario, alpha: float, rho: float | None) -> dict:
         Its scenario.
     alpha : float
         The design's amplification α.
-    rho : float or None
-        The linearized sampled-data loop's spectral radius (reported beside the verdict).
+    rho : LoopSpectrum, float or None
+        The linearized sampled-data loop (:func:`~.verdict.loop_spectrum`): its spectral radius
+        is reported beside the verdict, and its dominant oscillation sets the run length an
+        envelope needs; a bare ρ (float) gives no such length; None: not known.
 
     Returns
     -------
     dict
-        Samples, duration, start, ``verdict`` (growing / decaying / marginal) with its envelope
-        growth rate and ρ, ``diverged`` (verdict growing), ``stopped`` (why a run ended early)
-        and the metrics — null, with ``metrics_null_reason``, for a growing run (a steady value
-        or a peak of an unstable run is an artefact of its duration).
+        Samples, duration, start, ``verdict`` (growing / decaying / marginal / inconclusive,
+        :func:`~.verdict.judge`) with ``verdict_basis`` (``envelope``, ``spectral_radius``,
+        ``stopped`` or ``none``) and ``verdict_reason`` (in words), its envelope growth rate, ρ
+        and the dominant oscillation, ``diverged`` (verdict growing), ``stopped`` (why a run
+        ended early) and the metrics — null, with ``metrics_null_reason``, for a growing or an
+        inconclusive run (a steady value or a peak of such a run is an artefact of its duration).
 
     References
     ----------
@@ -102,23 +160,27 @@ def summarize(sim: dict, sc: Scenario, alpha: float, rho: float | None) -> dict:
     s = sim["series"]
     n = s["t"].size
     fs = sim["sample_rate_hz"]
-    j = _judge(sim, sc)
+    sp = rho if isinstance(rho, LoopSpectrum) else (None if rho is None else LoopSpectrum(float(rho), fs))
+    j = _judge(sim, sc, sp)
     out = {"samples": int(n), "duration_s": _q(float(n / fs), "s"), "start": sim["start"], "verdict": j["verdict"],
-           "diverged": j["verdict"] == "growing",
+           "verdict_basis": j["basis"], "verdict_reason": j["reason"], "diverged": j["verdict"] == "growing",
            "envelope_growth_rate": _q(j["growth"], "1/s", signal=j["signal"], tolerance=MARGINAL_TOL,
                                       fitted_over=f"the last {FIT_FRACTION:.0%} of the run"
                                       + (f" (change over one push period, {j['lag'] / fs:g} s)" if j["lag"] > 1 else "")
                                       + (" (the oscillation decayed to rounding level)" if j["died"] else "")),
-           "loop_spectral_radius": _q(rho, "1", growth_rate_per_s=(fs * math.log(rho) if rho and math.isfinite(rho)
-                                                                  else None),
-                                      note="linearized sampled-data loop (nonlinearities off)")}
+           "loop_spectral_radius": _q(None if sp is None else sp.spectral_radius, "1",
+                                      growth_rate_per_s=None if sp is None else sp.growth_rate_per_s,
+                                      dominant_oscillation_hz=None if sp is None else sp.oscillation_hz,
+                                      dominant_oscillation_period_s=None if sp is None else sp.oscillation_period_s,
+                                      note="linearized sampled-data loop (nonlinearities off); a run is judged from "
+                                           f"its envelope over at least {MIN_PERIODS:g} periods of the dominant "
+                                           "oscillation")}
     if sim["diverged"]:
         out["stopped"] = sim["diverged"]
     m = _metrics(sim, sc, alpha)
-    if j["verdict"] == "growing":
-        why = sim["diverged"] or (f"the oscillation of {j['signal']} grows at {j['growth']:.4g} 1/s")
+    if j["verdict"] in ("growing", "inconclusive"):
         m = {k: {**v, "value": None} for k, v in m.items()}
-        out["metrics_null_reason"] = f"growing run: {why}"
+        out["metrics_null_reason"] = f"{j['verdict']} run: {_null_reason(j, sim, sp)}"
     out.update(m)
     return out
 
@@ -152,7 +214,7 @@ def _limit_cycle(sim: dict, sc: Scenario, verdict: str, linear: dict) -> dict:
     swing = float(np.ptp(ts)) if ts.size else 0.0
     crosses = bool(ts.size and (np.any(ts == 0.0) or np.any(np.signbit(ts[1:]) != np.signbit(ts[:-1]))))
     present = verdict == "marginal" and crosses and swing > LIMIT_CYCLE_NM * max(abs(sc.push_nm), 1.0)
-    return {"present": None if verdict == "growing" else bool(present),
+    return {"present": None if verdict in ("growing", "inconclusive") else bool(present),
             "frequency": _q(dominant_frequency(s["t"][part], ts) if present else None, "Hz"),
             "spring_torque_swing": _q(swing, "N·m peak to peak, last half of the run"),
             "crosses_dead_zone": crosses,
@@ -278,7 +340,7 @@ def check_run_options(name, start: str = "bumpless", human_inertia: float | None
 
 def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inertia: float | None = None,
                  duration_s: float | None = None, start: str = "bumpless",
-                 progress: Callable[[float], None] | None = None) -> SimulationRun:
+                 progress: Callable[[float], None] | None = None, joint_angle: float | None = None) -> SimulationRun:
     """Run a scenario and summarize it.
 
     Parameters
@@ -295,25 +357,34 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
         Initial controller state.
     progress : callable, optional
         Called with the completed fraction of the main run.
+    joint_angle : float, optional
+        Run the gain-schedule entry :func:`~.load.schedule_entry` picks at this joint angle [rad]
+        (the nearest; an angle beyond the schedule's is refused) instead of the nominal controller.
 
     Returns
     -------
     SimulationRun
         ``to_dict()``: ``scenario``, ``description``, ``human``, ``nonlinearities``,
-        ``sample_rate_hz``, ``delay_samples``, ``summary`` and the scenario's measurements
+        ``sample_rate_hz``, ``delay_samples``, ``gain_schedule_entry`` (with ``joint_angle``: the
+        angle asked for, the entry's angle and ratio), ``summary`` and the scenario's measurements
         (``windup_recovery``, ``limit_cycle``, ``friction_estimate``, ``friction_sensitivity``);
         ``runs``: the time series, keyed ``controller``, ``without_dob``, ``without_clamp``.
 
     Raises
     ------
     exotune.errors.ConfigError
-        A bad option (:func:`check_run_options`), or a run too long or too short (``duration``).
+        A bad option (:func:`check_run_options`), a run too long or too short (``duration``), or a
+        joint angle the file's gain schedule does not cover (``joint_angle``).
 
     References
     ----------
     Paper §V; docs/cli.md#simulate.
     """
     sc, human_inertia, duration_s = check_run_options(name, start, human_inertia, duration_s)
+    entry = None
+    if joint_angle is not None:
+        entry = schedule_entry(doc, joint_angle)
+        doc = as_controller_file(doc).entry_view(entry)
     if human_inertia is not None:
         sc = replace(sc, human={**sc.human, "inertia": human_inertia})
     if duration_s is not None:
@@ -322,14 +393,20 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
     check_budget(float(doc.sample_rate_hz), sc.duration_s)
     alpha = float(doc.design.amplification)
     sim = simulate(doc, sc, start=start, progress=progress)
-    rho = loop_spectral_radius(doc, sc.human, sc.locked)
+    rho = loop_spectrum(doc, sc.human, sc.locked)
     nl = sc.nonlinear
     rep = {"scenario": sc.name, "description": sc.description, "human": sc.human,
            "nonlinearities": {"coulomb_nm": nl.coulomb_nm, "backlash_rad": nl.backlash_rad,
                               "saturation_nm": nl.saturation_nm,
                               "units": {"coulomb_nm": "N·m", "backlash_rad": "rad", "saturation_nm": "N·m"}},
-           "sample_rate_hz": sim["sample_rate_hz"], "delay_samples": sim["delay_samples"], "design_alpha": alpha,
-           "summary": summarize(sim, sc, alpha, rho), "runs": {"controller": sim}}
+           "sample_rate_hz": sim["sample_rate_hz"], "delay_samples": sim["delay_samples"], "design_alpha": alpha}
+    if entry is not None:
+        rep["gain_schedule_entry"] = {
+            "joint_angle_requested": _q(float(joint_angle), "rad"),
+            "joint_angle": _q(float(entry.joint_angle_rad), "rad"), "ratio": _q(float(entry.ratio), "1"),
+            "note": "the entry nearest the requested angle, as the runtime picks it: its plant and controller, "
+                    "frozen at the entry's angle"}
+    rep.update(summary=summarize(sim, sc, alpha, rho), runs={"controller": sim})
     verdict = rep["summary"]["verdict"]
     if math.isfinite(nl.saturation_nm) and math.isfinite(sc.release_at_s):
         free = simulate(doc, sc, start=start, clamp=False)
@@ -339,7 +416,7 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
     if nl.backlash_rad > 0:
         lin = simulate(doc, replace(sc, nonlinear=replace(nl, backlash_rad=0.0)), start=start)
         rep["runs"]["without_backlash"] = lin
-        rep["limit_cycle"] = _limit_cycle(sim, sc, verdict, summarize(lin, sc, alpha, None))
+        rep["limit_cycle"] = _limit_cycle(sim, sc, verdict, summarize(lin, sc, alpha, rho))
     if nl.coulomb_nm > 0:
         est = dob_estimate(doc, sim)
         if est is not None:
@@ -369,7 +446,7 @@ def _friction_sensitivity(doc, sc, sim, rep, alpha, start) -> None:
         sens[label] = _q(float(np.sqrt(np.mean((a[:m] - b[:m]) ** 2)) / max(np.sqrt(np.mean(b[:m] ** 2)), 1e-300)),
                          "1 (RMS joint-angle change due to friction / RMS joint angle)")
         if wo:
-            rho = loop_spectral_radius(strip_dob(doc), sc.human, sc.locked)
+            rho = loop_spectrum(strip_dob(doc), sc.human, sc.locked)
             rep["summary_without_dob"] = summarize(fr, sc, alpha, rho)
             rep["runs"]["without_dob"] = fr
         else:

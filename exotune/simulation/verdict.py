@@ -14,12 +14,17 @@ the stability boundary) otherwise — exactly one. An oscillation that falls bel
 
 Beside it, the linearized sampled-data loop's spectral radius ρ (the file's plant and
 controller with the scenario's human, nonlinearities off: :func:`exotune.sampled.loop.loop_eigenvalues`,
-as ``exotune certify`` computes it) and its growth rate f_s·ln ρ.
+as ``exotune certify`` computes it), its growth rate f_s·ln ρ and its dominant oscillation
+(:class:`LoopSpectrum`). The run's verdict (:func:`judge`) weighs the two: an envelope needs
+``MIN_PERIODS`` periods of the dominant oscillation to be judged (a shorter run is
+``inconclusive``), and a loop with ρ > 1 is never ``decaying`` — where the envelope and the
+eigenvalues disagree, the eigenvalue verdict wins.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,12 +33,14 @@ from ..controllerfile.certify import position_feedback
 from ..controllerfile.fileio import discrete_from_file, plant_from_file
 from ..sampled import loop_eigenvalues
 
-__all__ = ["MARGINAL_TOL", "FIT_FRACTION", "FLOOR", "envelope_growth", "classify", "loop_spectral_radius",
-           "dominant_frequency"]
+__all__ = ["MARGINAL_TOL", "FIT_FRACTION", "FLOOR", "MIN_PERIODS", "VERDICTS", "envelope_growth", "classify",
+           "LoopSpectrum", "spectrum_of", "loop_spectrum", "loop_spectral_radius", "judge", "dominant_frequency"]
 
 MARGINAL_TOL = 0.05  # [1/s] |σ| below this: marginal
 FIT_FRACTION = 0.5  # the envelope is fitted over this last part of the run
 FLOOR = 1e-10  # an oscillation below FLOOR × its peak is at rounding level: decayed
+MIN_PERIODS = 2.0  # an envelope is judged over at least this many periods of the loop's dominant oscillation
+VERDICTS = ("decaying", "marginal", "growing", "inconclusive")  # the first three from the least to the most severe
 
 
 def _slope(t: np.ndarray, v: np.ndarray) -> float:
@@ -120,9 +127,133 @@ def classify(growth: float | None, died, diverged: bool) -> str:
     return "growing" if growth > 0 else "decaying"
 
 
+def _rate(rho: float, fs: float) -> float | None:
+    return fs * math.log(rho) if rho > 0 and math.isfinite(rho) else None
+
+
+def _by_tolerance(rate: float | None) -> str:
+    if rate is None or abs(rate) <= MARGINAL_TOL:
+        return "marginal"
+    return "growing" if rate > 0 else "decaying"
+
+
+@dataclass(frozen=True)
+class LoopSpectrum:
+    """The linearized sampled-data loop's spectral radius and its dominant oscillation.
+
+    Attributes
+    ----------
+    spectral_radius : float
+        ρ = max |λ| [–] over the loop's eigenvalues (0 for a loop without eigenvalues).
+    sample_rate_hz : float
+        The loop's sample rate f_s [Hz].
+    oscillation_hz : float or None
+        Frequency |arg λ|·f_s/2π [Hz] of the dominant oscillation: the oscillatory eigenvalue
+        (complex, or real and negative) of largest modulus, among those that stay above ``FLOOR``
+        for half a period (a heavily damped pair is no oscillation an envelope would show);
+        None when the loop has none (or is not known).
+    oscillation_modulus : float or None
+        Its |λ| [–].
+    """
+
+    spectral_radius: float
+    sample_rate_hz: float
+    oscillation_hz: float | None = None
+    oscillation_modulus: float | None = None
+
+    @property
+    def growth_rate_per_s(self) -> float | None:
+        """f_s·ln ρ [1/s] (None when ρ is 0 or not finite)."""
+        return _rate(self.spectral_radius, self.sample_rate_hz)
+
+    @property
+    def oscillation_period_s(self) -> float | None:
+        """The dominant oscillation's period [s], or None."""
+        return 1.0 / self.oscillation_hz if self.oscillation_hz else None
+
+    @property
+    def needed_run_s(self) -> float | None:
+        """The shortest run [s] whose envelope can be judged: ``MIN_PERIODS`` dominant periods (None:
+        no oscillation to wait for)."""
+        period = self.oscillation_period_s
+        return MIN_PERIODS * period if period is not None else None
+
+    @property
+    def verdict(self) -> str:
+        """The loop's own verdict: ``growing`` / ``decaying`` / ``marginal`` by its growth rate
+        f_s·ln ρ against ``MARGINAL_TOL``."""
+        return _by_tolerance(self.growth_rate_per_s)
+
+
+def spectrum_of(lam, sample_rate_hz: float) -> LoopSpectrum:
+    """The :class:`LoopSpectrum` of the eigenvalues ``lam`` of a loop sampled at ``sample_rate_hz``.
+
+    Parameters
+    ----------
+    lam : array_like
+        The loop's eigenvalues (complex).
+    sample_rate_hz : float
+        f_s [Hz].
+
+    Returns
+    -------
+    LoopSpectrum
+        ρ and the dominant oscillation (the longest period among equally large moduli).
+
+    Examples
+    --------
+    A pair that decays below ``FLOOR`` within half a period (here a real double root split by
+    rounding) shows no oscillation; the next one decides:
+
+    >>> lam = [0.9999 * np.exp(1e-6j), 0.9999 * np.exp(-1e-6j), 0.999 * np.exp(0.01j), 0.999 * np.exp(-0.01j), -0.5]
+    >>> sp = spectrum_of(lam, 1000.0)
+    >>> sp.spectral_radius, round(sp.oscillation_hz, 4), round(sp.oscillation_modulus, 12), round(sp.needed_run_s, 3)
+    (0.9999, 1.5915, 0.999, 1.257)
+    """
+    lam = np.asarray(lam, dtype=complex).ravel()
+    fs = float(sample_rate_hz)
+    rho = float(np.max(np.abs(lam))) if lam.size else 0.0
+    r, th = np.abs(lam), np.abs(np.angle(lam))
+    with np.errstate(divide="ignore", invalid="ignore"):  # th = 0 or r = 0: no oscillation
+        alive = (th > 0) & (r > 0) & (np.pi / th * np.log(np.where(r > 0, r, 1.0)) >= math.log(FLOOR))
+    if not alive.any():
+        return LoopSpectrum(rho, fs)
+    top = float(np.max(r[alive]))
+    pick = alive & (r >= top * (1.0 - 1e-9))  # a conjugate pair, or equal moduli: the slowest oscillation
+    return LoopSpectrum(rho, fs, float(np.min(th[pick])) * fs / (2.0 * math.pi), top)
+
+
+def loop_spectrum(doc: ControllerFile | dict, human: dict, locked: bool) -> LoopSpectrum:
+    """The spectral radius and dominant oscillation of the linearized sampled-data loop (the
+    file's plant and controller, ``human``, the output locked or free; the rigid-body z = 1 of an
+    ungrounded loop excluded).
+
+    Parameters
+    ----------
+    doc : ControllerFile or dict
+        The controller file.
+    human : dict
+        The human: inertia [kg·m²], damping [N·m·s/rad], stiffness [N·m/rad] (any subset).
+    locked : bool
+        Whether the output is locked.
+
+    Returns
+    -------
+    LoopSpectrum
+        ρ [–], f_s and the dominant oscillation.
+
+    References
+    ----------
+    Paper §V; docs/method.md#sampled-data.
+    """
+    doc = as_controller_file(doc)
+    lam = loop_eigenvalues(plant_from_file(doc), discrete_from_file(doc), position_feedback(doc.controller),
+                           {k: float(v) for k, v in human.items()}, "locked" if locked else "free")
+    return spectrum_of(lam, float(doc.sample_rate_hz))
+
+
 def loop_spectral_radius(doc: ControllerFile | dict, human: dict, locked: bool) -> float:
-    """Spectral radius of the linearized sampled-data loop (the file's plant and controller,
-    ``human``, the output locked or free; the rigid-body z = 1 of an ungrounded loop excluded).
+    """Spectral radius of the linearized sampled-data loop (:func:`loop_spectrum`).
 
     Parameters
     ----------
@@ -142,10 +273,59 @@ def loop_spectral_radius(doc: ControllerFile | dict, human: dict, locked: bool) 
     ----------
     Paper §V; docs/method.md#sampled-data.
     """
-    doc = as_controller_file(doc)
-    lam = loop_eigenvalues(plant_from_file(doc), discrete_from_file(doc), position_feedback(doc.controller),
-                           {k: float(v) for k, v in human.items()}, "locked" if locked else "free")
-    return float(np.max(np.abs(lam))) if lam.size else 0.0
+    return loop_spectrum(doc, human, locked).spectral_radius
+
+
+def judge(envelope: str, run_s: float, spectrum: LoopSpectrum | None = None, died: bool = False,
+          diverged: bool = False) -> tuple[str, str]:
+    """The verdict of a run, and what decided it.
+
+    A run stopped at the state bound is ``growing`` (``stopped``). A loop whose spectral radius
+    exceeds 1 is never judged ``decaying``: when the run is too short for its envelope, or its
+    envelope says less than the eigenvalues (``decaying`` or ``marginal`` against ``growing``),
+    the loop's own verdict wins (``spectral_radius``). Otherwise a run shorter than
+    ``MIN_PERIODS`` periods of the dominant oscillation, whose oscillation did not die out, is
+    ``inconclusive`` (``none``): its envelope cannot tell growth from decay. Else the envelope's
+    verdict stands (``envelope``).
+
+    Parameters
+    ----------
+    envelope : str
+        The envelope's verdict (:func:`classify`).
+    run_s : float
+        The run's length [s] (samples / rate).
+    spectrum : LoopSpectrum or None, optional
+        The linearized loop's (None: not known; the envelope alone decides).
+    died : bool, optional
+        Whether the oscillation decayed to rounding level (a decay the run itself shows).
+    diverged : bool, optional
+        Whether the run stopped at the state bound.
+
+    Returns
+    -------
+    (str, str)
+        The verdict (one of :data:`VERDICTS`) and its basis: ``stopped``, ``spectral_radius``,
+        ``none`` or ``envelope``.
+
+    Examples
+    --------
+    >>> growing = LoopSpectrum(1.00311, 1000.0, 44.3, 1.00311)
+    >>> judge("decaying", 0.016, growing), judge("decaying", 0.016, LoopSpectrum(0.99, 1000.0, 44.3, 0.99))
+    (('growing', 'spectral_radius'), ('inconclusive', 'none'))
+    >>> judge("decaying", 10.0, LoopSpectrum(0.99, 1000.0, 44.3, 0.99))
+    ('decaying', 'envelope')
+    """
+    if diverged:
+        return "growing", "stopped"
+    needed = spectrum.needed_run_s if spectrum is not None else None
+    short = needed is not None and run_s < needed and not died
+    if spectrum is not None and spectrum.spectral_radius > 1.0:
+        own = spectrum.verdict  # ρ > 1: growing, or marginal within the tolerance; never decaying
+        if short or VERDICTS.index(envelope) < VERDICTS.index(own):
+            return own, "spectral_radius"
+    elif short:
+        return "inconclusive", "none"
+    return envelope, "envelope"
 
 
 def dominant_frequency(t: np.ndarray, s: np.ndarray) -> float:

@@ -13,12 +13,17 @@ def _num(v, fmt: str = ".6g") -> str:
 
 def _extra(name: str, y, unit: str) -> str:
     """One attribute of a quantity: a ``tolerance`` is in the quantity's own unit, a ``…_per_s``
-    rate in 1/s; the others are words or plain numbers."""
+    rate in 1/s, a ``…_hz`` frequency in Hz and a ``…_s`` time in s ("none" when null); the others
+    are words or plain numbers."""
     text = _num(y) if isinstance(y, float) or y is None else str(y)
     if name == "tolerance" and isinstance(y, (int, float)):
         return f"tolerance {text} {unit_text(unit)}"
     if name.endswith("_per_s") and (y is None or isinstance(y, (int, float))):
         return f"{name[: -len('_per_s')].replace('_', ' ')} {text} 1/s"
+    for suffix, u in (("_hz", "Hz"), ("_s", "s")):  # a frequency, a time: "none" when there is none
+        if name.endswith(suffix) and (y is None or isinstance(y, (int, float))):
+            label = name[: -len(suffix)].replace("_", " ")
+            return f"{label}: none" if y is None else f"{label} {text} {u}"
     if name == "signal":
         return f"measured on {y}"
     return f"{name.replace('_', ' ')} {text}"
@@ -58,9 +63,11 @@ def format_simulation(rep: dict) -> str:
     Returns
     -------
     str
-        The scenario, the sample rate and delay, the verdict with the envelope's growth rate and
-        the linearized loop's spectral radius, one line per metric (with its unit; null with the
-        reason for a growing run), and the scenario's own measurements (windup recovery, limit
+        The scenario, the sample rate and delay, the verdict and why (what decided it: the
+        envelope, the linearized loop's eigenvalues, or nothing for a run too short to judge) with
+        the envelope's growth rate and the linearized loop's spectral radius and dominant
+        oscillation, one line per metric (with its unit; "not measured" with the reason for a
+        growing or an inconclusive run), and the scenario's own measurements (windup recovery, limit
         cycle, the DOB's friction estimate, friction sensitivity).
 
     References
@@ -71,9 +78,17 @@ def format_simulation(rep: dict) -> str:
     out = [f"exotune simulate — {rep['scenario']}: {rep['description']}",
            f"  sample rate {rep['sample_rate_hz']:g} Hz, delay {count_text(rep['delay_samples'], 'sample')}, start {sm['start']}",
            f"  verdict: {sm['verdict']}"]
+    e = rep.get("gain_schedule_entry")
+    if e:  # before the verdict: which controller ran
+        out.insert(2, f"  gain-schedule entry: {e['joint_angle']['value']:g} rad (ratio {e['ratio']['value']:g}), the "
+                      f"nearest to the requested {e['joint_angle_requested']['value']:g} rad: its plant and controller, "
+                      "frozen at that angle, as the runtime picks it")
+    if sm.get("verdict_reason"):
+        out.append(f"  why: {sm['verdict_reason']}")
     why = sm.get("metrics_null_reason")
     out += [_line(k, v, missing="not measured" + (" (see below)" if why else ""))
-            for k, v in sm.items() if k not in ("start", "verdict", "metrics_null_reason")]
+            for k, v in sm.items() if k not in ("start", "verdict", "verdict_basis", "verdict_reason",
+                                                "metrics_null_reason")]
     if why:
         out.append(f"  why these metrics were not measured: {why}")
     w = rep.get("windup_recovery")
@@ -84,7 +99,8 @@ def format_simulation(rep: dict) -> str:
             out += [_line(k, v, "      ") for k, v in w[label].items()]
     lc = rep.get("limit_cycle")
     if lc:
-        state = {True: "present", False: "absent", None: "undefined (growing run)"}[lc["present"]]
+        run = "inconclusive" if sm.get("verdict") == "inconclusive" else "growing"
+        state = {True: "present", False: "absent", None: f"undefined ({run} run)"}[lc["present"]]
         out.append(f"  limit cycle: {state}")
         out += [_line(k, v, "    ") for k, v in lc.items() if k not in ("present", "without_backlash")]
         wb = lc.get("without_backlash")
@@ -99,5 +115,5 @@ def format_simulation(rep: dict) -> str:
         out.append(f"  friction sensitivity {k.replace('_', ' ')}: {_num(v['value'], '.4g')} {unit_text(v['unit'])}")
     if "summary_without_dob" in rep:
         out.append("  without the DOB:")
-        out += [_line(k, v, "    ") for k, v in rep["summary_without_dob"].items()]
+        out += [_line(k, v, "    ") for k, v in rep["summary_without_dob"].items() if k != "verdict_basis"]
     return "\n".join(out)

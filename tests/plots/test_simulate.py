@@ -57,3 +57,19 @@ def test_plot_simulation_names_the_png():
     files = plot_simulation(_rep(True))
     assert list(files) == ["simulate_locked-output.png"] and files["simulate_locked-output.png"][:4] == b"\x89PNG"
     plt.close("all")
+
+
+def test_the_title_names_what_decided_the_verdict():
+    """h8 item 3: a verdict the eigenvalues decided is not titled with the envelope's growth (which
+    said the opposite); an inconclusive run says it was too short."""
+    rep = _rep(False, "light-mass")
+    rep["summary"] = {"verdict": "growing", "verdict_basis": "spectral_radius",
+                      "envelope_growth_rate": {"value": -34.25, "unit": "1/s"},
+                      "loop_spectral_radius": {"value": 1.00311, "unit": "1"}}
+    fig = simulation_figure(rep)
+    assert fig._suptitle.get_text() == ("exotune simulate — light-mass at 1000 Hz: growing "
+                                        "(loop spectral radius 1.00311 > 1)")
+    rep["summary"].update(verdict="inconclusive", verdict_basis="none")
+    fig2 = simulation_figure(rep)
+    assert fig2._suptitle.get_text().endswith(": inconclusive (run too short to judge)")
+    plt.close("all")

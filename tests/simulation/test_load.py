@@ -77,3 +77,35 @@ def test_a_human_inertia_has_the_design_files_range(value):
     assert ei.value.reason.endswith("kg·m² is out of the accepted range [1e-9, 1e6] kg·m² of an inertia in a design "
                                     "file (docs/design-file.md#input-limits-and-accepted-ranges)")
     assert check_human_inertia(1e6) == 1e6 and check_human_inertia(1e-9) == 1e-9
+
+
+@pytest.fixture(scope="module")
+def scheduled():
+    return load_for_simulation(EXAMPLES / "scheduled.yaml", 1000.0)  # entries at 0, 0.5, 1, 1.5, 2 rad
+
+
+@pytest.mark.parametrize("angle, entry", [(0.0, 0.0), (0.2, 0.0), (0.3, 0.5), (1.7, 1.5), (2.0, 2.0)])
+def test_a_joint_angle_within_the_schedule_runs_the_runtimes_entry(scheduled, angle, entry):
+    from exotune.controllerfile import Runtime
+    from exotune.simulation.load import schedule_entry
+
+    e = schedule_entry(scheduled, angle)
+    assert e.joint_angle_rad == entry
+    view = at_joint_angle(scheduled, angle)
+    assert view.plant == e.plant and view.controller.gains == Runtime(scheduled, joint_angle_rad=angle).gains
+
+
+@pytest.mark.parametrize("angle, end", [(100.0, "2"), (1e308, "2"), (2.0 + 1e-9, "2"), (-0.5, "0"), (-1e308, "0")])
+def test_a_joint_angle_beyond_the_schedule_is_refused_with_its_range(scheduled, angle, end):
+    """h8 item 8: ``--joint-angle 100`` (and 1e308) silently ran the 2 rad entry, whose plant is not
+    the joint's at 100 rad (the transmission table ends at 2 rad). Refused, naming the range and the
+    entry the runtime would run."""
+    from exotune.simulation.load import schedule_entry
+
+    for call in (schedule_entry, at_joint_angle):
+        with pytest.raises(ConfigError) as ei:
+            call(scheduled, angle)
+        assert ei.value.field == "joint_angle"
+        assert "is outside the gain schedule's joint angles [0, 2] rad" in ei.value.reason
+        assert f"the runtime would run the nearest entry ({end} rad)" in ei.value.reason
+        assert ei.value.reason.endswith("give an angle in [0, 2] rad")

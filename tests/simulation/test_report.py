@@ -10,11 +10,13 @@ from exotune.errors import ConfigError
 from exotune.simulation.report import check_budget, check_run_options, run_scenario, summarize
 from exotune.simulation.result import SimulationRun
 from exotune.simulation.scenarios import SCENARIOS
+from exotune.simulation.verdict import LoopSpectrum
 
 from paper_design import paper_controller
 
 FS = 1000.0
 T = np.arange(0.0, 4.0, 1 / FS)
+MARGINAL = 0.05
 
 
 def _sim(tau_s, tau_c, theta_h=None, diverged=None):
@@ -52,6 +54,50 @@ def test_a_growing_run_has_no_metrics_and_says_why():
     assert stopped["stopped"] == "an angle beyond 1e6 rad"
     assert stopped["metrics_null_reason"] == "growing run: an angle beyond 1e6 rad"
     assert stopped["loop_spectral_radius"]["growth_rate_per_s"] is None
+
+
+def _short_sim(n=16, rate=-34.0, f=44.3):
+    t = np.arange(n) / FS
+    s = np.exp(rate * t) * np.sin(2 * np.pi * f * t)
+    z = np.zeros(n)
+    return {"sample_rate_hz": FS, "start": "bumpless", "diverged": None,
+            "series": {"t": t, "tau_s": s, "tau_c": s, "theta_h": 1e-3 * s, "theta_j": z, "tau_m": 1.0 + z,
+                       "tau_cmd": 1.0 + z}}
+
+
+def test_a_short_run_of_a_growing_loop_is_not_decaying():
+    """h8 item 3: 16 samples whose envelope decays, while the loop's spectral radius is 1.00311 with a
+    44.3 Hz dominant oscillation (two periods: 45 ms): the summary said "decaying". The eigenvalues
+    decide, and the summary says so in words."""
+    sp = LoopSpectrum(1.00311, FS, 44.29, 1.00311)
+    sm = summarize(_short_sim(), SCENARIOS["light-mass"], 8.0, sp)
+    assert sm["envelope_growth_rate"]["value"] < -MARGINAL  # the envelope alone says decaying
+    assert sm["verdict"] == "growing" and sm["verdict_basis"] == "spectral_radius" and sm["diverged"]
+    why = sm["verdict_reason"]
+    assert why.startswith("the linearized loop's spectral radius 1.00311 > 1 (growth 3.105 1/s) decides: "
+                          "the run (0.016 s, 16 samples) is shorter than 2 periods of the linearized loop's "
+                          "dominant oscillation at 44.29 Hz (2 × 0.02258 s = 0.04516 s)"), why
+    assert sm["metrics_null_reason"] == "growing run: the linearized loop grows (spectral radius 1.00311 > 1)"
+    assert sm["peak_motor_torque"]["value"] is None
+    lsr = sm["loop_spectral_radius"]
+    assert lsr["dominant_oscillation_hz"] == 44.29 and lsr["dominant_oscillation_period_s"] == pytest.approx(1 / 44.29)
+
+
+def test_a_short_run_of_a_stable_loop_is_inconclusive():
+    sp = LoopSpectrum(0.996, FS, 9.86, 0.98)
+    sm = summarize(_short_sim(n=50, f=9.86), SCENARIOS["light-mass"], 8.0, sp)
+    assert sm["verdict"] == "inconclusive" and sm["verdict_basis"] == "none" and not sm["diverged"]
+    assert sm["verdict_reason"].startswith("the run (0.05 s, 50 samples) is shorter than 2 periods of the linearized "
+                                           "loop's dominant oscillation at 9.86 Hz (2 × 0.1014 s = 0.2028 s): its "
+                                           "envelope (the oscillation of tau_")
+    assert sm["verdict_reason"].endswith("cannot tell growth from decay; a run of at least 0.2028 s can be judged")
+    assert sm["metrics_null_reason"].startswith("inconclusive run: the run is too short to be judged")
+    assert sm["peak_motor_torque"]["value"] is None and sm["cuff_oscillation_start_rad"]["value"] is None
+    long = summarize(_short_sim(n=400, f=9.86), SCENARIOS["light-mass"], 8.0, sp)  # 0.4 s ≥ 0.2028 s
+    assert long["verdict"] == "decaying" and long["verdict_basis"] == "envelope"
+    assert long["verdict_reason"].endswith("the run of 0.4 s lasts at least 2 periods of the linearized loop's "
+                                           "dominant oscillation at 9.86 Hz (2 × 0.1014 s = 0.2028 s)")
+    assert long["peak_motor_torque"]["value"] == 1.0
 
 
 def test_the_run_budget():

@@ -58,3 +58,22 @@ def test_scenario_sections():
         assert line in text.splitlines(), line
     undefined = format_simulation(_rep(limit_cycle={"present": None}))
     assert "  limit cycle: undefined (growing run)" in undefined.splitlines()
+
+
+def test_the_verdict_says_why_and_the_dominant_oscillation_has_its_units():
+    """h8 item 3: the verdict's reason (what decided it) follows the verdict; the loop's dominant
+    oscillation prints in Hz and s ("none" for a loop without one); the basis is the JSON's alone."""
+    rep = _rep()
+    sm = rep["summary"]
+    sm.update(verdict="inconclusive", verdict_basis="none", verdict_reason="the run (0.05 s, 50 samples) is short")
+    sm["loop_spectral_radius"].update(dominant_oscillation_hz=9.86, dominant_oscillation_period_s=0.101)
+    lines = format_simulation(rep).splitlines()
+    assert lines[2:4] == ["  verdict: inconclusive", "  why: the run (0.05 s, 50 samples) is short"]
+    assert ("  loop spectral radius: 0.998 –; growth rate -2 1/s; dominant oscillation 9.86 Hz; "
+            "dominant oscillation period 0.101 s") in lines
+    assert not any("basis" in ln for ln in lines)
+    sm["loop_spectral_radius"].update(dominant_oscillation_hz=None, dominant_oscillation_period_s=None)
+    assert ("  loop spectral radius: 0.998 –; growth rate -2 1/s; dominant oscillation: none; "
+            "dominant oscillation period: none") in format_simulation(rep).splitlines()
+    undefined = format_simulation(_rep(limit_cycle={"present": None}, summary={**sm, "verdict": "inconclusive"}))
+    assert "  limit cycle: undefined (inconclusive run)" in undefined.splitlines()
