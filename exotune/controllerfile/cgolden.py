@@ -37,7 +37,7 @@ import math
 import numpy as np
 
 from .cstep import SIGNALS, ascii_text, c_double, controllers_of
-from .model import ControllerFile, as_controller_file
+from .model import ControllerFile, as_controller_file, nearest_index
 from .runtime import Runtime
 
 __all__ = ["GoldenRow", "golden_rows", "golden_program", "step_terms", "tolerance", "ABS_TOLERANCE_NM", "HUGE_INPUT",
@@ -199,7 +199,7 @@ def golden_rows(doc: ControllerFile | dict, seed: int = 20250) -> list[GoldenRow
 
 def lookup_rows(angles: list[float]) -> list[GoldenRow]:
     """The schedule look-up at every entry's angle ``angles`` (entries 1, 2, ...), between entries,
-    far outside and at 0 (the first nearest entry), at NaN and ±infinity (a fault); then the
+    far outside (the end entries) and at 0 (the first nearest entry), at NaN and ±infinity (a fault); then the
     argument checks of ``exotune_init`` (controller index, limit).
 
     Parameters
@@ -215,7 +215,7 @@ def lookup_rows(angles: list[float]) -> list[GoldenRow]:
     rows = []
     probes = list(angles) + [(a + b) / 2 for a, b in zip(angles, angles[1:])] + [-1e300, 1e300, 0.0]
     for q in probes:
-        want = 0 if not angles else 1 + min(range(len(angles)), key=lambda i: abs(angles[i] - q))
+        want = 0 if not angles else 1 + nearest_index(angles, q)
         rows.append(GoldenRow(OP_ANGLE, want, [q] + [0.0] * 4, OK))
     rows += [GoldenRow(OP_ANGLE, 0, [q] + [0.0] * 4, FAULT_ANGLE) for q in (math.nan, math.inf, -math.inf)]
     rows += [GoldenRow(OP_INIT, c, [lim] + [0.0] * 4, ERR_ARGUMENT)

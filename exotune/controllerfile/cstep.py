@@ -255,13 +255,19 @@ const char exotune_build_info[] = "exotune_controller sha256=" EXOTUNE_SOURCE_SH
 ANGLE_C = r'''int exotune_controller_for_angle(double joint_angle_rad, int *controller)
 {
     int i, best = 0;
-    double d = 0.0;
+    double d = 0.0, a = joint_angle_rad, lo, hi;
     if (controller == 0)
         return EXOTUNE_ERR_ARGUMENT;
     if (!isfinite(joint_angle_rad))
         return EXOTUNE_FAULT_ANGLE;
+    lo = hi = ANGLES[0];
+    for (i = 1; i < EXOTUNE_N_CONTROLLERS - 1; ++i) {
+        lo = ANGLES[i] < lo ? ANGLES[i] : lo;
+        hi = ANGLES[i] > hi ? ANGLES[i] : hi;
+    }
+    a = a < lo ? lo : (a > hi ? hi : a);  /* beyond the table: its end entry, even where distances tie */
     for (i = 1; i < EXOTUNE_N_CONTROLLERS; ++i) {  /* the first nearest entry, as the reference runtime */
-        double e = fabs(ANGLES[i - 1] - joint_angle_rad);
+        double e = fabs(ANGLES[i - 1] - a);
         if (best == 0 || e < d) {
             best = i;
             d = e;

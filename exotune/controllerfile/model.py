@@ -33,7 +33,7 @@ from typing import Any, ClassVar, Mapping
 
 __all__ = ["ControllerFile", "as_controller_file", "SampleRate", "Delay", "PlantSection", "DesignSection", "SixGains",
            "Filter", "RealizationFilter", "Realization", "Controller", "Dob", "ScheduleEntry", "GainSchedule",
-           "Transmission", "CertifySection", "Requirements", "Predicted", "Golden", "Provenance", "Implementation"]
+           "Transmission", "CertifySection", "Requirements", "Predicted", "Golden", "Provenance", "Implementation", "nearest_index"]
 
 
 def _value(q: Mapping) -> Any:
@@ -545,6 +545,33 @@ class ScheduleEntry(_Raw):
     golden_tau_cmd_unit: str | None = None
 
 
+def nearest_index(angles: list[float], joint_angle_rad: float) -> int:
+    """Index of the gain-schedule angle nearest ``joint_angle_rad`` [rad], the first of two equally
+    near; an angle beyond the table is first clamped to it (the end entry, even where the
+    distances round to a tie). The one look-up of the reference runtime and the C port
+    (``exotune_controller_for_angle``).
+
+    Parameters
+    ----------
+    angles : list of float
+        The entries' joint angles [rad].
+    joint_angle_rad : float
+        A finite joint angle [rad].
+
+    Returns
+    -------
+    int
+        The index into ``angles``.
+
+    Examples
+    --------
+    >>> nearest_index([0.0, 1.0, 2.0], 0.5), nearest_index([0.0, 1.0, 2.0], 1e308), nearest_index([0.0, 2.0], -1e308)
+    (0, 2, 0)
+    """
+    a = min(max(joint_angle_rad, min(angles)), max(angles))
+    return min(range(len(angles)), key=lambda i: abs(angles[i] - a))
+
+
 @dataclass(frozen=True)
 class GainSchedule:
     """``gain_schedule``.
@@ -564,7 +591,9 @@ class GainSchedule:
     unit: str = "rad"
 
     def nearest(self, joint_angle_rad: float) -> ScheduleEntry:
-        """The entry nearest ``joint_angle_rad`` (the first of two equally near).
+        """The entry nearest ``joint_angle_rad`` (the first of two equally near); an angle beyond
+        the schedule's angles is first clamped to them, so that it runs the end entry even where
+        the distances round to a tie (1e308 rad: |1e308 − 0| = |1e308 − 2| in floating point).
 
         Parameters
         ----------
@@ -576,7 +605,7 @@ class GainSchedule:
         ScheduleEntry
             The entry the runtime runs there.
         """
-        return min(self.entries, key=lambda e: abs(e.joint_angle_rad - joint_angle_rad))
+        return self.entries[nearest_index([e.joint_angle_rad for e in self.entries], joint_angle_rad)]
 
 
 @dataclass(frozen=True)

@@ -162,6 +162,9 @@ def test_typed_fields_are_the_raw_values(which, request):
         assert view.to_dict() == schedule_entry_doc(raw, r)
         assert view == as_controller_file(schedule_entry_doc(raw, r))
     assert cf.gain_schedule.nearest(sched["entries"][1]["joint_angle_rad"] + 1e-6) == cf.schedule_entries[1]
+    # beyond the table: its end entries, also where |q − angle| rounds to a tie (it gave entry 0 for 1e308)
+    assert cf.gain_schedule.nearest(1e308) == cf.schedule_entries[-1]
+    assert cf.gain_schedule.nearest(-1e308) == cf.schedule_entries[0]
     tr = raw["transmission"]
     assert (list(cf.transmission.joint_angle_rad), list(cf.transmission.ratio)) == (tr["joint_angle_rad"], tr["ratio"])
     assert cf.gain_schedule_note == raw["gain_schedule_note"]
