@@ -143,6 +143,12 @@ class _Int(click.IntRange):
             self.fail(f"{value!r} is not a valid integer (decimal digits, without '_')", param, ctx)
         return super().convert(value, param, ctx)
 
+    def _describe_range(self) -> str:
+        """The range ``--help`` shows: none for an unbounded integer (click wrote ``x<=None``)."""
+        if self.min is None and self.max is None:
+            return ""
+        return super()._describe_range()
+
 
 #: The seeds the optimizer's generators accept: 0 … 2**32 − 1 (``exotune.optimization.spec.MAX_SEED``,
 #: not imported: the command line loads no library module before a command runs).
@@ -259,21 +265,26 @@ def analyze_cmd(design_file, as_json, plots, cross_check):
 @click.option("--workers", type=_Int(min=1), default=None, help="Local worker processes.")
 @click.option("--dask", "dask_address", default=None, metavar="ADDRESS", help="Run on this Dask scheduler.")
 @click.option("--sample", type=_Int(min=1), default=None, metavar="N", help="Random sample of N grid points.")
-@click.option("--seed", type=_Int(), default=None, metavar="S", help="Seed for --sample.")
+@click.option("--seed", type=_Int(min=0), default=None, metavar="S", help="Seed for --sample (default 0).")
 @click.option("--chunk-size", type=_Int(min=1), default=None, metavar="N", help="Design points per chunk.")
-def sweep_cmd(spec_file, out, workers, dask_address, sample, seed, chunk_size):
+@click.pass_context
+def sweep_cmd(ctx, spec_file, out, workers, dask_address, sample, seed, chunk_size):
     """Vectorized, chunked, resumable parameter sweep.
 
     SPEC.yaml is a sweep spec (docs/sweep-spec.md). Writes DIR/manifest.json and one Parquet file
-    per chunk in DIR/chunks; rerun the same command to resume; `exotune report DIR` next."""
+    per chunk in DIR/chunks; rerun the same command to resume; `exotune report DIR` next.
+    Ctrl-C (exit 130) or SIGTERM (exit 143) stops the workers and keeps the finished chunks."""
     import sys
 
     from .api import sweep
     from .sweeps import TqdmProgress
 
     _note_first_compile()
-    sweep(spec_file, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
-          chunk_size=chunk_size, progress=TqdmProgress(sys.stderr))
+    try:
+        sweep(spec_file, out, workers=workers, dask_address=dask_address, sample=sample, seed=seed,
+              chunk_size=chunk_size, progress=TqdmProgress(sys.stderr))
+    except KeyboardInterrupt:  # the sweep recorded itself as interrupted and said how to resume
+        ctx.exit(130)  # 128 + SIGINT, as a shell reports a command ended by Ctrl-C
 
 
 @cli.command("report")
@@ -433,12 +444,14 @@ def identify_cmd(ctx, log_files, out, delay_s, filter_hz, sample_rate_hz, fricti
 @click.option("--peak-nm", "peak_nm", default=None, metavar="A", help="Peak of the command [N·m] (or --rms-nm).")
 @click.option("--rms-nm", "rms_nm", default=None, metavar="A", help="RMS of the command [N·m] (or --peak-nm).")
 @click.option("--period-s", "period_s", default=None, metavar="S",
-              help="Period [s], whole samples (default 1/f_lo): the frequency resolution is 1/period.")
-@click.option("--periods", "periods", default=None, type=_Int(), metavar="P", help="Number of periods (default: 20 s, ≥ 2).")
+              help="Period [s], whole samples (default 1/f_lo rounded down, so the first line is ≥ f_lo): the "
+                   "frequency resolution is 1/period.")
+@click.option("--periods", "periods", default=None, type=_Int(min=1), metavar="P",
+              help="Number of periods (default: whole periods making 20 s, at least 2).")
 @click.option("--duration-s", "duration_s", default=None, metavar="S", help="Whole periods within this duration [s].")
 @click.option("--lines", "lines", default="all", show_default=True, type=click.Choice(["all", "odd", "random-odd", "log"]),
               help="Which harmonics of 1/period in the band are excited.")
-@click.option("--seed", "seed", default=None, type=_Int(), metavar="S", help="The draw of --lines random-odd.")
+@click.option("--seed", "seed", default=None, type=_Int(min=0), metavar="S", help="The draw of --lines random-odd (default 0).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of text.")
 def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s, periods, duration_s, lines, seed,
                as_json):
@@ -471,7 +484,8 @@ def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s,
 @click.option("--start", "start", type=click.Choice(["bumpless", "zero"]), default="bumpless", show_default=True,
               help="Initial controller state: at equilibrium with the initial measurements, or zero.")
 @click.option("--joint-angle", "joint_angle", default=None, metavar="RAD",
-              help="Run the gain-schedule entry (plant and controller) nearest this joint angle [rad].")
+              help="Run the gain-schedule entry (plant and controller) nearest this joint angle [rad], "
+                   "within the schedule's angles.")
 @click.option("--plots", "plots", metavar="DIR", default=None, help="Write time-series plots (PNG) to DIR.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (summary, no time series).")
 def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, start, joint_angle, plots, as_json):

@@ -395,6 +395,17 @@ def test_sweep_and_report_registered():
         assert opt in res.stdout
 
 
+def test_no_help_shows_an_unbounded_range_as_none():
+    """``exotune sweep --help`` showed ``--seed S … [x<=None]`` (click's range text of an integer
+    option without bounds; so did ``excite --periods`` and ``--seed``): every integer option now
+    shows its real range, or none."""
+    for name in cli.list_commands(None):
+        text = run(name, "--help").stdout
+        assert "None]" not in text and "x<=None" not in text, name
+    flat = " ".join(run("sweep", "--help").stdout.split())
+    assert "--seed S Seed for --sample (default 0). [x>=0]" in flat
+
+
 def test_readme_quickstart_and_ci_agree():
     """The README opens with its title, then the two commands (the install uses the lock file);
     .ci/run installs from the same lock, builds the docs strictly and runs the README's test

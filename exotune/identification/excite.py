@@ -211,7 +211,7 @@ def _select(k_lo: int, k_hi: int, selection: str, seed: int | None) -> np.ndarra
     return np.setdiff1d(odd, drop)
 
 
-def _periods(period_samples: int, fs: float, periods, duration_s) -> int:
+def _periods(period_samples: int, fs: float, periods, duration_s, period_given: bool = False) -> int:
     if periods is not None and duration_s is not None:
         raise ConfigError("duration_s", "give `periods` or `duration_s`, not both")
     T = period_samples / fs
@@ -227,8 +227,15 @@ def _periods(period_samples: int, fs: float, periods, duration_s) -> int:
     else:
         n = max(2, int(math.ceil(DEFAULT_DURATION_S / T * (1 - _REL))))
     if n * period_samples > MAX_SAMPLES:
-        raise ConfigError("periods" if periods is not None else "duration_s",
-                          f"{n} periods of {period_samples} samples: at most {MAX_SAMPLES} samples are written")
+        what = f"{n} period{'' if n == 1 else 's'} of {period_samples} samples"
+        if periods is not None or duration_s is not None:
+            raise ConfigError("periods" if periods is not None else "duration_s",
+                              f"{what}: at most {MAX_SAMPLES} samples are written")
+        # the default length: name what makes it too long (the rate, or a period too long for two)
+        field = "sample_rate_hz" if n > 2 else ("period_s" if period_given else "f_lo_hz")
+        raise ConfigError(field, f"the default length, whole periods making {DEFAULT_DURATION_S:g} s (at least 2), "
+                                 f"is {what} at {fs:g} Hz: at most {MAX_SAMPLES} samples are written; give "
+                                 "fewer `periods` or a shorter `duration_s`")
     return n
 
 
@@ -248,8 +255,9 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     peak_nm, rms_nm : float
         The amplitude [N·m]: the peak or the RMS of the sampled command (exactly one).
     period_s : float, optional
-        The period [s], rounded to whole samples (default 1/f_lo): the frequency resolution is
-        its inverse; it must hold a line in the band.
+        The period [s], rounded to whole samples (default 1/f_lo, rounded down to whole samples so
+        that the first line is at or above f_lo): the frequency resolution is its inverse; it must
+        hold a line in the band.
     periods : int, optional
         How many periods (default: whole periods making 20 s, at least two).
     duration_s : float, optional
@@ -301,7 +309,9 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     if not T * fs <= MAX_SAMPLES:  # also a period that overflows to inf samples
         raise ConfigError("period_s" if period_s is not None else "f_lo_hz",
                           f"a period of {T * fs:.6g} samples: at most {MAX_SAMPLES}")
-    N = int(round(T * fs))
+    # the default period 1/f_lo is rounded down to whole samples: its first line, fs/N, is then at
+    # or above f_lo (rounded up it fell below the band: 1.5 Hz at 1000 Hz gave 667 samples, 1.49925 Hz)
+    N = int(round(T * fs)) if period_s is not None else int(math.floor(T * fs * (1 + _REL)))
     df = fs / N if N > 0 else math.inf
     k_lo, k_hi = int(math.ceil(lo / df * (1 - _REL))), min(int(math.floor(hi / df * (1 + _REL))), (N - 1) // 2)
     if N < 3 or k_hi < max(k_lo, 1):
@@ -312,7 +322,7 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
     if ks.size == 0:
         raise ConfigError("lines", f"no {lines} line in [{lo:g}, {hi:g}] Hz at the resolution {df:.6g} Hz; "
                           "give a longer `period_s` or `lines` all")
-    n_periods = _periods(N, fs, periods, duration_s)
+    n_periods = _periods(N, fs, periods, duration_s, period_s is not None)
     phases = _schroeder_phases(ks)
     X = np.zeros(N // 2 + 1, complex)
     X[ks] = 0.5 * N * np.exp(1j * phases)  # cos(2π k n/N + φ_k), unit amplitude

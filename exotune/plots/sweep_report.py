@@ -127,7 +127,8 @@ def make_report(sweep_dir, out_dir=None) -> SweepReport:
         write_files(out, files)  # all or none: staged in a temporary directory, then renamed
     except OSError as e:
         raise ConfigError(str(out), f"cannot write the report: {e.strerror or e}") from None
-    return SweepReport(out, tuple(files), tuple(name for name, _ in figures))
+    return SweepReport(out, tuple(files), tuple(name for name, _ in figures), tuple(d["missing"]),
+                       sweep_dir)
 
 
 def _read_sweep(sweep_dir: str, m: dict) -> dict:

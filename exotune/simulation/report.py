@@ -281,8 +281,8 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
     exotune.errors.ConfigError: duration: 0.005 s at 1000 Hz is 5 samples; a verdict needs a run of at least 16 samples (0.016 s at this rate)
     """
     n = sample_rate_hz * duration_s
-    if n < MIN_SAMPLES:
-        raise ConfigError("duration", f"{fmt_num(duration_s)} s at {fmt_num(sample_rate_hz)} Hz is {fmt_num(n, 3)} samples; "
+    if n < MIN_SAMPLES and round(n) < MIN_SAMPLES:  # the run's own count, as below (0.0159999 s at 1 kHz: 16)
+        raise ConfigError("duration", f"{fmt_num(duration_s)} s at {fmt_num(sample_rate_hz)} Hz is {round(n)} samples; "
                                       f"a verdict needs a run of at least {MIN_SAMPLES} samples "
                                       f"({fmt_num(MIN_SAMPLES / sample_rate_hz)} s at this rate)")
     if not (math.isfinite(n) and round(n) <= MAX_SAMPLES):  # the run's own count: round(duration × rate)

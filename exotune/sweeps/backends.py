@@ -16,10 +16,9 @@ import time
 from ..errors import ConfigError
 from ..jsonio import write_atomic
 from .compute import chunk_task
-from .progress import SweepProgress
 from .store import chunk_file
 
-__all__ = ["dispatch", "sigterm_as_exit", "check_dask_address", "connect_dask", "DaskConnection"]
+__all__ = ["dispatch", "stop_signals", "StopSignals", "check_dask_address", "connect_dask", "DaskConnection"]
 
 
 @contextlib.contextmanager
@@ -48,13 +47,19 @@ def _worker_init(parent_pid: int) -> None:
     (``PR_SET_PDEATHSIG``); elsewhere, and as a second line, a daemon thread exits once the
     parent is gone (re-parented). Without this a ``kill -9`` of ``exotune sweep`` left its idle
     workers blocked on their pipe for ever, each holding ~200 MB."""
+    import signal
     import threading
 
+    # Ctrl-C in a terminal reaches every process of the group: the sweep (the parent) stops the
+    # workers itself, so a worker neither prints a KeyboardInterrupt traceback nor fails its chunk.
+    # The worker started with SIGINT blocked (_sigint_blocked): one that came during its start-up is
+    # pending, and discarded once ignored.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     if sys.platform.startswith("linux"):
         with contextlib.suppress(Exception):
             import ctypes
-            import signal
-
             ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
     if os.getppid() != parent_pid:  # the parent died before prctl took effect
         os._exit(1)
@@ -67,38 +72,97 @@ def _worker_init(parent_pid: int) -> None:
     threading.Thread(target=watch, name="exotune-parent-watch", daemon=True).start()
 
 
-@contextlib.contextmanager
-def sigterm_as_exit(progress: SweepProgress):
-    """SIGTERM (``kill PID``) ends the sweep like Ctrl-C: the manifest records "interrupted" and
-    the worker pool is shut down (only the main thread can install a handler). The termination
-    is reported as ``progress.message("terminated", …)``.
+class StopSignals:
+    """The signal that stopped a sweep (:func:`stop_signals`): ``received`` is ``None``,
+    ``signal.SIGINT`` (Ctrl-C) or ``signal.SIGTERM`` (``kill PID``); once ``stopping`` (the first
+    signal, or :meth:`hold`), further signals are ignored."""
 
-    Parameters
-    ----------
-    progress : SweepProgress
-        Where the termination is reported.
+    def __init__(self):
+        self.received: int | None = None
+        self.stopping = False
+
+    def hold(self) -> None:
+        """Ignore SIGINT and SIGTERM from now on (the sweep is recording how it ended)."""
+        self.stopping = True
+
+
+@contextlib.contextmanager
+def stop_signals():
+    """Ctrl-C (SIGINT) and ``kill PID`` (SIGTERM) stop a sweep the same way: the first one raises
+    (``KeyboardInterrupt`` for SIGINT, ``SystemExit(128 + SIGTERM)`` for SIGTERM) and any later
+    one, while the sweep stops its workers and records what it has done (or after
+    :meth:`StopSignals.hold`), is ignored.
+
+    Handlers are installed in the main thread only (elsewhere signals cannot be handled), and
+    SIGINT only over Python's default handler: a Ctrl-C the caller ignores (``SIG_IGN``, a
+    background job) or handles itself is left alone. The previous handlers are restored on exit.
 
     Yields
     ------
-    None
-        While SIGTERM raises ``SystemExit(128 + SIGTERM)``.
+    StopSignals
+        Its ``received`` is the first of these signals that arrived (None: none).
     """
     import signal
     import threading
 
+    got = StopSignals()
     if threading.current_thread() is not threading.main_thread():
-        yield
+        yield got
         return
 
-    def on_term(signum, frame):
-        progress.message("terminated", "exotune sweep: terminated (SIGTERM); rerun the same command to resume")
+    def on_signal(signum, frame):
+        if got.stopping:  # already stopping: let the sweep finish recording what it has done
+            return
+        got.received, got.stopping = signum, True
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
         raise SystemExit(128 + signum)
 
-    old = signal.signal(signal.SIGTERM, on_term)
+    old = {signal.SIGTERM: signal.signal(signal.SIGTERM, on_signal)}
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        old[signal.SIGINT] = signal.signal(signal.SIGINT, on_signal)
+    try:
+        yield got
+    finally:
+        for signum, handler in old.items():
+            signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def _sigint_blocked():
+    """SIGINT blocked in this thread: a worker process started meanwhile inherits the block, so a
+    Ctrl-C during its start-up (before :func:`_worker_init` ignores SIGINT) stays pending instead of
+    ending it with a KeyboardInterrupt traceback. The sweep itself still gets the Ctrl-C (at the
+    latest when the block is lifted)."""
+    import signal
+
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _stop_workers(procs, timeout_s: float = 10.0) -> None:
+    """Terminate the worker processes ``procs`` (their chunks in progress are recomputed when the
+    sweep is resumed) and wait until they have ended (their sentinels: the pool may reap them
+    meanwhile), killing any that outlives ``timeout_s``."""
+    from multiprocessing.connection import wait
+
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    with contextlib.suppress(Exception):
+        left = {p.sentinel: p for p in procs}
+        deadline = time.monotonic() + timeout_s
+        while left and time.monotonic() < deadline:
+            for fd in wait(list(left), max(0.0, deadline - time.monotonic())):
+                left.pop(fd, None)
+        for p in left.values():
+            p.kill()
 
 
 def _run_processes(plan, out_dir, todo, on_result, workers):
@@ -108,6 +172,7 @@ def _run_processes(plan, out_dir, todo, on_result, workers):
 
     window = 2 * workers
     it = iter(todo)
+    others = set(mp.active_children())  # the caller's own child processes, never stopped here
     with _single_threaded_blas_env():
         ex = cf.ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
                                     initializer=_worker_init, initargs=(os.getpid(),))
@@ -117,7 +182,8 @@ def _run_processes(plan, out_dir, todo, on_result, workers):
             def submit_next():
                 i = next(it, None)
                 if i is not None:
-                    pending[ex.submit(chunk_task, plan.spec, plan.hash, i, out_dir)] = i
+                    with _sigint_blocked():  # a submit may start a worker process
+                        pending[ex.submit(chunk_task, plan.spec, plan.hash, i, out_dir)] = i
 
             for _ in range(window):
                 submit_next()
@@ -135,8 +201,9 @@ def _run_processes(plan, out_dir, todo, on_result, workers):
                                "error": f"{type(e).__name__}: {e}"}
                     on_result(res)
                     submit_next()
-        except BaseException:
+        except BaseException:  # Ctrl-C, SIGTERM, …: stop the workers at once, not after their chunks
             ex.shutdown(wait=False, cancel_futures=True)
+            _stop_workers([p for p in mp.active_children() if p not in others])
             raise
         ex.shutdown(wait=True)
 
@@ -254,7 +321,9 @@ def connect_dask(address: str, workers: int | None) -> DaskConnection:
         raise ConfigError("dask_address", f"dask.distributed is not installed ({e})") from None
     if kind == "local":
         try:
-            with _single_threaded_blas_env():
+            # its processes (and the thread that starts them) inherit SIGINT blocked: Ctrl-C in the
+            # terminal stops the sweep, which closes the cluster, without a traceback from each worker
+            with _single_threaded_blas_env(), _sigint_blocked():
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
         except Exception as e:
             raise ConfigError("dask_address", f"cannot start a local Dask cluster of {n} workers: "

@@ -3,7 +3,9 @@ one Arrow table (:func:`read_tables`) or a :class:`pandas.DataFrame` (:func:`loa
 
 Reading verifies every chunk against the manifest (:mod:`exotune.sweeps.integrity`) and records
 valid chunks the manifest missed; a manifest left ``running`` by a killed run (no run holds the
-directory lock) becomes ``interrupted`` (or ``complete`` when every chunk is on disk).
+directory lock) becomes ``interrupted`` (or ``complete`` when every chunk is on disk), and a
+``complete`` one whose chunk files are missing becomes ``incomplete`` (rerunning the sweep
+computes them).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from ..errors import ConfigError
 from .integrity import scan_chunks
 from .manifest import MANIFEST, load_manifest, try_lock, write_manifest
 from .plan import SweepPlan
+from .result import chunk_list
 
 __all__ = ["verified_manifest", "read_tables", "load_results"]
 
@@ -31,8 +34,9 @@ def plan_of(out_dir: str, m: dict) -> SweepPlan:
 
 
 def verified_manifest(out_dir) -> dict:
-    """The manifest of a sweep directory with every chunk verified and the valid chunks on disk
-    recorded (written back when no run holds the directory and it is writable).
+    """The manifest of a sweep directory with every chunk verified, the valid chunks on disk
+    recorded and its status made to agree with them (``complete`` only when every chunk is on disk;
+    written back when no run holds the directory and it is writable).
 
     Parameters
     ----------
@@ -59,12 +63,15 @@ def verified_manifest(out_dir) -> dict:
     plan = plan_of(out_dir, m)
     res = scan_chunks(out_dir, m, plan, strict=True)
     changed = res["changed"]
+    all_done = all(c["status"] == "done" for c in m["chunks"])
+    if m.get("status") == "complete" and not all_done:  # a chunk file removed after the sweep completed
+        m["status"] = "incomplete"
+        changed = True
     lock = try_lock(out_dir)
     if lock is None:
         return m
     try:
-        all_done = all(c["status"] == "done" for c in m["chunks"])
-        if m.get("status") == "running" or (m.get("status") == "interrupted" and all_done):
+        if m.get("status") == "running" or (m.get("status") in ("interrupted", "incomplete") and all_done):
             m["status"] = "complete" if all_done else "interrupted"
             changed = True
         if changed:
@@ -123,7 +130,8 @@ def read_tables(out_dir: str, columns=None, allow_partial: bool = False, manifes
                                     "`exotune sweep` with the same spec to recompute it") from None
     if missing and not allow_partial:
         raise ConfigError(
-            out_dir, f"the sweep is incomplete ({len(missing)} of {len(m['chunks'])} chunks missing); rerun `exotune sweep`"
+            out_dir, f"the sweep is incomplete ({len(missing)} of {len(m['chunks'])} chunks missing); rerun "
+                     f"`exotune sweep` with the same spec to compute {chunk_list(missing)}"
         )
     if not tables:
         return m, None, missing

@@ -2,7 +2,7 @@
 
 The sweep never writes to the terminal itself. :func:`~exotune.sweeps.run.run_sweep` calls the
 hooks of the ``progress`` object it is given: :meth:`SweepProgress.message` for the lines a user
-reads (what is about to run, a failed chunk, completion, termination by SIGTERM) and
+reads (what is about to run, a failed chunk, completion, a stop by Ctrl-C or SIGTERM) and
 :meth:`~SweepProgress.start` / :meth:`~SweepProgress.advance` / :meth:`~SweepProgress.close` for
 the number of designs done. :class:`SweepProgress` itself ignores everything (a silent sweep);
 :class:`TqdmProgress` draws a tqdm bar and writes the lines to a stream (the command line passes
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 __all__ = ["SweepProgress", "TqdmProgress", "LineProgress", "as_progress", "MESSAGE_KINDS"]
 
-MESSAGE_KINDS = ("start", "chunk_failed", "design_failed", "complete", "terminated")
+MESSAGE_KINDS = ("start", "chunk_failed", "design_failed", "complete", "interrupted", "terminated")
 
 
 class SweepProgress:
@@ -23,7 +23,9 @@ class SweepProgress:
     Subclass it and override the hooks to show progress. The hooks are called in the parent
     process only, in this order: ``message("start", …)``, ``start``, any number of ``advance``
     and ``message("chunk_failed", …)``, ``close``, then ``message("complete", …)`` when every
-    chunk succeeded. ``message("terminated", …)`` comes from the SIGTERM handler, before ``close``.
+    chunk succeeded. A sweep stopped by Ctrl-C (SIGINT) or ``kill PID`` (SIGTERM) calls ``close``
+    and then ``message("interrupted", …)`` or ``message("terminated", …)`` (how many chunks are kept
+    and how to resume).
 
     References
     ----------
@@ -39,7 +41,8 @@ class SweepProgress:
             One of :data:`MESSAGE_KINDS`: ``"start"`` (designs, chunks, backend, resumed chunks),
             ``"chunk_failed"`` (one line per failed chunk), ``"design_failed"`` (one line per chunk
             holding designs whose analysis raised: they are kept as rows without results), ``"complete"`` (designs computed, wall
-            time, rate, output directory) or ``"terminated"`` (SIGTERM received).
+            time, rate, output directory), ``"interrupted"`` (stopped by Ctrl-C) or ``"terminated"``
+            (stopped by SIGTERM).
         text : str
             The line, without a trailing newline.
         """
@@ -95,7 +98,7 @@ class TqdmProgress(SweepProgress):
 
 
 class LineProgress(SweepProgress):
-    """Hands every line of the sweep (start, failed chunks, completion, termination) to ``fn``;
+    """Hands every line of the sweep (start, failed chunks, completion, a stop) to ``fn``;
     no progress bar.
 
     Parameters

@@ -13,7 +13,28 @@ from pathlib import Path
 
 from ..record import Record, Result
 
-__all__ = ["SweepResult", "SweepReport"]
+__all__ = ["SweepResult", "SweepReport", "chunk_list"]
+
+
+def chunk_list(indices, limit: int = 10) -> str:
+    """Chunk indices as a report names them: ``chunk 4``, ``chunks 4, 7, 9``, the first ``limit``
+    followed by ``…`` when there are more.
+
+    Parameters
+    ----------
+    indices : sequence of int
+        The chunks (at least one).
+    limit : int, optional
+        How many are listed.
+
+    Returns
+    -------
+    str
+        The text.
+    """
+    idx = [int(i) for i in indices]
+    text = ", ".join(str(i) for i in idx[:limit]) + (" …" if len(idx) > limit else "")
+    return f"chunk{'' if len(idx) == 1 else 's'} {text}"
 
 
 @dataclass(frozen=True)
@@ -154,12 +175,15 @@ class SweepResult(Record):
 @dataclass(frozen=True)
 class SweepReport(Result):
     """``exotune report``: where the report of a sweep went (``directory``), the files written
-    (``files``: ``summary.md``, the per-axis CSV tables, the PNG maps) and the maps among them
-    (``maps``, in the order ``summary.md`` lists them)."""
+    (``files``: ``summary.md``, the per-axis CSV tables, the PNG maps), the maps among them
+    (``maps``, in the order ``summary.md`` lists them) and, for a partial sweep, the chunks not
+    finished (``missing_chunks``) of the sweep in ``sweep_dir``."""
 
     directory: Path
     files: tuple[str, ...] = ()
     maps: tuple[str, ...] = ()
+    missing_chunks: tuple[int, ...] = ()
+    sweep_dir: str | None = None
 
     def to_dict(self) -> dict:
         """The ``exotune report --json`` object.
@@ -167,17 +191,25 @@ class SweepReport(Result):
         Returns
         -------
         dict
-            ``directory``, ``files`` and ``maps``.
+            ``directory``, ``files``, ``maps`` and ``missing_chunks`` (empty for a complete sweep).
         """
-        return {"directory": str(self.directory), "files": list(self.files), "maps": list(self.maps)}
+        return {"directory": str(self.directory), "files": list(self.files), "maps": list(self.maps),
+                "missing_chunks": list(self.missing_chunks)}
 
     def to_text(self) -> str:
-        """The line ``exotune report`` prints.
+        """What ``exotune report`` prints: where the report went and, for a partial sweep, which
+        chunks are missing and how to compute them.
 
         Returns
         -------
         str
-            The line.
+            One line, two for a partial sweep.
         """
         n = len(self.maps)
-        return f"wrote report to {self.directory} ({n} map{'' if n == 1 else 's'}, summary.md)"
+        text = f"wrote report to {self.directory} ({n} map{'' if n == 1 else 's'}, summary.md)"
+        if self.missing_chunks:
+            where = f" and -o {self.sweep_dir}" if self.sweep_dir is not None else ""
+            text += (f"\npartial sweep: {chunk_list(self.missing_chunks)} missing; the report covers the finished "
+                     f"chunks only; rerun `exotune sweep` with the same spec{where} to compute "
+                     f"{'it' if len(self.missing_chunks) == 1 else 'them'}, then `exotune report` again")
+        return text

@@ -10,7 +10,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigError, RunFailed
-from .backends import connect_dask, dispatch, sigterm_as_exit
+from .backends import connect_dask, dispatch, stop_signals
 from .integrity import count_failed_designs, scan_chunks
 from .manifest import (MANIFEST, check_compatible, dir_lock, load_manifest, new_manifest, refuse_link, utc_now,
                        write_manifest)
@@ -84,6 +84,10 @@ def run_sweep(
         Bad input, before anything is written.
     SweepError
         Some chunks failed (after all other chunks ran; the manifest records the errors).
+    KeyboardInterrupt
+        Ctrl-C (SIGINT); ``SystemExit(143)`` for SIGTERM. Either way the workers are stopped, the
+        finished chunks kept, the manifest records "interrupted" and ``progress`` is told how many
+        chunks are done and how to resume (rerun the same call); ``exotune sweep`` exits 130 or 143.
 
     References
     ----------
@@ -230,30 +234,24 @@ def _execute(plan: SweepPlan, out_dir: str, manifest: dict, workers, dask,
     todo = _scan_chunks(plan, out_dir, manifest)
     run, n_workers = _new_run(plan, todo, workers, dask)
     manifest.setdefault("runs", []).append(run)
-    write_manifest(out_dir, manifest)
-
-    done_points = sum(e["rows"] for e in manifest["chunks"] if e["status"] == "done")
-    progress.message("start", _start_text(plan, run, n_workers))
-    if workers is not None and workers > 1 and run["backend"] == "in-process":
-        progress.message("start", f"exotune sweep: --workers {workers} not used: a single chunk to compute runs "
-                                  f"in-process (chunks of {plan.chunk_size} designs; a smaller --chunk-size spreads "
-                                  "the designs over worker processes)")
-    progress.start(plan.n_points, done_points)
-    t0 = time.perf_counter()
-    record = _Recorder(out_dir, manifest, run, progress, t0)
-    try:
-        with sigterm_as_exit(progress):
+    with stop_signals() as stop:
+        write_manifest(out_dir, manifest)
+        t0 = time.perf_counter()
+        try:
+            done_points = sum(e["rows"] for e in manifest["chunks"] if e["status"] == "done")
+            progress.message("start", _start_text(plan, run, n_workers))
+            if workers is not None and workers > 1 and run["backend"] == "in-process":
+                progress.message("start", f"exotune sweep: --workers {workers} not used: a single chunk to compute "
+                                          f"runs in-process (chunks of {plan.chunk_size} designs; a smaller "
+                                          "--chunk-size spreads the designs over worker processes)")
+            progress.start(plan.n_points, done_points)
+            t0 = time.perf_counter()
+            record = _Recorder(out_dir, manifest, run, progress, t0)
             dispatch(plan, out_dir, todo, record, run["backend"], dask, workers, n_workers)
-    except BaseException as exc:
-        progress.close()
-        manifest["status"] = "interrupted"
-        _finish_timings(manifest, run, t0, final=True)
-        with contextlib.suppress(Exception):
-            write_manifest(out_dir, manifest)
-        if isinstance(exc, OSError):  # e.g. no space left for the manifest: one line, the chunks are kept
-            raise RunFailed(f"{exc.filename or out_dir}: {exc.strerror or exc}; the chunks written so far are kept "
-                            "and recognized when you rerun the same command") from None
-        raise
+        except BaseException as exc:  # Ctrl-C, SIGTERM, a full disk, …
+            stop.hold()  # a second Ctrl-C does not cut the manifest short
+            _record_stop(plan, out_dir, manifest, run, t0, progress, exc, stop.received)
+            raise
     progress.close()
     failures = record.failures
     manifest["status"] = "failed" if failures else "complete"
@@ -285,6 +283,35 @@ def _execute(plan: SweepPlan, out_dir: str, manifest: dict, workers, dask,
             manifest=manifest,
         )
     return manifest
+
+
+def _record_stop(plan: SweepPlan, out_dir: str, manifest: dict, run: dict, t0: float, progress: SweepProgress,
+                 exc: BaseException, signum: int | None) -> None:
+    """A run that ends early: the manifest records "interrupted" (the finished chunks are kept and
+    skipped when the same command is rerun), the progress bar is closed and a stop by Ctrl-C or
+    SIGTERM is reported (``progress.message("interrupted" | "terminated", …)``, saying how to
+    resume); an OSError (a full disk) becomes one line, :class:`RunFailed`."""
+    import signal
+
+    manifest["status"] = "interrupted"
+    with contextlib.suppress(Exception):
+        _finish_timings(manifest, run, t0, final=True)
+    with contextlib.suppress(Exception):
+        write_manifest(out_dir, manifest)
+    with contextlib.suppress(Exception):
+        progress.close()
+    if isinstance(exc, OSError):  # e.g. no space left for the manifest: one line, the chunks are kept
+        raise RunFailed(f"{exc.filename or out_dir}: {exc.strerror or exc}; the chunks written so far are kept "
+                        "and recognized when you rerun the same command") from None
+    if signum == signal.SIGTERM:
+        kind, how = "terminated", "terminated (SIGTERM)"
+    elif signum == signal.SIGINT or isinstance(exc, KeyboardInterrupt):
+        kind, how = "interrupted", "interrupted (Ctrl-C)"
+    else:
+        return
+    done = sum(e.get("status") == "done" for e in manifest["chunks"])
+    progress.message(kind, f"exotune sweep: {how}: {done} of {plan.n_chunks} chunks done, kept in {out_dir} (manifest "
+                           "status: interrupted); rerun the same command to resume")
 
 
 def _write_final(out_dir: str, manifest: dict) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..units import fmt_num
 from .metrics import AXIS_UNITS, MAX_PAIR_AXES, aggregate
+from .result import chunk_list
 
 __all__ = ["summary_md", "value_runs", "display_path", "safe_name", "metric_label"]
 
@@ -205,7 +206,10 @@ def _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape) -> list[
     else:
         L.append(f"- designs: {n} of {m.get('n_points')} (full grid {' × '.join(map(str, shape))})")
     if missing:
-        L.append(f"- **partial sweep**: {len(missing)} chunk(s) missing; the tables cover the finished chunks only")
+        L.append(f"- **partial sweep**: {len(missing)} chunk(s) missing ({chunk_list(missing)} of "
+                 f"{len(m.get('chunks', []))}); the tables cover the finished chunks only; rerun `exotune sweep` with "
+                 f"the same spec and `-o {display_path(sweep_dir)}` to compute "
+                 f"{'it' if len(missing) == 1 else 'them'} (the finished chunks are kept)")
     n_failed = sum(len(c.get("failed_designs") or []) for c in m.get("chunks", []) if c.get("status") == "done")
     if n_failed:
         L.append(f"- **failed designs**: {n_failed} design(s) whose analysis raised have no results (counted as not "

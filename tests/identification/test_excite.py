@@ -223,3 +223,60 @@ def test_an_amplitude_no_actuator_resolves_is_refused(kw):
         schroeder_multisine(1000.0, 1.0, 40.0, **kw)
     assert ei.value.field == next(iter(kw)) and "below 1e-09 N·m" in ei.value.reason
     assert schroeder_multisine(1000.0, 1.0, 40.0, peak_nm=1e-9).crest_factor > 1
+
+
+def test_the_default_period_puts_its_first_line_in_the_band():
+    """1.5–2.5 Hz at 1000 Hz: the default period 1/f_lo was rounded to 667 samples, whose first
+    line 1.49925 Hz lies below the band, and the command refused its own default. It is now
+    rounded down (666 samples, 1.5015 Hz); a period that is a whole number of samples is kept."""
+    e = schroeder_multisine(1000.0, 1.5, 2.5, rms_nm=1.0)
+    assert e.period_samples == 666 and e.harmonics == (1,) and 1.5 <= e.lines_hz[0] <= 2.5
+    assert schroeder_multisine(1000.0, 0.5, 40.0, peak_nm=1.0).period_samples == 2000
+    assert schroeder_multisine(1000.0, 3.0, 40.0, peak_nm=1.0).period_samples == 333
+    assert schroeder_multisine(1000.0, 0.1, 40.0, peak_nm=1.0, period_s=6.6667).period_samples == 6667  # given: rounded
+    for fs, lo, hi in [(1000.0, 1.5, 2.5), (1000.0, 0.7, 0.75), (977.0, 3.3, 3.4), (1e4, 7.77, 7.8)]:
+        f = schroeder_multisine(fs, lo, hi, peak_nm=1.0).lines_hz
+        assert f.size >= 1 and lo <= f.min() and f.max() <= hi, (fs, lo, hi)
+
+
+def test_the_default_period_on_the_command_line(tmp_path):
+    out = tmp_path / "a.csv"
+    res = CliRunner().invoke(cli, ["excite", "-o", str(out), "--sample-rate-hz", "1000", "--f-lo-hz", "1.5",
+                                   "--f-hi-hz", "2.5", "--rms-nm", "1"])
+    assert res.exit_code == 0, res.output
+    assert "31 periods of 0.666 s (666 samples)" in res.output
+    assert "1 excited line (all), 1.5015 Hz" in res.output
+
+
+@pytest.mark.parametrize("args, option", [
+    (["--sample-rate-hz", "1e7"], "--sample-rate-hz"),  # 20 s at 10 MHz: 2e8 samples
+    (["--f-lo-hz", "1e-4"], "--f-lo-hz"),  # two periods of 1e7 samples
+    (["--f-lo-hz", "1e-4", "--period-s", "6000"], "--period-s"),  # two periods of 6e6 samples
+])
+def test_a_default_length_over_the_limit_names_an_option_that_was_given(tmp_path, args, option):
+    """At 10 MHz the default 20 s exceed the 1e7 samples written: the error named --duration-s,
+    which was not given. It now names the option that makes the default too long and says which
+    options shorten it."""
+    base = {"--sample-rate-hz": "1000", "--f-lo-hz": "1", "--f-hi-hz": "40", "--peak-nm": "1"}
+    for k, v in zip(args[::2], args[1::2]):
+        base[k] = v
+    res = CliRunner().invoke(cli, ["excite", "-o", str(tmp_path / "e.csv")] + [x for kv in base.items() for x in kv])
+    assert res.exit_code == 2, res.output
+    line = res.output.strip()
+    assert line.startswith(f"exotune: error: {option}: the default length, whole periods making 20 s (at least 2), ")
+    assert line.endswith("at most 10000000 samples are written; give fewer --periods or a shorter --duration-s")
+    assert list(tmp_path.iterdir()) == []
+    res = CliRunner().invoke(cli, ["excite", "-o", str(tmp_path / "e.csv"), "--sample-rate-hz", "1e7", "--f-lo-hz",
+                                   "1", "--f-hi-hz", "40", "--peak-nm", "1", "--periods", "1"])
+    assert res.exit_code == 0 and "1 period of 1 s (10000000 samples)" in res.output
+
+
+def test_periods_and_seed_show_their_range_in_help(tmp_path):
+    """--periods and --seed showed "[x<=None]" (click's text for an unbounded range)."""
+    text = CliRunner().invoke(cli, ["excite", "--help"]).output
+    assert "None" not in text
+    flat = " ".join(text.split())
+    assert "at least 2). [x>=1]" in flat and "(default 0). [x>=0]" in flat
+    res = CliRunner().invoke(cli, ["excite", "-o", str(tmp_path / "x.csv"), "--sample-rate-hz", "1000", "--f-lo-hz", "1",
+                                   "--f-hi-hz", "40", "--peak-nm", "1", "--lines", "random-odd", "--seed", "-1"])
+    assert res.exit_code == 2 and res.output.startswith("exotune: error: --seed: -1 is not in the range x>=0")

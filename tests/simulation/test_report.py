@@ -122,6 +122,21 @@ def test_the_run_budget_gives_exact_counts_near_the_limit():
     assert "about 1e+307 samples" in ei.value.reason
 
 
+def test_the_shortest_run_is_counted_as_the_run_counts_its_samples():
+    """0.0159999 s at 1 kHz read "is 16 samples; a verdict needs a run of at least 16 samples": the
+    check compared 15.9999 with 16 and the message rounded it. The run has round(duration × rate)
+    samples (16 here), so the check counts the same way and the message gives that count."""
+    check_budget(1000.0, 0.0159999)  # 16 samples: long enough
+    check_budget(1000.0, 0.016)
+    with pytest.raises(ConfigError) as ei:
+        check_budget(1000.0, 0.0154)  # 15 samples
+    assert ei.value.reason == ("0.0154 s at 1000 Hz is 15 samples; a verdict needs a run of at least 16 samples "
+                               "(0.016 s at this rate)")
+    with pytest.raises(ConfigError) as ei:
+        check_budget(1000.0, 0.0024)
+    assert ei.value.reason.startswith("0.0024 s at 1000 Hz is 2 samples;")
+
+
 def test_run_scenario_returns_the_typed_run():
     doc = paper_controller(FS)
     run = run_scenario(doc, "locked-output", duration_s=1.0)

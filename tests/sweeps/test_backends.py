@@ -1,5 +1,5 @@
 """exotune.sweeps.backends: Dask address validation, the in-process and local-process backends
-computing the same chunks, and SIGTERM ending a sweep like Ctrl-C."""
+computing the same chunks, and Ctrl-C (SIGINT) and SIGTERM stopping a sweep the same way."""
 
 import os
 import signal
@@ -10,8 +10,7 @@ import pytest
 
 from exotune.errors import ConfigError
 from exotune.sweeps import backends
-from exotune.sweeps.backends import check_dask_address, dispatch, sigterm_as_exit
-from exotune.sweeps.progress import LineProgress
+from exotune.sweeps.backends import check_dask_address, dispatch, stop_signals
 from exotune.sweeps.spec import load_spec
 from exotune.sweeps.store import chunk_file
 
@@ -81,12 +80,57 @@ def test_local_processes_compute_the_same_rows_as_in_process(tmp_path):
     assert [r[0]["design.amplification"] for r in rows["in-process"]] == [2.0, 8.0]
 
 
-def test_sigterm_ends_the_sweep_like_ctrl_c():
-    lines = []
+def test_sigterm_ends_the_sweep_with_exit_143():
     before = signal.getsignal(signal.SIGTERM)
     with pytest.raises(SystemExit) as ei:
-        with sigterm_as_exit(LineProgress(lines.append)):
+        with stop_signals() as stop:
             os.kill(os.getpid(), signal.SIGTERM)
-    assert ei.value.code == 128 + signal.SIGTERM
-    assert lines == ["exotune sweep: terminated (SIGTERM); rerun the same command to resume"]
+    assert ei.value.code == 128 + signal.SIGTERM and stop.received == signal.SIGTERM
     assert signal.getsignal(signal.SIGTERM) == before
+
+
+@pytest.fixture
+def default_sigint():
+    """Python's own Ctrl-C handler (a test runner's worker may start with SIGINT ignored)."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
+def test_ctrl_c_stops_the_sweep_like_sigterm_and_a_second_one_is_ignored(default_sigint):
+    """Ctrl-C used to reach the sweep as Python's KeyboardInterrupt anywhere, a second one cutting
+    the manifest's write short (status left "running", click's "Aborted!", exit 1). The sweep now
+    handles SIGINT as it handles SIGTERM: the first one stops it (KeyboardInterrupt, which the
+    command line turns into exit 130), later ones are ignored while it records how it ended."""
+    before_term = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt):
+        with stop_signals() as stop:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+            except KeyboardInterrupt:
+                os.kill(os.getpid(), signal.SIGINT)  # the second Ctrl-C: ignored
+                os.kill(os.getpid(), signal.SIGTERM)  # so is a SIGTERM meanwhile
+                raise
+    assert stop.received == signal.SIGINT and stop.stopping
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGTERM) == before_term
+
+
+def test_hold_ignores_signals_while_a_sweep_records_its_end(default_sigint):
+    with stop_signals() as stop:
+        stop.hold()
+        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGTERM)
+    assert stop.received is None
+
+
+def test_an_ignored_ctrl_c_stays_ignored():
+    """A sweep started with SIGINT ignored (a background job of a script) does not take Ctrl-C over."""
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with stop_signals() as stop:
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGINT)
+        assert stop.received is None
+    finally:
+        signal.signal(signal.SIGINT, old)

@@ -9,7 +9,7 @@ import pyarrow as pa
 import pytest
 
 from exotune.errors import ConfigError
-from exotune.sweeps import run_sweep
+from exotune.sweeps import load_manifest, run_sweep
 from exotune.sweeps.dataset import load_results, read_tables, verified_manifest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,6 +58,11 @@ def test_a_missing_chunk_makes_the_sweep_partial(sweep, tmp_path):
     with pytest.raises(ConfigError) as ei:
         load_results(copy)
     assert ei.value.field == str(copy) and "incomplete (1 of 2 chunks missing)" in ei.value.reason
+    assert ei.value.reason.endswith("rerun `exotune sweep` with the same spec to compute chunk 1")
+    # the sweep was complete: with a chunk file gone it no longer says so
+    m = verified_manifest(copy)
+    assert m["status"] == "incomplete" and [c["status"] for c in m["chunks"]] == ["done", "pending"]
+    assert load_manifest(copy)["status"] == "incomplete"
     df = load_results(copy, allow_partial=True)
     assert df["point_index"].tolist() == [0, 1, 2]
     (copy / "chunks" / "part-000000.parquet").unlink()

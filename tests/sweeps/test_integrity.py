@@ -263,6 +263,46 @@ def test_running_manifest_is_reported_interrupted_with_correct_counts(sweeps, tm
     assert load_manifest(d)["status"] == "interrupted"
 
 
+def test_a_complete_sweep_with_a_chunk_file_gone_is_incomplete_and_resumed(sweeps, tmp_path):
+    """A chunk file deleted after the sweep completed: the report said both "status: complete" and
+    "partial sweep: 1 chunk(s) missing" and wrote the manifest back "complete" with the chunk
+    "pending". Now the status is "incomplete", the report names the chunk and says how to compute
+    it, and rerunning the sweep computes that chunk alone (the same bytes as before)."""
+    spec, ref = sweeps[0], sweeps[1]
+    d = _copy(sweeps, tmp_path)
+    _chunk(d, 3).unlink()
+    res = CliRunner().invoke(cli, ["report", str(d), "-o", str(tmp_path / "rep")])
+    assert res.exit_code == 0, res.output
+    assert res.stdout.splitlines() == [
+        f"wrote report to {tmp_path / 'rep'} (2 maps, summary.md)",
+        f"partial sweep: chunk 3 missing; the report covers the finished chunks only; rerun `exotune sweep` with the "
+        f"same spec and -o {d} to compute it, then `exotune report` again"]
+    md = (tmp_path / "rep" / "summary.md").read_text(encoding="utf-8")
+    assert "status: incomplete" in md and "status: complete" not in md and "designs: 7 of 9" in md
+    assert "1 chunk(s) missing (chunk 3 of 5)" in md and "rerun `exotune sweep` with the same spec" in md
+    m = load_manifest(d)
+    assert m["status"] == "incomplete" and [c["status"] for c in m["chunks"]] == ["done"] * 3 + ["pending", "done"]
+    rep = make_report(d, tmp_path / "rep2")
+    assert rep.missing_chunks == (3,) and rep.to_dict()["missing_chunks"] == [3]
+
+    m = run_sweep(spec, d, workers=1, progress=False).to_dict()
+    assert m["status"] == "complete" and m["runs"][-1]["chunks_computed"] == 1 and m["runs"][-1]["chunks_skipped"] == 4
+    assert _chunk(d, 3).read_bytes() == _chunk(ref, 3).read_bytes()
+    rep = make_report(d, tmp_path / "rep3")
+    md = (rep.directory / "summary.md").read_text(encoding="utf-8")
+    assert "status: complete" in md and "partial" not in md and rep.missing_chunks == ()
+    assert "\n" not in rep.to_text()
+
+
+def test_an_incomplete_sweep_whose_chunk_is_back_is_complete(sweeps, tmp_path):
+    d = _copy(sweeps, tmp_path)
+    saved = _chunk(d, 1).read_bytes()
+    _chunk(d, 1).unlink()
+    assert verified_manifest(d)["status"] == "incomplete"
+    _chunk(d, 1).write_bytes(saved)  # restored from a backup
+    assert verified_manifest(d)["status"] == "complete" and load_manifest(d)["status"] == "complete"
+
+
 def test_resume_records_unrecorded_chunks_without_recomputing(sweeps, tmp_path):
     d = _copy(sweeps, tmp_path)
     _forget(d, [0, 3])

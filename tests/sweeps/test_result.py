@@ -13,7 +13,7 @@ import pyarrow as pa  # noqa: E402
 import pyarrow.parquet as pq  # noqa: E402
 import pytest  # noqa: E402
 
-from exotune.sweeps.result import SweepReport, SweepResult  # noqa: E402
+from exotune.sweeps.result import SweepReport, SweepResult, chunk_list  # noqa: E402
 
 MANIFEST = {"format": "exotune-sweep", "status": "complete", "n_points": 6,
             "axes": [{"path": "design.amplification"}, {"path": "implementation.delay_s"}, {"path": "design.zeta"}]}
@@ -83,6 +83,21 @@ def test_plot_draws_the_map_into_the_given_ax(sweep_dir):
 def test_sweep_report():
     rep = SweepReport("out/report", ("summary.md", "robust_a__b.png"), ("robust_a__b.png",))
     assert rep.to_dict() == {"directory": "out/report", "files": ["summary.md", "robust_a__b.png"],
-                             "maps": ["robust_a__b.png"]}
+                             "maps": ["robust_a__b.png"], "missing_chunks": []}
     assert rep.to_text() == "wrote report to out/report (1 map, summary.md)"
     assert SweepReport("r", (), ("a", "b")).to_text() == "wrote report to r (2 maps, summary.md)"
+
+
+def test_the_report_of_a_partial_sweep_names_the_missing_chunks_and_how_to_compute_them():
+    rep = SweepReport("sw/report", ("summary.md",), (), (4, 7), "sw")
+    assert rep.to_dict()["missing_chunks"] == [4, 7]
+    assert rep.to_text().splitlines() == [
+        "wrote report to sw/report (0 maps, summary.md)",
+        "partial sweep: chunks 4, 7 missing; the report covers the finished chunks only; rerun `exotune sweep` with "
+        "the same spec and -o sw to compute them, then `exotune report` again"]
+
+
+def test_chunk_list():
+    assert chunk_list([4]) == "chunk 4"
+    assert chunk_list(range(3)) == "chunks 0, 1, 2"
+    assert chunk_list(range(12)) == "chunks 0, 1, 2, 3, 4, 5, 6, 7, 8, 9 …"

@@ -223,18 +223,36 @@ def test_kill_and_resume_matches_uninterrupted(tmp_path):
     assert_frames_equal(load_results(killed), load_results(clean))
 
 
-def _big_sweep_process(tmp_path):
-    """A local-process sweep long enough to be signalled while its workers run."""
-    axes = {"design.amplification": {"start": 1.5, "stop": 20.0, "num": 300, "scale": "log"},
-            "implementation.delay_s": {"start": 0.0, "stop": 0.004, "num": 300}}
+def _children(pid: int) -> list[int]:
+    return [int(x) for x in subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout.split()]
+
+
+def _big_sweep_process(tmp_path, num=300, ctrl_c=False, until="chunks"):
+    """A local-process sweep long enough to be signalled while its workers run (``num`` × ``num``
+    designs), returned once both workers have written a chunk (``until="chunks"``) or once they
+    are started (``"workers"``: they may still be importing). ``ctrl_c``: in a session of its own,
+    with Python's Ctrl-C handler (a test runner's worker may have SIGINT ignored, which its
+    children inherit), so that ``os.killpg(pid, SIGINT)`` is a Ctrl-C in a terminal: the sweep and
+    its workers receive it."""
+    axes = {"design.amplification": {"start": 1.5, "stop": 20.0, "num": num, "scale": "log"},
+            "implementation.delay_s": {"start": 0.0, "stop": 0.004, "num": num}}
     spec = write_spec(tmp_path, axes=axes, chunk_size=500)
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.Popen([sys.executable, "-m", "exotune", "sweep", str(spec), "-o", str(out), "--workers", "2"],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    args = ["sweep", str(spec), "-o", str(out), "--workers", "2"]
+    if ctrl_c:
+        code = ("import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+                f"from exotune.cli import main; main({args!r})")
+        cmd = [sys.executable, "-c", code]
+    else:
+        cmd = [sys.executable, "-m", "exotune"] + args
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=ctrl_c)
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:  # wait until both workers have written a chunk
+    while time.monotonic() < deadline:  # wait until both workers have written a chunk (or are started)
         d = out / "chunks"
+        if until == "workers" and len(_children(proc.pid)) >= 2:
+            break
         if d.is_dir() and sum(n.startswith("part-") for n in os.listdir(d)) >= 2:
             break
         if proc.poll() is not None:
@@ -243,8 +261,7 @@ def _big_sweep_process(tmp_path):
     else:
         proc.kill()
         pytest.fail("no chunk file appeared")
-    kids = [int(x) for x in subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()]
-    return proc, out, kids
+    return proc, out, _children(proc.pid)
 
 
 def _all_gone(pids, timeout=15.0) -> bool:
@@ -295,6 +312,91 @@ def test_sigterm_interrupts_the_sweep_cleanly(tmp_path):
     assert _all_gone(kids)
     m = run_sweep(tmp_path / "spec.yaml", out, workers=1, progress=False).to_dict()
     assert m["status"] == "complete" and m["runs"][-1]["chunks_skipped"] >= 2
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/proc"), reason="Linux process table")
+def test_ctrl_c_interrupts_the_sweep_like_sigterm(tmp_path):
+    """Ctrl-C used to end the sweep with click's "Aborted!" and exit 1, leaving the manifest
+    "running" at times; it now stops it as SIGTERM does: the workers end at once, the finished
+    chunks are kept, the manifest says "interrupted", one line says how to resume, exit 130; and
+    rerunning the command completes the dataset."""
+    proc, out, kids = _big_sweep_process(tmp_path, num=100, ctrl_c=True)
+    try:
+        os.killpg(proc.pid, signal.SIGINT)  # a terminal's Ctrl-C: the sweep and its workers
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err[-2000:]
+    assert "Traceback" not in err and "Aborted" not in err and "KeyboardInterrupt" not in err, err[-2000:]
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("exotune sweep: interrupted (Ctrl-C): ") and last.endswith("rerun the same command to resume")
+    m = load_manifest(out)
+    done = sum(c["status"] == "done" for c in m["chunks"])
+    assert m["status"] == "interrupted" and f"{done} of 20 chunks done" in last and done >= 2
+    assert not any(c["status"] == "failed" for c in m["chunks"])  # the workers' chunks in progress did not fail
+    assert _all_gone(kids, timeout=5.0)
+    res = subprocess.run([sys.executable, "-m", "exotune", "sweep", str(tmp_path / "spec.yaml"), "-o", str(out),
+                          "--workers", "2"], capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")))
+    assert res.returncode == 0, res.stderr[-2000:]
+    m = load_manifest(out)
+    assert m["status"] == "complete" and m["runs"][-1]["chunks_skipped"] >= done
+    assert len(load_results(out)) == 100 * 100
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/proc"), reason="Linux process table")
+def test_ctrl_c_while_the_workers_start_prints_no_traceback(tmp_path):
+    """A Ctrl-C that reached a worker still importing exotune (before it ignores SIGINT) ended it
+    with a KeyboardInterrupt traceback. The workers start with SIGINT blocked: whenever Ctrl-C
+    comes, the sweep alone handles it."""
+    proc, out, kids = _big_sweep_process(tmp_path, num=100, ctrl_c=True, until="workers")
+    try:
+        time.sleep(0.5)  # the workers are starting up (importing)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err[-2000:]
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err[-2000:]
+    assert err.strip().splitlines()[-1].endswith("rerun the same command to resume")
+    assert load_manifest(out)["status"] == "interrupted"
+    assert _all_gone(kids, timeout=5.0)
+
+
+def test_an_interrupted_in_process_sweep_exits_130_and_resumes(tmp_path, monkeypatch):
+    """A KeyboardInterrupt while a chunk is computed (``--workers 1``): exit 130 (not click's
+    "Aborted!", exit 1), the finished chunks recorded, the manifest "interrupted", the line saying
+    how to resume; the same command then completes the sweep."""
+    from exotune.sweeps import backends
+
+    spec = write_spec(tmp_path)
+    out = tmp_path / "out"
+    real = backends.chunk_task
+
+    def interrupted_at_chunk_2(spec_, h, i, out_dir):
+        if i == 2:
+            raise KeyboardInterrupt
+        return real(spec_, h, i, out_dir)
+
+    monkeypatch.setattr(backends, "chunk_task", interrupted_at_chunk_2)
+    res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(out), "--workers", "1"])
+    assert res.exit_code == 130, res.output
+    assert "Aborted" not in res.output
+    assert res.stderr.strip().splitlines()[-1] == (
+        f"exotune sweep: interrupted (Ctrl-C): 2 of 5 chunks done, kept in {out} (manifest status: interrupted); "
+        "rerun the same command to resume")
+    m = load_manifest(out)
+    assert m["status"] == "interrupted" and [c["status"] for c in m["chunks"]] == ["done"] * 2 + ["pending"] * 3
+    assert m["runs"][-1]["finished"] is not None
+    monkeypatch.setattr(backends, "chunk_task", real)
+    res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(out), "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    m = load_manifest(out)
+    assert m["status"] == "complete" and m["runs"][-1]["chunks_skipped"] == 2 and m["runs"][-1]["chunks_computed"] == 3
 
 
 # --------------------------------------------------------------------------------------------

@@ -102,7 +102,8 @@ def test_partial_sampled_sweep_with_failures():
          "base_source": "/somewhere/else/base/paper.yaml"}
     md, _ = _md(m=m, missing=[1], robust=np.array([False, False, False, False]))
     assert "- designs: 4 of 4 — a uniform random sample (seed 5) of a 2 × 2 = 4-point grid" in md
-    assert "- **partial sweep**: 1 chunk(s) missing; the tables cover the finished chunks only" in md
+    assert ("- **partial sweep**: 1 chunk(s) missing (chunk 1 of 2); the tables cover the finished chunks only; "
+            "rerun `exotune sweep` with the same spec and `-o sweep` to compute it (the finished chunks are kept)") in md
     assert "- **failed designs**: 1 design(s)" in md
     assert "- base design: `…/base/paper.yaml`" in md
     assert "Robust design with the largest amplification" not in md

@@ -31,3 +31,11 @@ def test_unwritten_and_seeded():
     lines = excitation_text(_e(path=None, selection="random lines", seed=7)).splitlines()
     assert lines[0] == "exotune excite — Schroeder-phased multisine: not written"
     assert lines[2] == "  band 0.5–40 Hz: 159 excited lines (random lines, seed 7), 0.5–40 Hz"
+
+
+def test_one_period_and_one_line_are_singular():
+    """"1 periods" and "1 excited lines, 1.5015–1.5015 Hz" read as plurals and a range."""
+    lines = excitation_text(_e(samples=666, periods=1, period_s=0.666, period_samples=666, duration_s=0.666,
+                               f_lo_hz=1.5, f_hi_hz=2.5, harmonics=[1], lines_hz=[1.5015015015])).splitlines()
+    assert lines[1] == "  666 samples at 1000 Hz: 1 period of 0.666 s (666 samples), 0.666 s"
+    assert lines[2] == "  band 1.5–2.5 Hz: 1 excited line (every line), 1.5015 Hz"
