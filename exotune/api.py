@@ -204,7 +204,7 @@ def sea(source) -> Any:
         return sea_report(cfg)
 
 
-def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
+def analyze(source, *, cross_check: bool = False, plots=None, time_budget_s: float | str | None = None) -> DesignAnalysis:
     """Coupled stability, robust intervals, passivity, DOB margins, amplification and the
     latency margin of one design (the library twin of ``exotune analyze``). With a sample rate,
     the margins and verdicts of record are the sampled-data loop's, as ``certify`` judges the
@@ -218,6 +218,10 @@ def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
         Also compare the exact verdicts with the closed-loop roots of two Padé models.
     plots : path, optional
         Also write the analysis PNGs into this directory (``--plots``; all or none).
+    time_budget_s : float, optional
+        Stop the analysis beyond this many seconds (default 600; ``--time-budget-s``): with a
+        high sample rate the sampled-data verdicts of record can take hours
+        (:class:`~exotune.errors.ConfigError` on ``time_budget_s`` then, nothing written).
 
     Returns
     -------
@@ -238,8 +242,13 @@ def analyze(source, *, cross_check: bool = False, plots=None) -> DesignAnalysis:
 
     cross_check = flag_value("cross_check", cross_check)
     check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)}, dir_names={"`plots`": ("*.png",)})
+    from .numerics.timebudget import check_budget_option, time_budget
+
+    budget = check_budget_option(time_budget_s)
     cfg = load_design(source)
-    with numpy_engine():
+    fs = cfg.implementation.sample_rate_hz
+    what = "analysing the design" + (f" at {fs:g} Hz" if fs else "")
+    with numpy_engine(), time_budget(budget, what, "lower `implementation.sample_rate_hz`", writes=plots is not None):
         r = analyze_of_record(cfg)
         if cross_check:
             from .analysis import pade_crosscheck

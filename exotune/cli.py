@@ -247,7 +247,9 @@ def sea_cmd(sea_file, as_json):
 @click.option("--plots", "plots", metavar="DIR", default=None, help="Write the analysis plots to DIR.")
 @click.option("--cross-check", "cross_check", is_flag=True,
               help="Also compare the exact verdicts with closed-loop roots of two Padé models (docs/method.md#analyses-and-metrics).")
-def analyze_cmd(design_file, as_json, plots, cross_check):
+@click.option("--time-budget-s", "time_budget_s", default=None, metavar="S",
+              help="Stop the analysis beyond this many seconds (default 600); nothing is written then.")
+def analyze_cmd(design_file, as_json, plots, cross_check, time_budget_s):
     """Margins (latency, plant uncertainty), stability, passivity, DOB margins and
     amplification of a design (docs/method.md#analyses-and-metrics).
 
@@ -255,7 +257,7 @@ def analyze_cmd(design_file, as_json, plots, cross_check):
     JSON object); --plots DIR writes the analysis PNGs into DIR."""
     from .api import analyze
 
-    r = analyze(design_file, cross_check=cross_check, plots=plots)
+    r = analyze(design_file, cross_check=cross_check, plots=plots, time_budget_s=time_budget_s)
     click.echo(r.to_json() if as_json else r.to_text())
 
 

@@ -360,6 +360,21 @@ def test_certify_time_budget_is_a_library_keyword(tmp_path):
     assert exotune.certify(c, time_budget_s=600).certified
 
 
+def test_analyze_stops_at_its_time_budget_and_writes_nothing(tmp_path):
+    """h8: `exotune analyze` of a design at 10 MHz ran for minutes with no way to bound it; export
+    and certify had a time budget. analyze takes one too (library keyword and option): spent, it is
+    a ConfigError on time_budget_s (exit 2 naming --time-budget-s), and no plot is written."""
+    with pytest.raises(ConfigError) as ei:
+        exotune.analyze(ROOT / "examples" / "scheduled.yaml", time_budget_s=1e-3, plots=tmp_path / "p")
+    assert ei.value.field == "time_budget_s" and "exceeded the time budget of 0.001 s" in ei.value.reason
+    assert not (tmp_path / "p").exists()
+    with pytest.raises(ConfigError, match="must be > 0"):
+        exotune.analyze(ROOT / "examples" / "paper.yaml", time_budget_s=0.0)
+    res = CliRunner().invoke(cli, ["analyze", str(ROOT / "examples" / "scheduled.yaml"), "--time-budget-s", "0.001"])
+    assert res.exit_code == 2 and "--time-budget-s: analysing the design at 1000 Hz exceeded" in res.output
+    assert exotune.analyze(ROOT / "examples" / "paper.yaml", time_budget_s=600).free_stable
+
+
 def test_sea_accepts_a_path_a_mapping_and_a_loaded_file():
     """h8 item 7: exotune.sea(mapping) raised a bare TypeError (config/design.py) although the API
     takes a path, a mapping or a loaded object; the mapping is validated as the file is."""
