@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 from numpy.polynomial import polynomial as P
 
@@ -359,9 +359,20 @@ def test_complex_path_with_real_data_equals_real_path(g0, g1, gain_exp, t_frac):
     assert Nc == Nr
 
 
-@settings(max_examples=300, deadline=None)
+# About 4 of 5 draws fail the assume() calls (the samples straddle 0, or the vertex is not next to
+# the middle sample), so the health check's limit of 50 filtered draws before the first 10 valid
+# ones is within reach: the draws also depend on which local modules are loaded (Hypothesis adds
+# their numeric literals to its choices), so the check failed in some `pytest -n 2` workers
+# (FailedHealthCheck filter_too_much: 8 valid, 50 filtered) and passed alone. The filtering is
+# intended, as in the other property tests of this file (SETTINGS); the property is still asserted
+# on 300 valid draws.
+@settings(SETTINGS, max_examples=300)
 @given(h1=st.floats(1e-6, 1.0), h2=st.floats(1e-6, 1.0), vertex=st.floats(0.0, 1.0), depth=st.floats(1e-9, 10.0),
        curv=st.floats(1e-3, 1e3), sign=st.sampled_from([1.0, -1.0]))
+# the bound attained (exact in binary): ρ = 1/15, the vertex −h1/2 level with −h1 and 0, the
+# minimum just below 0; middle/rise = 225/64 = 1/(4ρ(1 + ρ)) (a fixed factor 2 misses it)
+@example(h1=0.9375, h2=0.0625, vertex=0.46875, depth=1e-9, curv=1.0, sign=1.0)
+@example(h1=0.9375, h2=0.0625, vertex=0.46875, depth=1e-9, curv=1.0, sign=-1.0)
 def test_the_uneven_dip_net_catches_every_parabola_of_the_other_sign(h1, h2, vertex, depth, curv, sign):
     """A parabola sampled at −h1, 0, h2 whose middle sample is the nearest to 0 and whose minimum
     between the outer samples has the other sign is a candidate with the factor of dip_rise, for

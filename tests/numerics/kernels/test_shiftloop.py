@@ -60,9 +60,10 @@ def test_a_high_rate_simulation_is_the_same_on_both_recursions(monkeypatch):
     from exotune.simulation import load_for_simulation, run_scenario
 
     doc = load_for_simulation(EXAMPLES / "scheduled.yaml", 50000.0)
-    fast = run_scenario(doc, "saturation", duration_s=0.4).full_report()["summary"]
+    # 0.6 s: at least two periods of the loop's 3.9 Hz dominant oscillation, so the run is judged
+    fast = run_scenario(doc, "saturation", duration_s=0.6).full_report()["summary"]
     monkeypatch.setenv("EXOTUNE_NUMPY_ONLY", "1")
-    dense = run_scenario(doc, "saturation", duration_s=0.4).full_report()["summary"]
-    assert fast["verdict"] == dense["verdict"]
+    dense = run_scenario(doc, "saturation", duration_s=0.6).full_report()["summary"]
+    assert fast["verdict"] == dense["verdict"] != "inconclusive"
     for k in ("peak_motor_torque", "peak_command"):
         assert fast[k]["value"] == pytest.approx(dense[k]["value"], rel=1e-9), k
