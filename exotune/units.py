@@ -14,7 +14,7 @@ import math
 
 __all__ = ["PLANT_UNITS", "DESIGN_UNITS", "PARAM_UNITS", "SIGNAL_UNITS", "FILTER_UNITS", "IMPLEMENTATION_UNITS",
            "GAIN_UNITS_TORQUE", "GAIN_UNITS_DEFLECTION", "SHAPE_UNITS", "SIGNAL_GAIN_UNITS", "SIX_GAIN_UNITS",
-           "METRIC_UNITS", "SEA_UNITS", "path_unit", "fmt_num"]
+           "METRIC_UNITS", "SEA_UNITS", "path_unit", "fmt_num", "fmt_distinct"]
 
 #: plant section (joint-reflected)
 PLANT_UNITS = {"motor_inertia": "kg·m²", "motor_damping": "N·m·s/rad", "sea_stiffness": "N·m/rad",
@@ -167,3 +167,39 @@ def fmt_num(x, digits=6) -> str:
     if math.isnan(x):
         return "—"
     return f"{x:.{digits}g}"
+
+
+def fmt_distinct(values, digits: int = 6) -> str:
+    """Numbers as a comma-separated list, with as many significant digits (from ``digits`` up to
+    17) as it takes to tell different values apart; equal values are listed once, with their count.
+
+    Parameters
+    ----------
+    values : iterable of float
+        The values (e.g. members of a family bisected to 1e-10 relative, which six digits would
+        print as one number several times).
+    digits : int
+        The fewest significant digits.
+
+    Returns
+    -------
+    str
+        The list, e.g. ``"0.00555216 (×2), 0.5"``.
+
+    References
+    ----------
+    docs/cli.md#output.
+
+    Examples
+    --------
+    >>> fmt_distinct([0.0055521601, 0.0055521602, 0.5])
+    '0.0055521601, 0.0055521602, 0.5'
+    >>> fmt_distinct([2.0, 2.0, 3.0])
+    '2 (×2), 3'
+    """
+    vals = [float(v) for v in values]
+    distinct = sorted(set(vals), key=vals.index)
+    d = int(digits)
+    while d < 17 and len({fmt_num(v, d) for v in distinct}) < len(distinct):
+        d += 1
+    return ", ".join(fmt_num(v, d) + (f" (×{vals.count(v)})" if vals.count(v) > 1 else "") for v in distinct)

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from exotune import units
-from exotune.units import fmt_num, path_unit
+from exotune.units import fmt_distinct, fmt_num, path_unit
 
 
 @pytest.mark.parametrize("path, unit", [
@@ -70,3 +70,23 @@ def test_fmt_num_round_trips_to_the_digits_asked(x, digits):
     back = float(fmt_num(x, digits))  # rounding to `digits` significant digits: relative error <= 5e-digits
     assert abs(back - x) <= 0.5 * 10.0 ** (1 - digits) * abs(x) * (1 + 1e-12)
     assert fmt_num(x, 17) == fmt_num(float(fmt_num(x, 17)), 17)  # 17 digits: exact round trip
+
+
+def test_fmt_distinct_prints_bisected_members_apart_and_equal_ones_once():
+    # four members bisected to 1e-10 relative printed "0.00555216" four times before
+    vals = [0.0055521588146, 0.0055521588176, 0.0055521588191, 0.0055521588195]
+    text = fmt_distinct(vals)
+    assert text.split(", ") == ["0.0055521588146", "0.0055521588176", "0.0055521588191", "0.0055521588195"]
+    assert fmt_distinct([2.0, 3.0, 2.0]) == "2 (×2), 3"
+    assert fmt_distinct([0.5, 0.25]) == "0.5, 0.25"  # six digits suffice: no more are printed
+
+
+@given(st.lists(st.floats(min_value=-1e300, max_value=1e300), min_size=1, max_size=8))
+def test_fmt_distinct_lists_each_distinct_value_once_and_tells_them_apart(xs):
+    items = fmt_distinct(xs).split(", ")
+    distinct = list(dict.fromkeys(float(x) for x in xs))
+    assert len(items) == len(distinct)
+    shown = [float(i.split(" (×")[0]) for i in items]
+    assert len(set(shown)) == len(shown)  # different values never print alike
+    for v, s in zip(distinct, shown):
+        assert abs(s - v) <= 0.5e-5 * abs(v) * (1 + 1e-12)

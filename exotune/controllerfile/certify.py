@@ -25,7 +25,7 @@ import numpy as np
 
 from ..numerics.threads import one_blas_thread
 from ..sampled import loop_eigenvalues, loop_spectra, loop_verdict
-from ..units import PARAM_UNITS
+from ..units import PARAM_UNITS, fmt_distinct
 from .build import close
 from .cellbound import loop_cell
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
@@ -490,7 +490,7 @@ def sampled_problems(sa: dict) -> list[str]:
                             f"stable only in {_fmt_ivs(h['stable_intervals'])}")
         if h.get("inconclusive"):
             problems.append(f"{h['kind']} {h['parameter']}: the sampled-data verdict is inconclusive (spectral radius "
-                            "within rounding of 1) at " + ", ".join(f"{v:.6g}" for v in h["inconclusive"]) + f" {h['unit']}")
+                            "within rounding of 1) at " + fmt_distinct(h["inconclusive"]) + f" {h['unit']}")
     return problems + _unresolved(sa, "")
 
 

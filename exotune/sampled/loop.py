@@ -739,7 +739,13 @@ def loop_verdict(plant, ctrl: DiscreteController, position_feedback: bool, human
         When the loop matrix overflows, or when an active time budget is spent.
     """
     M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
-    trial = lambda rng: _zoh_trial(plant_ss(plant, human, env), ctrl, M, rng)  # noqa: E731
+    held = []  # the zero-order hold and its rounding estimate, computed once for every trial
+
+    def trial(rng):
+        if not held:
+            held.append(_held(plant_ss(plant, human, env), ctrl))
+        return _zoh_trial(held[0], ctrl, M, rng)
+
     return _verdict(M, lam, None if drop is None else rigid_tol, trial)
 
 
@@ -822,15 +828,20 @@ def _relative_trial(M: np.ndarray, rng) -> np.ndarray:
     return M * (1.0 + 8.0 * np.finfo(float).eps * rng.uniform(-1.0, 1.0, M.shape))
 
 
-def _zoh_trial(plant_matrices, ctrl: DiscreteController, M: np.ndarray, rng) -> np.ndarray:
-    """One rounding trial of a sampled-data loop matrix ``M``: its zero-order hold (Φ, Γ0, Γ1)
-    perturbed entry by entry within the rounding estimate of :func:`zoh_rounding`, the loop
-    assembled again, then every entry perturbed by a relative 8ε."""
+def _held(plant_matrices, ctrl: DiscreteController):
+    """(C, the zero-order hold (Φ, Γ0, Γ1), its rounding estimate) of a loop: what every rounding
+    trial of :func:`loop_verdict` perturbs."""
     A, B, C = plant_matrices
     Ts = 1.0 / ctrl.sample_rate_hz
     _d, f = split_delay(ctrl.delay_s, Ts)
-    zoh = zoh_fractional(A, B, Ts, f)
-    err = zoh_rounding(A, B, Ts, f)
+    return C, zoh_fractional(A, B, Ts, f), zoh_rounding(A, B, Ts, f)
+
+
+def _zoh_trial(held, ctrl: DiscreteController, M: np.ndarray, rng) -> np.ndarray:
+    """One rounding trial of a sampled-data loop matrix ``M``: its zero-order hold (Φ, Γ0, Γ1)
+    perturbed entry by entry within the rounding estimate of :func:`zoh_rounding`, the loop
+    assembled again, then every entry perturbed by a relative 8ε. ``held``: :func:`_held`."""
+    C, zoh, err = held
     moved = [x + e * rng.uniform(-1.0, 1.0, x.shape) for x, e in zip(zoh, err)]
     Mt = loop_matrices(*(x[None] for x in moved), C[None], ctrl)[0]
     return _relative_trial(Mt if Mt.shape == M.shape else M, rng)

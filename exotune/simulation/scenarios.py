@@ -81,8 +81,8 @@ SCENARIOS = {
     "dob-friction": Scenario(
         "dob-friction", "free output; the human (0.5 kg·m²) moves the joint with a 3 N·m, 0.5 Hz torque against "
         "2 N·m Coulomb friction on the motor; the DOB's friction estimate, and the joint with and without the DOB",
-        False, {"inertia": 0.5, "damping": 2.0}, 3.0, 0.0, 4.0,
-        nonlinear=Nonlinearities(coulomb_nm=2.0), compare_without_dob=True, push_hz=0.5),
+        False, {"inertia": 0.5, "damping": 2.0}, 3.0, 0.0, 6.0,  # 3 push periods: the envelope compares
+        nonlinear=Nonlinearities(coulomb_nm=2.0), compare_without_dob=True, push_hz=0.5),  # one period with the next
     "light-mass": Scenario(
         "light-mass", "free output; a light human mass (default 5e-3 kg·m²) released from a 0.01 rad cuff "
         "deflection: does the oscillation grow or decay?", False, {"inertia": 5e-3}, 0.0, 0.0, 10.0, theta_h0=0.01),
