@@ -177,7 +177,9 @@ def _unresolved(sa: dict, where: str) -> list[str]:
         if cells:
             a, b = cells[0]
             why = (f"the refinement budget of {h['refinement_budget']} values for a {h['loop_states']}-state loop is "
-                   "spent: a high sample rate puts every eigenvalue near the unit circle; certify at a lower rate"
+                   "spent: eigenvalues that move faster than the step control can follow — at a high sample rate every "
+                   "eigenvalue is near the unit circle (certify at a lower rate); repeated poles (e.g. filter sections "
+                   "that repeat or cancel) move as a root of the perturbation"
                    if h.get("budget_spent") else
                    "at the finest step: an eigenvalue within a hair of the unit circle and moving fast, a marginal design")
             count = h.get("unresolved_cells", len(cells))
@@ -487,7 +489,8 @@ def sampled_problems(sa: dict) -> list[str]:
             continue
         if not h["robust"]:
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
-                            f"stable only in {_fmt_ivs(h['stable_intervals'])}")
+                            + (f"stable only in {_fmt_ivs(h['stable_intervals'])}" if h["stable_intervals"]
+                               else "no member is stable"))
         if h.get("inconclusive"):
             problems.append(f"{h['kind']} {h['parameter']}: the sampled-data verdict is inconclusive (spectral radius "
                             "within rounding of 1) at " + fmt_distinct(h["inconclusive"]) + f" {h['unit']}")

@@ -48,6 +48,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..sampled import Measured
+from ..units import fmt_num
 from .model import Controller, ControllerFile, Realization, as_controller_file
 
 __all__ = ["PRECISIONS", "FORM", "FLUSH32", "INPUT_LIMIT32", "precision_of", "check_precision", "delta_row", "realization",
@@ -411,7 +412,7 @@ class Float32Runtime:
             u = _step(self.ar, self.K, self.z, v)
         if not (math.isfinite(u) and all(math.isfinite(a) and math.isfinite(b) for a, b in self.z)):
             self.z = saved
-            raise ValueError(f"the command overflows float32 (tau_cmd = {u!r}): refused, controller state unchanged")
+            raise ValueError(f"the command overflows float32 (tau_cmd = {fmt_num(u)} N·m): refused, controller state unchanged")
         return float(u)
 
     def run(self, inputs: Mapping[str, np.ndarray]) -> np.ndarray:

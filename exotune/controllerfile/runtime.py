@@ -22,6 +22,7 @@ from typing import Mapping
 import numpy as np
 
 from ..sampled import Measured  # the runtime's input signals
+from ..units import fmt_num
 from .model import ControllerFile, as_controller_file
 
 __all__ = ["SosFilter", "Runtime", "loop_feedthrough"]
@@ -181,7 +182,7 @@ class Runtime:
         if not (math.isfinite(u) and all(f.finite() for f in self._all)):
             for f, z in zip(self._all, saved):  # finite inputs too large for floating point
                 f.restore(z)
-            raise ValueError(f"the command overflows (τ_cmd = {u!r}) for inputs {vals}: refused, controller state "
+            raise ValueError(f"the command overflows (τ_cmd = {fmt_num(u)} N·m) for inputs {vals}: refused, controller state "
                              "unchanged (a sensor fault: command zero torque)")
         return u
 

@@ -29,6 +29,7 @@ __all__ = [
     "SIX_GAIN_UNITS",
     "ControllerSchema",
     "validate_controller",
+    "field_path",
     "json_schema",
     "write_schema",
     "schema_path",
@@ -237,6 +238,13 @@ class Predicted(_Open):
 
 # the file's schema; the package reads a validated file through the typed model
 # exotune.controllerfile.model.ControllerFile (this docstring is the shipped schema's description)
+class ProvenanceSection(_Open):
+    """Where the file came from. Open (a hand-edited file may add notes), but the design file's hash
+    is a SHA-256 hex digest or null."""
+
+    input_sha256: Annotated[str, Field(strict=True, pattern=r"^[0-9a-f]{64}$")] | None = None
+
+
 class ControllerSchema(_S):
     """The controller file (docs/controller-file.md). Extra keys are refused; numbers are finite."""
 
@@ -257,7 +265,7 @@ class ControllerSchema(_S):
     requirements: Requirements | None = None
     predicted: Predicted
     golden: Golden
-    provenance: _Open
+    provenance: ProvenanceSection
 
 
 def schema_path() -> Path:
@@ -325,10 +333,34 @@ def validate_controller(doc: Any, source: str = "") -> ControllerSchema:
         return ControllerSchema.model_validate(doc)
     except ValidationError as e:
         err = e.errors()[0]
-        loc = ".".join(str(x) for x in err["loc"]) or (source or "<controller>")
+        loc = field_path(err["loc"]) or (source or "<controller>")
         msg = err["msg"]
         if err["type"] == "missing":
             msg = "missing field"
         elif err["type"] == "extra_forbidden":
             msg = "unknown field"
+        elif tuple(err["loc"]) == ("provenance", "input_sha256"):
+            msg = f"{err.get('input')!r}: expected the design file's SHA-256 (64 hex digits 0-9a-f) or null"
+        elif "sos" in err["loc"] and err["loc"][-1] == 3 and err["type"] in ("less_than_equal", "greater_than_equal"):
+            msg = (f"a0 = {err.get('input')!r}: must be 1 (sos rows are [b0, b1, b2, a0, a1, a2] with the "
+                   "denominator normalized, scipy's convention)")
         raise ConfigError(loc, msg) from None
+
+
+def field_path(loc) -> str:
+    """A validation error's location as the file's field path: ``controller.filters[2].sos[0][3]``.
+
+    Parameters
+    ----------
+    loc : sequence of str and int
+        The location (pydantic's ``loc``: keys and list indices).
+
+    Returns
+    -------
+    str
+        Keys joined by dots, list indices in brackets.
+    """
+    out = ""
+    for x in loc:
+        out += f"[{x}]" if isinstance(x, int) else (f".{x}" if out else str(x))
+    return out

@@ -150,9 +150,10 @@ def _disagreements(r, v: SampledVerdicts) -> list[str]:
     cont = [h for h in r.humans if h.kind != "complex_stiffness" and not h.box]
     for h, c in zip(hs, cont):
         if bool(h.get("robust")) != bool(c.robust):
-            ivs = ", ".join(f"[{a:.5g}, {b:.5g}]" for a, b in h["stable_intervals"]) or "nowhere"
+            ivs = ", ".join(f"[{a:.5g}, {b:.5g}]" for a, b in h["stable_intervals"])
+            where = f"{h['parameter']} stable on {ivs} {h['unit']}" if ivs else "no member stable"
             out.append(f"at {fs:g} Hz the sampled-data loop is {'robust' if h.get('robust') else 'NOT robust'} for the "
-                       f"human {h['kind']} family ({h['parameter']} stable on {ivs} {h['unit']}), unlike the continuous "
+                       f"human {h['kind']} family ({where}), unlike the continuous "
                        "analysis")
     lc = r.latency_margin
     if (lc is not None and math.isfinite(lc.extra_delay_s) and math.isfinite(v.latency_margin_s)

@@ -35,12 +35,16 @@ def family_line(h: dict) -> str:
         if not c["checked"]:
             return line + "; not checked in continuous time either (" + c["reason"] + ")"
         verdict = "robust" if c["robust"] else ("inconclusive" if not c["conclusive"] else "NOT robust")
-        return (line + f"; continuous time, exact delay: {verdict}, stable in "
-                + interval_text(c["stable_intervals"], h["unit"], empty="nowhere") + " (not the sampled-data loop)")
+        return (line + f"; continuous time, exact delay: {verdict}, " + _stable_in(c["stable_intervals"], h["unit"])
+                + " (not the sampled-data loop)")
     if "not_certifiable" in h:
         return head + "not certifiable (" + h["not_certifiable"] + ")"
-    return (head + ("robust" if h["robust"] else "NOT robust")
-            + f"; stable in {interval_text(h['stable_intervals'], h['unit'], empty='nowhere')}")
+    return head + ("robust" if h["robust"] else "NOT robust") + "; " + _stable_in(h["stable_intervals"], h["unit"])
+
+
+def _stable_in(intervals, unit: str) -> str:
+    """"stable in [a, b] unit", or "no member is stable" for none."""
+    return f"stable in {interval_text(intervals, unit)}" if len(intervals) else "no member is stable"
 
 
 def _ms(x) -> str:

@@ -121,9 +121,9 @@ def _sampled_lines(r: dict) -> list[str]:
              + ("; objective polished on the sampled-data verdicts" if sd["polished"] else "")]
     for h in v["humans"] + v["environment"]:
         if "stable_intervals" in h:
-            lines.append(f"    sampled-data {h['kind']} {h['parameter']}: stable on "
-                         + (", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in h["stable_intervals"]) or "nowhere")
-                         + f" {unit_word(h['unit'])}")
+            ivs = ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in h["stable_intervals"])
+            lines.append(f"    sampled-data {h['kind']} {h['parameter']}: "
+                         + (f"stable on {ivs} {unit_word(h['unit'])}" if ivs else "no member is stable"))
     lines += [f"    - {p}" for p in sd["problems"]]
     return lines
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 
 import numpy as np
 import pytest
@@ -129,8 +130,9 @@ def test_overflow_is_refused_with_state_unchanged(scheduled_doc):
     rt = Runtime(scheduled_doc)
     rt.run(_inputs(10))
     before = [f.z.copy() for f in rt._all]
-    with pytest.raises(ValueError, match="overflows"):
+    with pytest.raises(ValueError, match="overflows") as e:
         rt.step({s: 1e307 for s in SIGNALS})
+    assert re.search(r"τ_cmd = (−?∞|—) N·m", str(e.value)) and "np." not in str(e.value)  # a number with its unit
     for f, z in zip(rt._all, before):
         np.testing.assert_array_equal(f.z, z)
 

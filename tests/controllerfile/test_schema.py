@@ -105,3 +105,27 @@ def test_json_schema_validates_an_export(scheduled_doc):
     bad["extra"] = 1
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.Draft202012Validator(json_schema()).validate(json.loads(json.dumps(bad)))
+
+
+@pytest.mark.parametrize("a0", [2.0, 0.5])
+def test_an_unnormalized_section_names_its_row_and_the_a0_rule(scheduled_doc, a0):
+    """A hand-edited a0 = 2 read "controller.filters.2.sos.0.3: Input should be less than or equal
+    to 1": the path is now written as the file's fields, and the rule is a0 = 1."""
+    doc = copy.deepcopy(scheduled_doc)
+    row = list(doc["controller"]["filters"][1]["sos"][0])
+    row[3] = a0
+    doc["controller"]["filters"][1]["sos"][0] = row
+    msg = _refusal(doc)
+    assert msg.startswith("controller.filters[1].sos[0][3]: ") and "must be 1" in msg and repr(a0) in msg
+
+
+@pytest.mark.parametrize("bad", [[1, 2], "abc", "A" * 64, 5])
+def test_the_design_hash_must_be_a_sha256_digest(scheduled_doc, bad):
+    doc = copy.deepcopy(scheduled_doc)
+    doc["provenance"]["input_sha256"] = bad
+    msg = _refusal(doc)
+    assert msg.startswith("provenance.input_sha256: ") and "SHA-256" in msg
+    doc["provenance"]["input_sha256"] = None  # a file exported from a mapping has none
+    validate_controller(doc)
+    doc["provenance"]["input_sha256"] = "0123456789abcdef" * 4
+    validate_controller(doc)

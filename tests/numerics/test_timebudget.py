@@ -103,3 +103,20 @@ def test_certify_over_budget_is_stopped(tmp_path):
     res = _run(["certify", str(out), "--time-budget-s", "0.01"])
     assert res.exit_code == 2 and "--time-budget-s: certifying c.yaml" in res.output
     assert _run(["certify", str(out)]).exit_code in (0, 1)  # the default budget is ample at 1 kHz
+
+
+def test_eig_seconds_times_a_huge_loop_at_the_probe_size_and_scales_by_the_cube(monkeypatch):
+    """Three eigenvalue problems of a 4 018-state loop (a file padded with 2 000 filter sections)
+    took 100 s just to estimate certify's cost; the estimate now times EIG_PROBE states."""
+    import numpy as np
+
+    import exotune.numerics.timebudget as tb
+
+    sizes = []
+    monkeypatch.setattr(tb.np.linalg, "eigvals", lambda a: sizes.append(a.shape[0]) or np.zeros(a.shape[0]))
+    monkeypatch.setattr(tb.time, "perf_counter", iter(np.arange(100.0)).__next__)  # every timing: 1 s
+    assert tb.eig_seconds(4 * tb.EIG_PROBE) == pytest.approx(64.0)
+    assert max(sizes) == tb.EIG_PROBE
+    sizes.clear()
+    monkeypatch.setattr(tb.time, "perf_counter", iter(np.arange(100.0)).__next__)
+    assert tb.eig_seconds(10) == pytest.approx(1.0) and sizes == [10, 10, 10]

@@ -13,7 +13,7 @@ def test_family_lines():
     assert family_line(BOX) == ("  msd stiffness [10, 500] N·m/rad × inertia [0.05, 0.2] kg·m²: robust; "
                                 "stable in [10, 500] N·m/rad")
     assert family_line(ENV) == "  spring stiffness [100, 10000] N·m/rad: skipped (no rate)"
-    assert family_line({**HUMAN, "stable_intervals": []}).endswith("NOT robust; stable in nowhere")
+    assert family_line({**HUMAN, "stable_intervals": []}).endswith("NOT robust; no member is stable")
     nc = {k: v for k, v in HUMAN.items() if k not in ("robust", "stable_intervals")}
     assert family_line({**nc, "not_certifiable": "box too large"}).endswith(": not certifiable (box too large)")
 
