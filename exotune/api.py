@@ -59,7 +59,7 @@ def init(directory=".") -> list:
     Raises
     ------
     ConfigError
-        When a file is already there or cannot be written.
+        When a file is already there or cannot be written, or ``directory`` is not a path.
 
     References
     ----------
@@ -67,7 +67,7 @@ def init(directory=".") -> list:
     """
     from .starter import write_templates
 
-    return list(write_templates(path_value("directory", directory)))
+    return list(write_templates(path_value("directory", directory, required=True)))
 
 
 def load_design(source) -> Any:
@@ -344,13 +344,20 @@ def report(sweep_dir, out=None) -> SweepReport:
     """
     from .plots.sweep_report import make_report
     from .sweeps import SweepResult
+    from .sweeps.dataset import check_results_left
 
     if isinstance(sweep_dir, SweepResult):
         sweep_dir = sweep_dir.directory
     sweep_dir, out = path_value("sweep_dir", sweep_dir, required=True), path_value("out", out)
     check_outputs([sweep_dir, os.path.join(sweep_dir, "manifest.json")], out_dirs={"`out`": out},
                   protected_dirs=[os.path.join(sweep_dir, "chunks")], dir_names={"`out`": ("*.png", "*.md", "*.csv")})
-    return make_report(sweep_dir, out)
+    try:
+        check_results_left(sweep_dir)  # every chunk file deleted: incomplete, the missing chunks named
+        return make_report(sweep_dir, out)
+    except ConfigError as e:
+        if e.field == os.fspath(sweep_dir):  # the directory (say `out`), never the keyword `out` (-o) of that name
+            e.in_file = True
+        raise
 
 
 def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
@@ -366,7 +373,8 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     seed : int, optional
         Seed of the search (default: the spec's ``seed``).
     pareto_csv : str or os.PathLike, optional
-        Also write the Pareto front (objective against robust fraction) as CSV.
+        Also write the Pareto front (objective against robust fraction) as CSV; ``out`` and it are
+        written both or neither.
 
     Returns
     -------
@@ -376,7 +384,9 @@ def optimize(spec, out, *, seed: int | None = None, pareto_csv=None) -> Optimize
     Raises
     ------
     ConfigError
-        For bad input, or an output that would overwrite an input.
+        For bad input (before the search: a DOB margin without a DOB, an output that cannot be
+        created), an output that would overwrite an input, or one that cannot be written
+        (``<path>: cannot write output: <reason>``; nothing is written then).
 
     Examples
     --------
@@ -667,6 +677,14 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
         ``parameters`` (value, standard error, unit), ``fits``, ``validation`` (for a path
         source), ``uncertainty()``, ``design_sections()``.
 
+    Raises
+    ------
+    ConfigError
+        Bad input, naming the keyword (or the log's column, row or file) and the reason: no log,
+        a source that is neither a path nor a mapping, a keyword that is not a number (numpy
+        scalars are numbers; text is not), ``folds`` not a whole number ≥ 2, an estimate outside
+        the design file's accepted range, an output that cannot be written (then none is).
+
     References
     ----------
     docs/identification.md; paper eq. (5).
@@ -690,8 +708,26 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
     friction, fix = flag_value("friction", friction), parse_fix(fix)  # bad keywords before any log is read
     for name, p in (("out", out), ("validate", validate), ("frf_csv", frf_csv), ("plots", plots)):
         path_value(name, p)
+    if filter_hz is not None:
+        filter_hz = number_value("filter_hz", filter_hz, positive=True, noun="a filter corner [Hz]", strings=False)
+    if sample_rate_hz is not None:
+        sample_rate_hz = number_value("sample_rate_hz", sample_rate_hz, positive=True, noun="a sample rate [Hz]",
+                                      strings=False)
+    if folds is not None:
+        from .identification.validate import check_folds
+
+        folds = check_folds(folds)
     several = isinstance(source, (list, tuple))
-    if isinstance(source, Mapping) or (several and source and all(isinstance(x, Mapping) for x in source)):
+    if several and not source:
+        raise ConfigError("source", "no log given: a path or a mapping of columns, or a non-empty list of them")
+    if not several and not isinstance(source, (str, os.PathLike, Mapping)):
+        raise ConfigError("source", f"expected a log (a path or a mapping of columns) or a list of them, got "
+                          f"{type(source).__name__} {source!r}"[:200])
+    if several and not all(isinstance(x, (str, os.PathLike, Mapping)) for x in source):
+        bad = next(x for x in source if not isinstance(x, (str, os.PathLike, Mapping)))
+        raise ConfigError("source", f"expected logs (paths or mappings of columns), got {type(bad).__name__} "
+                          f"{bad!r}"[:200])
+    if isinstance(source, Mapping) or (several and all(isinstance(x, Mapping) for x in source)):
         given = [k for k, x in (("out", out), ("validate", validate), ("folds", folds), ("frf_csv", frf_csv),
                                 ("plots", plots)) if x is not None]
         if given:
@@ -702,17 +738,10 @@ def identify(source, out=None, *, delay_s=0.0, filter_hz: float | None = None,
         return identify_plant(logs if several else logs[0], filter_hz=filter_hz, friction=friction, fix=fix)
     check_outputs([*(source if several else [source]), validate], outputs={"`out`": out, "`frf_csv`": frf_csv},
                   out_dirs={"`plots`": plots}, dir_names={"`plots`": ("*.png", "*.csv")})
-    r = identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
-                      friction=friction, fix=fix, validate=validate, folds=folds)
-    if frf_csv is not None:
-        from .jsonio import write_atomic
-
-        write_atomic(frf_csv, r.validation.to_csv())
-    if plots is not None:
-        from .jsonio import write_files
-
-        write_files(plots, {**r.validation.plot(), "frequency_response.csv": r.validation.to_csv()})
-    return r
+    if several and any(isinstance(x, Mapping) for x in source):
+        raise ConfigError("source", "give paths or mappings of columns, not both")
+    return identify_file(source, out, delay_s=delay_s, filter_hz=filter_hz, sample_rate_hz=sample_rate_hz,
+                         friction=friction, fix=fix, validate=validate, folds=folds, frf_csv=frf_csv, plots=plots)
 
 
 def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, peak_nm: float | None = None,
@@ -824,7 +853,7 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
         For bad input (a file, the scenario, an option, a joint angle outside the gain schedule)
         or an output that would overwrite an input.
     TypeError
-        When ``source`` is none of the kinds above.
+        When ``source`` is none of the kinds above, or ``progress`` is neither callable nor None.
 
     References
     ----------
@@ -850,6 +879,9 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     if not (isinstance(source, (str, os.PathLike, Mapping)) or (hasattr(source, "raw") and hasattr(source, "plant"))):
         raise TypeError("expected a design or controller file path, a mapping, a DesignConfig, a ControllerFile or "
                         f"an ExportedController, got {type(source).__name__}")
+    if progress is not None and not callable(progress):
+        raise TypeError("progress must be a function of the completed fraction (0–1) or None; got "
+                        f"{type(progress).__name__}")
     check_outputs([source], out_dirs={"`plots`": path_value("plots", plots)}, dir_names={"`plots`": ("*.png",)})
     check_run_options(scenario, start, human_inertia, duration)  # bad options before the file is loaded
     check_joint_angle(joint_angle)

@@ -395,7 +395,8 @@ def codegen_cmd(controller_file, out, allow_uncertified):
 @click.option("--delay-s", "delay_s", default=None, metavar="S|auto",
               help="Delay [s] from tau_cmd to the applied torque (logs with a tau_cmd column; default 0; auto: estimated).")
 @click.option("--filter-hz", "filter_hz", default=None, metavar="F",
-              help="Corner of the state-variable filter [Hz] (default 20, at most a hundredth of the rate).")
+              help="Corner of the state-variable filter [Hz] (default 20, at most a hundredth of the rate; "
+                   "accepted: rate/2500 to rate/25).")
 @click.option("--sample-rate-hz", "sample_rate_hz", default=None, metavar="F",
               help="Sample rate [Hz], overriding the time column (which may then be absent).")
 @click.option("--friction", "friction", is_flag=True, help="Estimate Coulomb friction F_c·sign(θ̇_m) in the motor equation.")

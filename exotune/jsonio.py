@@ -8,7 +8,8 @@
 * :func:`write_atomic` writes a file through a temporary file in the same directory followed by
   :func:`os.replace`, so a reader never sees a half-written output (docs/sweep-spec.md, docs/cli.md: "nothing
   half-written").
-* :func:`write_files` writes several outputs under one directory, all or none, and
+* :func:`write_files` writes several outputs under one directory, all or none,
+  :func:`write_outputs` the outputs of one run in several places, all or none, and
   :func:`staged_dir` lets a producer write into a temporary directory next to the destination
   whose files are renamed into place only when the producer succeeds (a failing run leaves
   nothing behind).
@@ -33,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["to_jsonable", "dumps", "write_atomic", "write_files", "staged_dir", "check_outputs"]
+__all__ = ["to_jsonable", "dumps", "write_atomic", "write_files", "write_outputs", "staged_dir", "check_outputs", "check_writable"]
 
 
 def _float(x: float):
@@ -283,6 +284,147 @@ def write_files(dest, files: dict[str, bytes]) -> None:
             write_atomic(os.path.join(tmp, rel), data)
 
     staged_dir(dest, produce)
+
+
+def _nearest_dir(path: str) -> str:
+    """The nearest existing ancestor of the file ``path`` (its parent when it exists)."""
+    cur = os.path.dirname(os.path.abspath(path))
+    while not os.path.lexists(cur) and os.path.dirname(cur) != cur:
+        cur = os.path.dirname(cur)
+    return cur
+
+
+def check_writable(paths) -> None:
+    """Refuse, before the search, an output that cannot be created: a file is created and removed
+    again in the nearest existing directory of each path (a file system that refuses new files,
+    ``/proc``, a read-only mount, passes the permission bits that
+    :func:`exotune.jsonio.check_outputs` reads).
+
+    Parameters
+    ----------
+    paths : iterable of str or os.PathLike
+        The files the run will write (None: not given).
+
+    Raises
+    ------
+    ConfigError
+        ``<path>: cannot write output: <reason>``.
+    """
+    for p in paths:
+        if p is None:
+            continue
+        try:
+            fd, probe = tempfile.mkstemp(prefix=".exotune-probe-", dir=_nearest_dir(os.fspath(p)))
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as e:
+            raise _cannot_write(os.fspath(p), e) from None
+
+
+def _cannot_write(dest: str, e: OSError):
+    from .errors import ConfigError
+
+    return ConfigError(dest, f"cannot write output: {e.strerror or e}")
+
+
+def write_outputs(files=None, dirs=None) -> None:
+    """Write every output of one run, all or none: files and directories in several places (a
+    controller and its Pareto front, a plant file, its frequency responses and its plots).
+
+    Every file is first written completely (:func:`write_atomic`) into a staging directory
+    beside its destination (inside an existing output directory); only when every output is
+    staged are they renamed into place. A failure while staging (a full disk, an unwritable
+    directory) leaves every destination as it was and removes the directories it made; a failure
+    while renaming puts back what the earlier renames replaced.
+
+    Parameters
+    ----------
+    files : dict, optional
+        Destination file → content (str or bytes). A symbolic link is followed (its target
+        replaced), as :func:`exotune.jsonio.write_atomic` does.
+    dirs : dict, optional
+        Destination directory → {file name → content}: the files written into it (the
+        directory and its missing parents created).
+
+    Raises
+    ------
+    ConfigError
+        ``<path>: cannot write output: <reason>``, naming the destination that failed; then no
+        output is written or changed.
+    """
+    items: list[tuple[str, str, str, str]] = []  # (kind, staged path, target, destination as given)
+    stages: list[str] = []  # staging directories, removed at the end
+    created: list[str] = []  # directories made here, deepest first
+    published: list[tuple[str, str | None]] = []  # (target, what it replaced: a kept link, "new", "new dir")
+    try:
+        for dest, data in (files or {}).items():
+            dest = os.fspath(dest)
+            target = os.path.realpath(dest) if os.path.islink(dest) else dest
+            try:
+                parent = os.path.dirname(os.path.abspath(target))
+                created = _make_parents(parent) + created
+                stages.append(tempfile.mkdtemp(prefix=".exotune-stage-", dir=parent))
+                staged = os.path.join(stages[-1], os.path.basename(target))
+                write_atomic(staged, data)
+            except OSError as e:
+                raise _cannot_write(dest, e) from None
+            items.append(("file", staged, target, dest))
+        for dest, content in (dirs or {}).items():
+            dest = os.fspath(dest)
+            try:
+                parent = os.path.dirname(os.path.abspath(dest))
+                created = _make_parents(parent) + created
+                stages.append(tempfile.mkdtemp(prefix=".exotune-stage-", dir=dest if os.path.isdir(dest) else parent))
+                staged = os.path.join(stages[-1], "out")
+                os.mkdir(staged)  # the usual permissions: renamed into place when the directory is new
+                for name, data in content.items():
+                    write_atomic(os.path.join(staged, name), data)
+            except OSError as e:
+                raise _cannot_write(dest, e) from None
+            items.append(("dir", staged, dest, dest))
+        for kind, staged, target, dest in items:
+            try:
+                if kind == "dir" and not os.path.lexists(target):
+                    os.rename(staged, target)
+                    published.append((target, "new dir"))
+                    continue
+                pairs = [(staged, target)] if kind == "file" else [
+                    (os.path.join(staged, n), os.path.join(target, n)) for n in sorted(os.listdir(staged))]
+                for src, dst in pairs:
+                    keep = "new"
+                    if os.path.isfile(dst):  # to put it back should a later rename fail
+                        keep = os.path.join(os.path.dirname(staged), ".previous-" + os.path.basename(dst))
+                        try:
+                            os.link(dst, keep)
+                        except OSError:
+                            keep = None
+                    os.replace(src, dst)
+                    published.append((dst, keep))
+            except OSError as e:
+                raise _cannot_write(dest, e) from None
+    except BaseException:
+        for target, keep in reversed(published):
+            try:
+                if keep == "new dir":
+                    shutil.rmtree(target)
+                elif keep == "new":
+                    os.unlink(target)
+                elif keep is not None:
+                    os.replace(keep, target)
+            except OSError:
+                pass
+        for d in stages:
+            shutil.rmtree(d, ignore_errors=True)
+        stages = []
+        for d in created:
+            try:
+                os.rmdir(d)
+            except OSError:
+                pass
+        raise
+    finally:
+        for d in stages:
+            shutil.rmtree(d, ignore_errors=True)
 
 
 def _same(a: str, b: str) -> bool:

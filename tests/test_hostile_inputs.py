@@ -22,6 +22,8 @@ from click.testing import CliRunner
 from exotune.cli import cli
 from exotune.config.yamlio import MAX_DEPTH, MAX_JSON_BYTES, MAX_YAML_BYTES
 
+from disk_faults import full_disk_after
+
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "examples" / "paper.yaml"
 SEA = ROOT / "examples" / "sea.yaml"
@@ -367,28 +369,13 @@ def test_output_refused_before_any_work(tmp_path, case):
     assert listing(tmp_path) == before
 
 
-def _failing_write_atomic(monkeypatch, after: int):
-    """Make the ``after``-th and later atomic writes fail with ENOSPC (a full disk)."""
-    import exotune.jsonio as jsonio
-
-    real, calls = jsonio.write_atomic, []
-
-    def write(path, data):
-        calls.append(path)
-        if len(calls) > after:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.fspath(path))
-        real(path, data)
-
-    monkeypatch.setattr(jsonio, "write_atomic", write)
-
-
 @pytest.mark.parametrize("existing", [False, True])
 def test_design_plots_full_disk_leaves_nothing(tmp_path, monkeypatch, existing):
     plots = tmp_path / "plots"
     if existing:
         plots.mkdir()
         (plots / "keep.txt").write_text("x")
-    _failing_write_atomic(monkeypatch, after=2)
+    full_disk_after(monkeypatch, 2)
     before = listing(tmp_path)
     res, caught = run_cli(["design", PAPER, "--plots", plots])
     assert_contract(res, caught, f"{plots}: cannot write output")
@@ -462,3 +449,164 @@ def test_every_command_on_every_shipped_file(shipped_files, cmd, as_json):
         if res.exit_code == 2:
             assert res.stderr.startswith("exotune: error: "), (where, res.stderr)
             assert res.stdout == "", where
+
+
+# ------------------------------------------------ optimize / sweep / report (hostile-input hunt F)
+_NO_DOB_BASE = ("  plant: {motor_inertia: 0.44, motor_damping: 17.9, sea_stiffness: 1180.0, joint_inertia: 0.29, "
+                "cuff_stiffness: 300.0}\n"
+                "  design: {amplification: 8.0, felt_inertia: 0.25, felt_damping: 1.0, zeta: 0.7, zeta_hat: 0.7}\n"
+                "  implementation: {delay_s: 0.001, gv_filter: {cutoff_hz: 80.0, damping: 0.7}, "
+                "derivative_filter: {cutoff_hz: 100.0}, dob: null}\n"
+                "  humans: [{kind: spring, stiffness: [1.0, 100.0]}]\n")
+
+
+def _opt_spec(tmp_path, extra: str = "") -> Path:
+    spec = tmp_path / "spec.yaml"
+    spec.write_text("base:\n" + _NO_DOB_BASE + "free:\n  design.amplification: [2.0, 4.0]\nbudget: 50\n" + extra)
+    return spec
+
+
+def test_optimize_full_disk_on_the_pareto_front_leaves_nothing(tmp_path, monkeypatch):
+    """``optimize -o O --pareto F`` with a full disk at F left O behind (exit 2): both or neither."""
+    spec = _opt_spec(tmp_path)
+    full_disk_after(monkeypatch, 1)
+    before = listing(tmp_path)
+    res, caught = run_cli(["optimize", spec, "-o", tmp_path / "out.yaml", "--pareto", tmp_path / "p.csv"])
+    assert_contract(res, caught, f"{tmp_path / 'p.csv'}: cannot write output: No space left on device")
+    assert listing(tmp_path) == before
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc (a directory that refuses new files)")
+def test_optimize_pareto_that_cannot_be_created_is_refused_before_the_search(tmp_path, monkeypatch):
+    """``--pareto /proc/x.csv``: exit 2 after the search with O left behind; now before it."""
+    import exotune.optimization.runner as runner
+
+    monkeypatch.setattr(runner, "optimize", lambda *a, **k: pytest.fail("the search ran"))
+    spec = _opt_spec(tmp_path)
+    before = listing(tmp_path)
+    res, caught = run_cli(["optimize", spec, "-o", tmp_path / "out.yaml", "--pareto", "/proc/exotune-hF.csv"])
+    assert_contract(res, caught, "/proc/exotune-hF.csv: cannot write output: ")
+    assert listing(tmp_path) == before
+
+
+@pytest.mark.parametrize("extra, field", [
+    ("constraints:\n  dob_phase_margin_deg: 30\n", "constraints.dob_phase_margin_deg"),
+    ("constraints:\n  dob_gain_margin_db: 6\n", "constraints.dob_gain_margin_db"),
+    ("objective: dob_delay_margin_s\n", "objective"),
+], ids=["phase-margin", "gain-margin", "objective"])
+def test_optimize_dob_measure_without_a_dob_is_refused_up_front(tmp_path, monkeypatch, extra, field):
+    """A DOB margin asked of a base with ``dob: null`` ran the whole search and exited 1 ("nan deg,
+    needed >= 30 deg", or "the best one breaks: " with nothing after); exit 2 before the search."""
+    import exotune.optimization.runner as runner
+
+    monkeypatch.setattr(runner, "optimize", lambda *a, **k: pytest.fail("the search ran"))
+    res, caught = run_cli(["optimize", _opt_spec(tmp_path, extra), "-o", tmp_path / "out.yaml"])
+    assert_contract(res, caught, f"{field}: ", "no disturbance observer (implementation.dob: null)")
+    assert not (tmp_path / "out.yaml").exists()
+
+
+def test_api_numpy_seed_and_argument_types_are_named(tmp_path):
+    """``optimize(seed=np.int64(1))`` was refused; ``simulate(progress=5)`` and ``init(None)``
+    raised raw TypeErrors naming no argument."""
+    import numpy as np
+
+    import exotune
+    from exotune.errors import ConfigError
+
+    spec = {"base": str(ROOT / "examples" / "scheduled.yaml"), "free": {"design.amplification": [2.0, 12.0]},
+            "budget": np.int64(50)}
+    r = exotune.optimize(spec, tmp_path / "a.yaml", seed=np.int64(1))
+    assert r.feasible and r.to_dict()["spec"]["seed"] == 1
+    with pytest.raises(TypeError, match="^progress must be a function"):
+        exotune.simulate(ROOT / "examples" / "scheduled.yaml", "locked-output", progress=5)
+    with pytest.raises(ConfigError) as ei:
+        exotune.init(None)
+    assert ei.value.field == "directory" and "expected a path" in ei.value.reason
+
+
+def _small_sweep(tmp_path) -> Path:
+    spec = tmp_path / "sweep.yaml"
+    spec.write_text(f"base: {PAPER}\naxes:\n  design.amplification: [2, 4, 6]\nchunk_size: 2\n")
+    res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", "out", "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    return tmp_path / "out"
+
+
+def test_report_with_the_chunks_directory_deleted_is_incomplete(tmp_path, monkeypatch):
+    """``report out`` after ``out/chunks`` was deleted: "-o: the sweep has no results yet (no chunk
+    finished)" — no -o given, three chunks done. Now: incomplete, the missing chunks named."""
+    import shutil
+
+    monkeypatch.chdir(tmp_path)
+    out = _small_sweep(tmp_path)
+    shutil.rmtree(out / "chunks")
+    res, caught = run_cli(["report", "out"])
+    assert_contract(res, caught, "out: the sweep is incomplete (2 of 2 chunks missing: chunks 0, 1; the directory "
+                                 "out/chunks is gone)", "rerun `exotune sweep` with the same spec and -o out")
+    assert not (out / "report").exists()
+
+
+@pytest.mark.parametrize("key, value, field", [("format_version", 2, "format_version"), ("status", 5, "status")])
+def test_report_refuses_an_unknown_manifest_format_or_status(tmp_path, monkeypatch, key, value, field):
+    """A manifest with ``format_version: 2`` or ``status: 5`` was reported (exit 0)."""
+    import json
+
+    monkeypatch.chdir(tmp_path)
+    out = _small_sweep(tmp_path)
+    m = json.loads((out / "manifest.json").read_text())
+    m[key] = value
+    (out / "manifest.json").write_text(json.dumps(m))
+    before = listing(tmp_path)
+    res, caught = run_cli(["report", "out"])
+    assert_contract(res, caught, f"{os.path.join('out', 'manifest.json')}: {field}: ")
+    assert listing(tmp_path) == before
+
+
+def test_sweep_with_a_file_named_chunks_names_it(tmp_path, monkeypatch):
+    """``sweep -o out`` with a file ``out/chunks``: "-o: cannot create the output directory: File
+    exists"; the path in the way is named now, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    spec = tmp_path / "sweep.yaml"
+    spec.write_text(f"base: {PAPER}\naxes:\n  design.amplification: [2.0]\n")
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "chunks").write_text("x\n")
+    before = listing(tmp_path)
+    res, caught = run_cli(["sweep", spec, "-o", "out", "--workers", "1"])
+    assert_contract(res, caught, f"{os.path.join('out', 'chunks')}: exists and is not a directory")
+    assert listing(tmp_path) == before
+
+
+# ------------------------------------------------ identify / excite outputs (hostile-input hunt F)
+def _identify_log(path: Path) -> Path:
+    """A held-command log at 1 kHz (3 s, delay one sample) as CSV (tests/ is on the path: conftest)."""
+    from identification.simulated_logs import held_logs
+
+    cols = held_logs(1, 1000.0, 3.0, seed0=5)[0]
+    names = list(cols)
+    path.write_text(",".join(names) + "\n" + "".join(",".join(repr(float(x)) for x in r) + "\n"
+                                                     for r in zip(*(cols[n] for n in names))))
+    return path
+
+
+@pytest.mark.parametrize("second", ["--frf-csv", "--plots"])
+def test_identify_full_disk_on_a_later_output_leaves_nothing(tmp_path, monkeypatch, second):
+    """``identify -o P --frf-csv F`` (or ``--plots D``) with a full disk at F: exit 2 and P stayed
+    behind. All or none now, with the one message style of every command."""
+    log = _identify_log(tmp_path / "log.csv")
+    target = tmp_path / ("frf.csv" if second == "--frf-csv" else "plots")
+    full_disk_after(monkeypatch, 1)
+    before = listing(tmp_path)
+    res, caught = run_cli(["identify", log, "--delay-s", "0.001", "-o", tmp_path / "plant.yaml", second, target])
+    assert_contract(res, caught, f"{target}: cannot write output: No space left on device")
+    assert listing(tmp_path) == before
+
+
+def test_excite_full_disk_on_the_sidecar_keeps_the_previous_command(tmp_path, monkeypatch):
+    out = tmp_path / "exc.csv"
+    out.write_text("the previous command\n")
+    full_disk_after(monkeypatch, 1)
+    before = listing(tmp_path)
+    res, caught = run_cli(["excite", "-o", out, "--sample-rate-hz", "1000", "--f-lo-hz", "1", "--f-hi-hz", "10",
+                           "--rms-nm", "1", "--periods", "2"])
+    assert_contract(res, caught, f"{tmp_path / 'exc.json'}: cannot write output: No space left on device")
+    assert listing(tmp_path) == before

@@ -19,11 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..config.validate import in_limits, limit_text
 from ..errors import ConfigError
 from ..units import fmt_num
 
 __all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "MAX_SIGNAL", "JITTER", "MeasuredLog", "read_log", "log_from_columns",
-           "same_samples"]
+           "same_samples", "sample_rate"]
 
 # column → (unit, meaning); t, theta_m and tau_s are required, and tau_m or tau_cmd
 COLUMNS = {
@@ -52,13 +53,15 @@ class MeasuredLog:
     """Sampled signals at ``sample_rate_hz`` [Hz] (``signals``: column → array, SI units; ``t``
     relative to its first sample). A log with ``tau_cmd`` (a command held between samples) keeps
     it as logged: it is applied ``delay_samples`` samples later (``None``: to be estimated,
-    ``--delay-s auto``). ``rate_source``: "t" (the time column's mean step) or "given"."""
+    ``--delay-s auto``). ``rate_source``: "t" (the time column's mean step) or "given";
+    ``time_rate_hz``: with a given rate, the rate of the log's time column (None without one)."""
 
     sample_rate_hz: float
     signals: dict
     source: str = "<log>"
     delay_samples: int | None = 0
     rate_source: str = "t"
+    time_rate_hz: float | None = None  # the time column's rate when the rate is given (None: not both)
 
     @property
     def samples(self) -> int:
@@ -115,6 +118,38 @@ def _check_time(t: np.ndarray) -> float:
     return float(np.dot(i, t - t.mean()) / np.dot(i, i))  # the least-squares step: jitter averages out
 
 
+def _column(c: str, v) -> np.ndarray:
+    """The column ``c`` as a 1-D float array (long double kept): refused, naming the column, when
+    it is not numbers (complex values, None or text among them are named, not read as NaN), holds
+    a value that is not finite, or a signal value beyond :data:`MAX_SIGNAL`."""
+    try:
+        a = np.asarray(v)
+        if a.dtype.kind == "c":
+            raise ConfigError(c, "not a column of real numbers (complex values)")
+        if a.dtype.kind == "O":  # None or text among numbers: named, not read as NaN
+            k = next((i for i, x in enumerate(a.ravel()) if isinstance(x, (bool, np.bool_))
+                      or not isinstance(x, (int, float, np.integer, np.floating))), None)
+            if k is not None:
+                raise ConfigError(c, f"sample {k} is {a.ravel()[k]!r}: every value must be a finite number")
+        if a.dtype != np.longdouble:
+            a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(c, "not a column of numbers") from None
+    if a.ndim != 1 or a.dtype.kind != "f":
+        raise ConfigError(c, "not a column of numbers")
+    bad = np.flatnonzero(~np.isfinite(a))
+    if bad.size:
+        raise ConfigError(c, f"sample {int(bad[0])} is {float(a[bad[0]])!r}: every value must be a finite number")
+    if c != "t" and a.size:
+        big = np.flatnonzero(np.abs(a) > MAX_SIGNAL)
+        if big.size:
+            unit = COLUMNS[c][0]
+            raise ConfigError(c, f"sample {int(big[0])} is {float(a[big[0]]):.6g} {unit}: beyond ±{MAX_SIGNAL:.0e} "
+                              f"{unit}, not a measured {COLUMNS[c][1].split(' (')[0]} (check the units, "
+                              "docs/identification.md#the-log)")
+    return a
+
+
 def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_rate_hz: float | None = None) -> MeasuredLog:
     """Check measured columns (name → sequence of numbers) and make a :class:`MeasuredLog`: known
     names only, the required ones present, equal lengths, finite numbers, at least
@@ -154,27 +189,7 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
     if ("tau_m" in columns) == ("tau_cmd" in columns):
         raise ConfigError("tau_m", "give exactly one of tau_m (applied motor torque) and tau_cmd (the command, "
                           "applied after --delay-s)")
-    sig = {}
-    for c, v in columns.items():
-        try:
-            a = np.asarray(v)
-            if a.dtype != np.longdouble:
-                a = np.asarray(v, dtype=float)
-        except (TypeError, ValueError):
-            raise ConfigError(c, "not a column of numbers") from None
-        if a.ndim != 1 or a.dtype.kind != "f":
-            raise ConfigError(c, "not a column of numbers")
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise ConfigError(c, f"sample {int(bad[0])} is {float(a[bad[0]])!r}: every value must be a finite number")
-        if c != "t" and a.size:
-            big = np.flatnonzero(np.abs(a) > MAX_SIGNAL)
-            if big.size:
-                unit = COLUMNS[c][0]
-                raise ConfigError(c, f"sample {int(big[0])} is {float(a[big[0]]):.6g} {unit}: beyond ±{MAX_SIGNAL:.0e} "
-                                  f"{unit}, not a measured {COLUMNS[c][1].split(' (')[0]} (check the units, "
-                                  "docs/identification.md#the-log)")
-        sig[c] = a
+    sig = {c: _column(c, v) for c, v in columns.items()}
     n = sig["theta_m"].size
     if any(a.size != n for a in sig.values()):
         raise ConfigError("t" if "t" in sig else "theta_m", "the columns have different lengths")
@@ -183,14 +198,17 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
     if "t" in sig:
         sig["t"] = np.asarray(sig["t"] - sig["t"][0], dtype=float)  # exact for nearby floats, epoch stamps too
         step = _check_time(sig["t"])
+    time_rate = None
     if sample_rate_hz is not None:
-        if not (isinstance(sample_rate_hz, (int, float)) and not isinstance(sample_rate_hz, bool)
-                and math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
-            raise ConfigError("sample_rate_hz", f"{sample_rate_hz!r} is not a rate > 0 Hz")
-        fs, rate_source = float(sample_rate_hz), "given"
+        fs, rate_source = sample_rate(sample_rate_hz), "given"
+        time_rate = 1.0 / step if "t" in sig else None
         sig["t"] = np.arange(n) / fs
     else:
         fs, rate_source = 1.0 / step, "t"
+        if not in_limits(fs, "frequency"):
+            raise ConfigError("t", f"a step of {fmt_num(step)} s is a sample rate of {fmt_num(fs)} Hz, outside "
+                              f"{limit_text('frequency')}: is t in seconds? (or give the rate, `sample_rate_hz`)")
+    at = f"{fmt_num(fs)} Hz ({source})"
     delay = None
     if isinstance(delay_s, str) and delay_s.strip().lower() == "auto":
         if "tau_cmd" not in sig:
@@ -206,16 +224,46 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
             raise ConfigError("delay_s", f"{delay_s!r} is not a delay ≥ 0 s")
         d = d_s * fs
         if not math.isfinite(d):
-            raise ConfigError("delay_s", f"{delay_s!r} s is more samples at {fs:g} Hz than a number can hold")
+            raise ConfigError("delay_s", f"{delay_s!r} s is more samples at {at} than a number can hold")
         delay = int(round(d))
         if "tau_cmd" in sig and abs(d - delay) > DELAY_TOLERANCE * max(1.0, d):
-            raise ConfigError("delay_s", f"{delay_s!r} s is {d:.6g} samples at {fs:g} Hz: identification needs "
+            raise ConfigError("delay_s", f"{delay_s!r} s is {d:.6g} samples at {at}: identification needs "
                               "a whole number of samples (log the applied torque as tau_m otherwise)")
         if "tau_cmd" in sig and delay >= n - MIN_SAMPLES:
-            raise ConfigError("delay_s", f"{delay} samples leave fewer than {MIN_SAMPLES} samples")
+            raise ConfigError("delay_s", f"{delay} samples at {at} leave fewer than {MIN_SAMPLES} samples of its {n}")
         if "tau_cmd" not in sig:
             delay = 0
-    return MeasuredLog(fs, sig, source, delay, rate_source)
+    return MeasuredLog(fs, sig, source, delay, rate_source, time_rate)
+
+
+def sample_rate(value) -> float:
+    """A given sample rate [Hz] (``sample_rate_hz``, ``--sample-rate-hz``): a number (a numpy
+    scalar too; not its text) within the design file's accepted range of frequencies
+    (docs/design-file.md#input-limits-and-accepted-ranges), so that the filters designed from it
+    are sound.
+
+    Parameters
+    ----------
+    value : Any
+        The rate given.
+
+    Returns
+    -------
+    float
+        The rate [Hz].
+
+    Raises
+    ------
+    ConfigError
+        Field ``sample_rate_hz``: not a number > 0, or out of the accepted range.
+    """
+    from ..options import number_value
+
+    fs = number_value("sample_rate_hz", value, positive=True, noun="a sample rate [Hz]", strings=False)
+    if not in_limits(fs, "frequency"):
+        raise ConfigError("sample_rate_hz", f"{fmt_num(fs)} Hz is outside the accepted range of rates "
+                          f"{limit_text('frequency')} (docs/design-file.md#input-limits-and-accepted-ranges)")
+    return fs
 
 
 def read_log(path, delay_s="0", sample_rate_hz: float | None = None) -> MeasuredLog:
@@ -393,6 +441,17 @@ def _row_columns(raw: bytes, path) -> dict:
     if all(_is_number(h) for h in header):
         raise ConfigError(f"{path}:{line}", f"a row of numbers, not a header: the first line (after # comments) "
                           f"names the columns ({', '.join(COLUMNS)})")
+    if "" in header:
+        i = header.index("")
+        if i and not any(header[i:]):
+            raise ConfigError(f"{path}:{line}", f"the header row ends with an empty column (a trailing ',' after "
+                              f"{header[i - 1]!r}): remove the trailing comma from every row")
+        raise ConfigError(f"{path}:{line}", f"column {i + 1} of the header row has no name (two commas in a row?): "
+                          f"name every column ({', '.join(COLUMNS)})")
+    other = _delimiter(header[0]) if len(header) == 1 and header[0] not in COLUMNS else None
+    if other is not None:
+        raise ConfigError(f"{path}:{line}", f"not comma-separated: the header row {header[0][:50]!r} is split by "
+                          f"{other}; a log is CSV, with ',' between the values")
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise ConfigError(dup, "column named twice")
@@ -409,5 +468,22 @@ def _row_columns(raw: bytes, path) -> dict:
                     v = float(decimal.Decimal(x.strip()) - t0)
                 cols[h].append(v)
             except (ValueError, decimal.InvalidOperation):
-                raise ConfigError(f"{path}:{i}", f"{h} = {x.strip()[:40]!r} is not a number") from None
+                other = _delimiter(x)
+                hint = "" if other is None else f" (split by {other}: a log is CSV, with ',' between the values)"
+                raise ConfigError(f"{path}:{i}", f"{h} = {x.strip()[:40]!r} is not a number{hint}") from None
     return cols
+
+
+_DELIMITERS = ((";", "';' (semicolons)"), ("\t", "tabs"), ("|", "'|'"))
+
+
+def _delimiter(text: str) -> str | None:
+    """The other delimiter a cell or a header name holds (a log written with ';', tabs, '|' or
+    spaces between its values), as the messages name it; None when it holds none."""
+    for d, name in _DELIMITERS:
+        if d in text.strip():
+            return name
+    parts = text.split()
+    if len(parts) > 1 and (all(p in COLUMNS for p in parts) or all(_is_number(p) for p in parts)):
+        return "spaces"
+    return None

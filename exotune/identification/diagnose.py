@@ -8,9 +8,12 @@ sides and ‖y_d‖² of every delay are cross-correlations of the columns with 
 and its neighbours are then fitted explicitly.
 
 **Model errors.** A neighbouring delay with a smaller motor-equation residual, Coulomb friction
-significant in the motor equation when it is not modelled, and errors in variables in the static
+significant in the motor equation when it is not modelled, errors in variables in the static
 equations (the reverse regression, measurement noise on the other side, disagreeing beyond 3
-standard errors).
+standard errors), and in the dynamic ones (the inertia's regressor s²H[θ] reversed: the angle
+sensor's noise amplified by the filter biases the inertia low; the difference, plus 3 standard
+errors, is a model error from half a standard error on, and a warning beyond 3). Differences below
+:data:`ROUNDING` (relative) are the regressions' rounding and never reported.
 
 References
 ----------
@@ -24,8 +27,11 @@ import math
 import numpy as np
 
 from .regress import Design, NotExcited
+from .result import UNCERTAINTY_SIGMAS
 
-__all__ = ["fit_delays", "screen_delays", "diagnose", "regression"]
+__all__ = ["fit_delays", "screen_delays", "diagnose", "regression", "ROUNDING"]
+
+ROUNDING = 1e-8  # a relative difference of two regressions below this is their rounding, not a model error
 
 
 def regression(sig, eq, fixed, delay: int = 0):
@@ -148,7 +154,7 @@ def screen_delays(sig, design, y_fixed, max_delay: int) -> int:
 
 
 def diagnose(name: str, fitted: dict, sig, friction_eq, fixed, friction: bool, delay: int, lag: int, min_t: float,
-             delay_info) -> tuple[list, list]:
+             delay_info, eq=None) -> tuple[list, list]:
     """Model errors the fitting logs show in the equation ``name`` just identified (module
     docstring); ``fitted``: its parameters (key → ParameterEstimate). Returns the warnings and
     (key, relative parameter change, cause) of each.
@@ -175,6 +181,9 @@ def diagnose(name: str, fitted: dict, sig, friction_eq, fixed, friction: bool, d
         Standard errors beyond which friction counts as significant.
     delay_info : dict or None
         The delay's residuals (with ``better_delay`` when a neighbour fits better).
+    eq : tuple, optional
+        The equation as fitted (for the reverse regression of a dynamic equation's inertia);
+        None: not checked.
 
     Returns
     -------
@@ -197,6 +206,10 @@ def diagnose(name: str, fitted: dict, sig, friction_eq, fixed, friction: bool, d
             w, e = _friction(sig, friction_eq, fixed, delay, lag, value, min_t)
             warnings += w
             errors += e
+    if name in ("motor", "joint") and eq is not None and value:
+        w, e = _noisy_inertia(fitted, value, sig, eq, fixed, delay)
+        warnings += w
+        errors += e
     key = {"sea": "sea_stiffness", "cuff": "cuff_stiffness"}.get(name)
     if key in value:
         y, x = (sig.get("tau_s"), sig.get("sea_x")) if name == "sea" else (sig.get("tau_c"), sig.get("cuff_x"))
@@ -205,12 +218,48 @@ def diagnose(name: str, fitted: dict, sig, friction_eq, fixed, friction: bool, d
         except NotExcited:
             return warnings, errors
         rel, se = abs(rev / value[key] - 1), fitted[key].relative_std_error
-        if rel > 3 * se:
+        if rel > 3 * se and rel > ROUNDING:
             sym = fitted[key].symbol
             warnings.append(f"sensor noise or bias? {sym} from the reverse regression is {rev:.6g} against {value[key]:.6g} "
                             f"({100 * rel:.2g} %, {rel / se:.0f} standard errors): noise on the measured angles "
                             f"biases {sym} low, noise on the torque high")
             errors.append((key, rel, "errors in variables (the reverse regression differs)"))
+    return warnings, errors
+
+
+def _noisy_inertia(fitted, value, sig, eq, fixed, delay) -> tuple[list, list]:
+    """Errors in variables in a dynamic equation: its inertia's regressor s²H[θ] carries the
+    angle sensor's noise amplified by the filter (∝ ω² up to the corner), which biases the
+    inertia low (regression dilution). The regression reversed (s²H[θ] on the left-hand side and
+    the other regressors) is biased the other way by the same noise, so the truth lies between
+    the two; a difference beyond half a standard error is a model error of the difference plus
+    :data:`~exotune.identification.result.UNCERTAINTY_SIGMAS` standard errors (the bracket and the
+    estimate's own random error), and a warning beyond that many standard errors."""
+    y, cols, free = regression(sig, eq, fixed, delay)
+    if not free or free[0][0] not in ("motor_inertia", "joint_inertia") or free[0][0] not in value:
+        return [], []
+    try:
+        a = Design([y] + cols[1:], sig.modes()).fit(cols[0]).beta
+    except NotExcited:
+        return [], []
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        rev = np.concatenate([[1.0 / a[0]], -a[1:] / a[0]])
+    warnings, errors = [], []
+    for (key, sym, _unit), b in zip(free, rev):
+        if key not in value or key == "coulomb_friction":
+            continue
+        rel = abs(b / value[key] - 1) if math.isfinite(b) else math.inf
+        se = fitted[key].relative_std_error
+        if not (rel > se / 2 and rel > ROUNDING):
+            continue
+        k = UNCERTAINTY_SIGMAS
+        errors.append((key, rel + k * se, f"errors in variables: the reverse regression differs by {100 * rel:.2g} %, "
+                                          f"plus {k:g} SE"))
+        if rel > k * se:
+            warnings.append(f"sensor noise? {sym} from the reverse regression is {b:.6g} against {value[key]:.6g} "
+                            f"({100 * rel:.2g} %, {rel / se:.0f} standard errors): noise on the measured angle, "
+                            f"amplified by the filter's s², biases {sym} low; the written uncertainty covers the "
+                            "difference (a lower --filter-hz passes less noise)")
     return warnings, errors
 
 

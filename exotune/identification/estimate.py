@@ -22,7 +22,7 @@ log with its own offset and transients, filtered and delayed on its own
 dropped, so memory stays a few signals above the log's. The
 covariance of each equation's estimate is the sandwich of :mod:`exotune.identification.regress`
 (the filtered residual's autocovariance over 30/ω); what the hold leaves (a relative
-10⁻³·(ωT)³ + 10⁻⁷, :func:`~exotune.identification.filters.discretization_bound`) is added to the
+4·10⁻³·(ωT)³ + 10⁻⁷, :func:`~exotune.identification.filters.discretization_bound`) is added to the
 dynamic equations' variances (J_m, B_m, J_j); the static equations (K_s, K_c) have none.
 
 References
@@ -38,11 +38,12 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from ..config.batch import OVERRIDABLE
+from ..config.batch import OVERRIDABLE, OVERRIDE_LIMITS
+from ..config.validate import in_limits, limit_text
 from ..errors import ConfigError
 from ..numerics.threads import one_blas_thread
 from ..units import fmt_num
-from .data import MeasuredLog, same_samples
+from .data import MIN_SAMPLES, MeasuredLog, same_samples
 from .diagnose import diagnose, fit_delays, lhs, regression, screen_delays
 from .filters import discretization_bound, svf
 from .regress import CORRELATION_TIME_CONSTANTS, Design, NotExcited
@@ -50,9 +51,17 @@ from .result import EquationFit, ParameterEstimate, PlantEstimate
 from .signals import FilteredLogs
 from .validresult import ModelError
 
-__all__ = ["identify_plant", "identify_file", "parse_fix", "svf", "FRICTION", "MIN_T", "DEFAULT_FILTER_HZ", "TRANSIENT_TIME_CONSTANTS", "MIN_FIT_SAMPLES"]
+__all__ = ["identify_plant", "identify_file", "parse_fix", "svf", "FRICTION", "MIN_T", "DEFAULT_FILTER_HZ",
+           "TRANSIENT_TIME_CONSTANTS", "MIN_FIT_SAMPLES", "MAX_FILTER_FRACTION", "MIN_FILTER_FRACTION",
+           "filter_corner", "check_like", "RATE_TOLERANCE"]
 
 DEFAULT_FILTER_HZ = 20.0  # at most a hundredth of the sample rate
+# The filter corner's accepted range, as fractions of the sample rate: at most fs/25 (ωT ≤ 0.25,
+# where the discretization bound holds: the noise-free bias measured below 0.26 of it at 1-10 kHz;
+# at fs/4, ωT = 1.57, it grows to 5.4e-3·(ωT)³, 2 %), at least fs/2500 (ωT ≥ 2.5e-3: below, the
+# discrete filters' rounding leaves more than its 1e-7 share of the bound, 4e-7 at ωT = 1.3e-3)
+MAX_FILTER_FRACTION = 25.0
+MIN_FILTER_FRACTION = 2500.0
 TRANSIENT_TIME_CONSTANTS = 5.0
 MIN_FIT_SAMPLES = 500
 
@@ -107,7 +116,8 @@ def parse_fix(fix) -> dict:
     ConfigError
         Field ``fix``: neither a mapping nor a collection of strings (a number, a single string),
         an unknown name, a value that is not a finite number (a bool is not one), one the
-        design file refuses (J_m, K_s, J_j, K_c ≤ 0; B_m or F_c < 0), or a parameter given two
+        design file refuses (J_m, K_s, J_j, K_c ≤ 0; B_m or F_c < 0; outside the design file's
+        accepted range, docs/design-file.md#input-limits-and-accepted-ranges), or a parameter given two
         different values (``J_m=1`` and ``motor_inertia=2``; the same value twice is accepted).
     """
     if fix is None:
@@ -139,6 +149,10 @@ def parse_fix(fix) -> dict:
         op, bound = OVERRIDABLE.get(f"plant.{key}", (">=", 0.0))
         if not (v > bound if op == ">" else v >= bound):
             raise ConfigError("fix", f"{name}={value!r}: {key} must be {op} {bound:g} {_FIXABLE[key][2]}")
+        kind = OVERRIDE_LIMITS.get(f"plant.{key}")
+        if kind is not None and not in_limits(v, kind):  # the range `exotune design` accepts
+            raise ConfigError("fix", f"{name}={value!r}: {key} must be in {limit_text(kind)}, the design file's "
+                              "accepted range (docs/design-file.md#input-limits-and-accepted-ranges)")
         if key in out and out[key] != v:  # the same value twice (under two names) is no conflict
             unit = _FIXABLE[key][2]
             raise ConfigError("fix", f"{key} is fixed twice, to {fmt_num(out[key])} {unit} ({given[key]}) and to "
@@ -156,13 +170,7 @@ def _as_logs(log) -> list:
         raise ConfigError("LOG.csv", "no log to identify")
     first = logs[0]
     for other in logs[1:]:
-        if set(other.signals) != set(first.signals):
-            diff = sorted(set(other.signals) ^ set(first.signals))
-            raise ConfigError(other.source, f"logs identified together need the same columns ({first.source} and "
-                              f"{other.source} differ in {', '.join(diff)})")
-        if abs(other.sample_rate_hz / first.sample_rate_hz - 1) > 1e-4:
-            raise ConfigError(other.source, f"sample rate {other.sample_rate_hz:.8g} Hz, {first.source} has "
-                              f"{first.sample_rate_hz:.8g} Hz: logs identified together need one rate")
+        check_like(first, other)
         if other.delay_samples != first.delay_samples:
             raise ConfigError("delay_s", f"{other.source} gives {other.delay_samples} samples of delay, "
                               f"{first.source} {first.delay_samples}")
@@ -173,6 +181,44 @@ def _as_logs(log) -> list:
             raise ConfigError(other.source, f"{what} (logs {i} and {j}): identified together, one run would count "
                               "twice and shrink the standard errors by √2 without new data; give each run once")
     return logs
+
+
+RATE_TOLERANCE = 1e-4  # logs identified or validated together: one sample rate within this
+
+
+def check_like(first: MeasuredLog, other: MeasuredLog, field: str | None = None) -> None:
+    """Refuse a log that cannot go with ``first``: other columns, or another sample rate (beyond
+    :data:`RATE_TOLERANCE`). ``field``: the option to name (``validate``); None names the log
+    itself (a log identified together with ``first``).
+
+    Parameters
+    ----------
+    first : MeasuredLog
+        The first fitting log.
+    other : MeasuredLog
+        Another log (identified together with it, or validated on).
+    field : str, optional
+        The keyword that gave ``other`` (``"validate"``); None: ``other`` is a fitting log.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``field`` (or the log), the log and what differs.
+    """
+    if set(other.signals) != set(first.signals):
+        diff = ", ".join(sorted(set(other.signals) ^ set(first.signals)))
+        if field is None:
+            raise ConfigError(other.source, f"logs identified together need the same columns ({first.source} and "
+                              f"{other.source} differ in {diff})")
+        raise ConfigError(field, f"{other.source}: other columns than the fitting log {first.source} (they differ in "
+                          f"{diff}): a validation log needs the fitting log's columns")
+    if abs(other.sample_rate_hz / first.sample_rate_hz - 1) > RATE_TOLERANCE:
+        if field is None:
+            raise ConfigError(other.source, f"sample rate {other.sample_rate_hz:.8g} Hz, {first.source} has "
+                              f"{first.sample_rate_hz:.8g} Hz: logs identified together need one rate")
+        raise ConfigError(field, f"{other.source}: sample rate {other.sample_rate_hz:.8g} Hz, the fitting log "
+                          f"{first.source} has {first.sample_rate_hz:.8g} Hz: a validation log needs the fitting "
+                          "log's rate")
 
 
 @one_blas_thread
@@ -192,8 +238,9 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
         the smallest motor-equation residual; one delay for every log).
     filter_hz : float, optional
         Corner of the state-variable filter [Hz] (default 20 Hz, at most a hundredth of the
-        sample rate): a higher corner weights the plant's faster modes, a lower one filters more
-        sensor noise and discretizes more exactly.
+        sample rate; accepted from fs/2500 to fs/25, :func:`filter_corner`): a higher corner
+        weights the plant's faster modes, a lower one filters more sensor noise (which biases
+        the inertias low, measured and written into the uncertainty) and discretizes more exactly.
     friction : bool
         Add Coulomb friction F_c·sign(θ̇_m) to the motor equation (the paper's δ_f) and estimate F_c.
     fix : mapping or iterable of "NAME=VALUE", optional
@@ -214,7 +261,9 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
     ConfigError
         A filter corner out of range or too low for the log, too short a log, a bad ``fix``,
         logs that cannot be identified together (different columns, rates or delays; the same
-        samples twice), or a log that excites no parameter at all.
+        samples twice), a log that excites no parameter at all, or an estimate outside the design
+        file's accepted range (named with its value and the likely cause: the sample rate or the
+        time column's unit, the angles' or torques' units).
 
     References
     ----------
@@ -224,10 +273,7 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
     logs = _as_logs(log)
     first = logs[0]
     fs = first.sample_rate_hz
-    fh = min(DEFAULT_FILTER_HZ, fs / 100) if filter_hz is None else filter_hz
-    if not (isinstance(fh, (int, float)) and not isinstance(fh, bool) and math.isfinite(fh) and 0 < fh <= fs / 4):
-        raise ConfigError("filter_hz", f"{filter_hz!r}: the filter corner must be in (0, {fs / 4:g}] Hz "
-                          "(a quarter of the sample rate)")
+    fh = filter_corner(filter_hz, fs)
     shortest = min(lg.samples for lg in logs)
     auto = first.tau_m_held and first.delay_samples is None
     max_delay = min(int(math.ceil(MAX_DELAY_S * fs)), shortest // 10) if auto else (first.delay_samples or 0)
@@ -241,8 +287,96 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
             delay_info = _delay(sig, eqs["motor"], fixed, fs, auto, max_delay, min(min(skips), shortest // 10))
             delay = delay_info["samples"]
         est, warnings, errors = _identify(logs, sig, eqs, fixed, delay, delay_info, lag, friction)
-    return dataclasses.replace(est, warnings=tuple(warnings),
+    _check_ranges(est, first)
+    return dataclasses.replace(est, warnings=tuple(warnings), notes=_rate_notes(logs),
                                model_errors=tuple(ModelError(k, v, why) for k, v, why in errors))
+
+
+def _rate_notes(logs) -> tuple[str, ...]:
+    """A note per log whose time column steps at another rate than the one given (the rate given
+    is used, as documented: the time column may be in other units)."""
+    out = []
+    for lg in logs:
+        tr, fs = lg.time_rate_hz, lg.sample_rate_hz
+        if tr is not None and abs(tr / fs - 1) > RATE_TOLERANCE:
+            out.append(f"the rate given, {fmt_num(fs)} Hz (--sample-rate-hz), is used, not the {fmt_num(tr)} Hz of the "
+                       f"time column t of {lg.source}: right if t is not in seconds, else the estimates are off (the "
+                       f"inertias by the square of the ratio {fmt_num(fs / tr, 4)})")
+    return tuple(out)
+
+
+def filter_corner(filter_hz, sample_rate_hz: float) -> float:
+    """The state-variable filter's corner [Hz] for a log at ``sample_rate_hz``: ``filter_hz``
+    checked, or (None) the default, :data:`DEFAULT_FILTER_HZ` but at most a hundredth of the rate
+    (and at least fs/:data:`MIN_FILTER_FRACTION`).
+
+    Parameters
+    ----------
+    filter_hz : float or None
+        The corner asked for [Hz] (a number: a numpy scalar too, not its text), or None.
+    sample_rate_hz : float
+        The log's sample rate [Hz].
+
+    Returns
+    -------
+    float
+        The corner [Hz].
+
+    Raises
+    ------
+    ConfigError
+        Field ``filter_hz``: not a number > 0, above fs/:data:`MAX_FILTER_FRACTION` (ωT > 0.25: the
+        discrete filters' bias exceeds the discretization bound the standard errors carry) or below
+        fs/:data:`MIN_FILTER_FRACTION` (ωT < 2.5e-3: the discrete filters lose their accuracy).
+    """
+    from ..options import number_value
+
+    fs = float(sample_rate_hz)
+    lo, hi = fs / MIN_FILTER_FRACTION, fs / MAX_FILTER_FRACTION
+    if filter_hz is None:
+        return max(min(DEFAULT_FILTER_HZ, fs / 100), lo)
+    fh = number_value("filter_hz", filter_hz, positive=True, noun="a filter corner [Hz]", strings=False)
+    if fh > hi:
+        raise ConfigError("filter_hz", f"{fmt_num(fh)} Hz is above {fmt_num(hi)} Hz, a {MAX_FILTER_FRACTION:g}th of "
+                          f"the sample rate {fmt_num(fs)} Hz (ωT = 2π·f/fs = {2 * math.pi * fh / fs:.3g} > 0.25): the "
+                          "discrete filters would bias the inertias beyond the bound their standard errors carry "
+                          "(docs/identification.md#method)")
+    if fh < lo:
+        e = 10.0 ** (math.floor(math.log10(lo)) - 2)
+        raise ConfigError("filter_hz", f"{fmt_num(fh)} Hz is too low for the discrete filters at {fmt_num(fs)} Hz "
+                          f"(ωT = 2π·f/fs = {2 * math.pi * fh / fs:.3g} < 2.5e-3: they lose their accuracy): a corner "
+                          f"of {fmt_num(math.ceil(lo / e) * e, 3)} Hz or more")
+    return fh
+
+
+# the design file's accepted range of each plant parameter (exotune.config), and what scales it:
+# the time unit (inertias as its square, damping as itself) or the angles' and torques' units
+_RANGE_CAUSE = {"motor_inertia": "time²", "motor_damping": "time", "joint_inertia": "time²",
+                "sea_stiffness": None, "cuff_stiffness": None}
+
+
+def _check_ranges(est, log) -> None:
+    """Refuse an estimate outside the design file's accepted range (an inertia of 4.5e7 kg·m²:
+    a wrong sample rate, a time column not in seconds, angles or torques in other units), naming
+    the parameter, its value, the range and the likely cause: ``exotune design`` would refuse it."""
+    for p in est.parameters:
+        path = f"plant.{p.key}"
+        if p.fixed or path not in OVERRIDE_LIMITS or not p.value > 0 or in_limits(p.value, OVERRIDE_LIMITS[path]):
+            continue
+        kind = OVERRIDE_LIMITS[path]
+        scale = _RANGE_CAUSE.get(p.key)
+        fs = fmt_num(log.sample_rate_hz)
+        if scale is None:
+            cause = "are the angles in rad and the torques in N·m? (docs/identification.md#the-log)"
+        elif log.rate_source == "given":
+            cause = (f"is the sample rate right? `sample_rate_hz` gave {fs} Hz, and {p.symbol} scales with "
+                     f"{'the square of ' if scale == 'time²' else ''}the sample period")
+        else:
+            cause = (f"is the time column t in seconds? The rate taken from it is {fs} Hz, and {p.symbol} scales "
+                     f"with {'the square of ' if scale == 'time²' else ''}the time unit (or give `sample_rate_hz`)")
+        raise ConfigError(p.key, f"identified as {fmt_num(p.value)} {p.unit}, outside the design file's accepted range "
+                          f"{limit_text(kind)} ({p.symbol}; docs/design-file.md#input-limits-and-accepted-ranges): "
+                          f"{cause}")
 
 
 def _skip(lg, fh: float, max_delay: int, given: bool, several: bool) -> int:
@@ -258,10 +392,10 @@ def _skip(lg, fh: float, max_delay: int, given: bool, several: bool) -> int:
            f"{fmt_num(fh)} Hz): at least {MIN_FIT_SAMPLES} are needed")
     room = n - MIN_FIT_SAMPLES - 1  # the transient's samples that would leave enough (one for the rounding up)
     if given and room > max_delay:
-        lowest = TRANSIENT_TIME_CONSTANTS * fs / (2 * math.pi * room)
+        lowest = max(TRANSIENT_TIME_CONSTANTS * fs / (2 * math.pi * room), fs / MIN_FILTER_FRACTION)
         e = 10.0 ** (math.floor(math.log10(lowest)) - 2)
         lowest = math.ceil(lowest / e) * e  # three digits, rounded up
-        if lowest <= fs / 4:
+        if lowest <= fs / MAX_FILTER_FRACTION:
             raise ConfigError("filter_hz", f"{fmt_num(fh)} Hz is too low for {lg.source}: {why} (a corner of "
                               f"{fmt_num(lowest, 3)} Hz or more leaves them)")
     raise ConfigError("t", why + (f" ({lg.source})" if several else ""))
@@ -348,7 +482,7 @@ def _identify(logs, sig, eqs, fixed, delay, delay_info, lag, friction) -> tuple:
         fits += record
         failed += bad
         w, e = diagnose(name, {q.key: q for q in new}, sig, friction_eq, fixed, friction, delay, lag, MIN_T,
-                        delay_info)
+                        delay_info, eq=eq)
         warnings += w
         errors += e
         for expr in _LAST_USE[name]:
@@ -403,13 +537,15 @@ def _r2(y, fit, modes) -> float:
 
 def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = None,
                   sample_rate_hz: float | None = None, friction: bool = False, fix=None,
-                  validate=None, folds: int | None = None) -> PlantEstimate:
+                  validate=None, folds: int | None = None, *, frf_csv=None, plots=None) -> PlantEstimate:
     """``exotune identify``: read a log, or several (:func:`exotune.identification.read_log`),
     identify the plant (:func:`identify_plant`; several logs together), validate it
     (:func:`~exotune.identification.validate.validate_plant`: on the first log, or on
-    ``validate``) and, with ``out``, write the ``plant`` and ``uncertainty`` sections it gives as
-    YAML (atomically): the identified and fixed parameters, when every estimate is physical and at
-    least one was identified.
+    ``validate``) and write what was asked, all or none
+    (:func:`~exotune.jsonio.write_outputs`): with ``out`` the ``plant`` and
+    ``uncertainty`` sections it gives as YAML (the identified and fixed parameters, when every
+    estimate is physical and at least one was identified), with ``frf_csv`` the measured
+    frequency responses, with ``plots`` the figures and ``frequency_response.csv``.
 
     Parameters
     ----------
@@ -432,6 +568,11 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
         A second log (same columns and rate) to validate on (:func:`~exotune.identification.validate.validate_plant`).
     folds : int, optional
         k-fold cross-validation on the log itself (contiguous blocks; one log only).
+    frf_csv : str or os.PathLike, optional
+        Also write the measured frequency responses there (CSV).
+    plots : str or os.PathLike, optional
+        Also write the Bode overlays, the residual tests (PNG) and ``frequency_response.csv``
+        into this directory.
 
     Returns
     -------
@@ -440,9 +581,11 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     Raises
     ------
     ConfigError
-        Bad input (``--folds`` with several logs among it); a ``validate`` log holding the same
-        samples as a fitting log (not held out); ``out`` with every parameter the log's columns
-        give fixed (nothing to write).
+        Bad input (no log; ``folds`` not a whole number ≥ 2, or with several logs); a log that
+        cannot go with the first (other columns, another rate); a ``validate`` log with other
+        columns or another rate, or holding the same samples as a fitting log (not held out);
+        ``out`` with every parameter the log's columns give fixed (nothing to write); an output
+        that cannot be written (then none is).
 
     References
     ----------
@@ -450,18 +593,29 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     """
     import yaml
 
-    from ..jsonio import write_atomic
     from .data import read_log
+    from ..jsonio import write_outputs
 
     fix = parse_fix(fix)  # bad input before the log is read
-    from .validate import validate_plant
+    from .validate import check_folds, validate_plant
 
     paths = [log_path] if isinstance(log_path, (str, bytes)) or hasattr(log_path, "__fspath__") else list(log_path)
-    if len(paths) > 1 and folds is not None:
-        raise ConfigError("folds", "k-fold cross-validation cuts one log into blocks; with several logs, validate "
-                          "on a log not fitted on (`validate` LOG.csv)")
-    logs = [read_log(p, delay_s=delay_s, sample_rate_hz=sample_rate_hz) for p in paths]
-    other = None if validate is None else read_log(validate, delay_s=delay_s, sample_rate_hz=sample_rate_hz)
+    if not paths:
+        raise ConfigError("LOG.csv", "no log to identify")
+    if folds is not None:
+        check_folds(folds)
+        if len(paths) > 1:
+            raise ConfigError("folds", "k-fold cross-validation cuts one log into blocks; with several logs, validate "
+                              "on a log not fitted on (`validate` LOG.csv)")
+    logs = [read_log(paths[0], delay_s=delay_s, sample_rate_hz=sample_rate_hz)]
+    for p in paths[1:]:  # the first log's delay, in samples (checked once the rates are known to agree)
+        logs.append(_with_delay(read_log(p, delay_s="0", sample_rate_hz=sample_rate_hz), logs[0], delay_s, None))
+    other = None
+    if validate is not None:
+        other = _with_delay(read_log(validate, delay_s="0", sample_rate_hz=sample_rate_hz), logs[0], delay_s,
+                            "validate")
+    if folds is not None:
+        check_folds(folds, logs[0].samples)
     left = [k for k in _estimable(logs[0], friction) if k not in fix and k != FRICTION[0]]
     if out is not None and not left:
         raise ConfigError("fix", f"every plant parameter the columns of {logs[0].source} give is fixed: nothing is "
@@ -475,9 +629,13 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
     del logs[1:]
     if other is not None and est.delay is not None:  # the delay found on the fitting log
         other = dataclasses.replace(other, delay_samples=est.delay["samples"])
+        if est.delay["samples"] >= other.samples - MIN_SAMPLES:
+            raise ConfigError("validate", f"{other.source}: {other.samples} samples, the delay of "
+                              f"{est.delay['samples']} samples leaves fewer than {MIN_SAMPLES}")
     fh = est.filter_hz
     est = validate_plant(est, dataclasses.replace(log, delay_samples=est.delay["samples"]) if est.delay else log,
                          other, folds, lambda part: identify_plant(part, filter_hz=fh, friction=friction, fix=fix))
+    files, dirs = {}, {}
     if out is not None and est.physical and any(not p.fixed for p in est.parameters):
         sec = est.design_sections()
         unc = est.uncertainty()
@@ -488,5 +646,25 @@ def identify_file(log_path, out=None, delay_s="0", filter_hz: float | None = Non
                 + "# Paste into a design file"
                 + (f"; not identified: {', '.join(k for k, _ in est.missing + est.not_identified)}"
                    if est.missing or est.not_identified else "") + ".\n")
-        write_atomic(out, head + yaml.safe_dump(sec, sort_keys=False, allow_unicode=True))
+        files[out] = head + yaml.safe_dump(sec, sort_keys=False, allow_unicode=True)
+    if frf_csv is not None:
+        files[frf_csv] = est.validation.to_csv()
+    if plots is not None:
+        dirs[plots] = {**est.validation.plot(), "frequency_response.csv": est.validation.to_csv()}
+    if files or dirs:
+        write_outputs(files, dirs)
     return est
+
+
+def _with_delay(lg: MeasuredLog, first: MeasuredLog, delay_s, field: str | None) -> MeasuredLog:
+    """A further log (read without a delay) checked against the first (:func:`check_like`: columns,
+    rate) and given the first log's delay in samples (``delay_s`` checked there): one delay for
+    every log, whatever small difference of rate there is within :data:`RATE_TOLERANCE`."""
+    check_like(first, lg, field)
+    if not lg.tau_m_held:
+        return lg
+    d = first.delay_samples
+    if d is not None and d >= lg.samples - MIN_SAMPLES:
+        raise ConfigError(field or "delay_s", f"{lg.source}: {lg.samples} samples, a delay of {d} samples "
+                          f"({delay_s} s) leaves fewer than {MIN_SAMPLES}")
+    return dataclasses.replace(lg, delay_samples=d)

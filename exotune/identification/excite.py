@@ -334,8 +334,9 @@ def schroeder_multisine(sample_rate_hz, f_lo_hz, f_hi_hz, *, peak_nm=None, rms_n
 
 def write_excitation(exc: Excitation, out) -> Excitation:
     """Write ``exc`` as CSV to ``out`` and its description (units, lines, phases, crest factor)
-    as JSON to :func:`sidecar_path` (each atomically; the CSV is removed again when the sidecar
-    cannot be written). Returns ``exc`` with its ``path``.
+    as JSON to :func:`sidecar_path`, both or neither
+    (:func:`~exotune.jsonio.write_outputs`: a file they replace is kept when
+    either cannot be written). Returns ``exc`` with its ``path``.
 
     Parameters
     ----------
@@ -352,23 +353,18 @@ def write_excitation(exc: Excitation, out) -> Excitation:
     Raises
     ------
     exotune.errors.ConfigError
-        When ``out`` is its own sidecar path (a ``.json`` name).
-    OSError
-        When a file cannot be written.
+        When ``out`` is its own sidecar path (a ``.json`` name), or a file cannot be written
+        (``<path>: cannot write output: <reason>``; then neither is).
     """
     import dataclasses
 
-    from ..jsonio import dumps, write_atomic
+    from ..jsonio import dumps
+    from ..jsonio import write_outputs
 
     out = os.fspath(out)
     side = sidecar_path(out)
     if os.path.abspath(side) == os.path.abspath(out):
         raise ConfigError("-o", f"{out}: the excitation is written as CSV (EXC.csv) beside its sidecar EXC.json")
     exc = dataclasses.replace(exc, path=out, sidecar=side)
-    write_atomic(out, exc.to_csv())
-    try:
-        write_atomic(side, dumps(exc.to_dict()) + "\n")
-    except BaseException:
-        os.unlink(out)
-        raise
+    write_outputs({out: exc.to_csv(), side: dumps(exc.to_dict()) + "\n"})
     return exc

@@ -124,9 +124,11 @@ def held_svf(u: np.ndarray, sample_rate_hz: float, filter_hz: float) -> np.ndarr
 
 
 def discretization_bound(sample_rate_hz: float, filter_hz: float) -> float:
-    """Relative bound of what the hold leaves in the dynamic equations' estimates: 10⁻³·(ωT)³ (the
-    O((ωT)³) images; measured below 2.5·10⁻⁴·(ωT)³ at ωT up to 0.25) plus 10⁻⁷ (the filters'
-    rounding at ωT ~ 10⁻³, measured below 2·10⁻⁸).
+    """Relative bound of what the hold leaves in the dynamic equations' estimates: 4·10⁻³·(ωT)³
+    (the O((ωT)³) images: noise-free, measured below 1.03·10⁻³·(ωT)³ at ωT up to 0.25, the
+    largest corner accepted, at 1-10 kHz from held and smooth logs; 5·10⁻³·(ωT)³ at ωT = 1.57,
+    a quarter of the rate, which is why corners above ωT = 0.25 are refused) plus 10⁻⁷ (the
+    filters' rounding, measured below 2·10⁻⁸ down to ωT = 2.5·10⁻³, the smallest corner accepted).
 
     Parameters
     ----------
@@ -141,7 +143,7 @@ def discretization_bound(sample_rate_hz: float, filter_hz: float) -> float:
         The relative bound [–].
     """
     wt = 2 * math.pi * filter_hz / sample_rate_hz
-    return 1e-3 * wt ** 3 + 1e-7
+    return 4e-3 * wt ** 3 + 1e-7
 
 
 def velocity_sign(theta: np.ndarray, fs: float, fh: float) -> np.ndarray:

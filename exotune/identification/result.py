@@ -75,7 +75,8 @@ class PlantEstimate(Result):
     within 5 SE of zero); ``delay``: a held command's delay (given or estimated) with the motor
     equation's RMS residuals. The covariance is per equation (:attr:`EquationFit.covariance`; :meth:`covariance`
     assembles it): the equations are solved separately and their cross-covariances are not
-    estimated."""
+    estimated. ``notes``: remarks that are not warnings (a given sample rate the time column
+    contradicts: the rate given is used, as documented)."""
 
     parameters: tuple[ParameterEstimate, ...]
     fits: tuple[EquationFit, ...]
@@ -91,6 +92,7 @@ class PlantEstimate(Result):
     warnings: tuple[str, ...] = ()
     model_errors: tuple = ()
     validation: object = None  # a Validation (exotune.identification.validresult), from validate_plant
+    notes: tuple[str, ...] = ()  # what the report notes besides (a given rate the time column contradicts)
 
     def __getitem__(self, key: str) -> ParameterEstimate:
         for p in self.parameters:
@@ -216,6 +218,7 @@ class PlantEstimate(Result):
             "uncertainty_sigmas": UNCERTAINTY_SIGMAS,
             "uncertainty": {k: {"relative": v, "dominated_by": why} for k, (v, why) in self.uncertainty().items()},
             "warnings": list(self.warnings) + (list(self.validation.warnings) if self.validation is not None else []),
+            "notes": list(self.notes),
             "model_errors": {m.key: m.to_dict() for m in self.model_errors},
             "validation": self.validation.to_dict() if self.validation is not None else None,
             "method": ("least squares on the plant equations (docs/method.md#physical-model), every signal through "
@@ -236,6 +239,7 @@ class PlantEstimate(Result):
         lines = [f"exotune identify — {self.source}: {self.samples} samples at {self.sample_rate_hz:g} Hz"
                  f"{' (given)' if self.rate_source != 't' else ''}, "
                  f"filter {self.filter_hz:g} Hz, standard errors for residuals correlated over {self.correlation_s:.3g} s"]
+        lines += [f"  note: {n}" for n in self.notes]
         for p in self.parameters:
             lines.append(f"  {p.key} ({p.symbol}): {p.value:.6g} {p.unit} (fixed)" if p.fixed else
                          f"  {p.key} ({p.symbol}): {p.value:.6g} ± {p.std_error:.3g} {p.unit} "
@@ -243,9 +247,17 @@ class PlantEstimate(Result):
         if self.delay is not None:
             d = self.delay
             how = "estimated: the smallest motor-equation residual" if d["estimated"] else "given"
-            lines.append(f"  delay: {d['samples']} samples ({d['seconds']:.6g} s, {how}), RMS residual "
-                         f"{d['rms_residual']:.3g} N·m (without delay {d['rms_residual_without_delay']:.3g} N·m"
-                         + "".join(f", {k} samples {v:.3g}" for k, v in d.get("rms_residual_neighbours", {}).items()) + ")")
+            if not math.isfinite(d["rms_residual"]):  # the motor equation could not be fitted at all
+                lines.append(f"  delay: {d['samples']} samples ({d['seconds']:.6g} s, {how}); the motor-equation residual "
+                             "could not be computed (the log does not excite the motor equation), so the delay is "
+                             "not checked")
+            else:
+                without = d["rms_residual_without_delay"]
+                lines.append(f"  delay: {d['samples']} samples ({d['seconds']:.6g} s, {how}), RMS residual "
+                             f"{d['rms_residual']:.3g} N·m (without delay "
+                             + (f"{without:.3g} N·m" if math.isfinite(without) else "not computed")
+                             + "".join(f", {k} samples {v:.3g} N·m" for k, v in d.get("rms_residual_neighbours", {}).items())
+                             + ")")
         for f in self.fits:
             lines.append(f"  fit {f.equation}: R² {f.r2:.6f}, RMS residual {f.rms_residual:.3g} {f.residual_unit}, "
                          f"offset {f.offset:.3g} {f.offset_unit}" + ("" if f.parameters else " (every parameter fixed)"))

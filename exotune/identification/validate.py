@@ -36,7 +36,7 @@ from .filters import velocity_sign
 from .frf import applied_torque, frequency_responses
 from .validresult import CONFIDENCE_Z, ModelError, OutputFit, ResidualTest, Validation
 
-__all__ = ["validate_plant", "simulate_outputs", "residual_test", "nrmse_percent", "FreeResponses", "LAGS"]
+__all__ = ["validate_plant", "check_folds", "simulate_outputs", "residual_test", "nrmse_percent", "FreeResponses", "LAGS"]
 
 LAGS = 25  # residual tests at lags 0…25 (cross-correlation −25…25), as MATLAB's resid
 
@@ -359,6 +359,39 @@ def _kfold(log, est, folds, refit, delay) -> list[OutputFit]:
             for name, (inputs, v) in by_output.items()]
 
 
+def check_folds(folds, samples: int | None = None) -> int:
+    """The number of folds of a k-fold cross-validation: a whole number (an ``int`` or a numpy
+    integer, not a bool) of at least 2, each fold holding at least twice the minimum log of
+    ``samples`` when given.
+
+    Parameters
+    ----------
+    folds : Any
+        The value given (``--folds``, ``folds=``).
+    samples : int, optional
+        The log's samples; None: the folds' length is not checked.
+
+    Returns
+    -------
+    int
+        The number of folds.
+
+    Raises
+    ------
+    ConfigError
+        Field ``folds``: not an integer, below 2, or folds shorter than twice the minimum log.
+    """
+    if isinstance(folds, (bool, np.bool_)) or not isinstance(folds, (int, np.integer)):
+        raise ConfigError("folds", f"must be a whole number of folds (an integer ≥ 2), got {folds!r}")
+    k = int(folds)
+    if k < 2:
+        raise ConfigError("folds", f"{k}: at least 2 folds are needed")
+    if samples is not None and samples // k < MIN_SAMPLES * 2:
+        raise ConfigError("folds", f"{k}: at least 2 folds of {2 * MIN_SAMPLES} samples each are needed "
+                          f"({samples} samples make at most {samples // (2 * MIN_SAMPLES)})")
+    return k
+
+
 @one_blas_thread
 def validate_plant(est, log: MeasuredLog, validation_log: MeasuredLog | None = None, folds: int | None = None,
                    refit=None):
@@ -410,8 +443,7 @@ def validate_plant(est, log: MeasuredLog, validation_log: MeasuredLog | None = N
             fits.append(OutputFit(name, inputs, pct, y.size, "held-out log " + validation_log.source))
         tests.append(residual_test(name, "τ_m" if inputs.startswith("τ_m") else inputs, e, u, input_stats=stats))
     if folds is not None:
-        if not (isinstance(folds, int) and 2 <= folds and log.samples // folds >= MIN_SAMPLES * 2):
-            raise ConfigError("folds", f"{folds!r}: at least 2 folds of {2 * MIN_SAMPLES} samples each are needed")
+        folds = check_folds(folds, log.samples)
         if refit is None:
             raise ConfigError("folds", "k-fold validation needs the identification to repeat (refit)")
         fits += _kfold(log, est, folds, refit, delay)

@@ -12,7 +12,7 @@ Spec (YAML)::
       robust: true                       # every human family stable over its whole range
       latency_margin_s: 0.001            # extra delay tolerated [s] (default below; 0 disables)
       max_phase_excess_deg: 10.0         # passivity of C7
-      dob_phase_margin_deg: 30.0
+      dob_phase_margin_deg: 30.0         # (the DOB margins need implementation.dob in the base)
       dob_gain_margin_db: 6.0
       dob_delay_margin_s: 0.001
       amplification_bandwidth_hz: 2.0

@@ -49,8 +49,9 @@ def pareto_header(spec) -> list[str]:
 
 
 def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
-    """``exotune optimize``: load, search, write the optimized design file (validated, atomically)
-    and, on request, the Pareto front as CSV.
+    """``exotune optimize``: load, search, write the optimized design file (validated) and, on
+    request, the Pareto front as CSV: both or neither (:func:`exotune.jsonio.write_outputs`). An output that cannot be
+    created is refused before the search (:func:`exotune.jsonio.check_writable`).
 
     Parameters
     ----------
@@ -72,7 +73,8 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> Op
     Raises
     ------
     ConfigError
-        For bad input.
+        For bad input, or an output that cannot be written (``<path>: cannot write output:
+        <reason>``; nothing is written then).
 
     References
     ----------
@@ -81,9 +83,10 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> Op
     import yaml
 
     from ..config import design_from_mapping
-    from ..jsonio import write_atomic
+    from ..jsonio import check_writable, write_outputs
 
     spec = load_optimize_spec(spec_file, seed=seed)
+    check_writable([out, pareto_csv])  # known before the search, refused before it
     r = optimize(spec, pareto=pareto_csv is not None)
     if not r["feasible"]:
         return OptimizeResult.from_report(r, out)
@@ -96,10 +99,10 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> Op
     head = (f"# exotune optimize: {o['name']} = {o['value']:.6g} {unit} ({o['sense']}imized), "
             f"active: {', '.join(r['active_constraints']) or 'none'}; latency margin {ms(lm['achieved_s'])} "
             f"(required {ms(lm['required_s'])}); seed {spec.seed}\n")
-    write_atomic(out, head + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True))
+    files = {out: head + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True)}
     if pareto_csv is not None:
         cols = ["objective", "robust_fraction", *spec.free]
-        text = ",".join(pareto_header(spec)) + "\n" + "".join(",".join(repr(float(row[c])) for c in cols) + "\n"
-                                                             for row in r["pareto"])
-        write_atomic(pareto_csv, text)
+        files[pareto_csv] = ",".join(pareto_header(spec)) + "\n" + "".join(
+            ",".join(repr(float(row[c])) for c in cols) + "\n" for row in r["pareto"])
+    write_outputs(files)  # the design and the front: both or neither
     return OptimizeResult.from_report(r, out)

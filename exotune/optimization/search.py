@@ -251,9 +251,12 @@ def _infeasible(ar: Archive, spec: OptimizeSpec) -> dict:
     x = ev["X"][0]
     lm = exact_latency_margin(spec, x, ev, 0) if ev["broken"].get("latency_margin_s", [False])[0] else None
     achieved = None if lm is None else float(lm.extra_delay_s)
+    broken = sorted(k for k, v in ev["broken"].items() if v[0])
+    if not broken:  # every constraint met, yet no design to return: the objective is undefined wherever they are
+        broken = [f"objective: {spec.objective} is undefined (NaN) at every design evaluated that meets the constraints"]
     return {"feasible": False, "evaluated": int(ar.count), "x": dict(zip(ar.paths, x.tolist())),
             "x_relative": dict(zip(ar.paths, np.clip(U, 0.0, 1.0).tolist())),
-            "broken": sorted(k for k, v in ev["broken"].items() if v[0]),
+            "broken": broken,
             "violations": violations(spec, ev, 0, achieved),
             "at_bounds": at_bounds(spec, U, x), "spec": spec.raw}
 

@@ -43,6 +43,11 @@ CONSTRAINTS = {
 }
 #: recognized names whose computation is not available yet (a clear ConfigError)
 PENDING = {"plant_uncertainty_margin": "the plant-uncertainty margin is not implemented yet"}
+#: the measures of the disturbance observer (constraint or objective name → what it is): undefined
+#: without one (``implementation.dob: null``), so a spec asking for one is refused up front
+DOB_MEASURES = {"dob_phase_margin_deg": "DOB phase margin", "dob_gain_margin_db": "DOB gain margin",
+                "dob_delay_margin_s": "DOB delay margin"}
+NO_DOB = "the base design has no disturbance observer (implementation.dob: null)"
 BOOL = ("robust", "free_stable", "locked_stable", "nominal_passive")
 BOOL_DEFAULT = {"robust": True, "free_stable": True, "locked_stable": True, "nominal_passive": False}
 KEYS = ("base", "objective", "free", "constraints", "seed", "budget")
@@ -139,7 +144,7 @@ def _free(cfg, free_in) -> dict:
             lo, hi, scale = number_field(f"{f}.lo", b["lo"]), number_field(f"{f}.hi", b["hi"]), b.get("scale")
             if scale not in (None, "lin", "log"):
                 raise ConfigError(f"{f}.scale", f"expected lin or log, got {scale!r}")
-        elif isinstance(b, (list, tuple)) and len(b) == 2:
+        elif isinstance(b, (list, tuple, np.ndarray)) and np.ndim(b) == 1 and len(b) == 2:
             lo, hi = number_field(f"{f}[0]", b[0]), number_field(f"{f}[1]", b[1])
         else:
             raise ConfigError(f, f"expected bounds [lo, hi] or {{lo, hi, scale}}, got {b!r}")
@@ -164,9 +169,9 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
     cons = dict(BOOL_DEFAULT)
     for k, v in cons_in.items():
         if k in BOOL:
-            if not isinstance(v, bool):
+            if not _is_flag(v):
                 raise ConfigError(f"constraints.{k}", f"expected true or false, got {v!r}")
-            cons[k] = v
+            cons[k] = bool(v)
         elif k in CONSTRAINTS:
             cons[k] = number_field(f"constraints.{k}", v)
             if k == "max_phase_excess_deg" and cons[k] < 0:
@@ -179,6 +184,11 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
             raise ConfigError(f"constraints.{k}", f"unknown constraint (known: {', '.join(BOOL + tuple(CONSTRAINTS))})")
     if cons["robust"] and not cfg.humans:
         raise ConfigError("constraints.robust", "the base design has no human families to be robust against")
+    if cfg.implementation.dob is None:
+        for k in cons:
+            if k in DOB_MEASURES:
+                raise ConfigError(f"constraints.{k}", f"{NO_DOB}, so its {DOB_MEASURES[k]} is undefined: remove the "
+                                                      "constraint or give the base design an implementation.dob filter")
     how = None
     if "latency_margin_s" not in cons:
         # the default keeps a margin only where every delay-sensitive verdict is required
@@ -193,14 +203,35 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
     return cons, how
 
 
+def _is_int(v) -> bool:
+    """An integer: a Python or numpy one (``np.int64(3)``), never a bool (``True``, ``np.True_``)."""
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _is_flag(v) -> bool:
+    """A yes/no value: a bool or a numpy bool (``np.True_``)."""
+    return isinstance(v, (bool, np.bool_))
+
+
+def _shown(v) -> str:
+    """A value as an error about an integer shows it: numpy scalars as their Python value, a float
+    as a float (``1.0``, not ``1``)."""
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    if isinstance(v, np.generic):
+        v = v.item()
+    return fmt_value(v)
+
+
 def _seed(s, in_file: bool) -> int:
-    """The search's seed: an integer in [0, :data:`MAX_SEED`] (the seeds numpy's generators take),
-    else :class:`ConfigError` on ``seed`` (``in_file``: the spec's key, not the keyword)."""
-    if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s <= MAX_SEED:
-        huge = isinstance(s, int) and s.bit_length() > 256  # (its decimal text may be too long to print)
-        got = f"an integer of {s.bit_length()} bits" if huge else fmt_value(s)
+    """The search's seed: an integer (numpy's included) in [0, :data:`MAX_SEED`] (the seeds
+    numpy's generators take), else :class:`ConfigError` on ``seed`` (``in_file``: the spec's key,
+    not the keyword)."""
+    if not _is_int(s) or not 0 <= int(s) <= MAX_SEED:
+        huge = _is_int(s) and int(s).bit_length() > 256  # (its decimal text may be too long to print)
+        got = f"an integer of {int(s).bit_length()} bits" if huge else _shown(s)
         raise ConfigError("seed", f"expected an integer from 0 to {MAX_SEED} (2**32 − 1), got {got}", in_file=in_file)
-    return s
+    return int(s)
 
 
 def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
@@ -238,14 +269,18 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     objective = mapping.get("objective", "amplification")
     if not isinstance(objective, str) or objective not in OBJECTIVES:
         raise ConfigError("objective", f"unknown objective {objective!r} (known: {', '.join(OBJECTIVES)})")
+    if objective in DOB_MEASURES and cfg.implementation.dob is None:
+        raise ConfigError("objective", f"{objective}: {NO_DOB}, so its {DOB_MEASURES[objective]} is undefined: "
+                                       "choose another objective or give the base design an implementation.dob filter")
     free = _free(cfg, mapping.get("free"))
     what = OBJECTIVES[objective][0]
     if what.startswith(("design.", "plant.", "implementation.")) and what not in free:
         raise ConfigError("objective", f"{objective} is the parameter {what}: list it under free with its bounds")
     cons, how = _constraints(cfg, mapping.get("constraints"))
     budget = mapping.get("budget", default_budget(len(free)))
-    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 50:
-        raise ConfigError("budget", f"expected an integer ≥ 50, got {budget!r}")
+    if not _is_int(budget) or budget < 50:
+        raise ConfigError("budget", f"expected an integer ≥ 50, got {_shown(budget)}")
+    budget = int(budget)
     raw = {"objective": objective, "free": {p: list(v) for p, v in free.items()}, "constraints": cons,
            "seed": s, "budget": budget}
     return OptimizeSpec(cfg, free, objective, cons, s, budget, source, raw, how)

@@ -42,8 +42,9 @@ proportional to the chunk, for grids of any size. ``--seed`` defaults to 0 with 
 Output directory
 ----------------
 ``DIR/manifest.json``
-    the normalized spec (``base`` = the validated base design mapping, ``axes`` = explicit value
-    lists), its SHA-256 ``spec_hash`` (canonical JSON of the normalized spec including the base
+    ``format_version`` (1: a manifest of another version is refused), ``status`` (``running``,
+    ``complete``, ``interrupted``, ``incomplete`` or ``failed``), the normalized spec (``base`` =
+    the validated base design mapping, ``axes`` = explicit value lists), its SHA-256 ``spec_hash`` (canonical JSON of the normalized spec including the base
     design's content, the chunk size and ``sample``/``seed``), exotune's version, the numbers of
     points and chunks, the Parquet column schema, one entry per chunk (status ``done`` /
     ``pending`` / ``failed`` with the error text, rows, seconds; a finished chunk also its file's

@@ -15,11 +15,12 @@ import os
 
 from ..errors import ConfigError
 from .integrity import scan_chunks
-from .manifest import MANIFEST, load_manifest, try_lock, write_manifest
+from .manifest import MANIFEST, chunk_rel, load_manifest, try_lock, write_manifest
 from .plan import SweepPlan
 from .result import chunk_list
+from .store import CHUNK_DIR
 
-__all__ = ["verified_manifest", "read_tables", "load_results"]
+__all__ = ["verified_manifest", "read_tables", "load_results", "check_results_left"]
 
 
 def plan_of(out_dir: str, m: dict) -> SweepPlan:
@@ -80,6 +81,45 @@ def verified_manifest(out_dir) -> dict:
     finally:
         lock.close()
     return m
+
+
+def check_results_left(out_dir) -> None:
+    """Refuse, naming the missing chunks, a sweep that finished chunks but whose chunk files are
+    all gone (the ``chunks`` directory deleted, or every file in it): it is ``incomplete`` — as a
+    sweep that lost some of its chunk files is (:func:`verified_manifest` records it so) — and
+    nothing is left to read. A sweep that never finished a chunk passes (the reader says so).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The sweep directory.
+
+    Raises
+    ------
+    ConfigError
+        ``<out_dir>: the sweep is incomplete (… chunks missing: …) …``; not a sweep directory or a
+        damaged manifest (:func:`~exotune.sweeps.manifest.load_manifest`).
+
+    References
+    ----------
+    docs/sweep-spec.md (reconciliation).
+    """
+    out_dir = os.fspath(out_dir)
+    m = load_manifest(out_dir)
+    if any(os.path.lexists(os.path.join(out_dir, chunk_rel(i))) for i in range(m["n_chunks"])):
+        return  # some chunk file is there: the reader reads it (or names what is wrong with it)
+    finished = [c["index"] for c in m["chunks"] if c["status"] == "done"]
+    if not finished and m["status"] != "incomplete":
+        return  # no chunk ever finished
+    m = verified_manifest(out_dir)  # records the sweep as incomplete, as a lost chunk file does
+    missing = list(range(m["n_chunks"]))
+    chunk_dir = os.path.join(out_dir, CHUNK_DIR)
+    gone = "" if os.path.isdir(chunk_dir) else f"; the directory {chunk_dir} is gone"
+    # the field is a directory, never a keyword: `-o out` must not be read as the option -o
+    raise ConfigError(out_dir, f"the sweep is incomplete ({len(missing)} of {m['n_chunks']} chunks missing: "
+                               f"{chunk_list(missing)}{gone}), so no finished chunk is left to report; rerun "
+                               f"`exotune sweep` with the same spec and -o {out_dir} to compute them, then report "
+                               "again", in_file=True)
 
 
 def read_tables(out_dir: str, columns=None, allow_partial: bool = False, manifest: dict | None = None):

@@ -25,6 +25,9 @@ MANIFEST = "manifest.json"
 MAX_MANIFEST_BYTES = 64 << 20  # 64 MiB: ~2·10^5 chunk entries with their checksums
 FORMAT = "exotune-sweep"
 FORMAT_VERSION = 1
+#: the states of a sweep (``status``) and of each of its chunks (``chunks[].status``)
+STATUSES = ("running", "complete", "interrupted", "incomplete", "failed")
+CHUNK_STATUSES = ("pending", "done", "failed")
 
 
 def utc_now() -> str:
@@ -41,7 +44,8 @@ def utc_now() -> str:
 def load_manifest(out_dir) -> dict:
     """The manifest of a sweep directory, checked (:func:`_check_manifest`): ConfigError when it is
     missing, unreadable, too large or too deeply nested (the guarded JSON reader), a symbolic link,
-    damaged, or edited by hand (its spec no longer has the recorded spec hash).
+    of another ``format_version``, damaged (a field of the wrong type, an unknown ``status``), or
+    edited by hand (its spec no longer has the recorded spec hash).
 
     Parameters
     ----------
@@ -72,6 +76,14 @@ def load_manifest(out_dir) -> dict:
     return m
 
 
+def _shown(v) -> str:
+    """A manifest's value as an error quotes it: its JSON type and a short excerpt."""
+    from ..config.validate import excerpt
+
+    kind = {str: "the string", bool: "the boolean", type(None): "null"}.get(type(v), type(v).__name__)
+    return kind if v is None else f"{kind} {excerpt(repr(v))}"
+
+
 def _check_manifest(m: dict, path: str) -> None:
     """The fields that resuming and reporting rely on, with their types (a manifest edited or
     damaged by hand is refused with the field named, never a traceback later)."""
@@ -79,12 +91,24 @@ def _check_manifest(m: dict, path: str) -> None:
     need = {"spec": (lambda v: isinstance(v, dict), "a mapping"), "spec_hash": (lambda v: isinstance(v, str), "a string"),
             "chunks": (lambda v: isinstance(v, list), "a list"), "n_points": (is_int, "an integer"),
             "n_chunks": (is_int, "an integer"), "chunk_size": (is_int, "an integer")}
+    damaged = "(damaged manifest; use a new directory)"
+    v = m.get("format_version")
+    if not is_int(v):
+        raise ConfigError(f"{path}: format_version", f"expected the integer {FORMAT_VERSION}, got "
+                                                     f"{'nothing' if v is None else _shown(v)} {damaged}")
+    if v != FORMAT_VERSION:
+        raise ConfigError(f"{path}: format_version", f"{v} is not a manifest format this exotune ({__version__}) reads "
+                                                     f"(it reads {FORMAT_VERSION}): "
+                          + ("the sweep was written by a newer exotune; read it with that version, or rerun the "
+                             "sweep into a new directory" if v > FORMAT_VERSION else damaged))
     for key, (ok_type, what) in need.items():
         v = m.get(key)
         if not ok_type(v):
             raise ConfigError(f"{path}: {key}", f"expected {what}, got {type(v).__name__} (damaged manifest; "
                                                 f"use a new directory)")
-    damaged = "(damaged manifest; use a new directory)"
+    if not isinstance(m.get("status"), str) or m["status"] not in STATUSES:
+        raise ConfigError(f"{path}: status", f"expected one of {', '.join(STATUSES)}, got {_shown(m.get('status'))} "
+                                             f"{damaged}")
     axes, spec_axes = m.get("axes"), m["spec"].get("axes")
     if not (isinstance(axes, list) and axes and all(isinstance(a, dict) and isinstance(a.get("path"), str) for a in axes)):
         raise ConfigError(f"{path}: axes", f"expected a non-empty list of {{path, …}} {damaged}")
@@ -99,6 +123,9 @@ def _check_manifest(m: dict, path: str) -> None:
                 and isinstance(c.get("status"), str)):
             raise ConfigError(f"{path}: chunks[{i}]", "expected a mapping with index, file and status "
                                                        "(damaged manifest; use a new directory)")
+        if c["status"] not in CHUNK_STATUSES:
+            raise ConfigError(f"{path}: chunks[{i}].status", f"expected one of {', '.join(CHUNK_STATUSES)}, got "
+                                                              f"{_shown(c['status'])} {damaged}")
         if os.path.isabs(c["file"]) or ".." in c["file"].replace("\\", "/").split("/"):
             raise ConfigError(f"{path}: chunks[{i}].file", f"must be a path inside the sweep directory, got {c['file']!r}")
     _check_integrity(m, path)

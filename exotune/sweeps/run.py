@@ -104,6 +104,10 @@ def run_sweep(
         raise ConfigError(out_dir, "exists and is not a directory")
     for name in (MANIFEST, CHUNK_DIR, ".lock"):
         refuse_link(os.path.join(out_dir, name))
+    chunk_dir = os.path.join(out_dir, CHUNK_DIR)
+    if os.path.lexists(chunk_dir) and not os.path.isdir(chunk_dir):  # the path in the way, before any work
+        raise ConfigError(chunk_dir, "exists and is not a directory (the sweep keeps its chunk files in a directory "
+                                     "of this name); move it away or choose another output directory")
 
     if os.path.lexists(os.path.join(out_dir, MANIFEST)):
         old = load_manifest(out_dir)
@@ -116,9 +120,10 @@ def run_sweep(
     dask = connect_dask(dask_address, workers) if dask_address is not None else None  # before anything is written
     try:
         try:
-            os.makedirs(os.path.join(out_dir, CHUNK_DIR), exist_ok=True)
-        except OSError as e:
-            raise ConfigError(out_dir, f"cannot create the output directory: {e.strerror or e}") from None
+            os.makedirs(chunk_dir, exist_ok=True)
+        except OSError as e:  # name the directory that could not be made (out_dir, or a parent of it)
+            where = e.filename if isinstance(e.filename, str) else out_dir
+            raise ConfigError(where, f"cannot create the output directory: {e.strerror or e}") from None
         refuse_link(os.path.join(out_dir, CHUNK_DIR))
 
         with dir_lock(out_dir):

@@ -50,6 +50,8 @@ def is_number(v: Any) -> bool:
 
 def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
     field = f"axes.{path}"
+    if isinstance(spec, tuple) or (isinstance(spec, np.ndarray) and spec.ndim == 1):
+        spec = list(spec)  # the library's sequences of values (a file's list is a list)
     if isinstance(spec, list):
         if not spec:
             raise ConfigError(field, "an axis list needs at least one value")
@@ -106,6 +108,8 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
 def _plant_margin_option(v: Any) -> dict | None:
     """The spec key ``plant_margin``: false/absent (no columns), true (default budget) or a
     mapping ``{budget: N}`` (interval evaluations per loop and certification attempt)."""
+    if isinstance(v, np.bool_):
+        v = bool(v)
     if v is False or v is None:
         return None
     if v is True:
@@ -121,6 +125,8 @@ def _plant_margin_option(v: Any) -> dict | None:
 def _sampled_option(v: Any, cfg) -> bool:
     """The spec key ``sampled``: true adds the exact sampled-data columns (the base must set
     ``implementation.sample_rate_hz``; docs/sweep-spec.md#sampled-data-columns)."""
+    if isinstance(v, np.bool_):
+        v = bool(v)
     if v is None or v is False:
         return False
     if v is not True:

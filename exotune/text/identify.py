@@ -4,6 +4,8 @@ tests and the warnings (docs/identification.md#validation)."""
 
 from __future__ import annotations
 
+from .numbers import count_text
+
 __all__ = ["validation_text"]
 
 
@@ -31,8 +33,10 @@ def validation_text(v) -> str:
         band = (f"{r.frequency_hz[r.coherent].min():.3g}–{r.frequency_hz[r.coherent].max():.3g} Hz" if n else "none")
         parts = ", ".join(f"{p.symbol} {'within its band' if p.relative_excess == 0 else f'departs {100 * p.relative_excess:.2g} % at {p.at_hz:.3g} Hz'}"
                           for p in r.local)
-        lines.append(f"    frequency response {r.name} ({r.input_name} → {r.output_name}): coherent (γ² ≥ 0.9) in {n} "
-                     f"bins, {band}; {parts}")
+        where = (f"coherent (γ² ≥ 0.9) in {count_text(n, 'bin')}, {band}" if n
+                 else "no coherent bin (γ² ≥ 0.9): nothing to compare with the model")
+        lines.append(f"    frequency response {r.name} ({r.input_name} → {r.output_name}): {where}"
+                     + (f"; {parts}" if parts else ""))
     for t in v.residual_tests:
         lines.append(f"    residuals of {t.output}: {'white' if t.white else 'not white'} (bound ±{t.auto_bound:.2g}), "
                      f"{'independent of' if t.independent else 'correlated with'} {t.input_name} "

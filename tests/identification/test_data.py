@@ -49,7 +49,7 @@ def test_given_rate_and_command_delay():
     ({k: v[:MIN_SAMPLES - 1] for k, v in _cols().items()}, {}, "t", f"{MIN_SAMPLES - 1} samples: at least"),
     (_cols(t=np.r_[np.arange(100), np.arange(101, N + 1)] / FS), {}, "t", "about 1 sample(s) missing after sample 99"),
     (_cols(t=np.r_[np.arange(200), np.arange(199, -1, -1)] / FS), {}, "t", "not increasing"),
-    (_cols(), {"sample_rate_hz": -1.0}, "sample_rate_hz", "is not a rate > 0 Hz"),
+    (_cols(), {"sample_rate_hz": -1.0}, "sample_rate_hz", "must be > 0, got -1.0"),
     (_cols(tau_m=None, tau_cmd=np.zeros(N)), {"delay_s": "0.0015"}, "delay_s", "1.5 samples at 1000 Hz"),
     (_cols(), {"delay_s": "auto"}, "delay_s", "this log has tau_m"),
     (_cols(), {"delay_s": "soon"}, "delay_s", "neither a delay [s] nor auto"),

@@ -44,7 +44,7 @@ def test_held_step_is_filtered_exactly():
 
 def test_discretization_bound():
     wt = 2 * math.pi * FH / FS
-    assert discretization_bound(FS, FH) == pytest.approx(1e-3 * wt**3 + 1e-7)
+    assert discretization_bound(FS, FH) == pytest.approx(4e-3 * wt**3 + 1e-7)
     assert discretization_bound(10 * FS, FH) < discretization_bound(FS, FH)
 
 

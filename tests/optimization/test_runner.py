@@ -5,6 +5,7 @@ nothing when no design is feasible."""
 from __future__ import annotations
 
 import copy
+import os
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 
 from exotune.config import load_design
 from exotune.optimization.runner import run_optimize
+
+from disk_faults import full_disk_after
 
 BASE = copy.deepcopy(load_design(Path(__file__).resolve().parents[2] / "examples" / "paper.yaml").raw)
 BASE["humans"] = [{"kind": "mass", "inertia": [0.01, 1.0], "damping": 0.0},
@@ -79,3 +82,41 @@ def test_an_infeasible_problem_writes_nothing(tmp_path):
     res = run_optimize(_spec(amplification_bandwidth_hz=1e6), out)
     assert not res.feasible and res.path is None
     assert not out.exists()
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_full_disk_on_the_pareto_front_leaves_the_design_as_it_was(tmp_path, monkeypatch, existing):
+    """``-o O --pareto F`` wrote O, then failed on F (exit 2) and left O behind: the two are now
+    written both or neither, and an O that was there keeps its content."""
+    from exotune.errors import ConfigError
+
+    out, csv = tmp_path / "sub" / "best.yaml", tmp_path / "sub" / "front.csv"
+    if existing:
+        out.parent.mkdir()
+        out.write_text("old design\n")
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    calls = full_disk_after(monkeypatch, 1)
+    with pytest.raises(ConfigError) as e:
+        run_optimize(_spec(max_phase_excess_deg=20.0), out, pareto_csv=csv)
+    assert (e.value.field, e.value.reason) == (str(csv), "cannot write output: No space left on device")
+    assert len(calls) == 2  # both staged: the design first, then the front
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # no staging directory, no created parent
+    assert not existing or out.read_text() == "old design\n"
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc (a directory that refuses new files)")
+def test_an_output_that_cannot_be_created_is_refused_before_the_search(tmp_path, monkeypatch):
+    """``--pareto /proc/x.csv`` passes the permission bits (as root) but no file can be created
+    there: it was found only after the search, once the design had been written. It is refused
+    before the search now, nothing written."""
+    from exotune.errors import ConfigError
+    from exotune.optimization import runner
+
+    def no_search(*a, **k):
+        raise AssertionError("the search ran")
+
+    monkeypatch.setattr(runner, "optimize", no_search)
+    with pytest.raises(ConfigError) as e:
+        run_optimize(_spec(), tmp_path / "best.yaml", pareto_csv="/proc/exotune-front.csv")
+    assert e.value.field == "/proc/exotune-front.csv" and e.value.reason.startswith("cannot write output: ")
+    assert os.listdir(tmp_path) == []

@@ -78,3 +78,28 @@ def test_an_upper_bound_below_the_boundary_is_reported_at_bounds(solved):
 def test_deterministic_for_a_seed(solved):
     spec, r = solved
     assert optimize(_spec())["x"] == r["x"]
+
+
+def test_an_objective_undefined_wherever_the_constraints_hold_is_named_as_what_breaks(monkeypatch):
+    """A problem whose designs meet every constraint but whose objective is undefined (NaN) at all
+    of them returned no design with an empty ``broken``: the text said "the best one breaks: "
+    with nothing after. It names the objective and why."""
+    import exotune.optimization.space as space
+    from exotune.text.optimize import format_optimize
+
+    real = space.evaluate
+
+    def nan_objective(spec, X):
+        ev = real(spec, X)
+        ev["objective"] = np.full(np.asarray(ev["X"]).shape[0], np.nan)
+        return ev
+
+    monkeypatch.setattr(space, "evaluate", nan_objective)
+    spec = _spec(objective="amplification_bandwidth_hz", free={"design.zeta_hat": [0.5, 1.0]},
+                 constraints={"latency_margin_s": 0.0}, budget=50)
+    r = optimize(spec)
+    assert not r["feasible"] and r["violations"] == []
+    assert r["broken"] == ["objective: amplification_bandwidth_hz is undefined (NaN) at every design evaluated "
+                           "that meets the constraints"]
+    head = format_optimize(r).splitlines()[0]
+    assert head.endswith("the best one breaks: " + r["broken"][0])

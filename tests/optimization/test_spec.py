@@ -97,3 +97,46 @@ def test_a_seed_outside_numpys_range_is_refused_up_front(base, seed, got):
         load_optimize_spec(_spec({"not": "a design"}), seed=seed)
     assert (e.value.field, e.value.reason, e.value.in_file) == ("seed", reason, False)
     assert load_optimize_spec(_spec(base), seed=2**32 - 1).seed == 2**32 - 1
+
+
+@pytest.mark.parametrize("change, field, what", [
+    (dict(constraints={"dob_phase_margin_deg": 30.0}), "constraints.dob_phase_margin_deg", "DOB phase margin"),
+    (dict(constraints={"dob_gain_margin_db": 6.0}), "constraints.dob_gain_margin_db", "DOB gain margin"),
+    (dict(constraints={"dob_delay_margin_s": 1e-3}), "constraints.dob_delay_margin_s", "DOB delay margin"),
+    (dict(objective="dob_delay_margin_s"), "objective", "DOB delay margin"),
+], ids=["phase", "gain", "delay", "objective"])
+def test_a_dob_margin_without_a_dob_is_refused_up_front(base, change, field, what):
+    """A DOB margin asked of a base design with ``dob: null`` ran the whole search on NaN and
+    exited 1 ("dob_phase_margin_deg: nan deg, needed >= 30 deg", or "the best one breaks: " with
+    nothing after for the objective). It is refused before the search, naming the constraint or
+    the objective and why, as ``robust`` without human families is."""
+    no_dob = copy.deepcopy(base)
+    no_dob["implementation"]["dob"] = None
+    with pytest.raises(ConfigError) as e:
+        load_optimize_spec(_spec(no_dob, **change))
+    assert e.value.field == field
+    assert "no disturbance observer (implementation.dob: null)" in e.value.reason and what in e.value.reason
+    assert load_optimize_spec(_spec(base, **change)).cfg.implementation.dob is not None  # with a DOB: accepted
+
+
+def test_numpy_scalars_are_accepted_where_numbers_are(base):
+    """``optimize(seed=np.int64(1))`` was refused ("expected an integer from 0 to …, got
+    np.int64(1)"), as were a numpy budget, bounds given as an array and numpy flags: numpy's
+    integers, floats and bools are taken for Python's (bools are still not integers)."""
+    import numpy as np
+
+    s = load_optimize_spec(_spec(base, free={"design.amplification": np.array([1.5, 60.0]),
+                                             "design.zeta_hat": [np.float32(0.25), np.float64(1.2)]},
+                                 budget=np.int64(60), seed=np.uint32(7),
+                                 constraints={"nominal_passive": np.True_, "dob_phase_margin_deg": np.float64(20.0)}),
+                           seed=np.int64(1))
+    assert (s.seed, s.budget, s.constraints["nominal_passive"]) == (1, 60, True)
+    assert type(s.seed) is int and type(s.budget) is int and type(s.constraints["nominal_passive"]) is bool
+    assert s.free["design.amplification"][:2] == (1.5, 60.0) and s.free["design.zeta_hat"][0] == 0.25
+    assert load_optimize_spec(_spec(base, seed=np.int64(3))).seed == 3
+    for bad, got in ((np.int64(-1), "-1"), (np.True_, "true"), (np.float64(1.0), "1.0")):
+        with pytest.raises(ConfigError) as e:
+            load_optimize_spec(_spec(base), seed=bad)
+        assert e.value.reason.endswith(f"got {got}")
+    with pytest.raises(ConfigError, match="expected an integer ≥ 50, got 10"):
+        load_optimize_spec(_spec(base, budget=np.int64(10)))

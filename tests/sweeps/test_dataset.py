@@ -83,3 +83,54 @@ def test_a_changed_chunk_is_refused_naming_it(sweep, tmp_path):
 def test_not_a_sweep_directory(tmp_path):
     with pytest.raises(ConfigError, match="not a sweep directory"):
         load_results(tmp_path)
+
+
+@pytest.mark.parametrize("how", ["directory", "files"])
+def test_a_sweep_whose_chunk_files_are_all_gone_is_incomplete_naming_them(sweep, tmp_path, monkeypatch, how):
+    """``report`` after ``DIR/chunks`` was deleted said "-o: the sweep has no results yet (no chunk
+    finished)" — no -o given (the directory was named ``out``, the keyword's name) and the manifest
+    listing its done chunks. It is an incomplete sweep, as one that lost some chunk files is: the
+    manifest records it, the report refuses it naming the missing chunks and how to compute them."""
+    from exotune.api import report
+    from exotune.sweeps.dataset import check_results_left
+
+    monkeypatch.chdir(tmp_path)
+    shutil.copytree(sweep, "out")
+    if how == "directory":
+        shutil.rmtree(Path("out") / "chunks")
+    else:
+        for p in (Path("out") / "chunks").iterdir():
+            p.unlink()
+    for _ in range(2):  # the second time from the reconciled manifest (every chunk pending, status incomplete)
+        with pytest.raises(ConfigError) as ei:
+            report("out")
+        assert ei.value.field == "out" and ei.value.in_file  # a directory, never read as the option -o
+        assert ei.value.reason.startswith("the sweep is incomplete (2 of 2 chunks missing: chunks 0, 1"
+                                          + ("; the directory out/chunks is gone)" if how == "directory" else ")"))
+        assert "rerun `exotune sweep` with the same spec and -o out to compute them" in ei.value.reason
+        m = load_manifest("out")
+        assert m["status"] == "incomplete" and [c["status"] for c in m["chunks"]] == ["pending", "pending"]
+    assert not (Path("out") / "report").exists()
+    check_results_left(sweep)  # chunks on disk: nothing to say
+    run_sweep({"base": PAPER, "axes": AXES, "chunk_size": 3}, "out", workers=1, progress=False)  # resumes
+    assert report("out").directory == Path("out") / "report"
+
+
+def test_a_sweep_that_never_finished_a_chunk_is_left_to_the_reader(sweep, tmp_path):
+    """No chunk ever finished (status interrupted, none done): not "incomplete"; the report says
+    the sweep has no results yet, naming the directory (never as the option -o, whose keyword
+    ``out`` a directory may be named)."""
+    from exotune.api import report
+    from exotune.sweeps.manifest import write_manifest
+
+    copy = tmp_path / "copy"
+    shutil.copytree(sweep, copy)
+    shutil.rmtree(copy / "chunks")
+    m = load_manifest(copy)
+    m["status"] = "interrupted"
+    for c in m["chunks"]:
+        c.update(status="pending", sha256=None, spec_hash=None)
+    write_manifest(str(copy), m)
+    with pytest.raises(ConfigError, match="no results yet") as ei:
+        report(copy)
+    assert ei.value.field == str(copy) and ei.value.in_file

@@ -141,3 +141,30 @@ def test_engine_hash_and_time():
     h = engine_hash()
     assert re.fullmatch(r"[0-9a-f]{64}", h) and engine_hash() == h
     assert utc_now().endswith("+00:00")
+
+
+@pytest.mark.parametrize("edit, field, reason", [
+    (lambda m: m.update(format_version=2), "format_version",
+     "2 is not a manifest format this exotune (" + __version__ + ") reads (it reads 1): the sweep was written by a "
+     "newer exotune"),
+    (lambda m: m.update(format_version="1"), "format_version", "expected the integer 1, got the string '1'"),
+    (lambda m: m.update(format_version=True), "format_version", "expected the integer 1, got the boolean True"),
+    (lambda m: m.pop("format_version"), "format_version", "expected the integer 1, got nothing"),
+    (lambda m: m.update(format_version=0), "format_version", "0 is not a manifest format"),
+    (lambda m: m.update(status=5), "status", "expected one of running, complete, interrupted, incomplete, failed, got int 5"),
+    (lambda m: m.update(status="finished"), "status", "got the string 'finished'"),
+    (lambda m: m.update(status=None), "status", "got null"),
+    (lambda m: m["chunks"][0].update(status="ok"), "chunks[0].status", "expected one of pending, done, failed"),
+], ids=["version-2", "version-string", "version-bool", "version-missing", "version-0", "status-int",
+        "status-unknown", "status-null", "chunk-status"])
+def test_an_unknown_format_version_or_status_is_refused_naming_the_field(plan, tmp_path, edit, field, reason):
+    """A manifest with ``format_version: 2`` or ``status: 5`` was read as if it were this format
+    and state (the report written, exit 0). Both are refused, naming the field."""
+    _write(tmp_path, _edit(plan, edit))
+    with pytest.raises(ConfigError) as ei:
+        load_manifest(tmp_path)
+    assert ei.value.field == f"{tmp_path / MANIFEST}: {field}"
+    assert reason in ei.value.reason
+    for status in ("running", "complete", "interrupted", "incomplete", "failed"):  # the known states pass
+        _write(tmp_path, _edit(plan, lambda m: m.update(status=status)))
+        assert load_manifest(tmp_path)["status"] == status

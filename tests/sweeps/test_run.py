@@ -773,3 +773,33 @@ def test_damaged_sweep_directory_is_an_input_error(ref, tmp_path, damage, field)
         res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(d), "--workers", "1"])
         assert res.exit_code == 0, res.output
         assert_frames_equal(load_results(d), df)
+
+
+def test_a_file_named_chunks_in_the_output_directory_is_named(tmp_path):
+    """``sweep -o out`` with a file ``out/chunks`` said "-o: cannot create the output directory:
+    File exists" (the directory named like the keyword, the path in the way not named). The file
+    is named, before any work; nothing is written."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "chunks").write_text("x")
+    spec = {"base": str(PAPER), "axes": {"design.amplification": [2.0]}}
+    with pytest.raises(ConfigError) as ei:
+        run_sweep(spec, out, workers=1, progress=False)
+    assert ei.value.field == str(out / "chunks")
+    assert ei.value.reason.startswith("exists and is not a directory")
+    assert sorted(os.listdir(out)) == ["chunks"] and (out / "chunks").read_text() == "x"
+    res = CliRunner().invoke(cli, ["sweep", str(write_spec(tmp_path, axes={"design.amplification": [2.0]})),
+                                   "-o", str(out), "--workers", "1"])
+    assert res.exit_code == 2 and res.stderr.startswith(f"exotune: error: {out / 'chunks'}: exists and is not a "
+                                                        "directory"), res.stderr
+    assert sorted(os.listdir(out)) == ["chunks"]
+
+
+def test_numpy_values_are_accepted_in_a_spec_and_as_keywords(tmp_path):
+    """numpy scalars (and a 1-d array or tuple of axis values) are taken where Python numbers are."""
+    spec = {"base": str(PAPER), "axes": {"design.amplification": np.array([2.0, 8.0]),
+                                         "implementation.delay_s": (np.float64(0.0), 0.002)},
+            "chunk_size": np.int64(2), "sampled": np.False_, "plant_margin": np.False_}
+    r = run_sweep(spec, tmp_path / "a", workers=np.int8(1), sample=np.int64(3), seed=np.uint32(1), progress=False)
+    assert r.status == "complete" and r.to_dict()["spec"]["axes"]["design.amplification"]["values"] == [2.0, 8.0]
+    assert r.table().num_rows == 3

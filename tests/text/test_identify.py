@@ -33,3 +33,13 @@ def test_fitting_log_says_so():
     first = validation_text(_validation(held_out=False)).splitlines()[0]
     assert first == ("  validation on log.csv (the fitting log: residual tests and frequency responses only; "
                      "--validate or --folds for held-out fits)")
+
+
+def test_a_response_without_coherent_bins_says_so_in_words():
+    """A constant θ_m log printed "coherent (γ² ≥ 0.9) in 0 bins, none; " (a dangling separator)."""
+    f = np.array([1.0, 2.0])
+    fr = FrequencyResponse("motor", "τ_m", "θ_m", "rad/(N·m)", f, np.ones(2, complex), np.array([0.1, 0.2]),
+                           np.full(2, 0.01), np.ones(2, complex), (), 8)
+    line = validation_text(Validation("log.csv", False, (), (fr,), (), (), ())).splitlines()[1]
+    assert line == ("    frequency response motor (τ_m → θ_m): no coherent bin (γ² ≥ 0.9): nothing to compare with "
+                    "the model")
