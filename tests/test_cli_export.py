@@ -180,15 +180,15 @@ def _golden_not_number(d):
 
 MUTATIONS = [
     # id, mutation, expected dotted field (prefix), jsonschema marks
-    ("sos_row_5_numbers", _sos_row_5, "controller.filters.0.sos", []),
-    ("sos_row_7_numbers", _sos_row_7, "controller.filters.0.sos", []),
-    ("sos_a0_not_1", _sos_a0_2, "controller.filters.0.sos", []),
-    ("sos_empty", _sos_empty, "controller.filters.0.sos", []),
+    ("sos_row_5_numbers", _sos_row_5, "controller.filters[0].sos", []),
+    ("sos_row_7_numbers", _sos_row_7, "controller.filters[0].sos", []),
+    ("sos_a0_not_1", _sos_a0_2, "controller.filters[0].sos", []),
+    ("sos_empty", _sos_empty, "controller.filters[0].sos", []),
     ("missing_sample_rate_hz", _no_sample_rate, "sample_rate_hz", []),
     ("zero_sample_rate", _zero_sample_rate, "sample_rate_hz.value", []),
     ("unknown_top_level_key", _unknown_top, "tuning_notes", []),
     ("negative_delay", _negative_delay, "delay_s.value", []),
-    ("unknown_filter_input", _bad_filter_input, "controller.filters.0.input", []),
+    ("unknown_filter_input", _bad_filter_input, "controller.filters[0].input", []),
     ("quantity_without_unit", _unit_missing, "plant.motor_inertia.unit", []),
     ("wrong_schema_version", _schema_version, "schema", []),
     ("golden_value_not_number", _golden_not_number, "golden.tau_cmd.values", []),
@@ -308,14 +308,14 @@ def test_certify_file_with_malformed_sos_row(tmp_path, exported_doc):
     d = copy.deepcopy(exported_doc)
     d["controller"]["filters"][1]["sos"][0] = d["controller"]["filters"][1]["sos"][0][:5]
     res = run("certify", _write_doc(tmp_path / "c.yaml", d))
-    assert_input_error(res, "controller.filters.1.sos")
+    assert_input_error(res, "controller.filters[1].sos")
 
 
 def test_certify_file_with_non_numeric_sos(tmp_path, exported_doc):
     d = copy.deepcopy(exported_doc)
     d["controller"]["filters"][0]["sos"][0][1] = "one"
     res = run("certify", _write_doc(tmp_path / "c.yaml", d))
-    assert_input_error(res, "controller.filters.0.sos")
+    assert_input_error(res, "controller.filters[0].sos")
 
 
 @pytest.mark.parametrize("content", [
