@@ -17,7 +17,10 @@ written, and each file is written atomically, so a failing run leaves nothing be
 
 from __future__ import annotations
 
+import os
+
 import click
+from click.core import ParameterSource
 
 from .version import __version__
 from .errors import ExotuneError
@@ -79,8 +82,39 @@ def _as_flags(flags: dict, text: str) -> str:
     return re.sub(r"`([A-Za-z_][A-Za-z0-9_]*)`", lambda m: flags.get(m.group(1), m.group(0)), text)
 
 
+#: ``ctx.meta`` key of the invoked command's context (its parameters' sources name the options given)
+_SUB_CONTEXT = "exotune.command_context"
+
+
+class _Command(click.Command):
+    """An ``exotune`` command: its context is kept in the shared ``ctx.meta`` so that the group can
+    tell, when a library error comes back, which options the user gave."""
+
+    def make_context(self, info_name, args, parent=None, **extra):
+        ctx = super().make_context(info_name, args, parent=parent, **extra)
+        ctx.meta[_SUB_CONTEXT] = ctx
+        return ctx
+
+
+def _typed_elsewhere(ctx, field: str) -> bool:
+    """Whether ``field`` is what the user typed as the value of a parameter other than the option
+    ``field`` names (a path that happens to be spelt like a keyword)."""
+    sub = ctx.meta.get(_SUB_CONTEXT)
+    if sub is None:
+        return False
+    for name, value in sub.params.items():
+        if name == field or sub.get_parameter_source(name) != ParameterSource.COMMANDLINE:
+            continue
+        values = value if isinstance(value, (list, tuple)) else (value,)
+        if any(isinstance(v, (str, os.PathLike)) and os.fspath(v) == field for v in values):
+            return True
+    return False
+
+
 class _Group(click.Group):
     """The ``exotune`` group: maps library errors and click usage errors to one-line errors."""
+
+    command_class = _Command
 
     def make_context(self, info_name, args, parent=None, **extra):
         try:
@@ -104,12 +138,14 @@ class _Group(click.Group):
         cmd = self.get_command(ctx, ctx.invoked_subcommand) if ctx.invoked_subcommand else None
         return {p.name: p.opts[0] for p in getattr(cmd, "params", ()) if isinstance(p, click.Option)}
 
-    def _option_named(self, flags: dict, e) -> str:
+    def _option_named(self, ctx, flags: dict, e) -> str:
         """The error's line in the command line's words: a field that is the keyword of an option
-        is named as that option, and so is a keyword the reason quotes in backticks (the library
-        speaks of its keywords: "give `periods` or `duration_s`, not both")."""
+        is named as that option — unless it is a key of an input file (``in_file``) or the value
+        the user gave another parameter (``exotune report out``: the directory ``out``, not
+        ``-o``) — and so is a keyword the reason quotes in backticks (the library speaks of its
+        keywords: "give `periods` or `duration_s`, not both")."""
         field = getattr(e, "field", None)
-        keyword = field in flags and not getattr(e, "in_file", False)
+        keyword = field in flags and not getattr(e, "in_file", False) and not _typed_elsewhere(ctx, field)
         text = f"{flags[field]}: {e.reason}" if keyword else str(e)
         return _as_flags(flags, text)
 
@@ -122,7 +158,7 @@ class _Group(click.Group):
             raise InputError(_usage_line(e), e.exit_code) from None
         except ExotuneError as e:
             flags = self._flags(ctx)
-            raise InputError(self._option_named(flags, e), e.exit_code,
+            raise InputError(self._option_named(ctx, flags, e), e.exit_code,
                              [_as_flags(flags, m) for m in getattr(e, "more", ())]) from None
         except ValueError as e:
             raise InputError(" ".join(str(e).split()) or type(e).__name__) from None

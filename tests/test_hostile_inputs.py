@@ -610,3 +610,33 @@ def test_excite_full_disk_on_the_sidecar_keeps_the_previous_command(tmp_path, mo
                            "--rms-nm", "1", "--periods", "2"])
     assert_contract(res, caught, f"{tmp_path / 'exc.json'}: cannot write output: No space left on device")
     assert listing(tmp_path) == before
+
+
+# ------------------------------------------- a field spelt like a keyword is not always that option
+@pytest.mark.parametrize("command", ["sweep", "optimize", "analyze", "export"])
+def test_a_file_key_spelt_like_an_option_is_named_as_the_key(tmp_path, monkeypatch, command):
+    """A file with the unknown key ``out`` was reported as "-o: unknown key …" (the option the user
+    gave, or did not give): the file's key is named."""
+    monkeypatch.chdir(tmp_path)
+    if command in ("sweep", "optimize"):
+        body = f"base: {PAPER}\nout: 1\n" + ("axes:\n  design.amplification: [2.0]\n" if command == "sweep" else "")
+    else:
+        body = PAPER.read_text() + "\nout: 1\n"
+    (tmp_path / "in.yaml").write_text(body)
+    extra = {"sweep": ["-o", "res"], "optimize": ["-o", "res.yaml"], "analyze": [],
+             "export": ["--sample-rate-hz", "1000", "-o", "res.yaml"]}[command]
+    before = listing(tmp_path)
+    res, caught = run_cli([command, "in.yaml", *extra])
+    assert_contract(res, caught, "out: unknown key")
+    assert listing(tmp_path) == before
+
+
+def test_a_missing_keyword_is_named_as_its_option_and_a_typed_path_as_typed(tmp_path, monkeypatch):
+    """The keyword the user did not give is the option (``--sample-rate-hz``); a directory typed
+    as the argument of ``report`` and spelt ``out`` is the directory, not ``-o``."""
+    monkeypatch.chdir(tmp_path)
+    res, caught = run_cli(["export", PAPER, "-o", "c.yaml"])
+    assert_contract(res, caught, "--sample-rate-hz: ")
+    (tmp_path / "out").mkdir()
+    res, caught = run_cli(["report", "out"])
+    assert_contract(res, caught, "out: not a sweep directory")

@@ -595,7 +595,7 @@ def _convert(err: ValidationError, model: type[BaseModel], prefix: str) -> Confi
     out = []
     for e in errors:
         field = join_path(prefix, tuple(e.get("loc", ()))) or prefix or "<input>"
-        out.append(ConfigError(field, _reason(e, model)))
+        out.append(ConfigError(field, _reason(e, model), in_file=True))  # a key of the file, never an option
     return combine_errors(out)
 
 

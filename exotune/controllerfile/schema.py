@@ -344,7 +344,7 @@ def validate_controller(doc: Any, source: str = "") -> ControllerSchema:
         elif "sos" in err["loc"] and err["loc"][-1] == 3 and err["type"] in ("less_than_equal", "greater_than_equal"):
             msg = (f"a0 = {err.get('input')!r}: must be 1 (sos rows are [b0, b1, b2, a0, a1, a2] with the "
                    "denominator normalized, scipy's convention)")
-        raise ConfigError(loc, msg) from None
+        raise ConfigError(loc, msg, in_file=True) from None
 
 
 def field_path(loc) -> str:

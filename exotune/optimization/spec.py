@@ -118,7 +118,7 @@ def _read(spec):
         raise ConfigError(source or "<spec>", "expected a mapping at the top level")
     for k in mapping:
         if k not in KEYS:
-            raise ConfigError(str(k), f"unknown key in an optimization spec (allowed: {', '.join(KEYS)})")
+            raise ConfigError(str(k), f"unknown key in an optimization spec (allowed: {', '.join(KEYS)})", in_file=True)
     if "base" not in mapping:
         raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
     return mapping, root, source

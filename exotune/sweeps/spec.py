@@ -250,7 +250,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
         raise ConfigError("<spec>", f"expected a spec file path or a mapping, got {type(spec).__name__}")
     unknown = [k for k in mapping if k not in _SPEC_KEYS]
     if unknown:
-        raise ConfigError(str(unknown[0]), f"unknown key in a sweep spec (allowed: {', '.join(_SPEC_KEYS)})")
+        raise ConfigError(str(unknown[0]), f"unknown key in a sweep spec (allowed: {', '.join(_SPEC_KEYS)})", in_file=True)
     if "base" not in mapping:
         raise ConfigError("base", "required key is missing (a design file path or an inline design mapping)")
     cfg, base_source = load_base(mapping["base"], root)
