@@ -146,12 +146,12 @@ def design(source, *, plots=None) -> DesignSummary:
         r = design_report(cfg)
     if plots is not None:
         from .analysis.design_summary import design_bode_figures
-        from .jsonio import write_files
+        from .jsonio import write_outputs
         from .plots.design import design_plots
 
         with numpy_engine():
             figures = design_bode_figures(cfg)  # the numbers: the analysis layer's; the plots only draw
-        write_files(plots, design_plots(figures))
+        write_outputs(dirs={plots: design_plots(figures)})
     return r
 
 
@@ -256,12 +256,12 @@ def analyze(source, *, cross_check: bool = False, plots=None, time_budget_s: flo
             r = replace(r, cross_check=pade_crosscheck(cfg))
     if plots is not None:
         from .analysis.figure_data import analysis_figures
-        from .jsonio import staged_dir
+        from .jsonio import write_outputs
         from .plots.analysis import write_analysis_plots
 
         with numpy_engine():
             figs = analysis_figures(cfg, r)  # the numbers: the analysis layer's; the plots only draw
-        staged_dir(plots, lambda tmp: write_analysis_plots(figs, tmp))
+        write_outputs(dirs={plots: lambda tmp: write_analysis_plots(figs, tmp)})
     return r
 
 
@@ -886,8 +886,8 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
         r = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,
                          progress=progress, joint_angle=joint_angle)
     if plots is not None:
-        from .jsonio import write_files
+        from .jsonio import write_outputs
         from .plots.simulate import plot_simulation
 
-        write_files(plots, plot_simulation(r.full_report()))
+        write_outputs(dirs={plots: plot_simulation(r.full_report())})
     return r

@@ -4,7 +4,7 @@ Each command parses its arguments, makes one library call (:mod:`exotune.analysi
 :mod:`exotune.sweeps`, :mod:`exotune.optimization`, :mod:`exotune.controllerfile`,
 :mod:`exotune.simulation`), formats the result (:mod:`exotune.text`, or strict JSON with
 :func:`exotune.jsonio.dumps`), writes the requested files (:mod:`exotune.plots`, written by
-:func:`exotune.jsonio.write_files`) and maps the outcome to an exit code. Library modules are
+:func:`exotune.jsonio.write_outputs`) and maps the outcome to an exit code. Library modules are
 imported lazily, so ``exotune --help`` stays fast.
 
 Error contract: every input problem (an :class:`~exotune.errors.ExotuneError` such as

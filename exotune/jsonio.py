@@ -8,13 +8,12 @@
 * :func:`write_atomic` writes a file through a temporary file in the same directory followed by
   :func:`os.replace`, so a reader never sees a half-written output (docs/sweep-spec.md, docs/cli.md: "nothing
   half-written").
-* :func:`write_files` writes several outputs under one directory, all or none,
-  :func:`write_outputs` the outputs of one run in several places, all or none, and
-  :func:`staged_dir` lets a producer write into a temporary directory next to the destination
-  whose files are renamed into place only when the producer succeeds (a failing run leaves
-  nothing behind).
+* :func:`write_outputs` writes the outputs of one run — files, directories of files, or what a
+  producer writes into a directory — all or none: everything is staged next to its destination
+  and renamed into place only when all of it is written (a failing run leaves nothing behind).
 * :func:`check_outputs` refuses, before any work, an output that is (the same file as) an
-  input, a file output that names a directory, or an output that cannot be written.
+  input, a file output that names a directory, or an output that cannot be written (permission
+  bits, and a file created and removed again where it will go).
 * :func:`dumps` is the JSON text of every ``--json`` output.
 """
 
@@ -34,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["to_jsonable", "dumps", "write_atomic", "write_files", "write_outputs", "staged_dir", "check_outputs", "check_writable"]
+__all__ = ["to_jsonable", "dumps", "write_atomic", "write_outputs", "check_outputs"]
 
 
 def _float(x: float):
@@ -195,132 +194,6 @@ def _make_parents(path: str) -> list[str]:
     return missing
 
 
-def staged_dir(dest, produce) -> None:
-    """Run ``produce(tmpdir)``; only if it succeeds, move what it wrote into ``dest``.
-
-    The temporary directory is made next to ``dest`` (same file system), so that publishing is
-    a rename per file — no copying, no space needed — or, when ``dest`` does not exist yet, one
-    rename of the whole directory. A failing producer (a plot error, a full disk) leaves ``dest``
-    untouched, not even created.
-
-    Parameters
-    ----------
-    dest : str or os.PathLike
-        Destination directory.
-    produce : callable
-        Called with the path of a fresh temporary directory, which is removed afterwards.
-
-    Raises
-    ------
-    exotune.errors.ConfigError
-        ``<dest>: cannot write output: <reason>`` when a file cannot be written.
-
-    References
-    ----------
-    docs/cli.md#outputs.
-    """
-    from .errors import ConfigError
-
-    dest = os.fspath(dest)
-    parent = os.path.dirname(os.path.abspath(dest))
-    created: list[str] = []
-    tmp = None
-    try:
-        created = _make_parents(parent)
-        # stage inside an existing destination (its parent may be read-only), else next to it
-        tmp = tempfile.mkdtemp(prefix=".exotune-stage-", dir=dest if os.path.isdir(dest) else parent)
-        produce(tmp)
-        if not os.path.lexists(dest):
-            os.chmod(tmp, 0o777 & ~_umask())
-            os.rename(tmp, dest)
-            tmp = None
-            return
-        for root, _dirs, names in os.walk(tmp):
-            rel = os.path.relpath(root, tmp)  # (the staging directory itself is never a target)
-            target = dest if rel == "." else os.path.join(dest, rel)
-            os.makedirs(target, exist_ok=True)
-            for nm in names:
-                os.replace(os.path.join(root, nm), os.path.join(target, nm))
-    except BaseException as e:  # leave nothing behind: the staging directory, created parents
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
-            tmp = None
-        for d in created if not os.path.isdir(dest) else []:
-            try:
-                os.rmdir(d)
-            except OSError:
-                pass
-        if isinstance(e, OSError):
-            raise ConfigError(dest, f"cannot write output: {e.strerror or e}") from None
-        raise
-    finally:
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
-
-
-def write_files(dest, files: dict[str, bytes]) -> None:
-    """Write ``files`` (relative path → content) under the directory ``dest``, all or none.
-
-    Parameters
-    ----------
-    dest : str or os.PathLike
-        Destination directory (created with its missing parents).
-    files : dict
-        Relative path → bytes (or text).
-
-    Raises
-    ------
-    exotune.errors.ConfigError
-        ``<dest>: cannot write output: <reason>`` when a file cannot be written; then no file of
-        ``files`` is written (they are staged by :func:`staged_dir`).
-
-    References
-    ----------
-    docs/cli.md#outputs.
-    """
-
-    def produce(tmp):
-        for rel, data in files.items():
-            write_atomic(os.path.join(tmp, rel), data)
-
-    staged_dir(dest, produce)
-
-
-def _nearest_dir(path: str) -> str:
-    """The nearest existing ancestor of the file ``path`` (its parent when it exists)."""
-    cur = os.path.dirname(os.path.abspath(path))
-    while not os.path.lexists(cur) and os.path.dirname(cur) != cur:
-        cur = os.path.dirname(cur)
-    return cur
-
-
-def check_writable(paths) -> None:
-    """Refuse, before the search, an output that cannot be created: a file is created and removed
-    again in the nearest existing directory of each path (a file system that refuses new files,
-    ``/proc``, a read-only mount, passes the permission bits that
-    :func:`exotune.jsonio.check_outputs` reads).
-
-    Parameters
-    ----------
-    paths : iterable of str or os.PathLike
-        The files the run will write (None: not given).
-
-    Raises
-    ------
-    ConfigError
-        ``<path>: cannot write output: <reason>``.
-    """
-    for p in paths:
-        if p is None:
-            continue
-        try:
-            fd, probe = tempfile.mkstemp(prefix=".exotune-probe-", dir=_nearest_dir(os.fspath(p)))
-            os.close(fd)
-            os.unlink(probe)
-        except OSError as e:
-            raise _cannot_write(os.fspath(p), e) from None
-
-
 def _cannot_write(dest: str, e: OSError):
     from .errors import ConfigError
 
@@ -332,10 +205,12 @@ def write_outputs(files=None, dirs=None) -> None:
     controller and its Pareto front, a plant file, its frequency responses and its plots).
 
     Every file is first written completely (:func:`write_atomic`) into a staging directory
-    beside its destination (inside an existing output directory); only when every output is
-    staged are they renamed into place. A failure while staging (a full disk, an unwritable
-    directory) leaves every destination as it was and removes the directories it made; a failure
-    while renaming puts back what the earlier renames replaced.
+    beside its destination (inside an existing output directory: same file system, so that
+    publishing is a rename, and its parent may be read-only); only when every output is staged
+    are they renamed into place (a new directory in one rename). A failure while staging (a full
+    disk, an unwritable directory, a producer that raises) leaves every destination as it was
+    and removes the directories it made; a failure while renaming puts back what the earlier
+    renames replaced.
 
     Parameters
     ----------
@@ -343,14 +218,21 @@ def write_outputs(files=None, dirs=None) -> None:
         Destination file → content (str or bytes). A symbolic link is followed (its target
         replaced), as :func:`exotune.jsonio.write_atomic` does.
     dirs : dict, optional
-        Destination directory → {file name → content}: the files written into it (the
-        directory and its missing parents created).
+        Destination directory → its content: {relative path → content} (sub-directories
+        allowed), or a function called with an empty directory to write into (plots written by
+        a library). The directory and its missing parents are created; files already there and
+        not written are kept.
 
     Raises
     ------
     ConfigError
         ``<path>: cannot write output: <reason>``, naming the destination that failed; then no
-        output is written or changed.
+        output is written or changed. An exception of a producer other than OSError is raised
+        as it is, after the same clean-up.
+
+    References
+    ----------
+    docs/cli.md#outputs.
     """
     items: list[tuple[str, str, str, str]] = []  # (kind, staged path, target, destination as given)
     stages: list[str] = []  # staging directories, removed at the end
@@ -377,8 +259,11 @@ def write_outputs(files=None, dirs=None) -> None:
                 stages.append(tempfile.mkdtemp(prefix=".exotune-stage-", dir=dest if os.path.isdir(dest) else parent))
                 staged = os.path.join(stages[-1], "out")
                 os.mkdir(staged)  # the usual permissions: renamed into place when the directory is new
-                for name, data in content.items():
-                    write_atomic(os.path.join(staged, name), data)
+                if callable(content):
+                    content(staged)
+                else:
+                    for name, data in content.items():
+                        write_atomic(os.path.join(staged, name), data)
             except OSError as e:
                 raise _cannot_write(dest, e) from None
             items.append(("dir", staged, dest, dest))
@@ -388,12 +273,10 @@ def write_outputs(files=None, dirs=None) -> None:
                     os.rename(staged, target)
                     published.append((target, "new dir"))
                     continue
-                pairs = [(staged, target)] if kind == "file" else [
-                    (os.path.join(staged, n), os.path.join(target, n)) for n in sorted(os.listdir(staged))]
-                for src, dst in pairs:
+                for src, dst in ([(staged, target)] if kind == "file" else _tree_pairs(staged, target, published)):
                     keep = "new"
                     if os.path.isfile(dst):  # to put it back should a later rename fail
-                        keep = os.path.join(os.path.dirname(staged), ".previous-" + os.path.basename(dst))
+                        keep = os.path.join(os.path.dirname(staged), f".previous-{len(published)}")
                         try:
                             os.link(dst, keep)
                         except OSError:
@@ -427,6 +310,21 @@ def write_outputs(files=None, dirs=None) -> None:
             shutil.rmtree(d, ignore_errors=True)
 
 
+def _tree_pairs(staged: str, target: str, published: list):
+    """(staged file, destination file) of every file under ``staged``, the sub-directories
+    missing in ``target`` made on the way (recorded in ``published`` as new, for a rollback)."""
+    for root, subdirs, names in os.walk(staged):
+        rel = os.path.relpath(root, staged)
+        into = target if rel == "." else os.path.join(target, rel)
+        for sd in sorted(subdirs):
+            d = os.path.join(into, sd)
+            if not os.path.isdir(d):
+                os.mkdir(d)
+                published.append((d, "new dir"))
+        for n in sorted(names):
+            yield os.path.join(root, n), os.path.join(into, n)
+
+
 def _same(a: str, b: str) -> bool:
     """Whether the paths ``a`` and ``b`` name the same file (same inode when both exist)."""
     try:
@@ -452,6 +350,12 @@ def _check_parent(label: str, path: str) -> None:
         raise ConfigError(path, f"cannot write output ({label}): {cur} is not a directory")
     if not os.access(cur, os.W_OK | os.X_OK):
         raise ConfigError(path, f"cannot write output ({label}): no permission to write into {cur}")
+    try:  # a file system that refuses new files passes the permission bits (/proc, a read-only mount)
+        fd, probe = tempfile.mkstemp(prefix=".exotune-probe-", dir=cur)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ConfigError(path, f"cannot write output ({label}): {e.strerror or e}") from None
     try:
         name_max = os.pathconf(cur, "PC_NAME_MAX")
     except (OSError, ValueError):

@@ -19,7 +19,7 @@ PKG = Path(__file__).resolve().parent.parent / "exotune"
 # Lower layers never import higher ones; a layer may import its own package and any lower layer.
 LAYERS = [
     {"version", "errors", "lazy"},
-    {"jsonio", "units", "starter", "options"},  # may raise errors.ConfigError (jsonio.write_files)
+    {"jsonio", "units", "starter", "options"},  # may raise errors.ConfigError (jsonio.write_outputs)
     {"record"},  # the base of the typed results (to_json uses jsonio)
     {"numerics"},
     {"model"},

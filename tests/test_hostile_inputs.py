@@ -485,8 +485,26 @@ def test_optimize_pareto_that_cannot_be_created_is_refused_before_the_search(tmp
     spec = _opt_spec(tmp_path)
     before = listing(tmp_path)
     res, caught = run_cli(["optimize", spec, "-o", tmp_path / "out.yaml", "--pareto", "/proc/exotune-hF.csv"])
-    assert_contract(res, caught, "/proc/exotune-hF.csv: cannot write output: ")
+    assert_contract(res, caught, "/proc/exotune-hF.csv: cannot write output (--pareto): ")
     assert listing(tmp_path) == before
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc (a directory that refuses new files)")
+@pytest.mark.parametrize("args, option", [
+    (["analyze", PAPER, "--plots", "/proc/exotune-hP"], "--plots"),
+    (["design", PAPER, "--plots", "/proc/exotune-hP"], "--plots"),
+    (["export", PAPER, "--sample-rate-hz", "1000", "-o", "/proc/exotune-hP.yaml"], "-o"),
+    (["simulate", ROOT / "examples" / "scheduled.yaml", "--scenario", "locked-output", "--plots", "/proc/exotune-hP"],
+     "--plots"),
+])
+def test_every_output_that_cannot_be_created_is_refused_before_the_work(tmp_path, monkeypatch, args, option):
+    """Only optimize probed its outputs before the work; the others refused ``/proc/x`` (writable
+    by the permission bits as root) only when writing. The probe is now part of every command's
+    output check: the line names the option, which the check before the work does."""
+    monkeypatch.chdir(tmp_path)
+    res, caught = run_cli(args)
+    assert_contract(res, caught, f"{args[-1]}: cannot write output ({option}): ")
+    assert listing(tmp_path) == {}
 
 
 @pytest.mark.parametrize("extra, field", [

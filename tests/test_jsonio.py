@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from exotune.errors import ConfigError
-from exotune.jsonio import check_outputs, dumps, staged_dir, to_jsonable, write_atomic, write_files
+from exotune.jsonio import check_outputs, dumps, to_jsonable, write_atomic, write_outputs
 
 
 class _Color(enum.Enum):
@@ -82,16 +82,43 @@ def test_write_atomic_error_names_the_destination(tmp_path):
     assert (d / "x").read_text() == "keep" and sorted(os.listdir(tmp_path)) == ["isdir"]
 
 
-def test_write_files_writes_all(tmp_path):
+def test_write_outputs_writes_a_directory_with_sub_paths(tmp_path):
     dest = tmp_path / "new" / "out"
-    write_files(dest, {"a.txt": b"A", "sub/b.txt": "B"})
+    write_outputs(dirs={dest: {"a.txt": b"A", "sub/b.txt": "B"}})
     assert (dest / "a.txt").read_bytes() == b"A" and (dest / "sub" / "b.txt").read_text() == "B"
-    write_files(dest, {"a.txt": b"A2"})  # into an existing directory: replaces, keeps the rest
-    assert (dest / "a.txt").read_bytes() == b"A2" and (dest / "sub" / "b.txt").exists()
+    write_outputs(dirs={dest: {"a.txt": b"A2", "sub/c.txt": "C", "new/d.txt": "D"}})  # replaces, keeps the rest
+    assert (dest / "a.txt").read_bytes() == b"A2" and (dest / "sub" / "b.txt").read_text() == "B"
+    assert (dest / "sub" / "c.txt").read_text() == "C" and (dest / "new" / "d.txt").read_text() == "D"
     assert not [n for n in os.listdir(dest) if n.startswith(".exotune-stage-")]
 
 
-def test_staged_dir_failure_leaves_nothing(tmp_path):
+def test_write_outputs_rolls_back_sub_paths_when_a_rename_fails(tmp_path, monkeypatch):
+    """Two files of one name in two sub-directories, both replaced, then a later rename fails:
+    both old contents are put back (each kept under its own name) and the new sub-directory goes."""
+    dest = tmp_path / "out"
+    (dest / "s1").mkdir(parents=True)
+    (dest / "s2").mkdir()
+    (dest / "s1" / "x.txt").write_text("old1")
+    (dest / "s2" / "x.txt").write_text("old2")
+    real = os.replace
+    calls = []
+
+    def failing(src, dst):
+        calls.append(dst)
+        if str(dst).endswith("z.txt"):
+            raise OSError(28, "No space left on device")
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", failing)
+    with pytest.raises(ConfigError, match="No space left"):
+        write_outputs(dirs={dest: {"s1/x.txt": "new1", "s2/x.txt": "new2", "s3/z.txt": "Z"}})
+    monkeypatch.setattr(os, "replace", real)
+    assert (dest / "s1" / "x.txt").read_text() == "old1" and (dest / "s2" / "x.txt").read_text() == "old2"
+    assert sorted(os.listdir(dest)) == ["s1", "s2"]
+    assert any(str(c).endswith("z.txt") for c in calls)
+
+
+def test_write_outputs_producer_failure_leaves_nothing(tmp_path):
     dest = tmp_path / "p" / "q" / "out"
 
     def produce(tmp):
@@ -99,11 +126,11 @@ def test_staged_dir_failure_leaves_nothing(tmp_path):
         raise RuntimeError("plot failed")
 
     with pytest.raises(RuntimeError, match="plot failed"):
-        staged_dir(dest, produce)
+        write_outputs(dirs={dest: produce})
     assert os.listdir(tmp_path) == []  # not even the created parents
 
 
-def test_staged_dir_os_error_becomes_a_config_error_naming_dest(tmp_path):
+def test_write_outputs_producer_os_error_becomes_a_config_error_naming_dest(tmp_path):
     dest = tmp_path / "out"
     dest.mkdir()
     (dest / "old.txt").write_text("old")
@@ -112,7 +139,7 @@ def test_staged_dir_os_error_becomes_a_config_error_naming_dest(tmp_path):
         raise PermissionError(13, "Permission denied")
 
     with pytest.raises(ConfigError) as ei:
-        staged_dir(dest, produce)
+        write_outputs(dirs={dest: produce})
     assert ei.value.field == str(dest) and "cannot write output: Permission denied" in ei.value.reason
     assert os.listdir(dest) == ["old.txt"]
 

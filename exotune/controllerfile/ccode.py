@@ -229,7 +229,7 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
     """
     from pathlib import Path
 
-    from ..jsonio import write_files
+    from ..jsonio import write_outputs
     from .certify import certify, golden_problems
     from .fileio import load_controller_file
 
@@ -245,5 +245,5 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
     verdict = "CERTIFIED" if cert.certified else "UNCERTIFIED (generated with --allow-uncertified)"
     trace = {"sha256": sha, "certified": cert.certified, "verdict": verdict, "reasons": tuple(cert.reasons)}
     files, n_ctrl, n_sec = _generate(doc, trace)
-    write_files(out_dir, {k: v.encode("ascii") for k, v in files.items()})
+    write_outputs(dirs={out_dir: {k: v.encode("ascii") for k, v in files.items()}})
     return GeneratedC(Path(out_dir), C_FILES, n_ctrl, n_sec, C_FLAGS, sha, cert.certified, tuple(cert.reasons))

@@ -51,7 +51,7 @@ def pareto_header(spec) -> list[str]:
 def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> OptimizeResult:
     """``exotune optimize``: load, search, write the optimized design file (validated) and, on
     request, the Pareto front as CSV: both or neither (:func:`exotune.jsonio.write_outputs`). An output that cannot be
-    created is refused before the search (:func:`exotune.jsonio.check_writable`).
+    created is refused before the search (:func:`exotune.jsonio.check_outputs`).
 
     Parameters
     ----------
@@ -83,10 +83,10 @@ def run_optimize(spec_file, out, seed: int | None = None, pareto_csv=None) -> Op
     import yaml
 
     from ..config import design_from_mapping
-    from ..jsonio import check_writable, write_outputs
+    from ..jsonio import check_outputs, write_outputs
 
     spec = load_optimize_spec(spec_file, seed=seed)
-    check_writable([out, pareto_csv])  # known before the search, refused before it
+    check_outputs([spec_file], outputs={"`out`": out, "`pareto_csv`": pareto_csv})  # refused before the search
     r = optimize(spec, pareto=pareto_csv is not None)
     if not r["feasible"]:
         return OptimizeResult.from_report(r, out)

@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ..jsonio import write_files
+from ..jsonio import write_outputs
 from .sweep import heatmap, heatmap_panels, profile_figure
 from ..sweeps.dataset import read_tables, verified_manifest
 from ..sweeps.manifest import refuse_link
@@ -124,7 +124,7 @@ def make_report(sweep_dir, out_dir=None) -> SweepReport:
     for rel in files:
         refuse_link(str(out / rel), "a report directory")
     try:
-        write_files(out, files)  # all or none: staged in a temporary directory, then renamed
+        write_outputs(dirs={out: files})  # all or none: staged in a temporary directory, then renamed
     except OSError as e:
         raise ConfigError(str(out), f"cannot write the report: {e.strerror or e}") from None
     return SweepReport(out, tuple(files), tuple(name for name, _ in figures), tuple(d["missing"]),

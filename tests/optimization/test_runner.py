@@ -118,5 +118,5 @@ def test_an_output_that_cannot_be_created_is_refused_before_the_search(tmp_path,
     monkeypatch.setattr(runner, "optimize", no_search)
     with pytest.raises(ConfigError) as e:
         run_optimize(_spec(), tmp_path / "best.yaml", pareto_csv="/proc/exotune-front.csv")
-    assert e.value.field == "/proc/exotune-front.csv" and e.value.reason.startswith("cannot write output: ")
+    assert e.value.field == "/proc/exotune-front.csv" and e.value.reason.startswith("cannot write output (`pareto_csv`): ")
     assert os.listdir(tmp_path) == []
