@@ -292,12 +292,24 @@ def identify_plant(log, filter_hz: float | None = None, *, friction: bool = Fals
                                model_errors=tuple(ModelError(k, v, why) for k, v, why in errors))
 
 
+#: Below this rate [Hz] a log taken from its time column is noted as a possible millisecond column:
+#: time scaled by 1000 is invisible in the data (the same log of a plant 1000 times slower, every
+#: inertia 10⁶ times larger), and no exoskeleton's controller logs this slowly.
+SLOW_LOG_HZ = 50.0
+
+
 def _rate_notes(logs) -> tuple[str, ...]:
     """A note per log whose time column steps at another rate than the one given (the rate given
-    is used, as documented: the time column may be in other units)."""
+    is used, as documented: the time column may be in other units), and per log whose rate, taken
+    from its time column, is below :data:`SLOW_LOG_HZ` (a time column in milliseconds read as
+    seconds)."""
     out = []
     for lg in logs:
         tr, fs = lg.time_rate_hz, lg.sample_rate_hz
+        if lg.rate_source == "t" and fs < SLOW_LOG_HZ:
+            out.append(f"the time column t of {lg.source} steps {fmt_num(1.0 / fs)} s ({fmt_num(fs)} Hz), slower than "
+                       f"any exoskeleton's controller logs: if t is in milliseconds the rate is {fmt_num(fs * 1e3)} Hz "
+                       f"and every inertia here is 10⁶ times too large (give --sample-rate-hz)")
         if tr is not None and abs(tr / fs - 1) > RATE_TOLERANCE:
             out.append(f"the rate given, {fmt_num(fs)} Hz (--sample-rate-hz), is used, not the {fmt_num(tr)} Hz of the "
                        f"time column t of {lg.source}: right if t is not in seconds, else the estimates are off (the "

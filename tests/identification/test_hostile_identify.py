@@ -300,3 +300,15 @@ def test_a_rate_the_time_column_contradicts_is_noted(logs):
     assert ("note: the rate given, 2000 Hz (--sample-rate-hz), is used, not the 1000 Hz of the time column t of "
             f"{logs['a']}") in res.output
     assert "note:" not in _run(logs["a"], "--sample-rate-hz", "1000", "--delay-s", "0.001").output
+
+
+def test_a_millisecond_time_column_read_as_seconds_is_noted(logs, tmp_path):
+    """A time column in milliseconds without --sample-rate-hz is a 1 Hz log of a plant 1000 times
+    slower (J_m = 4.4e5 kg·m², inside the design file's ranges): identify cannot tell from the
+    data, so it says what it assumed and what a millisecond column would mean."""
+    t_ms = _csv(tmp_path / "ms.csv", logs["cols"], 1e3)
+    res = _run(t_ms, "--delay-s", "auto")
+    assert res.exit_code == 0, res.output
+    assert (f"note: the time column t of {t_ms} steps 1 s (1 Hz), slower than any exoskeleton's controller logs: "
+            "if t is in milliseconds the rate is 1000 Hz and every inertia here is 10⁶ times too large") in res.output
+    assert "steps" not in _run(logs["a"], "--delay-s", "auto").output  # a log in seconds: no note
