@@ -45,11 +45,47 @@ from .model import ControllerFile, as_controller_file
 from .precision import precision_of
 from .results import GeneratedC
 
-__all__ = ["c_sources", "write_c_sources", "C_FILES", "C_FLAGS", "MIN_COEFFICIENT"]
+__all__ = ["c_sources", "write_c_sources", "check_size", "C_FILES", "C_FLAGS", "MIN_COEFFICIENT",
+           "MAX_SECTIONS_PER_CONTROLLER", "MAX_SCHEDULE_ENTRIES"]
 
 C_FILES = ("exotune_controller.h", "exotune_controller.c", "exotune_golden_test.c")
 # a nonzero coefficient below this magnitude could make a product with a flushed-size value subnormal
 MIN_COEFFICIENT = 1e-150
+# the largest controller file codegen takes (exotune export writes 5-40 sections per controller and a
+# schedule of a few entries): certification and the golden vectors grow with the cube of the sections
+MAX_SECTIONS_PER_CONTROLLER = 128
+MAX_SCHEDULE_ENTRIES = 64
+
+
+def check_size(doc: ControllerFile | dict) -> None:
+    """Refuse, before any heavy work, a controller file larger than codegen takes: more than
+    :data:`MAX_SECTIONS_PER_CONTROLLER` second-order sections in a controller (nominal or a
+    gain-schedule entry, all its filters together) or more than :data:`MAX_SCHEDULE_ENTRIES`
+    gain-schedule entries.
+
+    Parameters
+    ----------
+    doc : ControllerFile or dict
+        The validated controller file.
+
+    Raises
+    ------
+    ConfigError
+        Naming the field and the limit.
+    """
+    cf = as_controller_file(doc)
+    entries = cf.schedule_entries
+    if len(entries) > MAX_SCHEDULE_ENTRIES:
+        raise ConfigError("gain_schedule.entries", f"{len(entries)} entries: codegen takes at most "
+                          f"{MAX_SCHEDULE_ENTRIES} (exotune export writes a few)")
+    ctrls = [("controller.filters", cf.controller)]
+    ctrls += [(f"gain_schedule.entries[{i}].controller.filters", cf.entry_view(e).controller)
+              for i, e in enumerate(entries)]
+    for field, c in ctrls:
+        n = sum(len(f.sos) for f in c.filters)
+        if n > MAX_SECTIONS_PER_CONTROLLER:
+            raise ConfigError(field, f"{n} second-order sections: codegen takes at most "
+                              f"{MAX_SECTIONS_PER_CONTROLLER} per controller (exotune export writes 5-40)")
 
 
 def _tables(ctrls) -> dict:
@@ -99,6 +135,7 @@ def _parts64(doc: ControllerFile) -> HeaderParts:
 
 
 STATE64_H = """typedef struct {
+    unsigned int magic; /* EXOTUNE_STATE_MAGIC once exotune_init succeeded; anything else: not initialized */
     int controller;     /* which controller runs (0: nominal); -1: not initialized */
     int has_last;       /* last[] holds the last accepted inputs */
     double limit_nm;    /* clamp of the command [N.m] before the DOB sees it; 0: none */
@@ -107,13 +144,15 @@ STATE64_H = """typedef struct {
     double z[EXOTUNE_MAX_SECTIONS][2];  /* section states of the running controller, DF-II transposed */
 } exotune_state;
 """
-INIT64_H = """/* Zero state, controller 0...EXOTUNE_N_CONTROLLERS-1, limit_nm > 0 clamps (0: no clamp); checks the
- * floating-point environment. EXOTUNE_OK, EXOTUNE_ERR_ARGUMENT (nothing changed) or
+INIT64_H = """/* Zero state (then call exotune_start with the first reading), controller
+ * 0...EXOTUNE_N_CONTROLLERS-1, limit_nm > 0 clamps (0: no clamp); checks the floating-point
+ * environment. EXOTUNE_OK, EXOTUNE_ERR_ARGUMENT (nothing changed) or
  * EXOTUNE_ERR_FLOAT_ENV (the state cannot be stepped). */"""
 SWITCH64_H = """/* Run controller `controller` from the next step. mode EXOTUNE_SWITCH_RESET: zero state.
- * EXOTUNE_SWITCH_BUMPLESS: the states are carried over when both controllers have the same layout
- * (zero otherwise) and the difference between the old controller's command and the new one's, both
- * for the last accepted inputs, becomes an offset added to the command, which decays by
+ * EXOTUNE_SWITCH_BUMPLESS: the states are carried over (both controllers must have the same layout:
+ * otherwise EXOTUNE_ERR_ARGUMENT, nothing changed; every entry of an exported schedule has it)
+ * and the difference between the old controller's command and the new one's, both for the last
+ * accepted inputs (exotune_step's or exotune_start's), becomes an offset added to the command, which decays by
  * EXOTUNE_BUMPLESS_DECAY per sample: the command does not jump at the switch. EXOTUNE_OK,
  * EXOTUNE_ERR_ARGUMENT or EXOTUNE_FAULT_OVERFLOW (state unchanged). */"""
 
@@ -182,6 +221,7 @@ def c_sources(doc: ControllerFile | dict, trace: dict | None = None) -> dict[str
 def _generate(doc: ControllerFile, trace: dict) -> tuple[dict[str, str], int, int]:
     """(files, number of controllers, number of sections): the float64 port, or the float32 port of
     a float32 file (:mod:`exotune.controllerfile.ccode32`)."""
+    check_size(doc)
     if precision_of(doc) == "float32":
         return generate32(doc, trace)
     ctrls = controllers_of(doc)
@@ -218,7 +258,8 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
     Raises
     ------
     ConfigError
-        An invalid file, or golden vectors its own controller does not reproduce (``golden``).
+        An invalid file, one larger than codegen takes (:func:`check_size`), or golden vectors its
+        own controller does not reproduce (``golden``).
     RunFailed
         The file does not certify (:func:`exotune.controllerfile.certify.certify`, run once) and
         ``allow_uncertified`` is false: the reasons are named, nothing is written.
@@ -234,6 +275,7 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
     from .fileio import load_controller_file
 
     doc = load_controller_file(controller_file)
+    check_size(doc)  # before the heavy work: certification grows with the cube of the sections
     problems, _n, _err = golden_problems(doc)
     if problems:
         raise ConfigError("golden", problems[0] + " (was the file edited? re-export it)")

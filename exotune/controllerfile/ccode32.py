@@ -58,18 +58,18 @@ MIN_COEFFICIENT32 = float(np.finfo(np.float32).tiny) / FLUSH_BELOW32
 # the return codes of cstep.RETURN_CODES (same names and values), described for the float32 port
 RETURN_CODES32 = (
     ("EXOTUNE_OK", 0, "success"),
-    ("EXOTUNE_FAULT_INPUT", 1, "exotune_step: an input is NaN, infinite or of magnitude EXOTUNE_INPUT_LIMIT or more "
-                               "(it would be infinite in float); refused, state and *tau_cmd unchanged (a sensor "
-                               "fault: command zero torque and latch it)"),
-    ("EXOTUNE_FAULT_OVERFLOW", 2, "exotune_step: the command or a state would overflow float (finite inputs too "
-                                  "large); refused, state and *tau_cmd unchanged"),
+    ("EXOTUNE_FAULT_INPUT", 1, "exotune_step / exotune_start: an input is NaN, infinite or of magnitude "
+                               "EXOTUNE_INPUT_LIMIT or more (it would be infinite in float); refused, state and "
+                               "*tau_cmd unchanged (a sensor fault: command zero torque and latch it)"),
+    ("EXOTUNE_FAULT_OVERFLOW", 2, "exotune_step / exotune_start: the command or a state would overflow float "
+                                  "(finite inputs too large); refused, state and *tau_cmd unchanged"),
     ("EXOTUNE_FAULT_ANGLE", 3, "exotune_controller_for_angle / exotune_schedule: the joint angle is NaN or infinite; "
                                "*controller and the state unchanged (keep the running controller, latch the fault)"),
     ("EXOTUNE_ERR_ARGUMENT", 4, "a null pointer, a controller index outside 0..EXOTUNE_N_CONTROLLERS-1, a limit_nm "
                                 "neither 0 nor within FLT_MIN..FLT_MAX, a switch mode other than "
                                 "EXOTUNE_SWITCH_RESET (EXOTUNE_SWITCH_BUMPLESS included: not in the float32 port), "
-                                "or a state whose controller index is out of range (not initialized); nothing "
-                                "changed"),
+                                "or a state exotune_init did not set up (its magic is not EXOTUNE_STATE_MAGIC: "
+                                "zeroed or never initialized); nothing changed"),
     ("EXOTUNE_ERR_FLOAT_ENV", 5, "exotune_init: the self-check of the floating-point environment failed (NaN not "
                                  "detected, infinity not detected, float not rounded to nearest in float, or a*b + c "
                                  "contracted into a fused multiply-add: a build with finite-math, unsafe-math or "
@@ -126,13 +126,15 @@ def _parts32() -> HeaderParts:
     modes = ("#define EXOTUNE_SWITCH_RESET 0     /* the new controller starts from the zero state */\n"
              "#define EXOTUNE_SWITCH_BUMPLESS 1  /* float64 port only: here EXOTUNE_ERR_ARGUMENT, nothing changed */\n")
     state = """typedef struct {
+    unsigned int magic; /* EXOTUNE_STATE_MAGIC once exotune_init succeeded; anything else: not initialized */
     int controller;     /* which controller runs (0: nominal); -1: not initialized */
     float limit_nm;     /* clamp of the command [N.m] before the DOB sees it; 0: none */
     float z[EXOTUNE_MAX_SECTIONS][2];  /* section states (s1, s2) of the running controller, delta form */
 } exotune_state;
 """
-    init_doc = """/* Zero state, controller 0...EXOTUNE_N_CONTROLLERS-1, limit_nm > 0 clamps (rounded to float; between
- * FLT_MIN and FLT_MAX) or 0 (no clamp); checks the floating-point environment. EXOTUNE_OK,
+    init_doc = """/* Zero state (then call exotune_start with the first reading), controller
+ * 0...EXOTUNE_N_CONTROLLERS-1, limit_nm > 0 clamps (rounded to float; between FLT_MIN and FLT_MAX)
+ * or 0 (no clamp); checks the floating-point environment. EXOTUNE_OK,
  * EXOTUNE_ERR_ARGUMENT (nothing changed) or EXOTUNE_ERR_FLOAT_ENV (the state cannot be stepped). */"""
     switch_doc = """/* Run controller `controller` from the next step, from the zero state: mode EXOTUNE_SWITCH_RESET.
  * EXOTUNE_SWITCH_BUMPLESS is not part of the float32 port (EXOTUNE_HAS_BUMPLESS 0): EXOTUNE_ERR_ARGUMENT,
@@ -147,6 +149,69 @@ CHECKS32_C = FAST_MATH_C + r'''#if !defined(FLT_EVAL_METHOD) || FLT_EVAL_METHOD 
 #if defined(__clang__)
 #pragma STDC FP_CONTRACT OFF
 #endif
+'''
+
+# exotune_start of the float32 port: each section at the steady state of its constant input (delta form:
+# d2 = 0 gives y = beta2/alpha2 x, d1 = 0 gives s2 = alpha1 y - beta1 x, and s1 = y - beta0 x)
+START32_C = r'''/* the states of filter f at the steady state of the constant input x (the float64 port's bumpless
+ * start); a section with a pole at z = 1 (alpha2 = 0) and x != 0 has none: the filter starts at zero */
+static void filter_steady(const exo_section *S, const exo_filter *f, float (*z)[2], float x)
+{
+    int k;
+    for (k = f->first; k < f->first + f->count; ++k) {
+        const exo_section *c = &S[k];
+        float y;
+        if (c->alpha2 == 0.0f) {
+            if (x != 0.0f) {
+                for (k = f->first; k < f->first + f->count; ++k)
+                    z[k][0] = z[k][1] = 0.0f;
+                return;
+            }
+            y = 0.0f;
+        } else {
+            y = c->beta2 / c->alpha2 * x;
+        }
+        z[k][0] = flush(y - c->beta0 * x);
+        z[k][1] = flush(c->alpha1 * y - c->beta1 * x);
+        x = y;
+    }
+}
+
+int exotune_start(exotune_state *st, const exotune_inputs *y)
+{
+    const exo_controller *c;
+    const exo_section *S;
+    double in[5];
+    float v[5], z[EXOTUNE_MAX_SECTIONS][2], tau0;
+    int i, k;
+    if (!state_ok(st) || y == 0)
+        return EXOTUNE_ERR_ARGUMENT;
+    c = &CONTROLLERS[st->controller];
+    S = &SECTIONS[c->sec0];
+    in[0] = y->theta_m; in[1] = y->omega_m; in[2] = y->tau_s; in[3] = y->dtau_s; in[4] = y->tau_c;
+    for (i = 0; i < 5; ++i) {
+        if (!(fabs(in[i]) < EXOTUNE_INPUT_LIMIT))  /* NaN, infinite, or infinite in float */
+            return EXOTUNE_FAULT_INPUT;
+        v[i] = flush((float)in[i]);
+    }
+    tau0 = clamp(-v[2], st->limit_nm);  /* the motor at rest against the spring: zero disturbance estimate */
+    for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k)
+        z[k][0] = z[k][1] = 0.0f;
+    for (i = 0; i < c->n_sensed + c->n_loop; ++i) {
+        const exo_filter *f = &FILTERS[c->filter0 + i];
+        filter_steady(S, f, z, i < c->n_sensed ? v[f->signal] : tau0);
+    }
+    for (k = 0; k < c->n_sections; ++k) {
+        if (!isfinite(z[k][0]) || !isfinite(z[k][1]))
+            return EXOTUNE_FAULT_OVERFLOW;
+    }
+    for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k) {
+        st->z[k][0] = z[k][0];
+        st->z[k][1] = z[k][1];
+    }
+    return EXOTUNE_OK;
+}
+
 '''
 
 # the functions of the float32 exotune_controller.c after its tables
@@ -168,15 +233,28 @@ static int float_env_ok(void)
            && one + 0.75f * eps == one + eps && -one - 0.75f * eps == -one - eps && p * p + q == 0.0f;
 }
 
+/* a state exotune_init set up (a zeroed or garbage state is refused: EXOTUNE_ERR_ARGUMENT) */
+static int state_ok(const exotune_state *st)
+{
+    return st != 0 && st->magic == EXOTUNE_STATE_MAGIC && st->controller >= 0 && st->controller < EXOTUNE_N_CONTROLLERS;
+}
+
+static int mode_ok(int mode)
+{
+    return mode == EXOTUNE_SWITCH_RESET;  /* EXOTUNE_SWITCH_BUMPLESS: not in the float32 port */
+}
+
 int exotune_init(exotune_state *st, int controller, double limit_nm)
 {
     int i;
     if (st == 0 || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS
         || !(limit_nm == 0.0 || (limit_nm >= (double)FLT_MIN && limit_nm <= (double)FLT_MAX)))
         return EXOTUNE_ERR_ARGUMENT;
+    st->magic = 0u;
     st->controller = -1;
     if (!float_env_ok())
         return EXOTUNE_ERR_FLOAT_ENV;
+    st->magic = EXOTUNE_STATE_MAGIC;
     st->controller = controller;
     st->limit_nm = (float)limit_nm;
     for (i = 0; i < EXOTUNE_MAX_SECTIONS; ++i)
@@ -208,8 +286,7 @@ static float filter_step(const exo_section *S, const exo_filter *f, float (*z)[2
 int exotune_switch(exotune_state *st, int controller, int mode)
 {
     int k;
-    if (st == 0 || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || st->controller < 0
-        || st->controller >= EXOTUNE_N_CONTROLLERS || mode != EXOTUNE_SWITCH_RESET)
+    if (!state_ok(st) || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || !mode_ok(mode))
         return EXOTUNE_ERR_ARGUMENT;  /* EXOTUNE_SWITCH_BUMPLESS included: not in the float32 port */
     for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k)
         st->z[k][0] = st->z[k][1] = 0.0f;
@@ -217,14 +294,14 @@ int exotune_switch(exotune_state *st, int controller, int mode)
     return EXOTUNE_OK;
 }
 
-''' + SCHEDULE_C + r'''int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
+''' + SCHEDULE_C + START32_C + r'''int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
 {
     const exo_controller *c;
     const exo_section *S;
     double in[5];
     float v[5], saved[EXOTUNE_MAX_SECTIONS][2], rest = 0.0f, fsum = 0.0f, h = 0.0f, u;
     int i, k, ok;
-    if (st == 0 || y == 0 || tau_cmd == 0 || st->controller < 0 || st->controller >= EXOTUNE_N_CONTROLLERS)
+    if (!state_ok(st) || y == 0 || tau_cmd == 0)
         return EXOTUNE_ERR_ARGUMENT;
     c = &CONTROLLERS[st->controller];
     S = &SECTIONS[c->sec0];

@@ -225,9 +225,9 @@ def lookup_rows(angles: list[float]) -> list[GoldenRow]:
 
 def _lit(x: float) -> str:
     if math.isnan(x):
-        return "NAN"
+        return "(double)NAN"
     if math.isinf(x):
-        return "INFINITY" if x > 0 else "-INFINITY"
+        return "(double)INFINITY" if x > 0 else "-(double)INFINITY"
     return c_double(x)
 
 
@@ -281,6 +281,7 @@ int main(void)
         }
     }
     rc = exotune_step(0, &y, 0) == EXOTUNE_ERR_ARGUMENT && exotune_init(0, 0, 0.0) == EXOTUNE_ERR_ARGUMENT
+         && exotune_start(0, &y) == EXOTUNE_ERR_ARGUMENT && exotune_start(&st, 0) == EXOTUNE_ERR_ARGUMENT
          && exotune_controller_for_angle(0.0, 0) == EXOTUNE_ERR_ARGUMENT
          && exotune_switch(&st, 0, 7) == EXOTUNE_ERR_ARGUMENT && exotune_switch(&st, -1, 0) == EXOTUNE_ERR_ARGUMENT;
     if (!rc && fails++ < 5)

@@ -84,6 +84,8 @@ extern const char exotune_build_info[];  /* "exotune_controller sha256=... exotu
 #define EXOTUNE_DELAY_S {c_double(T)}  /* [s] measured-to-applied latency the file was certified with */
 #define EXOTUNE_N_CONTROLLERS {n_ctrl}  /* 0: nominal; 1...: gain-schedule entries (exotune_controller_for_angle) */
 #define EXOTUNE_MAX_SECTIONS {max_sections}  /* sections of the largest controller */
+#define EXOTUNE_STATE_MAGIC 0x45584F54u  /* exotune_state.magic after exotune_init: every function refuses
+                                          * (EXOTUNE_ERR_ARGUMENT) a state without it, e.g. a zeroed one */
 {constants}
 /* return codes: every function returns one of these */
 {codes}
@@ -106,11 +108,22 @@ int exotune_init(exotune_state *st, int controller, double limit_nm);
  * EXOTUNE_OK, EXOTUNE_FAULT_ANGLE (NaN or infinite angle; *controller unchanged) or EXOTUNE_ERR_ARGUMENT. */
 int exotune_controller_for_angle(double joint_angle_rad, int *controller);
 
+/* Bumpless start: call it once after exotune_init (and after a fault is cleared, before stepping again)
+ * with the first sensor reading, before the first exotune_step. Every sensed filter is set to the
+ * steady state of its input y, every DOB loop filter to the steady state of the command -tau_s
+ * (clamped: the motor at rest against the spring, zero disturbance estimate); a filter with a pole
+ * at z = 1 (an integrator) and a non-zero input starts at zero. Without it the filters start from
+ * zero and see a step of the whole reading at the first sample (a large command spike when
+ * theta_m or tau_s are not zero). EXOTUNE_OK, EXOTUNE_FAULT_INPUT (NaN or infinite input),
+ * EXOTUNE_FAULT_OVERFLOW (a steady state overflows) or EXOTUNE_ERR_ARGUMENT; state unchanged
+ * unless EXOTUNE_OK. */
+int exotune_start(exotune_state *st, const exotune_inputs *y);
+
 {switch_doc}
 int exotune_switch(exotune_state *st, int controller, int mode);
 
 /* exotune_controller_for_angle, then exotune_switch(st, that controller, mode) when it is not the
- * running one. The return codes of those two. */
+ * running one (the state and the mode are checked either way). The return codes of those two. */
 int exotune_schedule(exotune_state *st, double joint_angle_rad, int mode);
 
 /* One sample: *tau_cmd [N.m] for the sampled inputs. EXOTUNE_OK, EXOTUNE_FAULT_INPUT,

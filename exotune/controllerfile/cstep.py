@@ -32,7 +32,7 @@ from .model import ControllerFile, as_controller_file
 from .runtime import Runtime
 
 __all__ = ["SIGNALS", "RETURN_CODES", "FLUSH_BELOW", "BUMPLESS_TAU_S", "c_double", "ascii_text", "controllers_of",
-           "layouts_of", "state_maps", "CHECKS_C", "STEP_C",
+           "layouts_of", "state_maps", "CHECKS_C", "STEP_C", "START_C",
            "FAST_MATH_C", "BUILD_INFO_C", "ANGLE_C", "SCHEDULE_C", "SAVE_C", "RESTORE_C",
            "peek_clamp_c"]
 
@@ -41,15 +41,17 @@ SIGNALS = tuple(Measured)  # theta_m, omega_m, tau_s, dtau_s, tau_c: the order o
 # every return code of the generated API: (macro, value, meaning) -- the header documents each
 RETURN_CODES = (
     ("EXOTUNE_OK", 0, "success"),
-    ("EXOTUNE_FAULT_INPUT", 1, "exotune_step: an input is NaN or infinite; refused, state and *tau_cmd unchanged "
-                               "(a sensor fault: command zero torque and latch it)"),
-    ("EXOTUNE_FAULT_OVERFLOW", 2, "exotune_step / exotune_switch: the command, a state or the bumpless offset would "
-                                  "overflow (finite inputs too large); refused, state and *tau_cmd unchanged"),
+    ("EXOTUNE_FAULT_INPUT", 1, "exotune_step / exotune_start: an input is NaN or infinite; refused, state and "
+                               "*tau_cmd unchanged (a sensor fault: command zero torque and latch it)"),
+    ("EXOTUNE_FAULT_OVERFLOW", 2, "exotune_step / exotune_start / exotune_switch: the command, a state or the "
+                                  "bumpless offset would overflow (finite inputs too large); refused, state and "
+                                  "*tau_cmd unchanged"),
     ("EXOTUNE_FAULT_ANGLE", 3, "exotune_controller_for_angle / exotune_schedule: the joint angle is NaN or infinite; "
                                "*controller and the state unchanged (keep the running controller, latch the fault)"),
     ("EXOTUNE_ERR_ARGUMENT", 4, "a null pointer, a controller index outside 0..EXOTUNE_N_CONTROLLERS-1, a negative, "
-                                "NaN or infinite limit_nm, an unknown switch mode, or a state whose controller index "
-                                "is out of range (not initialized); nothing changed"),
+                                "NaN or infinite limit_nm, an unknown switch mode, EXOTUNE_SWITCH_BUMPLESS between "
+                                "controllers of different layouts, or a state exotune_init did not set up (its magic "
+                                "is not EXOTUNE_STATE_MAGIC: zeroed or never initialized); nothing changed"),
     ("EXOTUNE_ERR_FLOAT_ENV", 5, "exotune_init: the self-check of the floating-point environment failed (NaN not "
                                  "detected, infinity not detected, or rounding not to nearest: a build with "
                                  "finite-math or unsafe-math optimizations, or a changed rounding mode); the "
@@ -85,9 +87,38 @@ def c_double(x: float) -> str:
     return s if any(c in s for c in ".en") else s + ".0"
 
 
+# readable ASCII for the non-ASCII characters of units and names (others become "?")
+_TRANSLIT = {"\u00b7": ".", "\u22c5": ".", "\u00b2": "^2", "\u00b3": "^3", "\u00b9": "^1", "\u2070": "^0",
+             "\u2074": "^4", "\u2075": "^5", "\u2076": "^6", "\u2077": "^7", "\u2078": "^8", "\u2079": "^9",
+             "\u207b": "^-", "\u2212": "-", "\u2013": "-", "\u2014": "-", "\u00b0": "deg", "\u00b5": "u",
+             "\u00d7": "x", "\u00f7": "/", "\u2264": "<=", "\u2265": ">=", "\u2248": "~", "\u00b1": "+-",
+             "\u2026": "...", "\u2192": "->", "\u221e": "inf", "\u2018": "'", "\u2019": "'", "\u201c": "'",
+             "\u201d": "'", "\u00df": "ss", "\u2126": "Ohm"}
+_GREEK = ("alpha beta gamma delta epsilon zeta eta theta iota kappa lambda mu nu xi omicron pi rho sigma sigma tau "
+          "upsilon phi chi psi omega").split()
+for _i, _name in enumerate(_GREEK):  # U+03B1... lower case (U+03C2 final sigma), U+0391... upper case
+    _TRANSLIT[chr(0x3B1 + _i)] = _name
+    if _i != 17:
+        _TRANSLIT[chr(0x391 + _i)] = _name.capitalize()
+
+
+def _safe_char(c: str) -> str:
+    if c == "\\":
+        return "/"
+    if c == '"':
+        return "'"
+    if " " <= c <= "~":
+        return c
+    if ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F or c in "\u2028\u2029\u0085":
+        return " "  # control characters (CR, LF, TAB, NUL, VT, FF, ...): a C comment or string stays one line
+    return _TRANSLIT.get(c, "?")
+
+
 def ascii_text(s) -> str:
-    """``s`` fit for a C comment or string: ASCII only (other characters as ``\\uXXXX``), no
-    comment terminator, no quote or backslash that would end a string literal.
+    """``s`` fit for a C comment or string: every character mapped to printable ASCII first
+    (control characters to a space, ``\\`` to ``/``, ``"`` to ``'``, common unit and Greek
+    characters spelled out -- ``kg·m²`` is ``kg.m^2``, ``θ`` is ``theta`` -- anything else to ``?``),
+    then every ``*/``, ``/*`` and ``??`` (a trigraph) broken by a space, until none is left.
 
     Parameters
     ----------
@@ -97,10 +128,15 @@ def ascii_text(s) -> str:
     Returns
     -------
     str
-        The ASCII text.
+        The printable-ASCII text: it can neither end a comment, open one, end a string literal,
+        continue a line nor form a trigraph.
     """
-    out = str(s).encode("ascii", "backslashreplace").decode("ascii")
-    return out.replace("*/", "* /").replace("\\", "/").replace('"', "'").replace("\n", " ")
+    out = "".join(_safe_char(c) for c in str(s))
+    prev = None
+    while prev != out:
+        prev = out
+        out = out.replace("*/", "* /").replace("/*", "/ *").replace("??", "? ?")
+    return out
 
 
 def controllers_of(doc: ControllerFile | dict) -> list[tuple[str, float | None, Runtime]]:
@@ -281,12 +317,77 @@ ANGLE_C = r'''int exotune_controller_for_angle(double joint_angle_rad, int *cont
 SCHEDULE_C = r'''int exotune_schedule(exotune_state *st, double joint_angle_rad, int mode)
 {
     int c = 0, rc;
-    if (st == 0)
+    if (!state_ok(st) || !mode_ok(mode))  /* checked whether or not the entry changes */
         return EXOTUNE_ERR_ARGUMENT;
     rc = exotune_controller_for_angle(joint_angle_rad, &c);
     if (rc != EXOTUNE_OK || c == st->controller)
         return rc;
     return exotune_switch(st, c, mode);
+}
+
+'''
+
+# exotune_start: the bumpless start of the reference (exotune.simulation.engine.bumpless_start)
+START_C = r'''/* the states of filter f at the steady state of the constant input x, as the reference's bumpless
+ * start; a section with a pole at z = 1 and x != 0 has none: the whole filter then starts at zero */
+static void filter_steady(const exo_section *S, const exo_filter *f, double (*z)[2], double x)
+{
+    int k;
+    for (k = f->first; k < f->first + f->count; ++k) {
+        const exo_section *c = &S[k];
+        double den = 1.0 + c->a1 + c->a2, y;
+        if (fabs(den) <= 1e-12 * (1.0 + fabs(c->a1) + fabs(c->a2))) {
+            if (x != 0.0) {
+                for (k = f->first; k < f->first + f->count; ++k)
+                    z[k][0] = z[k][1] = 0.0;
+                return;
+            }
+            y = 0.0;
+        } else {
+            y = (c->b0 + c->b1 + c->b2) / den * x;
+        }
+        z[k][0] = flush(y - c->b0 * x);
+        z[k][1] = flush(c->b2 * x - c->a2 * y);
+        x = y;
+    }
+}
+
+int exotune_start(exotune_state *st, const exotune_inputs *y)
+{
+    const exo_controller *c;
+    const exo_section *S;
+    double v[5], z[EXOTUNE_MAX_SECTIONS][2], tau0;
+    int i, k;
+    if (!state_ok(st) || y == 0)
+        return EXOTUNE_ERR_ARGUMENT;
+    c = &CONTROLLERS[st->controller];
+    S = &SECTIONS[c->sec0];
+    v[0] = y->theta_m; v[1] = y->omega_m; v[2] = y->tau_s; v[3] = y->dtau_s; v[4] = y->tau_c;
+    for (i = 0; i < 5; ++i) {
+        if (!isfinite(v[i]))
+            return EXOTUNE_FAULT_INPUT;
+        v[i] = flush(v[i]);
+    }
+    tau0 = clamp(-v[2], st->limit_nm);  /* the motor at rest against the spring: zero disturbance estimate */
+    for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k)
+        z[k][0] = z[k][1] = 0.0;
+    for (i = 0; i < c->n_sensed + c->n_loop; ++i) {
+        const exo_filter *f = &FILTERS[c->filter0 + i];
+        filter_steady(S, f, z, i < c->n_sensed ? v[f->signal] : tau0);
+    }
+    for (k = 0; k < c->n_sections; ++k) {
+        if (!isfinite(z[k][0]) || !isfinite(z[k][1]))
+            return EXOTUNE_FAULT_OVERFLOW;
+    }
+    for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k) {
+        st->z[k][0] = z[k][0];
+        st->z[k][1] = z[k][1];
+    }
+    st->offset_nm = 0.0;
+    for (i = 0; i < 5; ++i)
+        st->last[i] = v[i];
+    st->has_last = 1;
+    return EXOTUNE_OK;
 }
 
 '''
@@ -302,10 +403,21 @@ static double flush(double v)
 /* NaN and infinity detected, rounding to nearest: what the guards and the golden vectors assume */
 static int float_env_ok(void)
 {
-    volatile double nan_ = NAN, inf_ = INFINITY, one = 1.0, eps = DBL_EPSILON;
+    volatile double nan_ = (double)NAN, inf_ = (double)INFINITY, one = 1.0, eps = DBL_EPSILON;
     double a = nan_, b = inf_;
     return isnan(a) && !isfinite(a) && isinf(b) && !isfinite(b) && one + 0.5 * eps == one
            && one + 0.75 * eps == one + eps && -one - 0.75 * eps == -one - eps;
+}
+
+/* a state exotune_init set up (a zeroed or garbage state is refused: EXOTUNE_ERR_ARGUMENT) */
+static int state_ok(const exotune_state *st)
+{
+    return st != 0 && st->magic == EXOTUNE_STATE_MAGIC && st->controller >= 0 && st->controller < EXOTUNE_N_CONTROLLERS;
+}
+
+static int mode_ok(int mode)
+{
+    return mode == EXOTUNE_SWITCH_RESET || mode == EXOTUNE_SWITCH_BUMPLESS;
 }
 
 int exotune_init(exotune_state *st, int controller, double limit_nm)
@@ -313,9 +425,11 @@ int exotune_init(exotune_state *st, int controller, double limit_nm)
     int i;
     if (st == 0 || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || !isfinite(limit_nm) || !(limit_nm >= 0.0))
         return EXOTUNE_ERR_ARGUMENT;
+    st->magic = 0u;
     st->controller = -1;
     if (!float_env_ok())
         return EXOTUNE_ERR_FLOAT_ENV;
+    st->magic = EXOTUNE_STATE_MAGIC;
     st->controller = controller;
     st->has_last = 0;
     st->limit_nm = limit_nm;
@@ -366,12 +480,13 @@ int exotune_switch(exotune_state *st, int controller, int mode)
     const exo_controller *o, *n;
     double z[EXOTUNE_MAX_SECTIONS][2], off = 0.0;
     int k, carry;
-    if (st == 0 || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || st->controller < 0
-        || st->controller >= EXOTUNE_N_CONTROLLERS || (mode != EXOTUNE_SWITCH_RESET && mode != EXOTUNE_SWITCH_BUMPLESS))
+    if (!state_ok(st) || controller < 0 || controller >= EXOTUNE_N_CONTROLLERS || !mode_ok(mode))
         return EXOTUNE_ERR_ARGUMENT;
     o = &CONTROLLERS[st->controller];
     n = &CONTROLLERS[controller];
-    carry = mode == EXOTUNE_SWITCH_BUMPLESS && o->layout == n->layout;
+    if (mode == EXOTUNE_SWITCH_BUMPLESS && o->layout != n->layout)
+        return EXOTUNE_ERR_ARGUMENT;  /* no state to carry over: switch with EXOTUNE_SWITCH_RESET */
+    carry = mode == EXOTUNE_SWITCH_BUMPLESS;
     for (k = 0; k < EXOTUNE_MAX_SECTIONS; ++k)
         z[k][0] = z[k][1] = 0.0;
     for (k = 0; carry && k < n->n_sections; ++k) {  /* old state -> (w[k], w[k-1]) -> new state */
@@ -404,13 +519,13 @@ int exotune_switch(exotune_state *st, int controller, int mode)
     return EXOTUNE_OK;
 }
 
-''' + SCHEDULE_C + r'''int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
+''' + SCHEDULE_C + START_C + r'''int exotune_step(exotune_state *st, const exotune_inputs *y, double *tau_cmd)
 {
     const exo_controller *c;
     const exo_section *S;
     double v[5], saved[EXOTUNE_MAX_SECTIONS][2], rest = 0.0, fsum = 0.0, h = 0.0, u;
     int i, k, ok;
-    if (st == 0 || y == 0 || tau_cmd == 0 || st->controller < 0 || st->controller >= EXOTUNE_N_CONTROLLERS)
+    if (!state_ok(st) || y == 0 || tau_cmd == 0)
         return EXOTUNE_ERR_ARGUMENT;
     c = &CONTROLLERS[st->controller];
     S = &SECTIONS[c->sec0];

@@ -64,7 +64,7 @@ def test_uncertified_trace_lists_its_reasons(scheduled_doc):
     trace = {**TRACE, "certified": False, "verdict": "UNCERTIFIED", "reasons": ["free loop unstable", "tau·s"]}
     h = c_sources64(scheduled_doc, trace)["exotune_controller.h"]
     assert _define(h, "EXOTUNE_CERTIFIED") == "0"
-    assert " *   - free loop unstable" in h and " *   - tau/xb7s" in h
+    assert " *   - free loop unstable" in h and " *   - tau.s" in h
 
 
 def test_source_head_names_the_provenance(scheduled_doc):

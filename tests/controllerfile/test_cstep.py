@@ -35,14 +35,37 @@ def test_c_double_refuses_non_finite(x):
 
 @given(st.text())
 def test_ascii_text_is_safe_in_c_comments_and_strings(s):
+    """Whatever the text: printable ASCII only, and nothing that ends or opens a comment, ends a
+    string, continues a line or forms a trigraph."""
     out = ascii_text(s)
-    assert out.isascii()
-    assert "*/" not in out and '"' not in out and "\\" not in out and "\n" not in out
+    assert all(" " <= c <= "~" for c in out), out
+    for bad in ("*/", "/*", "??", '"', "\\"):
+        assert bad not in out
 
 
-def test_ascii_text_keeps_ascii_and_escapes_the_rest():
+@given(st.text(alphabet="*/\\?\r\n\t\x00\x0b\x0c\u2028\"ab\u00df\u00b7\u00b2", max_size=40))
+def test_ascii_text_is_safe_on_hostile_alphabets(s):
+    out = ascii_text(s)
+    assert all(" " <= c <= "~" for c in out)
+    assert "*/" not in out and "/*" not in out and "??" not in out
+
+
+@pytest.mark.parametrize("s", [
+    "sched*\\\r#define EXOTUNE_BUMPLESS_DECAY 1.01\r/*.yaml",  # the review's injection: *\ became */
+    "a*\\\n#define X 1\n/*", "x *\\/ y", "*/*/*/", "??/\nnext line", "a\x00b\x0bc\x0cd\te",
+    "arm*\u00df.yaml", "\u2028#define X 1\u2029"])
+def test_ascii_text_defeats_the_injections(s):
+    out = ascii_text(s)
+    assert all(" " <= c <= "~" for c in out)
+    assert "*/" not in out and "/*" not in out and "??" not in out and "\\" not in out
+
+
+def test_ascii_text_keeps_ascii_and_spells_out_units():
     assert ascii_text("tau_s [N m]") == "tau_s [N m]"
-    assert ascii_text("N·m") == "N/xb7m"
+    assert ascii_text("N·m") == "N.m"
+    assert ascii_text("kg·m²") == "kg.m^2"
+    assert ascii_text("m³ −3 °C θ_m Ω ✓") == "m^3 -3 degC theta_m Omega ?"
+    assert ascii_text('say "x"') == "say 'x'"
 
 
 def test_return_codes_are_distinct_and_documented():
