@@ -34,7 +34,7 @@ member found unstable there lowers the margin until both checks pass.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -186,10 +186,38 @@ def latency_margin(cfg, nominal=None, verify: bool = True) -> LatencyMargin:
                                     value=float(p) if found and fam is not None else None, **kw))
         crit = min(loops, key=lambda m: m.extra_delay_s) if loops else None
         margin = crit.extra_delay_s if crit else math.inf
+        if verify and margin == math.inf:
+            return _infinite_checked(cfg, LatencyMargin(margin, crit, tuple(loops), T, fs))
         if not verify or not math.isfinite(margin) or margin == 0.0:
             note = "not robust at the nominal delay" if margin == 0.0 else ""
             return LatencyMargin(margin, crit, tuple(loops), T, fs, None, note)
         return _verified(cfg, ct, LatencyMargin(margin, crit, tuple(loops), T, fs))
+
+
+#: extra delays [s] at which an infinite margin (no destabilizing crossing found) is checked by exact verdicts
+INFINITE_PROBES_S = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3)
+
+
+def _infinite_checked(cfg, res: LatencyMargin) -> LatencyMargin:
+    """An infinite margin is a claim about every extra delay: it is checked by the exact verdicts at
+    :data:`INFINITE_PROBES_S` (within the accepted delays). A loop unstable at one of them means
+    the crossing search missed its crossing (a pole far beyond the frequency range it resolves):
+    the margin is then unknown (NaN, not verified), never infinite."""
+    from ..config.batch import OVERRIDE_LIMITS
+    from ..config.validate import LIMITS
+
+    T = res.delay_s
+    hi = LIMITS[OVERRIDE_LIMITS["implementation.delay_s"]][2]
+    probes = [T + d for d in INFINITE_PROBES_S if T + d <= hi]
+    cols = _analyze_delays(cfg, probes) if probes else None
+    bad = [d for t, d in enumerate(probes) if not _all_ok(cols, t)]
+    if not bad:
+        return replace(res, verified=True if probes else None)
+    loops = tuple(replace(lp, extra_delay_s=math.nan) if lp.extra_delay_s == math.inf else lp for lp in res.loops)
+    return replace(res, extra_delay_s=math.nan, verified=False, critical=None, loops=loops,
+                   note=(f"no destabilizing crossing was found, yet the loops are not all stable at "
+                         f"{(bad[0] - T) * 1e3:.3g} ms of extra delay: the margin is unknown (a pole beyond the "
+                         "frequency range the analysis resolves?)"))
 
 
 def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:

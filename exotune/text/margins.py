@@ -14,6 +14,8 @@ def _delay(x: float) -> str:
         return "—"
     if math.isinf(x):
         return "∞ (no extra delay destabilizes)"
+    if math.isnan(x):
+        return "unknown"
     return f"{x * 1e3:.4g} ms"
 
 

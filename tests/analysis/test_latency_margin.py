@@ -242,3 +242,28 @@ def test_margins_are_typed_results_with_their_views():
     text = str(lm)
     assert text.startswith("Margins:") and "latency margin:" in text and " ms" in text
     assert "plant-uncertainty margin:" in str(pm)
+
+
+def test_an_infinite_margin_is_checked_by_exact_verdicts_at_extra_delays():
+    """A stiff human (1e-9 kg·m², 100 N·m·s/rad: a pole near 1e11 rad/s) hid every crossing from the
+    search: "latency margin ∞" was printed for a design unstable at 5 ms of extra delay (free loop
+    included, whose margin is 3.85 ms without that human). The infinite claim is now checked at
+    extra delays: the margin is unknown (NaN, not verified), never infinite."""
+    import math
+
+    import yaml
+
+    from exotune.analysis.latency_margin import latency_margin
+    from exotune.config import design_from_mapping
+
+    doc = yaml.safe_load((EXAMPLES / "paper.yaml").read_text())
+    doc["humans"][0] = {"kind": "mass", "inertia": 1e-9, "damping": 100.0}
+    res = latency_margin(design_from_mapping(doc))
+    assert math.isnan(res.extra_delay_s) and res.verified is False and res.critical is None
+    assert all(not math.isinf(lp.extra_delay_s) for lp in res.loops)
+    assert "the margin is unknown" in res.note
+    assert "unknown" in res.to_text()
+    doc["implementation"]["delay_s"] = 0.006  # the exact verdict the probes rely on
+    from exotune.analysis.batch import analyze_batch
+
+    assert not analyze_batch(design_from_mapping(doc)).loops_ok()[0]
