@@ -107,8 +107,13 @@ def pade_stable(p0: np.ndarray, p1: np.ndarray, T: float, order: int, allowed_ri
     return bool((right.real < 0) and (r[0] <= allowed_rigid)), right
 
 
+#: Below this delay [s] the Padé model is the undelayed polynomial: its poles (≈ order/T) would lie
+#: beyond 10¹³ rad/s, and for T → 0 its coefficients underflow (1e-300 s gave NaN roots).
+PADE_MIN_DELAY_S = 1e-12
+
+
 def _pade_roots(p0, p1, T, order):
-    if T > 0:
+    if T >= PADE_MIN_DELAY_S:
         num, den = pade_coefficients(T, order)
         poly = padd(pmul(p0, den), pmul(p1, num))
     else:
