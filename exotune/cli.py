@@ -561,7 +561,45 @@ def main(argv=None) -> None:
     argv : list of str or None, optional
         The arguments; None for ``sys.argv[1:]``.
     """
+    _spell_out_unencodable()
     cli.main(args=argv, prog_name="exotune")
+
+
+#: ASCII for the symbols of exotune's reports that 8-bit code pages lack (others: their NFKD
+#: decomposition when it is ASCII, else "?")
+_SPELLED = {"≤": "<=", "≥": ">=", "−": "-", "∞": "inf", "≈": "~", "×": "x", "…": "...", "→": "->", "–": "-",
+            "—": "-", "·": ".", "²": "^2", "³": "^3", "°": " deg", "±": "+-", "√": "sqrt", "Δ": "Delta",
+            "ω": "w", "θ": "theta", "τ": "tau", "α": "alpha", "ζ": "zeta", "η": "eta", "φ": "phi", "µ": "u",
+            "μ": "u", "⁻": "^-", "¹": "^1", "⁰": "^0"}
+
+
+def _spelled(err):
+    import unicodedata
+
+    out = []
+    for ch in err.object[err.start:err.end]:
+        rep = _SPELLED.get(ch)
+        if rep is None:
+            d = unicodedata.normalize("NFKD", ch).encode("ascii", "ignore").decode("ascii")
+            rep = d or "?"
+        out.append(rep)
+    return "".join(out), err.end
+
+
+def _spell_out_unencodable() -> None:
+    """A terminal or pipe whose encoding lacks a symbol of the report (cp1252 has no ≤, cp437 no
+    ·) gets it spelled in ASCII (``<=``) instead of failing the whole output."""
+    import codecs
+    import sys
+
+    codecs.register_error("exotune-spell", _spelled)
+    for stream in (sys.stdout, sys.stderr):
+        enc = (getattr(stream, "encoding", None) or "").lower().replace("_", "-")
+        if enc not in ("utf-8", "utf8") and hasattr(stream, "reconfigure"):
+            try:
+                stream.reconfigure(errors="exotune-spell")
+            except (ValueError, OSError):  # a stream that cannot change its error handler keeps it
+                pass
 
 
 if __name__ == "__main__":

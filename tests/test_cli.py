@@ -537,3 +537,16 @@ def test_a_spec_key_named_like_an_option_is_named_as_the_spec_key(tmp_path):
         exotune.optimize(opt, out=tmp_path / "best.yaml", seed=-2)
     assert (e.value.field, e.value.in_file) == ("seed", False)
     assert not (tmp_path / "best.yaml").exists()
+
+
+@pytest.mark.parametrize("encoding", ["cp1252", "cp437", "latin-1"])
+def test_an_8_bit_terminal_gets_the_report_with_symbols_spelled_out(encoding):
+    """``PYTHONIOENCODING=cp1252 exotune analyze``: exit 2 "'charmap' codec can't encode character
+    '≤'" and an empty stdout. Symbols the code page lacks are spelled in ASCII now."""
+    env = dict(os.environ, PYTHONIOENCODING=encoding)
+    res = subprocess.run([sys.executable, "-m", "exotune", "analyze", str(ROOT / "examples" / "scheduled.yaml")],
+                         capture_output=True, env=env, timeout=600)
+    assert res.returncode == 0, res.stderr.decode(encoding, "replace")
+    out = res.stdout.decode(encoding)
+    assert "latency margin" in out and ("k* <=" in out or "k* ≤" in out)  # cp437 has ≤, cp1252 and latin-1 not
+    assert ("k* <=" in out) == (encoding != "cp437")
