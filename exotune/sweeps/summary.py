@@ -216,6 +216,11 @@ def _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape) -> list[
                  "robust); their reasons are in manifest.json (chunks[].failed_designs)")
     if m.get("base_source"):
         L.append(f"- base design: `{display_path(m['base_source'])}`")
+    base = (m.get("spec") or {}).get("base")
+    if isinstance(base, dict) and base.get("transmission"):
+        L.append("- **gain schedule not swept**: the base design has a `transmission` schedule; every column is the "
+                 "nominal controller's (transmission ratio 1), the schedule's entries are not analysed, so a design "
+                 "robust here may not certify: run `exotune analyze` and `exotune certify` on the design you pick")
     if m.get("model"):
         L.append(f"- model: {m['model']}")
     L.append("- gains in torque units (docs/method.md#double-compliance-shaping); frequencies in Hz; ∞ = unbounded (no crossover, never reached); "

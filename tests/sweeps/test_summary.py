@@ -107,3 +107,15 @@ def test_partial_sampled_sweep_with_failures():
     assert "- **failed designs**: 1 design(s)" in md
     assert "- base design: `…/base/paper.yaml`" in md
     assert "Robust design with the largest amplification" not in md
+
+
+def test_a_base_with_a_gain_schedule_is_said_not_swept():
+    """A base with a ``transmission`` schedule is swept as its nominal controller: every column
+    said robust for a design whose schedule entry at 0 rad is unstable (hostile-input round 4).
+    The report's header says the schedule is not swept; without a schedule nothing is said."""
+    m = dict(MANIFEST, spec={"base": {"transmission": {"joint_angles_rad": [0.0, 1.0], "ratios": [0.001, 1.0]}}})
+    md, _ = _md(m=m)
+    assert any(line.startswith("- **gain schedule not swept**: the base design has a `transmission` schedule")
+               for line in md.splitlines())
+    assert "gain schedule not swept" not in _md()[0]
+    assert "gain schedule not swept" not in _md(m=dict(MANIFEST, spec={"base": {"transmission": None}}))[0]
