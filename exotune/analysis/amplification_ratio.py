@@ -15,6 +15,7 @@ import numpy as np
 
 from ..model.controller import ControllerStructure
 from ..model.plant import Plant
+from ..numerics.budgets import MAG_LEVEL_TOL
 from ..numerics.quasipoly import QP, leaves_pair, log_grid, omega_max
 from .brackets import pair_roots
 from .charfun import amplification_qps
@@ -65,8 +66,8 @@ def dc_and_bandwidth(num: QP, den: QP, per_decade: int = 2):
 
     def magnitude_ok(task, a, b, va, vb, da, db):
         # f(ω) = log|C6/C5(jω)|, f' = −Im(L_num − L_den). Between the ends f stays above the
-        # −3 dB level if the margin exceeds a slope-and-curvature bound; shallower approaches
-        # (< 0.01 neper ≈ 0.09 dB) and ends already below are accepted.
+        # −3 dB level (up to MAG_LEVEL_TOL) if the margin exceeds a slope-and-curvature bound
+        # less the tolerance; ends already below are accepted (the leaf brackets the crossing).
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             fa = np.log(np.abs(va[0] / va[1]))
             fb = np.log(np.abs(vb[0] / vb[1]))
@@ -75,7 +76,7 @@ def dc_and_bandwidth(num: QP, den: QP, per_decade: int = 2):
             h = b - a
             margin = np.minimum(fa, fb) - lthr[task]
             dip = 0.5 * h * np.maximum(np.abs(La.imag), np.abs(Lb.imag)) + 0.125 * h * np.abs(Lb - La)
-        return ~np.isfinite(margin) | (margin <= 0.01) | (margin > dip)
+        return ~np.isfinite(margin) | (margin <= 0.0) | (margin + MAG_LEVEL_TOL > dip)
 
     lv = leaves_pair(num, den, grid, valid, magnitude_ok=magnitude_ok, lthr=lthr)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -202,7 +202,7 @@ def analyze_with_margins(cfg, sampled_check: bool = True, of_record=None):
     docs/method.md#latency-margin; docs/method.md#plant-uncertainty-margin; paper Fig. 5.
     """
     from ..numerics.beside import beside
-    from .latency_margin import latency_margin
+    from .latency_margin import latency_margin, schedule_latency_margin
     from .plant_margin import plant_uncertainty_margin
 
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -212,7 +212,10 @@ def analyze_with_margins(cfg, sampled_check: bool = True, of_record=None):
         with beside("plant_uncertainty_margin", plant_uncertainty_margin, cfg, getattr(cfg, "uncertainty", None),
                     nominal=cols, loop_detail=False) as job:
             rec = analyze_design(cfg, sampled_check)
-            lm = latency_margin(cfg, nominal=cols)
+            lm, per_entry = schedule_latency_margin(cfg, latency_margin(cfg, nominal=cols))
+            if per_entry and rec.gain_schedule is not None:
+                rec = dataclasses.replace(rec, gain_schedule=tuple(
+                    dataclasses.replace(e, latency_margin_s=m.extra_delay_s) for e, m in zip(rec.gain_schedule, per_entry)))
             if of_record is not None:
                 rec = dataclasses.replace(rec, sampled=of_record(cfg, lm))
             pm = job.result()

@@ -41,7 +41,8 @@ import numpy as np
 from ..record import Result
 from .latency import design_loops, loop_latency_margins, member_latency_margins
 
-__all__ = ["LoopMargin", "LatencyMargin", "latency_margin", "latency_boundaries", "LatencyBoundary"]
+__all__ = ["LoopMargin", "LatencyMargin", "latency_margin", "schedule_latency_margin", "latency_boundaries",
+           "LatencyBoundary"]
 
 TWO_PI = 2.0 * math.pi
 VERIFY_REL = 1e-6
@@ -77,6 +78,10 @@ class LatencyMargin(Result):
     sample_rate_hz: float | None = None
     verified: bool | None = None
     note: str = ""
+    #: (joint angle [rad], transmission ratio) of the gain-schedule entry whose margin this is (None: the plant section's)
+    gain_schedule_entry: tuple[float, float] | None = None
+    #: the plant section's own margin [s] when an entry's is smaller
+    main_controller_s: float | None = None
 
     @property
     def extra_delay_samples(self) -> float | None:
@@ -93,7 +98,11 @@ class LatencyMargin(Result):
             "loops": [m.to_dict() for m in self.loops],
             "verified": self.verified,
             "note": self.note,
-            "units": {"extra_delay_s": "s", "extra_delay_samples": "samples", "frequency_hz": "Hz"},
+            "gain_schedule_entry": (None if self.gain_schedule_entry is None else
+                                    dict(zip(("joint_angle_rad", "ratio"), self.gain_schedule_entry))),
+            "main_controller_s": self.main_controller_s,
+            "units": {"extra_delay_s": "s", "extra_delay_samples": "samples", "frequency_hz": "Hz",
+                      "main_controller_s": "s"},
         }
 
     def to_text(self) -> str:
@@ -194,8 +203,57 @@ def latency_margin(cfg, nominal=None, verify: bool = True) -> LatencyMargin:
         return _verified(cfg, ct, LatencyMargin(margin, crit, tuple(loops), T, fs))
 
 
+def schedule_latency_margin(cfg, lm: LatencyMargin) -> tuple[LatencyMargin, tuple[LatencyMargin, ...]]:
+    """The latency margin of a design with a gain schedule (a ``transmission`` table): the smallest
+    of the plant section's margin ``lm`` and every entry's (the design rescheduled at each joint
+    angle, paper §IV gain scheduling: J_m, B_m, K_s × ratio², gains recomputed). The runtime runs
+    every entry, so each must tolerate the extra delay; an unknown margin (NaN) of any of them makes
+    the design's unknown.
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design, with or without ``transmission``.
+    lm : LatencyMargin
+        Its own margin (:func:`latency_margin`).
+
+    Returns
+    -------
+    (LatencyMargin, tuple of LatencyMargin)
+        The design's margin (``gain_schedule_entry`` and ``main_controller_s`` set when an entry's
+        is the smallest) and one margin per entry (empty without a schedule).
+
+    References
+    ----------
+    docs/method.md#latency-margin; paper §IV (gain scheduling).
+    """
+    tr = (cfg.raw or {}).get("transmission")
+    if not tr:
+        return lm, ()
+    p = cfg.plant
+    entries = []
+    for ratio in tr["ratio"]:
+        r2 = float(ratio) ** 2
+        entries.append(latency_margin(replace(cfg, plant=replace(
+            p, motor_inertia=p.J_m * r2, motor_damping=p.B_m * r2, sea_stiffness=p.K_s * r2))))
+    pick = [(lm, None)] + list(zip(entries, zip(map(float, tr["joint_angle_rad"]), map(float, tr["ratio"]))))
+    unknown = [p for p in pick if math.isnan(p[0].extra_delay_s)]
+    worst, where = unknown[0] if unknown else min(pick, key=lambda p: p[0].extra_delay_s)
+    if where is None or (not unknown and worst.extra_delay_s >= lm.extra_delay_s):
+        return lm, tuple(entries)
+    return replace(worst, gain_schedule_entry=where, main_controller_s=lm.extra_delay_s), tuple(entries)
+
+
 #: extra delays [s] at which an infinite margin (no destabilizing crossing found) is checked by exact verdicts
 INFINITE_PROBES_S = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3)
+
+
+def _delay_limit() -> float:
+    """The largest delay [s] a design (hence an exact verdict) accepts."""
+    from ..config.batch import OVERRIDE_LIMITS
+    from ..config.validate import LIMITS
+
+    return LIMITS[OVERRIDE_LIMITS["implementation.delay_s"]][2]
 
 
 def _infinite_checked(cfg, res: LatencyMargin) -> LatencyMargin:
@@ -203,11 +261,8 @@ def _infinite_checked(cfg, res: LatencyMargin) -> LatencyMargin:
     :data:`INFINITE_PROBES_S` (within the accepted delays). A loop unstable at one of them means
     the crossing search missed its crossing (a pole far beyond the frequency range it resolves):
     the margin is then unknown (NaN, not verified), never infinite."""
-    from ..config.batch import OVERRIDE_LIMITS
-    from ..config.validate import LIMITS
-
     T = res.delay_s
-    hi = LIMITS[OVERRIDE_LIMITS["implementation.delay_s"]][2]
+    hi = _delay_limit()
     probes = [T + d for d in INFINITE_PROBES_S if T + d <= hi]
     cols = _analyze_delays(cfg, probes) if probes else None
     bad = [d for t, d in enumerate(probes) if not _all_ok(cols, t)]
@@ -224,15 +279,23 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
     """Check the margin by exact verdicts just below and above it; lower it while the check below
     fails (a destabilizing dip between grid points: its unstable member gives a smaller margin)."""
     T = res.delay_s
+    hi = _delay_limit()
     loops = list(res.loops)
     crit = res.critical
     for _ in range(8):
         m = crit.extra_delay_s
-        cols = _analyze_delays(cfg, [T + m * (1 - VERIFY_REL)] + [T + m * (1 + r) for r in ABOVE_REL])
+        if T + m * (1 - VERIFY_REL) > hi:  # beyond the delays the analysis accepts: not checked
+            return LatencyMargin(m, crit, tuple(loops), T, res.sample_rate_hz, None,
+                                 f"the total delay at the margin exceeds {hi:g} s, the largest the exact "
+                                 "verdicts accept: not verified")
+        above = [r for r in ABOVE_REL if T + m * (1 + r) <= hi]
+        cols = _analyze_delays(cfg, [T + m * (1 - VERIFY_REL)] + [T + m * (1 + r) for r in above])
         if _all_ok(cols, 0):
-            changed = [r for t, r in enumerate(ABOVE_REL, start=1) if not _all_ok(cols, t)]
+            changed = [r for t, r in enumerate(above, start=1) if not _all_ok(cols, t)]
             note = ""
-            if not changed:
+            if not above:
+                note = f"not checked above the margin (beyond the {hi:g} s delay the exact verdicts accept)"
+            elif not changed:
                 note = (f"no verdict change up to {ABOVE_REL[-1]:g} above the margin "
                         "(a crossing that does not destabilize)")
             elif changed[0] > VERIFY_REL:

@@ -321,11 +321,14 @@ class ScheduleEntry(Result):
     not_robust: tuple[str, ...]
     gains: Mapping[str, float]
     human_stable_intervals: Mapping[str, tuple[Interval, ...]]
+    #: its continuous latency margin [s] (None: not computed; :func:`exotune.analysis.analyze_with_margins` computes it)
+    latency_margin_s: float | None = None
 
     def to_dict(self) -> dict:
         return {"joint_angle_rad": self.joint_angle_rad, "ratio": self.ratio, "robust": self.robust,
                 "not_robust": list(self.not_robust), "gains": dict(self.gains),
-                "human_stable_intervals": {k: _lists(v) for k, v in self.human_stable_intervals.items()}}
+                "human_stable_intervals": {k: _lists(v) for k, v in self.human_stable_intervals.items()},
+                "latency_margin_s": self.latency_margin_s}
 
 
 @dataclass(frozen=True)

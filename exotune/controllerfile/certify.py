@@ -31,7 +31,7 @@ from .cellbound import loop_cell
 from .continuation import MAX_DEPTH, POINTS, stable_intervals
 from .fileio import position_feedback
 from .hysteretic import hysteretic_problems, hysteretic_problems_many
-from .latency import requirement_problems, sampled_latency_margin
+from .latency import requirement_problems, sampled_latency_margin, schedule_minimum
 from .model import ControllerFile, as_controller_file
 from .results import Certificate
 
@@ -524,20 +524,25 @@ def sampled_decision(doc: ControllerFile | dict, sa: dict | None = None) -> tupl
     return sa, lm, sampled_problems(sa) + requirement_problems(lm) + hyst
 
 
-def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[str]]:
+def schedule_section(doc: ControllerFile | dict, analyses: list | None = None) -> tuple[list, list[str], list[str]]:
     """(report entries, problems, prediction mismatches) of the gain schedule's entries, each
-    analysed as a controller of its own.
+    analysed as a controller of its own: its sampled-data verdicts, its hysteretic humans and its
+    own sampled-data latency margin against the file's ``requirements.latency_margin_s`` (the
+    runtime runs every entry, so each must meet the requirement; docs/controller-file.md#gain-schedule).
 
     Parameters
     ----------
     doc : ControllerFile or dict
         The validated controller file, with a gain schedule.
+    analyses : list of dict, optional
+        Each entry's :func:`sampled_analysis` when already computed (export's ``predicted_sampled``).
 
     Returns
     -------
     entries : list of dict
-        Per entry: ``joint_angle_rad``, ``ratio``, ``robust``, ``not_robust`` and its ``sampled``
-        analysis.
+        Per entry: ``joint_angle_rad``, ``ratio``, ``robust``, ``not_robust``, its ``sampled``
+        analysis and its ``latency_margin``
+        (:func:`~exotune.controllerfile.latency.sampled_latency_margin`).
     problems : list of str
         The entries' problems.
     mismatches : list of str
@@ -545,18 +550,24 @@ def schedule_section(doc: ControllerFile | dict) -> tuple[list, list[str], list[
     """
     cf = as_controller_file(doc)
     entries, problems, mism, hyst = [], [], [], []
-    for e in cf.gain_schedule.entries:
-        sa_e = sampled_analysis(cf.entry_view(e))
-        hyst.append((cf.entry_view(e), sa_e, f"gain schedule at joint angle {e.joint_angle_rad:g} rad: "))
+    for j, e in enumerate(cf.gain_schedule.entries):
+        view = cf.entry_view(e)
+        sa_e = sampled_analysis(view) if analyses is None else analyses[j]
+        where = f"gain schedule at joint angle {e.joint_angle_rad:g} rad: "
+        hyst.append((view, sa_e, where))
         bad = [f"{h['kind']} {h['parameter']}" for h in sa_e["humans"] + sa_e["environment"]
                if "skipped" not in h and not h.get("robust")]
         bad += [k for k in ("free_stable", "locked_stable") if not sa_e[k]]
+        lm_e = sampled_latency_margin(view, sa_e, position_feedback(view.controller),
+                                      lambda d: sampled_analysis(d, proof=False))
         entries.append({"joint_angle_rad": e.joint_angle_rad, "ratio": e.ratio,
-                        "robust": not bad, "not_robust": bad, "sampled": sa_e})
-        problems += _unresolved(sa_e, f"gain schedule at joint angle {e.joint_angle_rad:g} rad: ")
+                        "robust": not bad, "not_robust": bad, "sampled": sa_e, "latency_margin": lm_e})
+        problems += _unresolved(sa_e, where)
         if bad:
             problems.append(f"gain schedule at joint angle {e.joint_angle_rad:g} rad (ratio {e.ratio:g}): "
                             f"not stable for {', '.join(bad)}")
+        elif lm_e.get("extra_delay_s") is not None:  # an unstable entry's margin 0 says nothing more
+            problems += [where + p for p in requirement_problems(lm_e)]
         mism += _prediction_mismatches(e.predicted_sampled, sa_e,
                                        f"gain_schedule[{e.joint_angle_rad:g} rad].predicted_sampled")
     for more in hysteretic_problems_many(hyst):  # one continuous-time batch for every entry
@@ -593,6 +604,7 @@ def _certify(doc: ControllerFile, predictions: bool = True) -> dict:
     if doc.gain_schedule is not None:
         rep["gain_schedule"], sched_problems, mism = schedule_section(doc)
         problems += sched_problems
+        rep["latency_margin"] = schedule_minimum(rep["latency_margin"], rep["gain_schedule"])
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the file names no rational human family to certify against (certify.humans)")
     mism += _prediction_mismatches(doc.predicted.sampled, sa, "predicted.sampled")

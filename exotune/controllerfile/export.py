@@ -35,7 +35,8 @@ import numpy as np
 from ..errors import ConfigError
 from ..sampled import Measured
 from .build import controller_section, quantity, reflected_mapping
-from .certify import refuse_excess_work, sampled_analysis, sampled_decision
+from .certify import refuse_excess_work, sampled_analysis, sampled_decision, schedule_section
+from .latency import schedule_minimum
 from .fileio import schedule_entry_doc, write_controller
 from .precision import add_realizations, realization
 from .target import runtime_of
@@ -47,7 +48,6 @@ __all__ = [
     "predicted_latency_margin",
     "latency_hint",
     "requirements_section",
-    "schedule_problems",
     "export_design",
     "design_at_rate",
     "check_sample_rate",
@@ -334,8 +334,12 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         doc["predicted"]["sampled_latency_margin"] = lm
     if raw.get("transmission"):
         doc["gain_schedule"] = _gain_schedule(cfg, fs, doc, analyses)
-        if analyses:
-            problems += schedule_problems(doc)
+        if analyses:  # certify's own decision on every entry (docs/method.md#one-model-of-record)
+            entries, sched_problems, _ = schedule_section(
+                doc, [e["predicted_sampled"] for e in doc["gain_schedule"]["entries"]])
+            problems += sched_problems
+            doc["predicted"]["sampled_latency_margin"] = schedule_minimum(doc["predicted"]["sampled_latency_margin"],
+                                                                          entries)
         doc["gain_schedule_note"] = (
             "paper §IV (gain scheduling): the gains are recomputed from the joint-reflected J_m, B_m, K_s at each scheduled joint angle "
             "(transmission ratio r: J_m, B_m, K_s scale with r²), so the compliance the human feels stays the "
@@ -361,29 +365,6 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
             doc["provenance"]["uncertified"] = list(problems)
         validate_controller(doc)
     return doc
-
-
-def schedule_problems(doc: dict) -> list[str]:
-    """certify's problems of the gain-schedule entries of a document whose entries carry their
-    ``predicted_sampled`` analysis (as :func:`build_export` writes them).
-
-    Parameters
-    ----------
-    doc : dict
-        The controller file's mapping (:func:`build_export`).
-
-    Returns
-    -------
-    list of str
-        The problems, each prefixed with its entry's joint angle [rad] and ratio.
-    """
-    from .certify import sampled_problems
-
-    out = []
-    for e in (doc.get("gain_schedule") or {}).get("entries", []):
-        where = f"gain schedule at joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
-        out += [where + p for p in sampled_problems(e["predicted_sampled"])]
-    return out
 
 
 def export_design(design_file, sample_rate_hz: float | None, out, require_latency_margin_s: float | None = None,

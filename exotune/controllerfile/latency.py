@@ -35,7 +35,7 @@ from ..units import PARAM_UNITS
 from .fileio import discrete_from_file, plant_from_file
 from .model import ControllerFile, as_controller_file
 
-__all__ = ["REL", "sampled_latency_margin", "requirement_problems"]
+__all__ = ["REL", "sampled_latency_margin", "requirement_problems", "schedule_minimum"]
 
 REL = 1e-3  # the certificate's resolution: the full check at ΔT(1 − REL), a probe unstable at ΔT(1 + REL)
 ROUNDS = 4  # engine runs with new probes when the full check finds an unstable member between them
@@ -164,7 +164,7 @@ def sampled_latency_margin(doc: ControllerFile | dict, sa: dict, grounded: bool,
                        + ("the file's predicted continuous margin" if predicted else "half a sample up")
                        + f", members a family check finds unstable at ΔT(1 − {REL:g}) added as probes; certify's "
                        f"full family check stable at ΔT(1 − {REL:g}), the critical member unstable at ΔT(1 + {REL:g}); "
-                       "the main controller only (gain-schedule entries not included)"))
+                       "the main controller; each gain-schedule entry has its own"))
     return out
 
 
@@ -186,3 +186,40 @@ def requirement_problems(lm: dict) -> list[str]:
     if not req or m is None or m >= req:
         return []
     return [f"latency margin {m * 1e3:.3g} ms ({lm['extra_delay_samples']:.3g} samples) < required {req * 1e3:.3g} ms"]
+
+
+def schedule_minimum(lm: dict, entries: list) -> dict:
+    """The latency margin of a file with a gain schedule: the smallest of its main controller's
+    and its entries' (the runtime runs each of them), naming the entry when it is one.
+
+    Parameters
+    ----------
+    lm : dict
+        The main controller's :func:`sampled_latency_margin`.
+    entries : list of dict
+        The gain schedule's entries as :func:`exotune.controllerfile.certify.schedule_section`
+        reports them (each with its ``latency_margin``, ``joint_angle_rad`` and ``ratio``).
+
+    Returns
+    -------
+    dict
+        ``lm`` when no entry has a smaller margin; else the entry's margin with
+        ``gain_schedule_entry`` = {``joint_angle_rad``, ``ratio``} and ``main_controller_s`` [s]
+        (the main controller's margin, None: not bounded). A margin of None (no extra delay up to
+        200 samples destabilizes) is larger than any number.
+
+    References
+    ----------
+    docs/controller-file.md#latency-margin; paper §IV (gain scheduling).
+    """
+    def key(m):
+        v = m.get("extra_delay_s")
+        return math.inf if v is None else float(v)
+
+    worst = min(entries, key=lambda e: key(e["latency_margin"]), default=None)
+    if worst is None or key(worst["latency_margin"]) >= key(lm):
+        return lm
+    out = dict(worst["latency_margin"])
+    out["gain_schedule_entry"] = {"joint_angle_rad": worst["joint_angle_rad"], "ratio": worst["ratio"]}
+    out["main_controller_s"] = lm.get("extra_delay_s")
+    return out

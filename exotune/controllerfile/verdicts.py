@@ -111,6 +111,7 @@ def design_verdicts(cfg, require_latency_margin_s: float | None = None, continuo
     docs/method.md#one-model-of-record.
     """
     from .certify import sampled_decision, schedule_section
+    from .latency import schedule_minimum
     from .export import build_export, latency_hint, predicted_latency_margin
     from .model import ControllerFile
     from ..errors import ConfigError
@@ -128,6 +129,7 @@ def design_verdicts(cfg, require_latency_margin_s: float | None = None, continuo
     if cf.gain_schedule is not None:
         entries, sched_problems, _ = schedule_section(cf)
         problems += sched_problems
+        lm = schedule_minimum(lm, entries)
         schedule = tuple({k: v for k, v in e.items()} for e in entries)
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the design names no rational human family to certify against (humans)")

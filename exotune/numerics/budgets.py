@@ -9,7 +9,7 @@ imports numba (docs/architecture.md).
 
 from __future__ import annotations
 
-__all__ = ["MAX_TASK_EVALS", "MAX_TASK_LEAVES", "MAX_GROUP_EVALS", "GEO_SPLIT_RATIO"]
+__all__ = ["MAX_TASK_EVALS", "MAX_TASK_LEAVES", "MAX_GROUP_EVALS", "GEO_SPLIT_RATIO", "MAG_LEVEL_TOL"]
 
 MAX_TASK_EVALS = 200_000  # argument-principle count: evaluations per task (typical: ~50)
 MAX_TASK_LEAVES = 100_000  # adaptive frequency sets: leaves per task (typical: ~100)
@@ -21,3 +21,8 @@ MAX_GROUP_EVALS = 1_000_000
 # Argument-principle counts split a rejected interval [a, b] with b > GEO_SPLIT_RATIO·a at its
 # geometric mean (see kernels.phase); the frequency sets (leaves) keep midpoints.
 GEO_SPLIT_RATIO = 1.25
+# The amplification bandwidth's search accepts a leaf whose ends lie above the −3 dB level only when
+# the magnitude provably stays above it inside, up to this many nepers (1e-4 neper ≈ 0.0009 dB): a
+# dip below the level by less is not a −3 dB crossing (docs/method.md#amplification). The bound
+# tightens as the leaf halves, so a shallow dip just below the level is found, not stepped over.
+MAG_LEVEL_TOL = 1e-4

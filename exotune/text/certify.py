@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..model.humans import PARAM_UNITS
 from .numbers import interval_text, sampled_verdict_word
 
-__all__ = ["format_certify", "family_line", "margin_line"]
+__all__ = ["format_certify", "family_line", "margin_line", "schedule_entry_line"]
 
 
 def family_line(h: dict) -> str:
@@ -51,6 +51,30 @@ def _ms(x) -> str:
     return "none" if x is None else f"{x * 1e3:.4g} ms"
 
 
+def schedule_entry_line(e: dict) -> str:
+    """One gain-schedule entry of a certification (or of the verdicts of record): its verdict and
+    its own sampled-data latency margin.
+
+    Parameters
+    ----------
+    e : dict
+        The entry (``joint_angle_rad``, ``ratio``, ``robust``, ``not_robust``, optional ``latency_margin``).
+
+    Returns
+    -------
+    str
+        The line (indented).
+    """
+    line = (f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
+            + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
+    lm = e.get("latency_margin")
+    if not lm or not e["robust"]:
+        return line
+    if lm.get("extra_delay_s") is None:
+        return line + "; latency margin: no instability up to 200 samples of total delay"
+    return line + f"; latency margin {_ms(lm['extra_delay_s'])} ({lm['extra_delay_samples']:.4g} samples)"
+
+
 def margin_line(lm: dict) -> str:
     """The sampled-data latency margin, its critical member, the file's prediction and requirement.
 
@@ -73,6 +97,11 @@ def margin_line(lm: dict) -> str:
     c = lm.get("critical")
     if c:
         head += f", critical {c['loop']}" + (f" at {c['parameter']} = {c['value']:.6g} {c['unit']}" if c["parameter"] else "")
+    g = lm.get("gain_schedule_entry")
+    if g:
+        main = lm.get("main_controller_s")
+        head += (f", in the gain-schedule entry at joint angle {g['joint_angle_rad']:g} rad (ratio {g['ratio']:g}; "
+                 f"the main controller: {'no instability up to 200 samples' if main is None else _ms(main)})")
     b = lm.get("bound")
     if b:
         head += (f" (the hysteretic family's continuous-time margin bounds it: it has no sampled-data model; "
@@ -123,8 +152,7 @@ def format_certify(rep: dict) -> str:
              f"  locked joint:     {sampled_verdict_word(sa['locked_stable'])} (spectral radius "
              f"{sa['locked_spectral_radius']:.9f})"]
     for e in rep.get("gain_schedule", []):
-        lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
-                     + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
+        lines.append(schedule_entry_line(e))
     lines += [family_line(h) for h in sa["humans"] + sa["environment"]]
     if rep.get("latency_margin"):
         lines.append(margin_line(rep["latency_margin"]))

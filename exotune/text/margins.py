@@ -19,6 +19,17 @@ def _delay(x: float) -> str:
     return f"{x * 1e3:.4g} ms"
 
 
+def _entry_lines(lm: dict) -> list[str]:
+    """Where a gain-schedule entry's margin is the design's: its joint angle and the plant section's own."""
+    g = lm.get("gain_schedule_entry")
+    if not g:
+        return []
+    main = lm.get("main_controller_s")
+    own = "no instability up to 200 samples of total delay" if main is None else _delay(main)
+    return [f"    in the gain-schedule entry at joint angle {g['joint_angle_rad']:g} rad (transmission ratio "
+            f"{g['ratio']:g}), the smallest of the schedule's; the plant section's controller: {own}"]
+
+
 def format_margins(margins: dict | None) -> list[str]:
     """Lines of the ``margins`` section: the latency margin with its critical loop, member and
     crossing frequency (and in samples when a sample rate is set).
@@ -51,6 +62,7 @@ def format_margins(margins: dict | None) -> list[str]:
         if c:
             L.append(f"    critical: {c['loop']}" + (f" at {c['parameter']} = {fmt_num(c['value'], 6)} {c['unit']}"
                                                    if c.get("parameter") else ""))
+        L += _entry_lines(lm)
         b = lm.get("bound")
         if b:
             L.append(f"    bounded by the hysteretic family's continuous-time margin ({b['model']}); the sampled-data "
@@ -71,6 +83,7 @@ def format_margins(margins: dict | None) -> list[str]:
             if c.get("frequency_hz") is not None:
                 where += f", crossing at {fmt_num(c['frequency_hz'], 4)} Hz"
             L.append(where)
+        L += _entry_lines(lm)
         if lm.get("note"):
             L.append(f"    note: {lm['note']}")
         if lm.get("verified") is True:

@@ -3,7 +3,7 @@ section; docs/method.md#one-model-of-record)."""
 
 from __future__ import annotations
 
-from .certify import family_line, margin_line
+from .certify import family_line, margin_line, schedule_entry_line
 from .numbers import sampled_verdict_word
 
 __all__ = ["format_verdicts"]
@@ -35,8 +35,7 @@ def format_verdicts(sd: dict) -> list[str]:
              f"{sd['free_spectral_radius']:.9f}); locked joint: {sampled_verdict_word(sd['locked_stable'])}"]
     lines += [family_line(h) for h in sd["humans"] + sd["environment"]]
     for e in sd.get("gain_schedule") or []:
-        lines.append(f"  gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
-                     + ("robust" if e["robust"] else "NOT robust for " + ", ".join(e["not_robust"])))
+        lines.append(schedule_entry_line(e))
     lines.append(margin_line({**sd["latency_margin"], "required_s": req.get("latency_margin_s")})
                  + f" ({req.get('source')})")
     lines += [f"  - {p}" for p in sd["problems"]]

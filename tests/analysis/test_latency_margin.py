@@ -267,3 +267,30 @@ def test_an_infinite_margin_is_checked_by_exact_verdicts_at_extra_delays():
     from exotune.analysis.batch import analyze_batch
 
     assert not analyze_batch(design_from_mapping(doc)).loops_ok()[0]
+
+
+def test_a_margin_beyond_the_accepted_delays_is_reported_unverified():
+    """A design whose free loop tolerates ~2.5 s of extra delay (a 0.13 Hz crossing): the check of
+    the margin by exact verdicts at T + ΔT(1 ∓ 10⁻⁶) asked for a 2.5 s delay, beyond the 1 s a
+    design accepts, and `analyze` refused the valid design with a range error on
+    implementation.delay_s. The margin is now reported, not verified, and the exact verdicts at
+    every accepted delay up to 1 s agree that it exceeds them."""
+    raw = copy.deepcopy(PAPER_MAP)
+    raw["design"].update(amplification=13.00863876773165, felt_damping=0.05247264369604607,
+                         felt_inertia=0.07068107898350512, zeta=0.47554670183811043, zeta_hat=0.44853183623891585)
+    raw["implementation"].update(delay_s=0.0, derivative_filter={"cutoff_hz": 34.47394369501197},
+                                 dob={"cutoff_hz": 16.436125728899455, "damping": 0.4438678071420012},
+                                 gv_filter={"cutoff_hz": 432.815549002881, "damping": 0.48285863902734716})
+    raw["plant"].update(cuff_stiffness=134.19823653075375, joint_inertia=0.4844523807437293,
+                        motor_damping=27.991568014983187, motor_inertia=0.22860956541261207,
+                        sea_stiffness=659.0728022511133)
+    raw["humans"], raw["environment"] = [], []
+    cfg = design_from_mapping(raw)
+    m = latency_margin(cfg)
+    assert m.extra_delay_s > 1.0 and math.isfinite(m.extra_delay_s)
+    assert m.verified is None and "not verified" in m.note
+    assert m.critical.loop == "free"
+    delays = np.array([0.01, 0.1, 0.3, 0.6, 1.0])
+    with np.errstate(all="ignore"):
+        cols = analyze_batch(batch_config(cfg, {"implementation.delay_s": delays}))
+    assert bool(np.all(cols.loops_ok()))

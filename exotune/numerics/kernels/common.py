@@ -20,13 +20,13 @@ except Exception:  # pragma: no cover - exercised only where numba is missing
 
 # (the compiled primitives eval_quasi, interval_ok, log_derivative, cdiv and push_interval exist only
 # when numba is available)
-__all__ = ["AVAILABLE", "MAX_TASK_EVALS", "MAX_TASK_LEAVES", "MAX_GROUP_EVALS", "GEO_SPLIT_RATIO", "njit",
+__all__ = ["AVAILABLE", "MAX_TASK_EVALS", "MAX_TASK_LEAVES", "MAX_GROUP_EVALS", "GEO_SPLIT_RATIO", "MAG_LEVEL_TOL", "njit",
            "coefficients"]
 
 AVAILABLE = njit is not None
 
 # Per-task work budgets (exotune.numerics.budgets; the numpy engine reads them without numba)
-from ..budgets import GEO_SPLIT_RATIO, MAX_GROUP_EVALS, MAX_TASK_EVALS, MAX_TASK_LEAVES  # noqa: E402,F401
+from ..budgets import GEO_SPLIT_RATIO, MAG_LEVEL_TOL, MAX_GROUP_EVALS, MAX_TASK_EVALS, MAX_TASK_LEAVES  # noqa: E402,F401
 
 if AVAILABLE:
 

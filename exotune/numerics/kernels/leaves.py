@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from .common import AVAILABLE, MAX_TASK_LEAVES, coefficients, njit
+from .common import AVAILABLE, MAG_LEVEL_TOL, MAX_TASK_LEAVES, coefficients, njit
 
 if AVAILABLE:
     from .common import cdiv, eval_quasi, interval_ok, log_derivative, push_interval
@@ -97,7 +97,7 @@ if AVAILABLE:
                         LB = Lb0 - Lb1
                         margin = min(fa, fb) - lthr[t]
                         dip = 0.5 * h * max(abs(LA.imag), abs(LB.imag)) + 0.125 * h * abs(LB - LA)
-                        mok = (not np.isfinite(margin)) or margin <= 0.01 or margin > dip
+                        mok = (not np.isfinite(margin)) or margin <= 0.0 or margin + MAG_LEVEL_TOL > dip
                         if not mok:
                             ok = False
                             if h <= 1e-9 * max(abs(b), 1e-300):
