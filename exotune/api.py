@@ -248,7 +248,9 @@ def analyze(source, *, cross_check: bool = False, plots=None, time_budget_s: flo
     cfg = load_design(source)
     fs = cfg.implementation.sample_rate_hz
     what = "analysing the design" + (f" at {fs:g} Hz" if fs else "")
-    with numpy_engine(), time_budget(budget, what, "lower `implementation.sample_rate_hz`", writes=plots is not None):
+    hint = ("lower `implementation.sample_rate_hz`" if fs else
+            "a design this slow has extreme dynamics (a filter cutoff or a plant value decades away from the rest)")
+    with numpy_engine(), time_budget(budget, what, hint, writes=plots is not None):
         r = analyze_of_record(cfg)
         if cross_check:
             from .analysis import pade_crosscheck

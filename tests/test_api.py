@@ -553,3 +553,23 @@ def test_sweep_dask_errors_name_the_keyword_and_the_command_line_names_the_optio
     res = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(tmp_path / "sw"), "--dask", "local:0"])
     assert res.exit_code == 2 and res.stderr.splitlines()[-1] == "exotune: error: --dask: local:N needs N >= 1, got 0"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["spec.yaml"]
+
+
+def test_analyze_budget_stops_a_stiff_continuous_design(tmp_path):
+    """Hostile round 4, F4: a continuous design with a 10 MHz `gv_filter` of damping 1000 and a
+    velocity filter ran for over 590 s with `--time-budget-s 20`: the plant-uncertainty margin's
+    root counts (numpy engine, in a child process) never looked at the budget. Every adaptive
+    frequency refinement now does, so the budget stops it (the design takes minutes otherwise);
+    the hint no longer blames a sample rate the design does not have."""
+    import yaml
+
+    raw = yaml.safe_load((ROOT / "examples" / "paper.yaml").read_text())
+    raw["implementation"]["gv_filter"] = {"cutoff_hz": 1.0e7, "damping": 1000}
+    raw["implementation"]["velocity_filter"] = {"cutoff_hz": 200.0}
+    raw["humans"][0]["inertia"][0] = 0.01
+    src = tmp_path / "stiff.yaml"
+    src.write_text(yaml.safe_dump(raw))
+    with pytest.raises(ConfigError) as ei:
+        exotune.analyze(src, time_budget_s=3.0)
+    assert ei.value.field == "time_budget_s" and "analysing the design exceeded" in ei.value.reason
+    assert "sample_rate_hz" not in ei.value.reason

@@ -34,6 +34,7 @@ import numpy as np
 from .engine import resolve_engine as _engine
 from .poly import degree, leading, pder
 from .budgets import MAX_GROUP_EVALS, MAX_TASK_EVALS, MAX_TASK_LEAVES
+from .timebudget import check_time
 
 __all__ = ["QP", "count_rhp", "omega_max", "adaptive_leaves", "bisect_roots", "golden_max", "dip_candidates", "dip_rise", "DIP_RISE", "DIP_RISE_UNEVEN"]
 
@@ -244,6 +245,7 @@ def adaptive_leaves(evalfn, ntask: int, grid: np.ndarray, valid: np.ndarray | No
     for level in range(MAX_LEVELS + 1):
         if ti.size == 0:
             break
+        check_time()  # an enclosing time budget (analyze --time-budget-s) stops a pathological design
         h = b - a
         ok = np.ones(ti.size, bool)
         bad = np.zeros(ti.size, bool)
