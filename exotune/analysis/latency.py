@@ -42,7 +42,27 @@ from ..numerics.poly import pad_cols, padd, pmul
 from ..numerics.quasipoly import golden_max
 
 __all__ = ["batch_latency_margin", "loop_latency_margins", "member_latency_margins", "design_loops",
-           "qp_latency_margin", "family_latency_margin", "tail_bound", "GRID_PER_DECADE", "GRID_DECADES"]
+           "qp_latency_margin", "family_latency_margin", "tail_bound", "GRID_PER_DECADE", "GRID_DECADES",
+           "INFINITE_PROBES_S", "delay_limit"]
+
+#: extra delays [s] at which an infinite margin (no destabilizing crossing found) is checked by exact
+#: verdicts (docs/method.md#latency-margin): a pole beyond the frequency range the crossing search
+#: resolves can hide every crossing
+INFINITE_PROBES_S = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3)
+
+
+def delay_limit() -> float:
+    """The largest delay [s] a design (hence an exact verdict) accepts.
+
+    Returns
+    -------
+    float
+        The upper end of ``implementation.delay_s``'s accepted range [s].
+    """
+    from ..config.batch import OVERRIDE_LIMITS
+    from ..config.validate import LIMITS
+
+    return LIMITS[OVERRIDE_LIMITS["implementation.delay_s"]][2]
 
 TWO_PI = 2.0 * math.pi
 GRID_DECADES = 9.0

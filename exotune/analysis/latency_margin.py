@@ -39,7 +39,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..record import Result
-from .latency import design_loops, loop_latency_margins, member_latency_margins
+from .latency import INFINITE_PROBES_S, delay_limit, design_loops, loop_latency_margins, member_latency_margins
 
 __all__ = ["LoopMargin", "LatencyMargin", "latency_margin", "schedule_latency_margin", "latency_boundaries",
            "LatencyBoundary"]
@@ -244,16 +244,6 @@ def schedule_latency_margin(cfg, lm: LatencyMargin) -> tuple[LatencyMargin, tupl
     return replace(worst, gain_schedule_entry=where, main_controller_s=lm.extra_delay_s), tuple(entries)
 
 
-#: extra delays [s] at which an infinite margin (no destabilizing crossing found) is checked by exact verdicts
-INFINITE_PROBES_S = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3)
-
-
-def _delay_limit() -> float:
-    """The largest delay [s] a design (hence an exact verdict) accepts."""
-    from ..config.batch import OVERRIDE_LIMITS
-    from ..config.validate import LIMITS
-
-    return LIMITS[OVERRIDE_LIMITS["implementation.delay_s"]][2]
 
 
 def _infinite_checked(cfg, res: LatencyMargin) -> LatencyMargin:
@@ -262,7 +252,7 @@ def _infinite_checked(cfg, res: LatencyMargin) -> LatencyMargin:
     the crossing search missed its crossing (a pole far beyond the frequency range it resolves):
     the margin is then unknown (NaN, not verified), never infinite."""
     T = res.delay_s
-    hi = _delay_limit()
+    hi = delay_limit()
     probes = [T + d for d in INFINITE_PROBES_S if T + d <= hi]
     cols = _analyze_delays(cfg, probes) if probes else None
     bad = [d for t, d in enumerate(probes) if not _all_ok(cols, t)]
@@ -279,7 +269,7 @@ def _verified(cfg, ct, res: LatencyMargin) -> LatencyMargin:
     """Check the margin by exact verdicts just below and above it; lower it while the check below
     fails (a destabilizing dip between grid points: its unstable member gives a smaller margin)."""
     T = res.delay_s
-    hi = _delay_limit()
+    hi = delay_limit()
     loops = list(res.loops)
     crit = res.critical
     for _ in range(8):

@@ -269,6 +269,28 @@ def test_an_infinite_margin_is_checked_by_exact_verdicts_at_extra_delays():
     assert not analyze_batch(design_from_mapping(doc)).loops_ok()[0]
 
 
+def test_the_sweep_column_checks_an_infinite_margin_too():
+    """The same stiff human in a sweep's batch: the `latency_margin_s` column said ∞ for designs a
+    few ms of extra delay destabilizes (its batch path had no confirmation). Infinite rows are now
+    checked at the same extra delays: unknown (NaN); finite rows are untouched (a batch with the
+    paper's human: the column equals the single-design engine's margins)."""
+    import yaml
+
+    from exotune.analysis.batch import analyze_batch
+    from exotune.config import design_from_mapping
+
+    doc = yaml.safe_load((EXAMPLES / "paper.yaml").read_text())
+    doc["humans"][0] = {"kind": "mass", "inertia": 1e-9, "damping": 100.0}
+    alphas = np.array([8.0, 4.0, 2.0])
+    with np.errstate(all="ignore"):
+        res = analyze_batch(batch_config(design_from_mapping(doc), {"design.amplification": alphas}), latency=True)
+        assert np.all(res.loops_ok()) and np.all(np.isnan(res.latency_margin_s))
+        # the exact verdict behind it: unstable at 6 ms of total delay, for each design
+        doc["implementation"]["delay_s"] = 0.006
+        later = analyze_batch(batch_config(design_from_mapping(doc), {"design.amplification": alphas}))
+    assert not np.any(later.loops_ok())
+
+
 def test_a_margin_beyond_the_accepted_delays_is_reported_unverified():
     """A design whose free loop tolerates ~2.5 s of extra delay (a 0.13 Hz crossing): the check of
     the margin by exact verdicts at T + ΔT(1 ∓ 10⁻⁶) asked for a 2.5 s delay, beyond the 1 s a
