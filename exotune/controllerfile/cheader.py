@@ -84,6 +84,12 @@ extern const char exotune_build_info[];  /* "exotune_controller sha256=... exotu
 #define EXOTUNE_DELAY_S {c_double(T)}  /* [s] measured-to-applied latency the file was certified with */
 #define EXOTUNE_N_CONTROLLERS {n_ctrl}  /* 0: nominal; 1...: gain-schedule entries (exotune_controller_for_angle) */
 #define EXOTUNE_MAX_SECTIONS {max_sections}  /* sections of the largest controller */
+#ifndef EXOTUNE_SCHEDULE_HYSTERESIS_RAD  /* [rad] exotune_schedule keeps the running entry until the angle is
+                                          * this far past the midpoint to the nearest one (angle noise at
+                                          * a boundary does not switch back and forth); may be defined,
+                                          * >= 0, when compiling; a negative one refuses every call) */
+#define EXOTUNE_SCHEDULE_HYSTERESIS_RAD {c_double(schedule_hysteresis_rad(cf))}
+#endif
 #define EXOTUNE_STATE_MAGIC 0x45584F54u  /* exotune_state.magic after exotune_init: every function refuses
                                           * (EXOTUNE_ERR_ARGUMENT) a state without it, e.g. a zeroed one */
 {constants}
@@ -216,3 +222,30 @@ def controller_tables(rows, labels, literal, angles) -> list[str]:
     lines.append(f"static const double ANGLES[{max(len(angles), 1)}] = "
                  f"{{{', '.join(c_double(a) for a in angles) or '0.0'}}};")
     return lines
+
+
+#: the schedule's default hysteresis: this fraction of the smallest spacing of its joint angles, at most
+#: :data:`SCHEDULE_HYSTERESIS_MAX_RAD`
+SCHEDULE_HYSTERESIS_FRACTION = 0.1
+SCHEDULE_HYSTERESIS_MAX_RAD = 0.01
+
+
+def schedule_hysteresis_rad(doc) -> float:
+    """The default ``EXOTUNE_SCHEDULE_HYSTERESIS_RAD`` of a file [rad]: a tenth of the smallest
+    spacing of its gain schedule's joint angles, at most 0.01 rad (0 without a schedule). With it an
+    entry runs at most that far beyond its nearest-entry cell (docs/deploying.md#switching-gain-schedule-entries).
+
+    Parameters
+    ----------
+    doc : ControllerFile or dict
+        The validated controller file.
+
+    Returns
+    -------
+    float
+        The hysteresis [rad].
+    """
+    cf = as_controller_file(doc)
+    angles = sorted(e.joint_angle_rad for e in cf.schedule_entries) if cf.gain_schedule is not None else []
+    gaps = [b - a for a, b in zip(angles, angles[1:]) if b > a]
+    return min(SCHEDULE_HYSTERESIS_MAX_RAD, SCHEDULE_HYSTERESIS_FRACTION * min(gaps)) if gaps else 0.0

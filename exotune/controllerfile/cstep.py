@@ -317,11 +317,25 @@ ANGLE_C = r'''int exotune_controller_for_angle(double joint_angle_rad, int *cont
 SCHEDULE_C = r'''int exotune_schedule(exotune_state *st, double joint_angle_rad, int mode)
 {
     int c = 0, rc;
-    if (!state_ok(st) || !mode_ok(mode))  /* checked whether or not the entry changes */
+    const double hysteresis = EXOTUNE_SCHEDULE_HYSTERESIS_RAD;
+    if (!state_ok(st) || !mode_ok(mode) || !(hysteresis >= 0.0))  /* checked whether or not the entry changes */
         return EXOTUNE_ERR_ARGUMENT;
     rc = exotune_controller_for_angle(joint_angle_rad, &c);
     if (rc != EXOTUNE_OK || c == st->controller)
         return rc;
+    if (st->controller >= 1 && st->controller < EXOTUNE_N_CONTROLLERS) {
+        /* hysteresis: keep the running entry until the angle is EXOTUNE_SCHEDULE_HYSTERESIS_RAD past the
+         * midpoint between it and the nearest one (their distances then differ by twice that) */
+        double a = joint_angle_rad, lo = ANGLES[0], hi = ANGLES[0];
+        int i;
+        for (i = 1; i < EXOTUNE_N_CONTROLLERS - 1; ++i) {
+            lo = ANGLES[i] < lo ? ANGLES[i] : lo;
+            hi = ANGLES[i] > hi ? ANGLES[i] : hi;
+        }
+        a = a < lo ? lo : (a > hi ? hi : a);  /* as exotune_controller_for_angle */
+        if (fabs(ANGLES[st->controller - 1] - a) - fabs(ANGLES[c - 1] - a) <= 2.0 * hysteresis)
+            return EXOTUNE_OK;
+    }
     return exotune_switch(st, c, mode);
 }
 

@@ -84,11 +84,11 @@ int main(void)
 """
 
 
-def _build(tmp: Path, files: dict[str, str]) -> Path:
+def _build(tmp: Path, files: dict[str, str], *defines: str) -> Path:
     for name, text in {**files, "harness.c": HARNESS}.items():
         (tmp / name).write_text(text, encoding="ascii")
     exe = tmp / "h.out"
-    cmd = [CC, *C_FLAGS.split(), "-Wall", "-Wextra", "-pedantic", "-Werror", "-o", str(exe),
+    cmd = [CC, *C_FLAGS.split(), *defines, "-Wall", "-Wextra", "-pedantic", "-Werror", "-o", str(exe),
            str(tmp / "exotune_controller.c"), str(tmp / "harness.c"), "-lm"]
     subprocess.run(cmd, check=True, capture_output=True, text=True)
     return exe
@@ -282,3 +282,40 @@ def test_clang_builds_without_double_promotion(scheduled_doc, tmp_path):
     subprocess.run(["clang", *C_FLAGS.split(), "-Wall", "-Wextra", "-pedantic", "-Wdouble-promotion", "-Wconversion",
                     "-Werror", "-o", str(tmp_path / "g.out"), str(tmp_path / "exotune_controller.c"),
                     str(tmp_path / "exotune_golden_test.c"), "-lm"], check=True, capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("port", ["exe64", "exe32"])
+def test_schedule_has_hysteresis_at_entry_boundaries(scheduled_doc, port, request):
+    """Angle noise at the boundary between two entries (0.25 rad between the entries at 0 and 0.5
+    rad) switched on every sample: a BUMPLESS switch each time stacked command peaks of 50-57 N·m and
+    RESET diverged (hostile-input round 4). exotune_schedule now keeps the running entry until the
+    angle is EXOTUNE_SCHEDULE_HYSTERESIS_RAD past the midpoint (a tenth of the smallest spacing, at
+    most 0.01 rad: 0.01 here); exotune_controller_for_angle stays the nearest entry."""
+    from exotune.controllerfile.cheader import schedule_hysteresis_rad
+
+    h = schedule_hysteresis_rad(scheduled_doc)
+    angles = [e["joint_angle_rad"] for e in scheduled_doc["gain_schedule"]["entries"]]
+    assert h == pytest.approx(min(0.01, 0.1 * min(np.diff(sorted(angles)))))
+    mid = 0.5 * (angles[0] + angles[1])
+    noise = [mid + d * h for d in (0.5, -0.5, 0.9, -0.9, 0.5)]
+    out = _run(request.getfixturevalue(port),
+               ["init 1 0.0"] + [f"sched {q!r} 0" for q in noise]
+               + [f"sched {mid + 1.5 * h!r} 0", f"sched {mid - 0.5 * h!r} 0", f"sched {mid - 1.5 * h!r} 0",
+                  f"sched {angles[-1] + 5.0!r} 0", "sched nan 0"])
+    assert [o[1] for o in out[1:6]] == [1] * 5  # within the band: no switch, however often it crosses
+    assert out[6] == [OK, 2] and out[7] == [OK, 2] and out[8] == [OK, 1]
+    assert out[9] == [OK, len(angles)] and out[10] == [3, len(angles)]  # EXOTUNE_FAULT_ANGLE, unchanged
+
+
+@needs_cc
+def test_schedule_hysteresis_can_be_set_when_compiling(scheduled_doc, tmp_path):
+    """-DEXOTUNE_SCHEDULE_HYSTERESIS_RAD=0 gives the nearest entry at every call; with a negative
+    value exotune_schedule refuses every call (EXOTUNE_ERR_ARGUMENT, the controller unchanged)."""
+    exe = _build(tmp_path, c_sources(scheduled_doc), "-DEXOTUNE_SCHEDULE_HYSTERESIS_RAD=0")
+    mid = 0.25
+    out = _run(exe, ["init 1 0.0", f"sched {mid + 1e-6!r} 1", f"sched {mid - 1e-6!r} 1"])
+    assert out[1] == [OK, 2] and out[2] == [OK, 1]
+    d = tmp_path / "neg"
+    d.mkdir()
+    exe = _build(d, c_sources(scheduled_doc), "-DEXOTUNE_SCHEDULE_HYSTERESIS_RAD=-1")
+    assert _run(exe, ["init 1 0.0", "sched 1.0 1"])[1] == [ERR_ARGUMENT, 1]
