@@ -111,6 +111,10 @@ def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> t
         X = np.linalg.inv(V)
     except np.linalg.LinAlgError:
         return False, -math.inf
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(V))):
+        # a defective M0 (e.g. chains of identity sections: nilpotent blocks at z = 0) has no
+        # usable eigenvector basis: the cell is not proven (never an exception)
+        return False, -math.inf
     # X is V⁻¹ only to rounding: the discs are those of G(s) = X M(s) X⁻¹ (similar to M(s) for any
     # invertible X) = F(s)(I + R_X)⁻¹, F = X M V, R_X = XV − I: |G| ≤ |F|(I + |R_X| + r²/(1 − r)·𝟙𝟙ᵀ)
     # entry by entry (r ≥ ‖|R_X|‖₂); the products X M_k V carry rounding ≤ 2γ_n|X||M_k||V|
@@ -118,7 +122,12 @@ def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> t
     gam = 2.0 * n * eps / (1.0 - n * eps)
     aX, aV = np.abs(X), np.abs(V)
     RX = np.abs(X @ V - np.eye(n)) + gam * (aX @ aV)
-    r = float(np.linalg.norm(RX, 2))
+    if not np.all(np.isfinite(RX)):
+        return False, -math.inf
+    try:
+        r = float(np.linalg.norm(RX, 2))
+    except np.linalg.LinAlgError:  # the SVD did not converge: nothing is proven
+        return False, -math.inf
     if not math.isfinite(r) or r >= 0.5:
         return False, -math.inf
     F = [X @ c @ V for c in Ms] + [np.zeros((n, n))]

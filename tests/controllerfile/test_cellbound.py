@@ -76,3 +76,23 @@ def test_taylor_at_zero_time_is_the_identity():
     c = taylor_expm(np.ones((2, 2)), np.ones((2, 2)), 0.0, 2)
     np.testing.assert_array_equal(c[0], np.eye(2))
     assert all(not ck.any() for ck in c[1:])
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 130), lam=st.floats(0.0, 0.99), eps=st.sampled_from([0.0, 1e-300, 1e-200, 1e-14, 1e-6]),
+       blocks=st.integers(1, 3))
+def test_defective_loops_never_raise_and_a_proof_is_true(n, lam, eps, blocks):
+    """Hostile round 4: a controller file with 120 identity sections per filter (nilpotent blocks
+    at z = 0 in the loop matrix) made certify fail with "SVD did not converge" (exit 2, no report).
+    On Jordan chains (defective, or nearly so through a tiny coupling ε) disc_test returns a
+    verdict, never an exception, and a cell it proves is Schur stable at both ends."""
+    J = lam * np.eye(n) + np.diag(np.ones(n - 1), 1)
+    J[-1, 0] = eps
+    M0 = scipy.linalg.block_diag(*([J] * blocks))
+    M1 = 1e-3 * np.eye(M0.shape[0])
+    with np.errstate(all="ignore"):
+        ok, margin = disc_test([M0, M1])
+    assert isinstance(ok, bool) and (margin > 0) == ok
+    if ok:
+        for d in (-0.5, 0.5):
+            assert max(abs(np.linalg.eigvals(M0 + d * M1))) < 1.0
