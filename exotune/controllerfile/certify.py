@@ -169,6 +169,12 @@ def _entries(x) -> list:
     return [e if isinstance(e, dict) else None for e in x] if isinstance(x, list) else []
 
 
+def _covers(h: dict) -> bool:
+    """Whether a family's stable intervals are its whole range (one interval from end to end)."""
+    ivs = h.get("stable_intervals") or []
+    return len(ivs) == 1 and list(ivs[0]) == list(h["range"])
+
+
 def _unresolved(sa: dict, where: str) -> list[str]:
     """Problems for the cells of stable values whose eigenvalue paths were not resolved."""
     out = []
@@ -176,12 +182,18 @@ def _unresolved(sa: dict, where: str) -> list[str]:
         cells = h.get("unresolved") or []
         if cells:
             a, b = cells[0]
-            why = (f"the refinement budget of {h['refinement_budget']} values for a {h['loop_states']}-state loop is "
-                   "spent: eigenvalues that move faster than the step control can follow — at a high sample rate every "
-                   "eigenvalue is near the unit circle (certify at a lower rate); repeated poles (e.g. filter sections "
-                   "that repeat or cancel) move as a root of the perturbation"
-                   if h.get("budget_spent") else
-                   "at the finest step: an eigenvalue within a hair of the unit circle and moving fast, a marginal design")
+            if h.get("proofs_spent"):
+                why = ("their members are stable by their eigenvalues, but the proof that every member of a cell is "
+                       "stable failed until its budget was spent: the loop is not proven stable there, which is not "
+                       "a finding of instability (stiff dynamics, e.g. a fast damped human pole against the sample "
+                       "period, make the cell bound loose; docs/method.md#guarantees)")
+            elif h.get("budget_spent"):
+                why = (f"the refinement budget of {h['refinement_budget']} values for a {h['loop_states']}-state loop "
+                       "is spent: eigenvalues that move faster than the step control can follow — at a high sample "
+                       "rate every eigenvalue is near the unit circle (certify at a lower rate); repeated poles (e.g. "
+                       "filter sections that repeat or cancel) move as a root of the perturbation")
+            else:
+                why = "at the finest step: an eigenvalue within a hair of the unit circle and moving fast, a marginal design"
             count = h.get("unresolved_cells", len(cells))
             count = count if isinstance(count, int) and count >= len(cells) else len(cells)
             out.append(f"{where}{h['kind']} {h['parameter']}: eigenvalue paths not resolved in {count} cell(s), "
@@ -487,7 +499,8 @@ def sampled_problems(sa: dict) -> list[str]:
             problems.append(f"{h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']} × {box}: "
                             f"not certified — {h['not_certifiable']}")
             continue
-        if not h["robust"]:
+        said_below = _covers(h) and bool(h.get("unresolved") or h.get("inconclusive"))
+        if not h["robust"] and not said_below:  # a covered range with unresolved cells: the reason is below
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
                             + (f"stable only in {_fmt_ivs(h['stable_intervals'])}" if h["stable_intervals"]
                                else "no member is stable"))

@@ -240,6 +240,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     refined = 0
     unresolved = []
     budget_spent = False
+    proofs_spent = False  # the cell proofs failed until their budget was spent (stable by step control, not proven)
     for a, b in zip(vals[:-1], vals[1:]):
         stack = [(a, b, MAX_DEPTH)]
         pts = []
@@ -274,6 +275,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
         proofs = PROOFS if n <= REF_STATES else max(200, int(PROOFS * (REF_STATES / n) ** 3))
         extra, proven, tried = _prove(grid, [at(v)[0] for v in grid], unresolved, cell_bound, refine, proofs)
         budget_spent = budget_spent or tried > proofs
+        proofs_spent = tried > proofs
         march_proofs = max(proofs - tried, 0)  # the march's proofs come out of the same budget
         grid = sorted(set(grid) | set(extra))
     marched: dict = {}
@@ -375,6 +377,7 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
     return ivs, {"points": points, "refined_points": refined, "unresolved": sorted(unresolved)[:MAX_LISTED],
                  "unresolved_cells": len(unresolved), "edge_cells": march_calls[0],
                  "inconclusive": sorted(inconclusive)[:MAX_LISTED],
-                 "refinement_budget": max_refined, "budget_spent": budget_spent, "loop_states": n,
+                 "refinement_budget": max_refined, "budget_spent": budget_spent, "proofs_spent": proofs_spent,
+                 "loop_states": n,
                  "proof": "step control only" if cell_bound is None else "cell bound", "proven_cells": proven,
                  "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in base))}

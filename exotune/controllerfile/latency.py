@@ -137,7 +137,12 @@ def sampled_latency_margin(doc: ControllerFile | dict, sa: dict, grounded: bool,
            "required_s": req, "confirmed": None,
            "units": {"extra_delay_s": "s", "extra_delay_samples": "samples", "required_s": "s"}}
     if not _nominal_ok(sa):
-        out["method"] = "not stable at the file's delay: margin 0"
+        fams = [h for h in sa["humans"] + sa["environment"] if "skipped" not in h]
+        unproven = (sa["free_stable"] and sa["locked_stable"]
+                    and all(h.get("robust") or (h.get("unresolved") and len(h.get("stable_intervals") or []) == 1
+                                                and list(h["stable_intervals"][0]) == list(h["range"])) for h in fams))
+        out["method"] = ("not proven stable at the file's delay (unresolved cells, see the problems): margin 0"
+                         if unproven else "not stable at the file's delay: margin 0")
         return out
     bl = BatchLoops.of_controller(plant_from_file(cf), discrete_from_file(cf), grounded)
     fams = _families(cf, hint_loop, hint_value)

@@ -39,7 +39,12 @@ def family_line(h: dict) -> str:
                 + " (not the sampled-data loop)")
     if "not_certifiable" in h:
         return head + "not certifiable (" + h["not_certifiable"] + ")"
-    return head + ("robust" if h["robust"] else "NOT robust") + "; " + _stable_in(h["stable_intervals"], h["unit"])
+    verdict = "robust" if h["robust"] else "NOT robust"
+    if not h["robust"] and h.get("unresolved"):
+        ivs = h.get("stable_intervals") or []
+        if len(ivs) == 1 and list(ivs[0]) == list(h["range"]):  # stable by eigenvalues, some cells unproven
+            verdict = "NOT PROVEN robust (unresolved cells)"
+    return head + verdict + "; " + _stable_in(h["stable_intervals"], h["unit"])
 
 
 def _stable_in(intervals, unit: str) -> str:
