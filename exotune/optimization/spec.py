@@ -178,6 +178,12 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
                 raise ConfigError(f"constraints.{k}", f"must be >= 0 (the phase excess is never negative), got {v!r}")
             if k == "latency_margin_s" and cons[k] < 0:
                 raise ConfigError(f"constraints.{k}", f"must be >= 0 s (0 disables the latency margin), got {v!r}")
+            if k in DOB_MEASURES and cons[k] <= 0:
+                # an unstable DOB loop reports PM ≤ 0, GM ≤ 0 dB and a delay margin of 0
+                # (docs/method.md#dob-margins): only a positive bound refuses it
+                raise ConfigError(f"constraints.{k}", f"must be > 0 {CONSTRAINTS[k][2]}: an unstable DOB loop has "
+                                                      f"a {DOB_MEASURES[k]} <= 0, so a bound <= 0 would accept it "
+                                                      f"(a small positive bound asks for a stable DOB loop), got {v!r}")
         elif k in PENDING:
             raise ConfigError(f"constraints.{k}", f"not available yet: {PENDING[k]}")
         else:
