@@ -209,6 +209,22 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
     return cons, how
 
 
+def _check_latency_room(cfg, free: dict, m: float) -> None:
+    """``latency_margin_s ≥ m`` is checked at the delays T + m·k/K: the largest, T + m, must be a
+    delay the analysis accepts (at most 1 s) for every candidate's T."""
+    from ..analysis.latency import delay_limit
+
+    t_max = float(np.max(np.asarray(cfg.implementation.delay_s, dtype=float)))
+    if "implementation.delay_s" in free:
+        t_max = max(t_max, float(free["implementation.delay_s"][1]))
+    hi = delay_limit()
+    if m > 0 and t_max + m > hi:
+        raise ConfigError("constraints.latency_margin_s",
+                          f"{m:g} s is checked at delays up to T + {m:g} s = {t_max + m:g} s, beyond the {hi:g} s "
+                          f"an analysis accepts: at most {max(hi - t_max, 0.0):g} s with this design's delay "
+                          f"(docs/optimize-spec.md#constraints)")
+
+
 def _is_int(v) -> bool:
     """An integer: a Python or numpy one (``np.int64(3)``), never a bool (``True``, ``np.True_``)."""
     return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
@@ -283,6 +299,7 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     if what.startswith(("design.", "plant.", "implementation.")) and what not in free:
         raise ConfigError("objective", f"{objective} is the parameter {what}: list it under free with its bounds")
     cons, how = _constraints(cfg, mapping.get("constraints"))
+    _check_latency_room(cfg, free, cons["latency_margin_s"])
     budget = mapping.get("budget", default_budget(len(free)))
     if not _is_int(budget) or budget < 50:
         raise ConfigError("budget", f"expected an integer ≥ 50, got {_shown(budget)}")

@@ -72,3 +72,15 @@ def test_unstable_dob_loops_break_every_dob_constraint():
     assert not ev["broken"]["dob_delay_margin_s"][stable].any()
     assert not ev["broken"]["dob_gain_margin_db"][stable].any()
     assert not ev["feasible"][~stable].any()
+
+
+def test_a_latency_constraint_beyond_the_accepted_delays_is_refused_by_name():
+    """Hostile round 4, F8: `latency_margin_s: 1.0` failed as "implementation.delay_s: value 1.001 at
+    index 2 is out of the accepted range" (a field the spec does not have). It is now refused before
+    the search, naming the constraint and the largest margin that fits; 0.9 s is accepted."""
+    base = {"base": "examples/scheduled.yaml", "free": {"design.amplification": [2.0, 12.0]}, "budget": 50}
+    with pytest.raises(ConfigError) as ei:
+        load_optimize_spec({**base, "constraints": {"latency_margin_s": 1.0}})
+    assert ei.value.field == "constraints.latency_margin_s" and "at most 0.999 s" in ei.value.reason
+    spec = load_optimize_spec({**base, "constraints": {"latency_margin_s": 0.9}})
+    assert spec.constraints["latency_margin_s"] == 0.9
