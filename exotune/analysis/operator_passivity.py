@@ -63,13 +63,14 @@ def passivity(side: FamilySide) -> PassivityBatch:
     period 2π/T of the delay ripple, placed on the crests and troughs of the frozen ripple
     (:func:`_ripple_points`) wherever the ripple can make Im C7 positive, up to the frequency where
     it can no longer lift the phase by ``RIPPLE_MIN_DEG``; a lobe or gap narrower than the samples
-    is searched where the sampled phase comes near the band's edge and turns back (:func:`_dips`).
-    Bands are the runs of samples with Im C7 > 0; their edges are the exact zeros of Im C7. Where
-    the phase passes 90° between samples, the maximum is 90° at the bisected zero of Re C7;
-    otherwise the largest local maximum of the sampled excess, and every one near the listing
-    threshold, is refined by golden section. Bands whose peak excess is below
-    ``BAND_MIN_EXCESS_DEG`` (0.1°) are not listed (with a delay, C7 → 1/K_c with a decaying ripple
-    of period 1/T in frequency).
+    is searched where the sampled phase comes near the band's edge and turns back (:func:`_dips`),
+    and a gap where the samples of a band that may be listed fall steeply (:func:`_gaps`).
+    Bands are the runs of samples with Im C7 > 0 (the maximal intervals of Im C7 > 0); their edges
+    are the exact zeros of Im C7. Where the phase passes 90° between samples, the maximum is 90° at
+    the bisected zero of Re C7; otherwise every sampled local maximum that could hold the maximum,
+    or lift its band to the listing threshold, is refined by golden section (:func:`_peak_cells`).
+    Bands whose peak excess is below ``BAND_MIN_EXCESS_DEG`` (0.1°) are not listed (with a delay,
+    C7 → 1/K_c with a decaying ripple of period 1/T in frequency).
 
     Parameters
     ----------
@@ -91,25 +92,17 @@ def passivity(side: FamilySide) -> PassivityBatch:
     D0, D1, lv = side.leaves.get(z0) or side.compute_leaves(z0)
     Nd = D0.n
     task, w, c, over = _samples(D0, D1, lv)
-    im = np.imag(c)
-    ex = _excess_where(c, im)
-    same = task[1:] == task[:-1]  # consecutive samples of one design
+    # passive gaps that end a listable band early (or split it) but hold no sample
+    task, w, c = _insert(task, w, c, *_gaps(D0, D1, task, w, c))
+    im, ex, same, first, resolved, last, inside, newrun = _runs(task, c)
     best = np.zeros(Nd)
     starts_t = np.flatnonzero(np.r_[True, ~same]) if task.size else np.zeros(0, np.int64)
     if task.size:  # samples are grouped by design: segment maxima
         best[task[starts_t]] = np.maximum.reduceat(ex, starts_t)
-    # bands = runs of samples with Im C7 > 0. The sign of Im C7 is only trusted above the float
-    # resolution (|Im C7| > 1e-8 |C7|); samples below it inherit the state of the previous sample
-    # of the same design, so rounding noise in the high-frequency tail neither splits nor ends a band
-    resolved = np.abs(im) > 1e-8 * np.abs(c)
-    first = np.r_[True, ~same][: task.size]
-    last = np.maximum.accumulate(np.where(resolved | first, np.arange(task.size), 0))
-    inside = (im > 0)[last]
-    newrun = np.r_[True, ~same | (inside[1:] != inside[:-1])][: task.size]
     rid = np.cumsum(newrun) - 1
     starts = np.flatnonzero(newrun)
     peak = np.maximum.reduceat(ex, starts) if starts.size else np.zeros(0)
-    ct, ca, cb, at = _peak_cells(task, w, ex, same, starts_t, best)
+    ct, ca, cb, at = _peak_cells(D0, D1, task, w, c, ex, same, best)
     j90, f90 = _through_90(D0, D1, task, w, c, im, resolved, same)
     ct, at = np.r_[ct, task[j90]], np.r_[at, j90]
     if ct.size:
@@ -157,6 +150,14 @@ def _excess_where(c, im):
     sel = (im > 0) & np.isfinite(c)
     out[sel] = _excess(c[sel])
     return out
+
+
+def _signed_excess(c):
+    """The passivity excess of C7 values ``c`` [deg], negative inside the passive band: minus the
+    angular distance of the phase from the band's nearer edge (0° or −180°). Continuous in the
+    phase (a kink at ±90° only), it is the excess where Im C7 > 0; NaN where ``c`` is not finite."""
+    ph = np.degrees(np.angle(c))
+    return np.where(np.isfinite(c), np.where(ph > 0, np.minimum(ph, 180.0 - ph), np.maximum(ph, -180.0 - ph)), np.nan)
 
 
 def _samples(D0, D1, lv):
@@ -216,13 +217,7 @@ def _samples(D0, D1, lv):
     # a lobe (or a gap in a band) narrower than the sampling: where sin arg C7 comes near 0 and
     # turns back, Im C7 is searched for the other sign between the neighbours; such a point is
     # added as a sample, and the lobe's (gap's) edges follow
-    after, wd, cd = _dips(D0, D1, task, w, c)
-    if after.size:
-        ins = np.zeros(task.size, np.int64)
-        np.add.at(ins, after, 1)
-        order = np.argsort(after, kind="stable")
-        put = _inserter(ins)
-        task, w, c = put(task, task[after][order]), put(w, wd[order]), put(c, cd[order])
+    task, w, c = _insert(task, w, c, *_dips(D0, D1, task, w, c))
     return task, w, c, over
 
 
@@ -387,29 +382,148 @@ def _ripple_points(wa, wb, n, k0, psi_a, dpsi):
     return n, w
 
 
-def _peak_cells(task, w, ex, same, starts, best):
-    """The brackets where the maximum of the excess is refined by golden section: around each
-    design's largest sampled excess (its first sample attaining ``best``, when positive) and every
-    local maximum within a factor 2 below the listing threshold. ``starts``: the first sample of
-    each design that has samples. Returns ``(task, a, b, sample)``: the sample names the run that
-    the refined value belongs to."""
+def _local_maxima(w, c, ex, same):
+    """The sampled local maxima of the excess ``ex`` [deg] and how high each could rise between its
+    neighbours.
+
+    A parabola through three samples whose middle one is the highest rises above it by at most
+    1/(4ρ(1 + ρ)) times its fall to the lower neighbour (ρ: the ratio of the shorter to the longer
+    of the two cells); the reach is the middle value plus that fall times
+    :func:`~exotune.numerics.quasipoly.dip_rise`, at least four times the parabola's bound
+    (docs/method.md#passivity-of-the-operator-compliance). The fall is measured on the signed
+    excess (:func:`_signed_excess` of the C7 samples ``c``): a sample just inside a band whose
+    neighbours lie deep in the passive band can sit far below the band's peak between them. A
+    sample without a (finite) neighbour has an infinite reach. Returns ``(top, reach)``: whether
+    each sample is a positive local maximum, and its reach [deg] (the sample's excess elsewhere)."""
+    n = ex.size
+    if n < 2:
+        return ex > 0, np.where(ex > 0, np.inf, ex)
+    left, right = np.r_[False, same], np.r_[same, False]
+    top = (ex > 0) & ~(left & (np.r_[0.0, ex[:-1]] > ex)) & ~(right & (np.r_[ex[1:], 0.0] > ex))
+    i = np.flatnonzero(top)
+    li, ri = np.maximum(i - 1, 0), np.minimum(i + 1, n - 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sl = np.where(left[i], _signed_excess(c[li]), np.nan)
+        sr = np.where(right[i], _signed_excess(c[ri]), np.nan)
+        fall = ex[i] - np.fmin(sl, sr)  # NaN: no (finite) neighbour
+        rise = dip_rise(np.where(left[i], w[i] - w[li], 0.0), np.where(right[i], w[ri] - w[i], 0.0))
+        lift = np.where(fall > 0, rise * fall, np.where(np.isnan(fall), np.inf, 0.0))
+    reach = ex.copy()
+    reach[i] += lift
+    return top, reach
+
+
+def _peak_cells(D0, D1, task, w, c, ex, same, best):
+    """The brackets where the maximum of the excess is refined by golden section: around every
+    sampled local maximum whose reach (:func:`_local_maxima`) attains its design's largest sampled
+    excess ``best`` (it may hold the maximum), or, below ``BAND_MIN_EXCESS_DEG``, attains that
+    threshold or lies within a factor 2 below it (it may decide whether its band is listed).
+    The bracket runs between the sample's neighbours, or from the zero of Im C7 towards a passive
+    neighbour (:func:`_edges`): the excess is positive inside, so golden section cannot turn away
+    from the lobe where the excess is flat (zero). Returns ``(task, a, b, sample)``: the sample
+    names the run that the refined value belongs to."""
     n = task.size
     if n < 2:
         z = np.zeros(0, np.int64)
         return z, np.zeros(0), np.zeros(0), z
-    left = np.r_[False, same]  # sample i has a left neighbour of its design
-    right = np.r_[same, False]
-    top = (ex == best[task]) & (ex > 0)
-    # the first sample of each design attaining its maximum
-    first_top = np.flatnonzero(top & ~np.r_[False, top[:-1] & same])
-    first_top = first_top[np.r_[True, task[first_top][1:] != task[first_top][:-1]]] if first_top.size else first_top
-    exl = np.where(left, np.r_[0.0, ex[:-1]], -np.inf)
-    exr = np.where(right, np.r_[ex[1:], 0.0], -np.inf)
-    near = (ex >= 0.5 * BAND_MIN_EXCESS_DEG) & (ex < BAND_MIN_EXCESS_DEG) & (ex >= exl) & (ex >= exr)
-    i = np.union1d(first_top, np.flatnonzero(near))
-    a = w[np.where(left[i], i - 1, i)]
-    b = w[np.where(right[i], i + 1, i)]
+    top, reach = _local_maxima(w, c, ex, same)
+    low = ex < BAND_MIN_EXCESS_DEG
+    i = np.flatnonzero(top & ((reach >= best[task]) | (low & ((reach >= BAND_MIN_EXCESS_DEG)
+                                                               | (ex >= 0.5 * BAND_MIN_EXCESS_DEG)))))
+    left, right = np.r_[False, same][i], np.r_[same, False][i]
+    li, ri = np.where(left, i - 1, i), np.where(right, i + 1, i)
+    a = _edges(D0, D1, task, w, c, li, i, w[li], ok=left)
+    b = _edges(D0, D1, task, w, c, i, ri, w[ri], ok=right)
     return task[i], a, b, i
+
+
+def _runs(task, c):
+    """The runs of samples of one design and one sign of Im C7 (a run with Im C7 > 0 is a band).
+
+    The sign of Im C7 is only trusted above the float resolution (|Im C7| > 1e-8 |C7|); samples
+    below it inherit the state of the previous sample of the same design, so rounding noise in the
+    high-frequency tail neither splits nor ends a band. Returns ``(im, ex, same, first, resolved,
+    last, inside, newrun)``: Im C7 and the excess [deg] per sample, whether each sample and the
+    next are of one design, whether it is its design's first, whether its sign is resolved, the
+    last resolved sample up to it, whether it lies in a band, and whether it starts a run."""
+    im = np.imag(c)
+    ex = _excess_where(c, im)
+    same = task[1:] == task[:-1]
+    first = np.r_[True, ~same][: task.size]
+    resolved = np.abs(im) > 1e-8 * np.abs(c)
+    last = np.maximum.accumulate(np.where(resolved | first, np.arange(task.size), 0))
+    inside = (im > 0)[last]
+    newrun = np.r_[True, ~same | (inside[1:] != inside[:-1])][: task.size]
+    return im, ex, same, first, resolved, last, inside, newrun
+
+
+def _gaps(D0, D1, task, w, c):
+    """Passive gaps without a sample inside the bands that may be listed (a band whose reach,
+    :func:`_local_maxima`, attains ``BAND_MIN_EXCESS_DEG``): they would merge the band with a
+    lobe beyond the gap, or end it past its true edge.
+
+    Candidates: every cell between two resolved samples of such a band whose sin arg C7 differ,
+    where the lower one is nearer to 0 than ``DIP_RISE_UNEVEN`` times the difference and is not
+    a sampled local minimum (the dips search those, :func:`_dips`): the samples fall towards the
+    band's end, or towards a lower sample. −|Δ00|² Im C7 = Im(Δ00·conj Δ10) is maximized on the
+    cell by golden section; where its maximum is positive (Im C7 < 0: a gap), that point is
+    returned (docs/method.md#passivity-of-the-operator-compliance).
+
+    Returns ``(after, w, c7)``: the index of the sample each new point follows, the point [rad/s]
+    and C7 there."""
+    n = task.size
+    z = np.zeros(0, np.int64)
+    if n < 2:
+        return z, np.zeros(0), np.zeros(0, complex)
+    im, ex, same, first, resolved, last, inside, newrun = _runs(task, c)
+    rid = np.cumsum(newrun) - 1
+    starts = np.flatnonzero(newrun)
+    _, reach = _local_maxima(w, c, ex, same)
+    listable = (inside[starts] & (np.maximum.reduceat(reach, starts) >= BAND_MIN_EXCESS_DEG))[rid]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(resolved & (im > 0), im / np.abs(c), np.nan)  # NaN: not a resolved band sample
+    i = np.arange(n - 1)
+    ua, ub = u[:-1], u[1:]
+    dec = ua > ub
+    hi_, lo_ = np.fmax(ua, ub), np.fmin(ua, ub)
+    # the lower sample's other neighbour (beyond the cell): a higher band sample makes it a dip
+    o = np.where(dec, i + 2, i - 1)
+    ok_o = (o >= 0) & (o < n)
+    o = np.clip(o, 0, n - 1)
+    uo = np.where(ok_o & (task[o] == task[i]), u[o], np.nan)
+    with np.errstate(invalid="ignore"):
+        cand = (same & listable[:-1] & listable[1:] & (rid[:-1] == rid[1:]) & (ua != ub) & ~(uo > lo_)
+                & (lo_ < DIP_RISE_UNEVEN * (hi_ - lo_)))
+    j = np.flatnonzero(cand)
+    if j.size == 0:
+        return z, np.zeros(0), np.zeros(0, complex)
+    tj = task[j]
+    if compiled():
+        from ..numerics import kernels as _fastphase
+
+        v, ws = _fastphase.golden_max(D0, D1, "cross", tj, w[j], w[j + 1], iters=40, where=True)
+    else:
+        def f(x):
+            return np.imag(D0.eval(tj, x, deriv=False)[0] * np.conj(D1.eval(tj, x, deriv=False)[0]))
+
+        v, ws = golden_max(f, w[j], w[j + 1], where=True)
+    hit = v > 0
+    j, ws = j[hit], ws[hit]
+    a, _ = D0.eval(task[j], ws, deriv=False)
+    b, _ = D1.eval(task[j], ws, deriv=False)
+    return j, ws, b / a
+
+
+def _insert(task, w, c, after, wd, cd):
+    """The samples ``(task, w, c)`` with the points ``(wd, cd)`` inserted after the samples
+    ``after`` (points after one sample given in increasing order)."""
+    if after.size == 0:
+        return task, w, c
+    ins = np.zeros(task.size, np.int64)
+    np.add.at(ins, after, 1)
+    order = np.argsort(after, kind="stable")
+    put = _inserter(ins)
+    return put(task, task[after][order]), put(w, wd[order]), put(c, cd[order])
 
 
 def _through_90(D0, D1, task, w, c, im, resolved, same):

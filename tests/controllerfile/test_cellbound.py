@@ -8,7 +8,6 @@ derivative."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
