@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping
 from .errors import ConfigError
 from .jsonio import check_outputs
 from .numerics.engine import numpy_engine
-from .options import flag_value, number_value, path_value
+from .options import flag_value, latency_requirement_value, number_value, path_value
 
 if TYPE_CHECKING:  # each function imports what it returns: `exotune analyze` loads no controller-file code
     from .results import (
@@ -495,8 +495,7 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
     sample_rate_hz = _rate_override(sample_rate_hz)
     allow_uncertified = flag_value("allow_uncertified", allow_uncertified)
     if require_latency_margin_s is not None:
-        require_latency_margin_s = number_value("require_latency_margin_s", require_latency_margin_s,
-                                                noun="a number of seconds")
+        require_latency_margin_s = latency_requirement_value("require_latency_margin_s", require_latency_margin_s)
     check_outputs([path], outputs={"`out`": path_value("out", out)})
     with numpy_engine():
         return export_design(path, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,

@@ -37,15 +37,34 @@ class InputError(click.ClickException):
     exit_code = 2
 
     def __init__(self, message: str, exit_code: int | None = None, more=()):
+        from .errors import MAX_MORE_LINES
+
         super().__init__(message)
         if exit_code is not None:
             self.exit_code = exit_code
-        self.more = list(more)
+        more = list(more)
+        if len(more) >= MAX_MORE_LINES:  # the first MAX_MORE_LINES problems, then how many more
+            rest = len(more) - (MAX_MORE_LINES - 1)
+            more = more[:MAX_MORE_LINES - 1] + [f"… and {rest:,} more problems".replace(",", " ")]
+        self.more = more
 
     def show(self, file=None) -> None:
-        click.echo(f"exotune: error: {self.format_message()}", err=True)
+        from .errors import printable
+
+        # a key or path of the user's may hold terminal escapes: shown escaped, never acted on
+        click.echo(printable(f"exotune: error: {self.format_message()}"), err=True)
         for line in self.more:  # the file's further errors, one per line
-            click.echo(line, err=True)
+            click.echo(printable(line), err=True)
+
+
+def _echo(text: str) -> None:
+    """Print a report on stdout: the control characters of the user's strings it quotes (a file
+    name, a design's or requirement's text) shown escaped, never sent to the terminal as they are
+    (an ESC starting an ANSI or OSC sequence); line breaks and tabs kept. JSON is already escaped
+    (:func:`exotune.jsonio.dumps`)."""
+    from .errors import printable
+
+    click.echo(printable(text, keep="\n\t"))
 
 
 def _usage_line(e: click.UsageError) -> str:
@@ -243,8 +262,8 @@ def init_cmd(directory):
     from .api import init
 
     for p in init(directory):
-        click.echo(f"wrote {p}")
-    click.echo(f"next: exotune analyze {directory.rstrip('/') + '/' if directory != '.' else ''}design.yaml")
+        _echo(f"wrote {p}")
+    _echo(f"next: exotune analyze {directory.rstrip('/') + '/' if directory != '.' else ''}design.yaml")
 
 
 @cli.command("design")
@@ -260,7 +279,7 @@ def design_cmd(design_file, as_json, plots):
     from .api import design
 
     r = design(design_file, plots=plots)
-    click.echo(r.to_json() if as_json else r.to_text())
+    _echo(r.to_json() if as_json else r.to_text())
 
 
 @cli.command("sea")
@@ -274,7 +293,7 @@ def sea_cmd(sea_file, as_json):
     from .api import sea
 
     r = sea(sea_file)
-    click.echo(r.to_json() if as_json else r.to_text())
+    _echo(r.to_json() if as_json else r.to_text())
 
 
 @cli.command("analyze")
@@ -294,7 +313,7 @@ def analyze_cmd(design_file, as_json, plots, cross_check, time_budget_s):
     from .api import analyze
 
     r = analyze(design_file, cross_check=cross_check, plots=plots, time_budget_s=time_budget_s)
-    click.echo(r.to_json() if as_json else r.to_text())
+    _echo(r.to_json() if as_json else r.to_text())
 
 
 @cli.command("sweep")
@@ -337,7 +356,7 @@ def report_cmd(sweep_dir, out):
     """
     from .api import report
 
-    click.echo(report(sweep_dir, out).to_text())
+    _echo(report(sweep_dir, out).to_text())
 
 
 @cli.command("optimize")
@@ -358,7 +377,7 @@ def optimize_cmd(ctx, spec_file, out, seed, pareto_csv, as_json):
 
     _note_first_compile()
     r = optimize(spec_file, out, seed=seed, pareto_csv=pareto_csv)
-    click.echo(r.to_json() if as_json else r.to_text())
+    _echo(r.to_json() if as_json else r.to_text())
     if not r.feasible:
         ctx.exit(1)
 
@@ -383,10 +402,13 @@ def export_cmd(design_file, sample_rate_hz, out, require_latency_margin_s, time_
     written, when the controller would not certify (its sampled-data verdicts or latency margin
     against its requirements), unless --allow-uncertified."""
     from .api import export
+    from .options import latency_requirement_value
 
+    if require_latency_margin_s is not None:  # within [0, 1] s, as a design file's requirements section
+        require_latency_margin_s = latency_requirement_value("--require-latency-margin-s", require_latency_margin_s)
     c = export(design_file, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
                time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)
-    click.echo(c.summary())
+    _echo(c.summary())
 
 
 @cli.command("certify")
@@ -403,7 +425,7 @@ def certify_cmd(ctx, controller_file, as_json, time_budget_s, precision):
     from .api import certify
 
     r = certify(controller_file, precision=precision, time_budget_s=time_budget_s)
-    click.echo(r.to_json() if as_json else r.to_text())
+    _echo(r.to_json() if as_json else r.to_text())
     if not r.certified:
         ctx.exit(1)
 
@@ -421,7 +443,7 @@ def codegen_cmd(controller_file, out, allow_uncertified):
     version and the verdict. All files are written or none."""
     from .api import codegen
 
-    click.echo(codegen(controller_file, out, allow_uncertified=allow_uncertified).to_text())
+    _echo(codegen(controller_file, out, allow_uncertified=allow_uncertified).to_text())
 
 
 @cli.command("identify")
@@ -469,7 +491,7 @@ def identify_cmd(ctx, log_files, out, delay_s, filter_hz, sample_rate_hz, fricti
     r = identify(list(log_files) if len(log_files) > 1 else log_files[0], out, delay_s=delay, filter_hz=fh,
                  sample_rate_hz=fs, friction=friction, fix=fix, validate=validate, folds=folds, frf_csv=frf_csv,
                  plots=plots)
-    click.echo(r.to_json() if as_json else r.to_text())
+    _echo(r.to_json() if as_json else r.to_text())
     if not r.complete:
         ctx.exit(1)
 
@@ -507,7 +529,7 @@ def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s,
     e = excite(out, sample_rate_hz=num["--sample-rate-hz"], f_lo_hz=num["--f-lo-hz"], f_hi_hz=num["--f-hi-hz"],
                peak_nm=num["--peak-nm"], rms_nm=num["--rms-nm"], period_s=num["--period-s"], periods=periods,
                duration_s=num["--duration-s"], lines=lines, seed=seed)
-    click.echo(e.to_json() if as_json else e.to_text())
+    _echo(e.to_json() if as_json else e.to_text())
 
 
 @cli.command("simulate")
@@ -550,7 +572,7 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
     shown: list = []
     r = simulate(input_file, scenario, sample_rate_hz=sample_rate_hz, human_inertia=human_inertia, duration=duration,
                  start=start, joint_angle=joint_angle, plots=plots, progress=progress if sys.stderr.isatty() else None)
-    click.echo(r.to_json() if as_json else r.to_text())
+    _echo(r.to_json() if as_json else r.to_text())
 
 
 def main(argv=None) -> None:

@@ -9,15 +9,66 @@ file-level problems (unreadable file, invalid YAML), the file name. ``str(err)``
 
 from __future__ import annotations
 
-__all__ = ["ExotuneError", "ConfigError", "RunFailed", "combine_errors"]
+import re
+
+__all__ = ["ExotuneError", "ConfigError", "RunFailed", "combine_errors", "printable", "MAX_MORE_LINES"]
 
 
 MAX_FIELD_CHARS = 300  # the longest field (a path) an error line carries
 MAX_REASON_CHARS = 1000  # the longest reason
+MAX_MORE_LINES = 10  # the further problems an error lists (then "… and N more")
+
+#: what a terminal could act on in a user's text: C0 controls (ESC starts ANSI/OSC sequences, BEL,
+#: backspace, CR), DEL, C1 controls (8-bit CSI/OSC) and the bidirectional overrides and isolates
+#: that reorder what is displayed
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
+
+
+def _escape(m: re.Match) -> str:
+    o = ord(m.group(0))
+    return f"\\x{o:02x}" if o <= 0xFF else f"\\u{o:04x}"
+
+
+def printable(text: str, keep: str = "") -> str:
+    r"""``text`` with every control character a terminal could act on shown escaped (ESC as
+    ``\x1b``, a right-to-left override as ``\u202e``): a file name, key or string of a user's
+    file printed in a message or report cannot move the cursor, retitle or recolour the terminal,
+    or reorder what is shown.
+
+    Parameters
+    ----------
+    text : str
+        The text to print.
+    keep : str, optional
+        Control characters left as they are (``"\n"`` for a report's line breaks).
+
+    Returns
+    -------
+    str
+        The text, with the other control characters as ``\xNN`` / ``\uNNNN``.
+
+    References
+    ----------
+    docs/cli.md#outputs; docs/design-file.md#errors.
+
+    Examples
+    --------
+    >>> printable("\x1b[31mred\x1b[0m")
+    '\\x1b[31mred\\x1b[0m'
+    """
+    text = str(text)
+    if keep:
+        return _CONTROL.sub(lambda m: m.group(0) if m.group(0) in keep else _escape(m), text)
+    return _CONTROL.sub(_escape, text)
 
 
 def _cap(text: str, limit: int) -> str:
     return text if len(text) <= limit else f"{text[:limit]}… (cut; {len(text)} characters)"
+
+
+def _line(text) -> str:
+    """One line of an error: blanks collapsed, control characters escaped."""
+    return printable(" ".join(str(text).split()))
 
 
 class ExotuneError(Exception):
@@ -33,7 +84,7 @@ class RunFailed(ExotuneError):
     exit_code = 1
 
     def __init__(self, message: str):
-        super().__init__(" ".join(str(message).split()))
+        super().__init__(_line(message))
 
 
 class ConfigError(ExotuneError):
@@ -52,9 +103,9 @@ class ConfigError(ExotuneError):
     def __init__(self, field: str, reason: str, more=(), in_file: bool = False):
         # keep every message on one line (the CLI contract is a one-line error), and short: an
         # error never quotes a whole input file
-        self.field = _cap(" ".join(str(field).split()), MAX_FIELD_CHARS)
-        self.reason = _cap(" ".join(str(reason).split()), MAX_REASON_CHARS)
-        self.more = [_cap(" ".join(str(m).split()), MAX_FIELD_CHARS + MAX_REASON_CHARS) for m in more]
+        self.field = _cap(_line(field), MAX_FIELD_CHARS)
+        self.reason = _cap(_line(reason), MAX_REASON_CHARS)
+        self.more = [_cap(_line(m), MAX_FIELD_CHARS + MAX_REASON_CHARS) for m in more]
         self.in_file = bool(in_file)
         super().__init__(self.field, self.reason)
 

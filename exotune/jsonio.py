@@ -26,6 +26,7 @@ import fnmatch
 import json
 import math
 import os
+import re
 import shutil
 import tempfile
 from pathlib import PurePath
@@ -126,10 +127,14 @@ def write_atomic(path, data: str | bytes) -> None:
     if isinstance(data, str):
         data = data.encode("utf-8")
     parent = os.path.dirname(os.path.abspath(path))
-    os.makedirs(parent, exist_ok=True)
+    try:
+        created = _make_parents(parent)
+    except OSError as e:  # name the destination, not the directory that could not be made
+        raise type(e)(e.errno, e.strerror, path) from None
     try:
         fd, tmp = tempfile.mkstemp(prefix=".tmp-" + os.path.basename(path) + ".", dir=parent)
     except OSError as e:  # name the destination, not the temporary file
+        _remove_dirs(created)
         raise type(e)(e.errno, e.strerror, path) from None
     try:
         with os.fdopen(fd, "wb") as fh:
@@ -146,6 +151,7 @@ def write_atomic(path, data: str | bytes) -> None:
             os.unlink(tmp)
         except OSError:
             pass
+        _remove_dirs(created)
         if isinstance(e, OSError) and e.errno is not None:
             # name the destination, not the temporary file
             raise type(e)(e.errno, e.strerror, path) from None
@@ -163,13 +169,22 @@ def dumps(obj) -> str:
     Returns
     -------
     str
-        Strict JSON (no NaN/Infinity literals), indented by 2, non-ASCII characters kept.
+        Strict JSON (no NaN/Infinity literals), indented by 2, non-ASCII characters kept — but for
+        the control characters a terminal could act on (DEL, the C1 controls, the bidirectional
+        overrides; ``json`` escapes the C0 ones), written as ``\\uNNNN`` escapes: the same JSON
+        value, safe to print.
 
     References
     ----------
     docs/cli.md#json-output.
     """
-    return json.dumps(to_jsonable(obj), indent=2, ensure_ascii=False, allow_nan=False)
+    text = json.dumps(to_jsonable(obj), indent=2, ensure_ascii=False, allow_nan=False)
+    return _JSON_CONTROL.sub(lambda m: f"\\u{ord(m.group(0)):04x}", text)
+
+
+#: the characters ``json.dumps(ensure_ascii=False)`` leaves raw that a terminal could act on (they
+#: occur only inside JSON strings, where a ``\uNNNN`` escape is the same character)
+_JSON_CONTROL = re.compile(r"[\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
 
 
 def _umask() -> int:
@@ -180,7 +195,8 @@ def _umask() -> int:
 
 def _make_parents(path: str) -> list[str]:
     """Create the missing directories of ``path`` (itself included); return those created,
-    deepest first (to remove them again when a staged write fails)."""
+    deepest first (to remove them again when a write fails). When one cannot be made (a path
+    too long for the file system, no permission), those made before it are removed again."""
     missing = []
     cur = os.path.abspath(path)
     while not os.path.isdir(cur):
@@ -189,9 +205,29 @@ def _make_parents(path: str) -> list[str]:
         if parent == cur:
             break
         cur = parent
-    for d in reversed(missing):
-        os.mkdir(d)
-    return missing
+    made: list[str] = []
+    try:
+        for d in reversed(missing):
+            try:
+                os.mkdir(d)
+            except FileExistsError:  # made meanwhile by another process: not ours to remove
+                if os.path.isdir(d):
+                    continue
+                raise
+            made.insert(0, d)
+    except BaseException:
+        _remove_dirs(made)
+        raise
+    return made
+
+
+def _remove_dirs(dirs: list[str]) -> None:
+    """Remove the directories ``dirs`` (deepest first) made by a failed write, when empty."""
+    for d in dirs:
+        try:
+            os.rmdir(d)
+        except OSError:
+            pass
 
 
 def _cannot_write(dest: str, e: OSError):
@@ -299,11 +335,7 @@ def write_outputs(files=None, dirs=None) -> None:
         for d in stages:
             shutil.rmtree(d, ignore_errors=True)
         stages = []
-        for d in created:
-            try:
-                os.rmdir(d)
-            except OSError:
-                pass
+        _remove_dirs(created)
         raise
     finally:
         for d in stages:
@@ -336,6 +368,8 @@ def _same(a: str, b: str) -> bool:
 
 
 TMP_NAME_EXTRA = 14  # ".tmp-" + "." + mkstemp's 8 random characters: what a temporary name adds
+#: what staging adds to an output's path: "/.exotune-stage-" + 8 random characters, and the temporary name
+STAGE_PATH_EXTRA = 24 + TMP_NAME_EXTRA
 
 
 def _check_parent(label: str, path: str) -> None:
@@ -360,6 +394,14 @@ def _check_parent(label: str, path: str) -> None:
         name_max = os.pathconf(cur, "PC_NAME_MAX")
     except (OSError, ValueError):
         name_max = 255
+    try:
+        path_max = os.pathconf(cur, "PC_PATH_MAX")
+    except (OSError, ValueError):
+        path_max = 4096
+    size = len(os.fsencode(os.path.abspath(path)))
+    if size + STAGE_PATH_EXTRA >= path_max:  # PATH_MAX counts the terminating NUL
+        raise ConfigError(label.replace("`", ""), f"the path is too long for the file system ({size} bytes; at most "
+                                                  f"{path_max - 1 - STAGE_PATH_EXTRA})")
     parts = [q for q in os.path.abspath(path).split(os.sep) if q]
     for k, part in enumerate(parts):
         # a file is written through a temporary sibling named ".tmp-<name>.<8 characters>"

@@ -10,7 +10,8 @@ import re
 
 from .errors import ConfigError
 
-__all__ = ["number_value", "flag_value", "path_value", "NUMBER_TEXT", "INTEGER_TEXT"]
+__all__ = ["number_value", "latency_requirement_value", "flag_value", "path_value", "NUMBER_TEXT", "INTEGER_TEXT",
+           "MAX_LATENCY_REQUIREMENT_S"]
 
 #: A number's text as a YAML 1.2 file writes a decimal number (core schema: ``2.5``, ``1e3``,
 #: ``-0.5``, ``.5``, ``3.``), surrounding blanks aside. Python's ``float`` also reads ``1_000``,
@@ -21,6 +22,10 @@ INTEGER_TEXT = re.compile(r"[-+]?[0-9]+")
 #: The spellings of a non-finite number (``nan``, ``inf``, ``-.inf``, ``Infinity``, …).
 _NON_FINITE_TEXT = re.compile(r"[-+]?\.?(?:inf|infinity|nan)", re.IGNORECASE)
 _HINT = "(write it as a design file does: ASCII digits, an optional '.' and exponent, no '_')"
+#: The largest latency-margin requirement [s]: the top of the accepted range of delays
+#: (``exotune.config.validate.LIMITS["delay"]``, also that of a design file's
+#: ``requirements.latency_margin_s``; not imported: the options are below the configuration layer).
+MAX_LATENCY_REQUIREMENT_S = 1.0
 
 
 def _number_text(name: str, text, noun: str) -> None:
@@ -92,6 +97,50 @@ def number_value(name: str, text, positive: bool = False, noun: str = "a number"
         raise ConfigError(name, f"must be a finite number, got {text!r}")
     if positive and not v > 0:
         raise ConfigError(name, f"must be > 0, got {text!r}")
+    return v
+
+
+def latency_requirement_value(name: str, text, strings: bool = True) -> float:
+    """A required latency margin [s] (``--require-latency-margin-s``): a number of seconds in
+    [0, :data:`MAX_LATENCY_REQUIREMENT_S`] — the accepted range of a design file's
+    ``requirements.latency_margin_s`` and of the total delays the analyses accept; 0: no
+    requirement. A larger requirement (``1e308``) could never be checked: it is refused naming
+    ``name``, never written into a controller file.
+
+    Parameters
+    ----------
+    name : str
+        The option or keyword named by the error.
+    text : Any
+        The value (the option's text, or a number).
+    strings : bool, optional
+        Accept the number's text (see :func:`number_value`).
+
+    Returns
+    -------
+    float
+        The requirement [s].
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When the value is not a finite number of seconds in [0, 1].
+
+    References
+    ----------
+    docs/design-file.md#input-limits-and-accepted-ranges; docs/controller-file.md (``requirements``).
+
+    Examples
+    --------
+    >>> latency_requirement_value("--require-latency-margin-s", "0.002")
+    0.002
+    """
+    v = number_value(name, text, noun="a number of seconds", strings=strings)
+    if not 0.0 <= v <= MAX_LATENCY_REQUIREMENT_S:
+        raise ConfigError(name, f"out of the accepted range: must be in [0, {MAX_LATENCY_REQUIREMENT_S:g}] s, got "
+                                f"{text!r} (the extra delay the loop must tolerate: the analyses accept total delays "
+                                f"up to {MAX_LATENCY_REQUIREMENT_S:g} s, as a design file's "
+                                "requirements.latency_margin_s does; docs/design-file.md#input-limits-and-accepted-ranges)")
     return v
 
 

@@ -298,14 +298,17 @@ class DobMargins(Result):
 @dataclass(frozen=True)
 class Amplification(Result):
     """Delivered amplification |C6/C5| (paper §II-D): DC value [–], −3 dB bandwidth [Hz] and
-    whether C6/C5 is minimum phase."""
+    whether C6/C5 is minimum phase; ``conclusive`` is False when the zero count of C6/C5 was not
+    decided (``minimum_phase`` is then False, and unknown)."""
 
     dc: float
     bandwidth_hz: float
     minimum_phase: bool
+    conclusive: bool = True
 
     def to_dict(self) -> dict:
-        return {"dc": self.dc, "bandwidth_hz": self.bandwidth_hz, "minimum_phase": self.minimum_phase}
+        return {"dc": self.dc, "bandwidth_hz": self.bandwidth_hz, "minimum_phase": self.minimum_phase,
+                "conclusive": self.conclusive}
 
 
 @dataclass(frozen=True)

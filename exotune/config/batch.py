@@ -16,7 +16,7 @@ from ..errors import ConfigError
 from ..model.plant import Plant
 from ..model.shaping import DesignParams
 from .design import DesignConfig
-from .validate import FILTER_KEYS, check_delay_samples, fmt_value, limit_text, LIMITS
+from .validate import FILTER_KEYS, check_delay_samples, fmt_outside, fmt_value, limit_text, LIMITS
 
 __all__ = [
     "design_row",
@@ -89,13 +89,15 @@ def _override_values(path: str, values: Any) -> np.ndarray:
     if bad.size:
         i = int(bad[0])
         neg = "<=" if op == ">" else "<"
-        raise ConfigError(path, f"value {arr[i]:g} at index {i} is {neg} {bound:g} (must be {op} {bound:g})")
+        shown = fmt_outside(float(arr[i]), (lambda v: v > bound) if op == ">" else (lambda v: v >= bound))
+        raise ConfigError(path, f"value {shown} at index {i} is {neg} {bound:g} (must be {op} {bound:g})")
     kind = OVERRIDE_LIMITS[path]
     lo, lo_open, hi, _unit = LIMITS[kind]
     bad = np.flatnonzero(~(((arr > lo) if lo_open else (arr >= lo)) & (arr <= hi)))
     if bad.size:
         i = int(bad[0])
-        raise ConfigError(path, f"value {fmt_value(float(arr[i]))} at index {i} is out of the accepted range "
+        shown = fmt_outside(float(arr[i]), lambda v: ((v > lo) if lo_open else (v >= lo)) and v <= hi)
+        raise ConfigError(path, f"value {shown} at index {i} is out of the accepted range "
                                 f"{limit_text(kind)} (docs/design-file.md#input-limits-and-accepted-ranges)")
     return arr
 

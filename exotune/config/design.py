@@ -76,7 +76,7 @@ from .schema import (
     SeaFileIn,
 )
 from ..units import fmt_num
-from .validate import FILTER_KEYS, LIMITS, check_delay_samples, fmt_value, in_limits, kind_of, limit_text, validate_model
+from .validate import FILTER_KEYS, LIMITS, check_delay_samples, fmt_outside, fmt_value, in_limits, kind_of, limit_text, validate_model
 from .yamlio import read_yaml
 
 __all__ = [
@@ -296,10 +296,13 @@ def _transmission_errors(plant, transmission) -> list[ConfigError]:
                 continue
             unit = LIMITS[kind][3]
             lo, hi = _ratio_window(plant)
+            # enough digits to show why it is out (2.0000001 is not "2" beside a window ending at 2)
+            rs = fmt_outside(float(r), lambda v, x=x, kind=kind: in_limits(x * v * v, kind))
+            xs = fmt_outside(x * r * r, lambda v, kind=kind: in_limits(v, kind))
             errors.append(ConfigError(
                 f"transmission.ratio[{i}]",
-                f"the {what} at ratio {fmt_num(r)}, plant.{key} × ratio² = {fmt_num(x)} {unit} × {fmt_num(r)}² = "
-                f"{fmt_num(x * r * r)} {unit}, is out of the accepted range {limit_text(kind)} (the motor inertia, "
+                f"the {what} at ratio {rs}, plant.{key} × ratio² = {fmt_num(x)} {unit} × {rs}² = "
+                f"{xs} {unit}, is out of the accepted range {limit_text(kind)} (the motor inertia, "
                 f"motor damping and SEA stiffness scale with ratio²; with this plant the ratios must lie in "
                 f"[{lo}, {hi}] (–); docs/design-file.md#input-limits-and-accepted-ranges)"))
             break

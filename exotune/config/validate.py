@@ -22,6 +22,7 @@ from ..errors import ConfigError, combine_errors
 __all__ = [
     "excerpt",
     "fmt_value",
+    "fmt_outside",
     "to_number",
     "number_field",
     "range_pair",
@@ -30,6 +31,7 @@ __all__ = [
     "join_path",
     "did_you_mean",
     "validate_model",
+    "pydantic_reason",
     "check_delay_samples",
     "check_analysis_filters",
     "MAX_DELAY_SAMPLES",
@@ -191,13 +193,53 @@ def number_field(field: str, v: Any) -> float:
         raise ConfigError(field, str(e)) from None
 
 
+def fmt_outside(x: float, accepted) -> str:
+    """``x`` as a message refusing it shows it: :func:`fmt_value`'s short form, unless that form
+    reads as an accepted value (10000.0000001 printed ``10000`` beside the range ``[1, 1e4]``), then
+    the shortest text that reads back exactly (``repr``: ``10000.0000001``), which shows why it is
+    refused.
+
+    Parameters
+    ----------
+    x : float
+        The refused value.
+    accepted : callable
+        ``accepted(v)`` is True for a value the check accepts.
+
+    Returns
+    -------
+    str
+        The value's text.
+
+    References
+    ----------
+    docs/design-file.md#errors; docs/design-file.md#input-limits-and-accepted-ranges.
+
+    Examples
+    --------
+    >>> fmt_outside(10000.0000001, lambda v: 1 <= v <= 1e4)
+    '10000.0000001'
+    >>> fmt_outside(2e4, lambda v: 1 <= v <= 1e4)
+    '20000'
+    """
+    text = fmt_value(x)
+    if isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x):
+        try:
+            shown = float(text)
+        except ValueError:
+            return text
+        if accepted(shown):
+            return repr(float(x))
+    return text
+
+
 def _bound_check(x: float, gt=None, ge=None, lt=None) -> None:
     if gt is not None and not x > gt:
-        raise ValueError(f"must be > {gt:g}, got {fmt_value(x)}")
+        raise ValueError(f"must be > {gt:g}, got {fmt_outside(x, lambda v: v > gt)}")
     if ge is not None and not x >= ge:
-        raise ValueError(f"must be >= {ge:g}, got {fmt_value(x)}")
+        raise ValueError(f"must be >= {ge:g}, got {fmt_outside(x, lambda v: v >= ge)}")
     if lt is not None and not x < lt:
-        raise ValueError(f"must be < {lt:g}, got {fmt_value(x)}")
+        raise ValueError(f"must be < {lt:g}, got {fmt_outside(x, lambda v: v < lt)}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -300,7 +342,8 @@ def check_limit(x: float, kind: str) -> float:
     docs/design-file.md#input-limits-and-accepted-ranges.
     """
     if not in_limits(x, kind):
-        raise ValueError(f"out of the accepted range: must be in {limit_text(kind)}, got {fmt_value(x)} "
+        raise ValueError(f"out of the accepted range: must be in {limit_text(kind)}, got "
+                         f"{fmt_outside(x, lambda v: in_limits(v, kind))} "
                          "(docs/design-file.md#input-limits-and-accepted-ranges)")
     return x
 
@@ -351,7 +394,8 @@ def range_pair(v: Any, limit: str | None = None) -> tuple[float, float]:
         if not lo > 0:
             raise ValueError(f"range lo must be > 0, got {fmt_value(lo)}")
         if lo > hi:
-            raise ValueError(f"malformed range: lo = {lo:g} > hi = {hi:g}")
+            shown = (f"{lo:g}", f"{hi:g}") if f"{lo:g}" != f"{hi:g}" else (repr(lo), repr(hi))
+            raise ValueError(f"malformed range: lo = {shown[0]} > hi = {shown[1]}")
         if limit is not None:
             for name, x in (("lo", lo), ("hi", hi)):
                 try:
@@ -562,10 +606,90 @@ def did_you_mean(key: Any, allowed) -> str:
     return f"; did you mean {close[0]}?" if close else ""
 
 
+#: pydantic's error types of a number, an integer, a string and a yes/no value
+_NUMBER_TYPES = ("float_type", "float_parsing", "int_type", "int_parsing", "int_from_float", "finite_number")
+_BOUNDS = {"greater_than": ("gt", ">"), "greater_than_equal": ("ge", ">="), "less_than": ("lt", "<"),
+           "less_than_equal": ("le", "<=")}
+
+
+def _bound_text(x) -> str:
+    return fmt_value(float(x)) if isinstance(x, (int, float)) and not isinstance(x, bool) else fmt_value(x)
+
+
+def pydantic_reason(e: dict) -> str:
+    """The reason of one pydantic validation error in exotune's wording ("expected a number, got
+    the string 'x'", "must be >= 0, got -1", "expected a mapping, got a list"), never pydantic's
+    own ("Input should be a valid string"): the one wording of every file exotune reads. Unknown
+    and missing keys are worded by the callers.
+
+    Parameters
+    ----------
+    e : dict
+        One item of ``ValidationError.errors()`` (``type``, ``input``, ``ctx``, ``msg``).
+
+    Returns
+    -------
+    str
+        The reason, naming what was found.
+
+    References
+    ----------
+    docs/design-file.md#errors; docs/controller-file.md.
+    """
+    typ = e.get("type", "")
+    ctx = e.get("ctx") or {}
+    inp = e.get("input")
+    got = kind_of(inp)
+    if typ == "value_error":
+        return str(ctx.get("error", e.get("msg", "invalid value")))
+    if typ in _NUMBER_TYPES:
+        try:
+            x = to_number(inp)
+        except ValueError as err:  # to_number's reason: what was found instead of a number
+            return str(err)
+        if typ.startswith("int"):
+            return f"expected an integer, got {fmt_value(x)}"
+        if typ == "finite_number":
+            return f"must be a finite number, got {fmt_value(x)}"
+        return f"expected a number, got {got}"
+    if typ in _BOUNDS:
+        key, op = _BOUNDS[typ]
+        bound = ctx.get(key)
+        accepted = {">": lambda v: v > bound, ">=": lambda v: v >= bound, "<": lambda v: v < bound,
+                    "<=": lambda v: v <= bound}[op]
+        shown = fmt_outside(inp, accepted) if isinstance(bound, (int, float)) else fmt_value(inp)
+        return f"must be {op} {_bound_text(bound)}, got {shown}"
+    if typ in ("string_type", "string_sub_type", "string_unicode"):
+        return f"expected a string, got {got}"
+    if typ in ("bool_type", "bool_parsing"):
+        return f"expected true or false, got {got}"
+    if typ in ("model_type", "model_attributes_type", "dict_type", "mapping_type"):
+        return f"expected a mapping, got {got}"
+    if typ in ("list_type", "tuple_type", "set_type", "iterable_type"):
+        return f"expected a list, got {got}"
+    if typ == "literal_error":
+        return f"must be {ctx.get('expected', '')}, got {fmt_value(inp)}"
+    if typ == "enum":
+        return f"must be one of {ctx.get('expected', '')}, got {fmt_value(inp)}"
+    if typ in ("too_short", "too_long"):
+        n, actual = ctx.get("min_length" if typ == "too_short" else "max_length"), ctx.get("actual_length")
+        return f"expected {'at least' if typ == 'too_short' else 'at most'} {n} item(s), got {actual}"
+    if typ == "string_pattern_mismatch":
+        return f"{fmt_value(inp)} does not have the expected form (pattern {ctx.get('pattern')})"
+    if typ == "missing":
+        return "required parameter is missing"
+    if typ == "extra_forbidden":
+        return "unknown key"
+    # another check: pydantic's sentence in exotune's words ("Input should be X" -> "must be X")
+    msg = str(e.get("msg", "invalid value"))
+    if msg.startswith("Input should be "):
+        msg = "must be " + msg[len("Input should be "):]
+    return excerpt(f"{msg}, got {got}")
+
+
 def _reason(e: dict, model: type[BaseModel]) -> str:
     loc = tuple(e.get("loc", ()))
     typ = e.get("type", "")
-    ctx = e.get("ctx") or {}
     if typ == "extra_forbidden":
         parent = _model_at(model, loc[:-1])
         allowed = list(parent.model_fields) if parent is not None else []
@@ -573,17 +697,7 @@ def _reason(e: dict, model: type[BaseModel]) -> str:
         if hint:
             return "unknown key" + hint
         return "unknown key" + (f" (allowed keys: {', '.join(allowed)})" if allowed else "")
-    if typ == "missing":
-        return "required parameter is missing"
-    if typ == "value_error":
-        return str(ctx.get("error", e.get("msg", "invalid value")))
-    if typ in ("model_type", "model_attributes_type", "dict_type"):
-        return f"expected a mapping, got {kind_of(e.get('input'))}"
-    if typ == "list_type":
-        return f"expected a list, got {kind_of(e.get('input'))}"
-    if typ == "literal_error":
-        return f"must be {ctx.get('expected', '')}, got {fmt_value(e.get('input'))}"
-    return excerpt(e.get("msg", "invalid value"))
+    return pydantic_reason(e)
 
 
 def _convert(err: ValidationError, model: type[BaseModel], prefix: str) -> ConfigError:
@@ -652,7 +766,8 @@ def check_delay_samples(delay_s: float, fs: float, field: str) -> None:
     """
     n = float(delay_s) * float(fs)
     if n > MAX_DELAY_SAMPLES:
-        raise ConfigError(field, f"{fs:g} Hz makes the {float(delay_s) * 1e3:g} ms delay {n:.3g} samples; the "
+        shown = f"{n:.3g}" if float(f"{n:.3g}") > MAX_DELAY_SAMPLES else repr(n)  # 200.4 is not "200"
+        raise ConfigError(field, f"{fs:g} Hz makes the {float(delay_s) * 1e3:g} ms delay {shown} samples; the "
                                  f"sampled-data model holds one state per sample (limit {MAX_DELAY_SAMPLES})")
 
 

@@ -153,7 +153,9 @@ def sampled_latency_margin(doc: ControllerFile | dict, sa: dict, grounded: bool,
         dT = float(m.extra_delay_s[0])
         if not math.isfinite(dT):
             out.update(extra_delay_s=None, extra_delay_samples=None, confirmed=False,
+                       checked_up_to_s=max(MAX_SAMPLES / fs - T, 0.0),
                        method=f"no probe unstable up to {MAX_SAMPLES:g} samples of total delay")
+            out["units"]["checked_up_to_s"] = "s"
             return out
         sa_lo = analysis(cf.with_delay(T + dT * (1 - REL)))
         new = [] if _nominal_ok(sa_lo) else _gap_probes(fams, sa_lo)
@@ -188,7 +190,14 @@ def requirement_problems(lm: dict) -> list[str]:
         One problem, or none.
     """
     req, m = lm.get("required_s"), lm.get("extra_delay_s")
-    if not req or m is None or m >= req:
+    if m is None:  # no instability up to the probed delays: the requirement is met only within them
+        up = lm.get("checked_up_to_s")
+        if req and up is not None and req > up:
+            return [f"latency margin not verified up to the required {req * 1e3:.3g} ms: no probe is unstable up to "
+                    f"{up * 1e3:.3g} ms of extra delay ({MAX_SAMPLES:g} samples of total delay), beyond which "
+                    "nothing is checked"]
+        return []
+    if not req or m >= req:
         return []
     return [f"latency margin {m * 1e3:.3g} ms ({lm['extra_delay_samples']:.3g} samples) < required {req * 1e3:.3g} ms"]
 

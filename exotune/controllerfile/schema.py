@@ -332,9 +332,11 @@ def validate_controller(doc: Any, source: str = "") -> ControllerSchema:
     try:
         return ControllerSchema.model_validate(doc)
     except ValidationError as e:
+        from ..config.validate import pydantic_reason
+
         err = e.errors()[0]
         loc = field_path(err["loc"]) or (source or "<controller>")
-        msg = err["msg"]
+        msg = pydantic_reason(err)  # exotune's wording, never pydantic's ("Input should be …")
         if err["type"] == "missing":
             msg = "missing field"
         elif err["type"] == "extra_forbidden":

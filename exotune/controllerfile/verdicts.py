@@ -69,10 +69,12 @@ class SampledVerdicts(Result):
 
     def to_dict(self) -> dict:
         """The ``sampled_data`` section of ``exotune analyze --json`` with a rate."""
+        from .latency import requirement_problems
+
         lm = dict(self.latency_margin)
         req = self.required_latency_margin_s
         lm["model"] = "sampled-data (certify's)"
-        lm["met"] = self.latency_margin_s >= req
+        lm["met"] = self.latency_margin_s >= req and not requirement_problems({**lm, "required_s": req})
         return {"model": MODEL, "sample_rate_hz": self.sample_rate_hz, "delay_s": self.delay_s,
                 "delay_samples": self.delay_s * self.sample_rate_hz,
                 "certifiable": self.certifiable, "robust": self.robust, "problems": list(self.problems),

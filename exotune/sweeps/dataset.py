@@ -15,7 +15,7 @@ import os
 
 from ..errors import ConfigError
 from .integrity import scan_chunks
-from .manifest import MANIFEST, chunk_rel, load_manifest, try_lock, write_manifest
+from .manifest import MANIFEST, chunk_rel, load_manifest, sweep_running, try_lock, write_manifest
 from .plan import SweepPlan
 from .result import chunk_list
 from .store import CHUNK_DIR
@@ -97,8 +97,10 @@ def check_results_left(out_dir) -> None:
     Raises
     ------
     ConfigError
-        ``<out_dir>: the sweep is incomplete (… chunks missing: …) …``; not a sweep directory or a
-        damaged manifest (:func:`~exotune.sweeps.manifest.load_manifest`).
+        ``<out_dir>: the sweep is incomplete (… chunks missing: …) …``; ``<out_dir>: the sweep
+        appears to be still running …`` when a run holds the directory and no chunk file is there
+        yet; not a sweep directory or a damaged manifest
+        (:func:`~exotune.sweeps.manifest.load_manifest`).
 
     References
     ----------
@@ -108,6 +110,10 @@ def check_results_left(out_dir) -> None:
     m = load_manifest(out_dir)
     if any(os.path.lexists(os.path.join(out_dir, chunk_rel(i))) for i in range(m["n_chunks"])):
         return  # some chunk file is there: the reader reads it (or names what is wrong with it)
+    if sweep_running(out_dir, m):
+        raise ConfigError(out_dir, f"the sweep appears to be still running (its manifest says running and a run holds "
+                                   f"the directory's lock) and has finished none of its {m['n_chunks']} chunks yet; "
+                                   "run `exotune report` again once it has finished some", in_file=True)
     finished = [c["index"] for c in m["chunks"] if c["status"] == "done"]
     if not finished and m["status"] != "incomplete":
         return  # no chunk ever finished
@@ -120,6 +126,29 @@ def check_results_left(out_dir) -> None:
                                f"{chunk_list(missing)}{gone}), so no finished chunk is left to report; rerun "
                                f"`exotune sweep` with the same spec and -o {out_dir} to compute them, then report "
                                "again", in_file=True)
+
+
+def _check_pairs(table, path: str, index: int) -> None:
+    """ConfigError naming the chunk file and the column when a ``list<list<double>>`` column of
+    chunk ``index`` holds an entry that is not a pair ([lo, hi] of an interval, [value, frequency]
+    of a critical value): a file whose checksum matches its manifest entry, yet not as exotune
+    writes it (both edited)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    for name, col in zip(table.column_names, table.columns):
+        if not (pa.types.is_list(col.type) and pa.types.is_list(col.type.value_type)):
+            continue
+        for arr in col.chunks:
+            inner = pc.list_flatten(arr)
+            lens = pc.fill_null(pc.list_value_length(inner), -1).to_numpy(zero_copy_only=False)
+            bad = lens[lens != 2]
+            if bad.size:
+                got = "a null entry" if bad[0] < 0 else f"an entry of {int(bad[0])} values"
+                raise ConfigError(path, f"column {name} holds entries that are not [lo, hi] pairs ({got}); this is "
+                                        f"not chunk {index} as exotune writes it (the file and its "
+                                        "manifest entry were edited) — delete the file and rerun `exotune sweep` with "
+                                        "the same spec to recompute it")
 
 
 def read_tables(out_dir: str, columns=None, allow_partial: bool = False, manifest: dict | None = None):
@@ -164,11 +193,18 @@ def read_tables(out_dir: str, columns=None, allow_partial: bool = False, manifes
             missing.append(c["index"])
             continue
         try:
-            tables.append(pq.read_table(path, columns=columns))
+            table = pq.read_table(path, columns=columns)
         except (OSError, pa.ArrowException) as e:
             raise ConfigError(path, f"unreadable chunk ({' '.join(str(e).split())}); rerun "
                                     "`exotune sweep` with the same spec to recompute it") from None
+        _check_pairs(table, path, c["index"])
+        tables.append(table)
     if missing and not allow_partial:
+        if sweep_running(out_dir, m):
+            raise ConfigError(out_dir, f"the sweep appears to be still running (its manifest says running and a run "
+                                       f"holds the directory's lock): {len(missing)} of {len(m['chunks'])} chunks are "
+                                       f"not finished yet ({chunk_list(missing)}); read it again once it has finished, "
+                                       "or read the finished chunks with allow_partial=True")
         raise ConfigError(
             out_dir, f"the sweep is incomplete ({len(missing)} of {len(m['chunks'])} chunks missing); rerun "
                      f"`exotune sweep` with the same spec to compute {chunk_list(missing)}"

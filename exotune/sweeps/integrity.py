@@ -13,7 +13,11 @@ chunk file of a sweep against them and against the spec:
   is recomputed when resuming (the file is replaced by the right one);
 * a chunk file that is valid but not recorded (a run killed, or out of disk space, between
   writing the chunk and writing the manifest) is verified against the spec — row count, spec
-  hash, chunk index and the design indices of every row — and recorded as done.
+  hash, chunk index and the design indices of every row — and recorded as done;
+* an entry marked done without the checksum of its file (:func:`records_checksums`: exotune
+  records it for every chunk it finishes since 0.7) is an edited manifest: an error naming
+  ``chunks[i].sha256`` when reading, recomputed when resuming — the row-by-row check would accept
+  a chunk whose results were edited.
 
 References
 ----------
@@ -28,11 +32,11 @@ import os
 import numpy as np
 
 from ..errors import ConfigError
-from .manifest import chunk_rel, refuse_link
+from .manifest import MANIFEST, chunk_rel, refuse_link
 from .plan import SweepPlan
 from .store import CHUNK_DIR, failed_rows_of, schema_list
 
-__all__ = ["sha256_file", "chunk_problem", "scan_chunks", "count_failed_designs"]
+__all__ = ["sha256_file", "chunk_problem", "records_checksums", "scan_chunks", "count_failed_designs", "CHECKSUMS_SINCE"]
 
 _BLOCK = 1 << 20
 
@@ -135,6 +139,36 @@ def _done(e: dict, info: dict, spec_hash: str) -> None:
         e["failed_designs"] = [{"point_index": r.get("point_index"), "reason": r.get("reason")} for r in info["failed_rows"]]
 
 
+#: the first exotune version whose manifests record every finished chunk's ``sha256``
+CHECKSUMS_SINCE = (0, 7)
+
+
+def records_checksums(m: dict) -> bool:
+    """Whether the exotune that wrote the manifest ``m`` records the SHA-256 of every finished
+    chunk (0.7.0 and later; an unreadable version counts as a recent one): an entry ``done``
+    without it is then an edited manifest, never an older one.
+
+    Parameters
+    ----------
+    m : dict
+        The sweep's manifest.
+
+    Returns
+    -------
+    bool
+        True unless ``exotune_version`` is an older version (before 0.7.0).
+
+    References
+    ----------
+    docs/sweep-spec.md#integrity.
+    """
+    v = m.get("exotune_version")
+    try:
+        return tuple(int(x) for x in str(v).split(".")[:2]) >= CHECKSUMS_SINCE
+    except ValueError:
+        return True
+
+
 def scan_chunks(out_dir: str, m: dict, plan: SweepPlan, strict: bool) -> dict:
     """Check every chunk of the sweep against the manifest ``m`` and the spec, and rebuild
     ``m["chunks"]`` (one entry per chunk, in order) from what is on disk.
@@ -161,11 +195,14 @@ def scan_chunks(out_dir: str, m: dict, plan: SweepPlan, strict: bool) -> dict:
     Raises
     ------
     ConfigError
-        A symbolic link in the directory, or (``strict``) a chunk file that is not this sweep's.
+        A symbolic link in the directory, or (``strict``) a chunk file that is not this sweep's,
+        or an entry marked done without its checksum.
     """
     chunk_dir = os.path.join(out_dir, CHUNK_DIR)
     refuse_link(chunk_dir)
     old = {c["index"]: c for c in m["chunks"]}
+    where = {c["index"]: k for k, c in enumerate(m["chunks"])}
+    signed = records_checksums(m)
     entries, reconciled, recompute = [], [], []
     for i in range(plan.n_chunks):
         prev = old.get(i)
@@ -181,6 +218,18 @@ def scan_chunks(out_dir: str, m: dict, plan: SweepPlan, strict: bool) -> dict:
             entries.append(e)
             continue
         recorded = prev is not None and prev.get("status") == "done" and isinstance(prev.get("sha256"), str)
+        if signed and prev is not None and prev.get("status") == "done" and not recorded:
+            # exotune records the checksum of every chunk it finishes: without it the file cannot be
+            # verified (an edited chunk would pass the row-by-row check of an unrecorded one)
+            if strict:
+                raise ConfigError(f"{os.path.join(out_dir, MANIFEST)}: chunks[{where[i]}].sha256",
+                                  f"chunk {i} is marked done without the SHA-256 of its file {e['file']} "
+                                  f"(exotune {m.get('exotune_version')} records it for every finished chunk: the "
+                                  "manifest was edited), so the file cannot be verified; rerun `exotune sweep` with "
+                                  "the same spec to recompute the chunk")
+            recompute.append(i)
+            entries.append(e)
+            continue
         why, info = chunk_problem(out_dir, plan, m, i, prev.get("sha256") if recorded else None)
         if why is not None:
             if strict:

@@ -19,7 +19,8 @@ from .plan import SweepPlan
 from .spec import is_number
 
 __all__ = ["MANIFEST", "FORMAT", "FORMAT_VERSION", "utc_now", "load_manifest", "write_manifest", "dir_lock",
-           "engine_hash", "new_manifest", "check_compatible", "chunk_rel", "refuse_link", "try_lock"]
+           "engine_hash", "new_manifest", "check_compatible", "chunk_rel", "refuse_link", "try_lock", "lock_held",
+           "sweep_running"]
 
 MANIFEST = "manifest.json"
 MAX_MANIFEST_BYTES = 64 << 20  # 64 MiB: ~2·10^5 chunk entries with their checksums
@@ -293,6 +294,76 @@ def try_lock(out_dir: str):
         fh.close()
         return None
     return fh
+
+
+def lock_held(out_dir) -> bool:
+    """Whether a process holds the lock of the sweep directory ``out_dir`` (a sweep running
+    there): a shared lock of ``DIR/.lock`` is tried and released at once, so the check needs no
+    write permission and takes nothing from the run.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The sweep directory.
+
+    Returns
+    -------
+    bool
+        True when another process holds ``DIR/.lock``; False when nobody does, the file is missing
+        or a link, or locks are not available.
+
+    References
+    ----------
+    docs/sweep-spec.md#integrity (the directory lock).
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - non-POSIX
+        return False
+    path = os.path.join(os.fspath(out_dir), ".lock")
+    if os.path.islink(path):
+        return False
+    try:
+        fh = open(path, "rb")
+    except OSError:
+        return False
+    with fh:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return True
+        except OSError:
+            return False
+        fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+    return False
+
+
+def sweep_running(out_dir, m: dict | None = None) -> bool:
+    """Whether a sweep appears to be running in ``out_dir``: its manifest says ``running`` and a
+    process holds the directory's lock (a manifest left ``running`` by a killed run is not).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        The sweep directory.
+    m : dict, optional
+        Its manifest, already loaded; None to read it (False when it cannot be read).
+
+    Returns
+    -------
+    bool
+        True while a run holds the directory.
+
+    References
+    ----------
+    docs/sweep-spec.md#integrity; docs/cli.md#report.
+    """
+    if m is None:
+        try:
+            m = load_manifest(out_dir)
+        except (ConfigError, OSError):
+            return False
+    return m.get("status") == "running" and lock_held(out_dir)
 
 
 def _spec_diff(a: dict, b: dict) -> list[str]:

@@ -62,7 +62,8 @@ class TqdmProgress(SweepProgress):
     """A tqdm progress bar (``sweep: 40%|████ | 8000/20000 …``) and the sweep's lines, on ``stream``.
 
     Lines of failed chunks are written with :meth:`tqdm.tqdm.write` so that they appear above
-    the bar; the other lines are written as they are, each followed by a newline.
+    the bar; the other lines are written as they are, each followed by a newline; their control
+    characters (other than line breaks) are shown escaped (:func:`exotune.errors.printable`).
 
     Parameters
     ----------
@@ -75,6 +76,9 @@ class TqdmProgress(SweepProgress):
         self._bar = None
 
     def message(self, kind: str, text: str) -> None:
+        from ..errors import printable
+
+        text = printable(text, keep="\n")  # an error quoting a user's string: its escapes shown, not acted on
         if kind in ("chunk_failed", "design_failed"):
             from tqdm import tqdm
 

@@ -177,13 +177,26 @@ class SweepReport(Result):
     """``exotune report``: where the report of a sweep went (``directory``), the files written
     (``files``: ``summary.md``, the per-axis CSV tables, the PNG maps), the maps among them
     (``maps``, in the order ``summary.md`` lists them) and, for a partial sweep, the chunks not
-    finished (``missing_chunks``) of the sweep in ``sweep_dir``."""
+    finished (``missing_chunks``) of the sweep in ``sweep_dir`` and whether that sweep appears to
+    be still running (``running``: its manifest says so and a run holds its lock; None when
+    constructed: looked up in ``sweep_dir``)."""
 
     directory: Path
     files: tuple[str, ...] = ()
     maps: tuple[str, ...] = ()
     missing_chunks: tuple[int, ...] = ()
     sweep_dir: str | None = None
+    running: bool | None = None
+
+    def __post_init__(self):
+        # a partial report of a sweep still running says so (None: looked up in its directory)
+        if self.running is None:
+            running = False
+            if self.missing_chunks and self.sweep_dir is not None:
+                from .manifest import sweep_running
+
+                running = sweep_running(self.sweep_dir)
+            object.__setattr__(self, "running", running)
 
     def to_dict(self) -> dict:
         """The ``exotune report --json`` object.
@@ -207,7 +220,13 @@ class SweepReport(Result):
         """
         n = len(self.maps)
         text = f"wrote report to {self.directory} ({n} map{'' if n == 1 else 's'}, summary.md)"
-        if self.missing_chunks:
+        if self.missing_chunks and self.running:
+            n = len(self.missing_chunks)
+            text += (f"\npartial report: the sweep appears to be still running (its manifest says running and a run "
+                     f"holds its directory's lock); {chunk_list(self.missing_chunks)} "
+                     f"{'is' if n == 1 else 'are'} not finished yet and the report covers the finished chunks only; "
+                     "run `exotune report` again once the sweep has finished")
+        elif self.missing_chunks:
             where = f" and -o {self.sweep_dir}" if self.sweep_dir is not None else ""
             text += (f"\npartial sweep: {chunk_list(self.missing_chunks)} missing; the report covers the finished "
                      f"chunks only; rerun `exotune sweep` with the same spec{where} to compute "

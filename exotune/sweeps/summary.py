@@ -118,16 +118,18 @@ def display_path(p) -> str:
     Returns
     -------
     str
-        The path as the report shows it.
+        The path as the report shows it (control characters escaped).
     """
     import os
+
+    from ..errors import printable
 
     p = os.path.abspath(str(p))
     rel = os.path.relpath(p, os.getcwd())
     if not rel.startswith(".."):
-        return rel
+        return printable(rel)  # a name's control characters escaped: `cat summary.md` cannot drive the terminal
     parts = p.rstrip(os.sep).split(os.sep)
-    return os.path.join("…", *parts[-2:])
+    return printable(os.path.join("…", *parts[-2:]))
 
 
 def summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx, robust, used, simple,
@@ -205,7 +207,14 @@ def _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape) -> list[
                  f"of a {' × '.join(map(str, shape))} = {m.get('grid_points')}-point grid")
     else:
         L.append(f"- designs: {n} of {m.get('n_points')} (full grid {' × '.join(map(str, shape))})")
-    if missing:
+    from .manifest import sweep_running
+
+    if missing and sweep_running(sweep_dir, m):
+        L.append(f"- **partial report of a sweep still running** (its manifest says running and a run holds the "
+                 f"directory's lock): {len(missing)} chunk(s) not finished yet ({chunk_list(missing)} of "
+                 f"{len(m.get('chunks', []))}); the tables cover the finished chunks only; run `exotune report` again "
+                 "once the sweep has finished")
+    elif missing:
         L.append(f"- **partial sweep**: {len(missing)} chunk(s) missing ({chunk_list(missing)} of "
                  f"{len(m.get('chunks', []))}); the tables cover the finished chunks only; rerun `exotune sweep` with "
                  f"the same spec and `-o {display_path(sweep_dir)}` to compute "

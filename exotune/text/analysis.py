@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..errors import printable
 from ..model.humans import PARAM_UNITS
 from .kyp import format_certificates
 from .margins import format_margins
@@ -150,7 +151,9 @@ def format_report(r: dict) -> str:
     else:
         L.append("DOB: none")
     a = r["amplification"]
-    L.append(f"Amplification C6/C5: DC {a['dc']:.6g}, -3 dB bandwidth {a['bandwidth_hz']:.4g} Hz, minimum phase {yn(a['minimum_phase'])}")
+    mp = ("minimum phase: unknown (root count inconclusive)" if a.get("conclusive") is False
+          else f"minimum phase {yn(a['minimum_phase'])}")
+    L.append(f"Amplification C6/C5: DC {a['dc']:.6g}, -3 dB bandwidth {a['bandwidth_hz']:.4g} Hz, {mp}")
     L.append(f"J_m_hat / J_j = {r['J_m_hat_over_J_j']:.4g}")
     for e in r.get("gain_schedule") or []:
         L.append(f"Gain schedule, joint angle {e['joint_angle_rad']:g} rad (ratio {e['ratio']:g}): "
@@ -159,4 +162,4 @@ def format_report(r: dict) -> str:
     L += _sampled_and_crosscheck_lines(r, yn)
     for w in r["warnings"]:
         L.append(f"warning: {w}")
-    return "\n".join(L)
+    return printable("\n".join(L), keep="\n")  # a string of the user's quoted here cannot drive the terminal

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from ..errors import printable
 from .numbers import fmt_num, unit_text
 
 __all__ = ["format_design", "format_roots"]
@@ -57,7 +58,7 @@ def format_design(rep: dict) -> str:
     Paper §IV; docs/cli.md#design.
     """
     out = []
-    src = f" — {rep['source']}" if rep.get("source") else ""
+    src = f" — {printable(rep['source'])}" if rep.get("source") else ""  # a path: its control characters escaped
     out.append(f"exotune {rep['exotune_version']} design{src}")
     out.append("Double compliance shaping (paper §IV, docs/method.md#double-compliance-shaping).")
     out.append("Gain convention: " + rep["gain_convention_note"] + ".")

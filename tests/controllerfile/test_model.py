@@ -417,7 +417,7 @@ BEFORE = {
         "the DOB's algebraic loop is singular: the feed-throughs Π b0 of the filters on tau_cmd "
         'add up to 1.0 (must not be 1)'),
     'schema_str': ('sample_rate_hz.value',
-        'Input should be a valid number'),
+        "expected a number, got the string '1000' (a quoted number? remove the quotes)"),
     'schema_extra': ('extra_key',
         'unknown field'),
     'schema_missing': ('golden',

@@ -41,3 +41,17 @@ def test_a_family_not_robust_is_never_silent():
     assert "NOT robust" in family_line(_sa(unresolved=[])["humans"][0])
     problems = sampled_problems(_sa(stable_intervals=[[1.0, 5000.0]]))
     assert any("stable only in [1, 5000]" in p for p in problems)
+
+
+def test_no_instability_up_to_the_probes_meets_only_requirements_within_them():
+    """No probe unstable up to 200 samples of total delay (margin None) met any requirement, so a
+    requirement of 0.5 s at 1 kHz (200 samples = 0.2 s) passed unchecked. It is now a problem
+    beyond the probed delays and met within them."""
+    from exotune.controllerfile.latency import requirement_problems
+
+    lm = {"extra_delay_s": None, "extra_delay_samples": None, "checked_up_to_s": 0.199}
+    (p,) = requirement_problems({**lm, "required_s": 0.5})
+    assert "not verified up to the required 500 ms" in p and "199 ms" in p
+    assert requirement_problems({**lm, "required_s": 0.1}) == []
+    assert requirement_problems({"extra_delay_s": 0.002, "extra_delay_samples": 2.0, "required_s": 0.003})
+    assert requirement_problems({"extra_delay_s": 0.004, "extra_delay_samples": 4.0, "required_s": 0.003}) == []

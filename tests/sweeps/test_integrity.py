@@ -314,9 +314,17 @@ def test_resume_records_unrecorded_chunks_without_recomputing(sweeps, tmp_path):
 
 
 def test_manifest_written_before_the_integrity_fields_is_verified_row_by_row(sweeps, tmp_path):
-    """Entries without a checksum (older manifests) are checked against the spec and recorded."""
+    """Entries without a checksum (manifests written before 0.7, which had none) are checked against
+    the spec and recorded; a 0.7+ manifest without them is refused (tests/sweeps/test_hostile_round4_sweeps.py)."""
     d = _copy(sweeps, tmp_path)
-    _edit(d, lambda m: [c.pop(k) for c in m["chunks"] for k in ("sha256", "spec_hash")])
+
+    def old(m):
+        m["exotune_version"] = "0.6.0"
+        for c in m["chunks"]:
+            c.pop("sha256")
+            c.pop("spec_hash")
+
+    _edit(d, old)
     m = verified_manifest(d)
     assert all(c["sha256"] == sha256_file(_chunk(d, c["index"])) for c in m["chunks"])
 
