@@ -33,10 +33,26 @@ E(s) = ∫ (s − τ)³/3!·M⁗(τ) dτ with M⁗ = U(W⁗R(τ) + 4W‴R1), and
 D⁻¹N(s)D over the cell, at most μ(N(½)) + ½‖D⁻¹ΔN D‖; Leibniz over the two exponentials) — a
 proven bound, not a sample.
 
-Floating-point rounding: the inexact inverse of the eigenvector matrix (the discs are those of
-X M X⁻¹, exactly similar to M, bounded entry by entry through R_X = XV − I) and the rounding of the products
-X M_k V (≤ 2γ_n|X||M_k||V|) are bounded; the rounding of the matrix exponentials that make the
-loop matrix is **estimated** (:func:`exotune.sampled.loop.expm_rounding`: the exponential computed
+Stiff members (a damped human spring: the pole −(K_c + k)/b far beyond 1/T_s). The Dyson factor
+hᵏ integrates the parameter's derivative over the whole sample, while the stiff state forgets it
+within b/(K_c + k): the true coefficients fall like (h·b/((K_c + k)T_s))ᵏ, so β is far above
+the true remainder, and two more losses meet there: the stiff pole e^{−(K_c + k)T_s/b} near
+z = 0 crosses controller poles, and two nearly equal eigenvalues of M0 have nearly parallel
+eigenvectors — V⁻¹ and the discs β·a_i·b_j (not the exact polynomial terms) grow by 1e8 and more.
+Hence two second attempts when the first fails: (1) :func:`disc_test` tries bases in which each
+cluster of close, ill-conditioned eigenvalues shares an orthonormal basis of its invariant
+subspace (a triangular block the Perron scaling weighs, :func:`_bases`) — when the test without
+β passes in the eigenvector basis, or that basis is severely ill-conditioned; (2) :func:`loop_cell`
+recomputes the Taylor model at a higher order K ≤ ``MAX_ORDER`` (the same exact coefficients and
+Dyson remainder, now ∝ h^(K+1)/(K+1)!) when the test without β passed in a basis tried. Both are
+the same proof in another basis or at another order, no new assumption; the screens only save
+work.
+
+Floating-point rounding: the inexact inverse of the basis matrix (the discs are those of
+X M X⁻¹, exactly similar to M, bounded entry by entry through R_X = XV − I) and the rounding of
+the products X M_k V (≤ γ_{4n+4}|X||M_k||V|, complex V included) are bounded; the rounding of the
+matrix exponentials that make the loop matrix is **estimated**
+(:func:`exotune.sampled.loop.expm_rounding`: the exponential computed
 again in balanced coordinates, plus 64u(1 + ‖X_b‖₁)·max|e^{X_b}|) and added to the remainder β — an
 estimate, not a bound: a light human mass on the cuff spring makes ‖A T_s‖ ~1e8 and the
 exponential's entries then carry absolute errors of ~1e-9 that can decide a near-undamped mode.
@@ -53,6 +69,7 @@ from ..sampled.loop import expm_rounding, split_delay
 __all__ = ["disc_test", "loop_cell", "taylor_expm", "ORDER", "AFFINE_RTOL"]
 
 ORDER = 3  # Taylor terms of the loop matrix in s kept exactly; the next is bounded (Dyson)
+MAX_ORDER = 12  # the order of a second attempt on a cell ORDER did not prove (loop_cell), at most
 AFFINE_RTOL = 1e-9  # the plant's affine form in s and the rigid eigenvector, checked to this relative size
 RIGID_TOL = 1e-7  # an eigenvalue this close to z = 1 of an ungrounded loop is the rigid-body mode
 
@@ -85,6 +102,14 @@ def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> t
     margin : float
         1 − the largest |centre| + radius.
     """
+    return _disc_test(coeffs, left, right, beta, rigid)[:2]
+
+
+def _disc_test(coeffs, left, right, beta: float, rigid) -> tuple[bool, float, bool]:
+    """:func:`disc_test`, and ``free``: whether the test without the remainder (β = 0) passed in
+    a basis tried. When it did not, a smaller β from a higher Taylor order is not worth its cost
+    (:func:`loop_cell`): in the same basis the polynomial part's entry bounds only grow with
+    more terms. A screen for work, never part of a proof."""
     Ms = [np.asarray(c, dtype=float) for c in coeffs]
     M0 = Ms[0]
     left = np.eye(M0.shape[0]) if left is None else np.asarray(left, dtype=float)
@@ -97,7 +122,7 @@ def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> t
         M0 = Ms[0]
     n = M0.shape[0]
     if n == 0:
-        return True, 1.0
+        return True, 1.0, True
     from scipy.linalg import matrix_balance
 
     _, (sc, _) = matrix_balance(M0, permute=False, separate=True)
@@ -107,29 +132,120 @@ def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> t
     left, right = left / sc[:, None], right * sc[None, :]
     lam, V = np.linalg.eig(M0)
     V = V / np.linalg.norm(V, axis=0)
+    try:  # the eigenvalues' condition numbers ‖(V⁻¹)_i‖ (unit columns); NaN: V is unusable
+        kappa = np.linalg.norm(np.linalg.inv(V), axis=1)
+    except np.linalg.LinAlgError:
+        kappa = np.full(n, np.nan)
+    best, free = -math.inf, False
+    for basis in _bases(M0, lam, V, kappa):  # the eigenvectors first; clusters merged only if they fail
+        proven, margin, margin_free = _discs(Ms, left, right, beta, basis)
+        if proven:
+            return proven, margin, True
+        free = free or margin_free > 0.0
+        best = max(best, margin)
+        if (n > CLUSTER_MAX_STATES or not np.all(np.isfinite(kappa))
+                or not (free or np.max(kappa) > SEVERE_KAPPA)):
+            # no other basis is tried for a big loop (bounded work: a Schur form per cluster), a
+            # defective M0 (as before), or when neither the remainder nor a severely
+            # ill-conditioned basis is what fails (a cell too wide for its polynomial part)
+            return False, best, free
+    return False, best, free
+
+
+CLUSTER_TOLS = (1e-6, 1e-4, 1e-2, 1e-1)  # distances at which close eigenvalues of M0 share a block (_bases)
+CLUSTER_KAPPA = 1e3  # ... when both their eigenvalue condition numbers exceed this
+CLUSTER_MAX_STATES = 60  # loops with more states try the eigenvector basis only
+SEVERE_KAPPA = 1e6  # the merged bases are tried even when the test without β fails, above this condition number
+
+
+def _bases(M0: np.ndarray, lam: np.ndarray, V: np.ndarray, kappa: np.ndarray):
+    """Candidate bases V for :func:`disc_test` (any invertible V is valid: the discs are those of
+    a matrix similar to M(s), and :func:`_discs` bounds X ≈ V⁻¹'s inexactness): the unit
+    eigenvectors of M0, then for each tolerance of ``CLUSTER_TOLS`` that merges eigenvalues
+    (single linkage, |λ_i − λ_j| ≤ tol, both condition numbers above ``CLUSTER_KAPPA``) the same
+    with each merged cluster's columns replaced by an orthonormal basis of its invariant subspace
+    (a sorted complex Schur form). Two nearly equal eigenvalues (a stiff human pole
+    e^{−(K_c + k)T_s/b} crossing a controller pole near z = 0) have nearly parallel eigenvectors:
+    V⁻¹ is then huge and the remainder's discs β·a_i·b_j with it, while in an orthonormal basis
+    of their joint subspace the block stays triangular and bounded (its off-diagonal entry is
+    weighed by the Perron scaling).
+
+    Parameters
+    ----------
+    M0 : numpy.ndarray
+        The (balanced) midpoint matrix (n, n).
+    lam, V : numpy.ndarray
+        Its eigenvalues (n,) and unit eigenvectors (n, n).
+    kappa : numpy.ndarray
+        The eigenvalues' condition numbers ‖(V⁻¹)_i‖ (n,).
+
+    Returns
+    -------
+    generator of numpy.ndarray
+        The bases (n, n), V first.
+    """
+    from scipy.linalg import schur
+    from scipy.sparse.csgraph import connected_components
+
+    yield V
+    ill = kappa > CLUSTER_KAPPA  # only ill-conditioned eigenvalues merge
+    seen = set()
+    for tol in CLUSTER_TOLS:
+        close = (np.abs(lam[:, None] - lam[None, :]) <= tol) & ill[:, None] & ill[None, :]
+        k, labels = connected_components(close | np.eye(lam.size, dtype=bool), directed=False)
+        key = tuple(labels)
+        if k == lam.size or key in seen:
+            continue
+        seen.add(key)
+        B = V.astype(complex)
+        for c in range(k):
+            idx = np.flatnonzero(labels == c)
+            if idx.size < 2:
+                continue
+            try:
+                _, Z, sdim = schur(M0.astype(complex), output="complex",
+                                   sort=lambda x, ev=lam[idx], t=0.5 * tol: bool(np.min(np.abs(x - ev)) <= t))
+            except (np.linalg.LinAlgError, ValueError):
+                sdim = -1
+            # the leading sdim Schur vectors span the invariant subspace of the selected eigenvalues;
+            # when the reordering did not select exactly the cluster, the eigenvectors' own span (QR)
+            B[:, idx] = Z[:, :idx.size] if sdim == idx.size else np.linalg.qr(V[:, idx])[0]
+        yield B
+
+
+def _discs(Ms: list, left: np.ndarray, right: np.ndarray, beta: float, V: np.ndarray) -> tuple[bool, float, float]:
+    """:func:`disc_test` in the basis V (columns of unit norm, invertible): (proven, margin,
+    margin without the remainder term — computed only when not proven, else the margin), margins
+    −inf when V is not usable."""
+    n = V.shape[0]
     try:
         X = np.linalg.inv(V)
     except np.linalg.LinAlgError:
-        return False, -math.inf
+        return False, -math.inf, -math.inf
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(V))):
         # a defective M0 (e.g. chains of identity sections: nilpotent blocks at z = 0) has no
         # usable eigenvector basis: the cell is not proven (never an exception)
-        return False, -math.inf
+        return False, -math.inf, -math.inf
     # X is V⁻¹ only to rounding: the discs are those of G(s) = X M(s) X⁻¹ (similar to M(s) for any
     # invertible X) = F(s)(I + R_X)⁻¹, F = X M V, R_X = XV − I: |G| ≤ |F|(I + |R_X| + r²/(1 − r)·𝟙𝟙ᵀ)
-    # entry by entry (r ≥ ‖|R_X|‖₂); the products X M_k V carry rounding ≤ 2γ_n|X||M_k||V|
+    # entry by entry (r ≥ ‖|R_X|‖₂); the products X M_k V carry rounding ≤ γ_{4n+4}|X||M_k||V|
+    # (γ_k = kε/(1 − kε)): X M_k, complex by real, is two real inner products (errors ≤ γ_n each
+    # in the real and imaginary parts, so ≤ √2·γ_n ≤ γ_{2n} in modulus); by a complex V the
+    # complex inner products add ≤ √2·γ_{n+2} ≤ γ_{2n+4} (Higham, Accuracy and Stability of
+    # Numerical Algorithms, §3.6); γ_a + γ_b + γ_a·γ_b ≤ γ_{a+b}. The computed X V likewise
+    # ≤ γ_{2n+4}|X||V| (real V: γ_n)
     eps = np.finfo(float).eps
-    gam = 2.0 * n * eps / (1.0 - n * eps)
+    gam = (4 * n + 4) * eps / (1.0 - (4 * n + 4) * eps)
     aX, aV = np.abs(X), np.abs(V)
     RX = np.abs(X @ V - np.eye(n)) + gam * (aX @ aV)
     if not np.all(np.isfinite(RX)):
-        return False, -math.inf
+        return False, -math.inf, -math.inf
     try:
         r = float(np.linalg.norm(RX, 2))
     except np.linalg.LinAlgError:  # the SVD did not converge: nothing is proven
-        return False, -math.inf
+        return False, -math.inf, -math.inf
     if not math.isfinite(r) or r >= 0.5:
-        return False, -math.inf
+        return False, -math.inf, -math.inf
     F = [X @ c @ V for c in Ms] + [np.zeros((n, n))]
     # |entries| of F(s) over the cell: |F0 + δF1| ≤ the larger of its ends (convex in δ; any fixed
     # scaling keeps the row sums convex), |δᵏF_k| ≤ 2⁻ᵏ|F_k|, the remainder's entries by β·a_i·b_j,
@@ -137,14 +253,20 @@ def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> t
     P = np.maximum(np.abs(F[0] - 0.5 * F[1]), np.abs(F[0] + 0.5 * F[1]))
     for k, (Mk, Fk) in enumerate(zip(Ms, F)):
         P += 0.5 ** k * (gam * (aX @ np.abs(Mk) @ aV) + (np.abs(Fk) if k >= 2 else 0.0))
+    P0 = P
     if beta > 0.0:
-        P += beta * np.outer(np.linalg.norm(X @ left, axis=1), np.linalg.norm(right @ V, axis=0))
+        P = P + beta * np.outer(np.linalg.norm(X @ left, axis=1), np.linalg.norm(right @ V, axis=0))
+    worst = _worst(P, RX, r)
+    return worst < 1.0, 1.0 - worst, (1.0 - worst if worst < 1.0 or P0 is P else 1.0 - _worst(P0, RX, r))
+
+
+def _worst(P: np.ndarray, RX: np.ndarray, r: float) -> float:
+    """The largest row sum of D⁻¹|G|D (module docstring) from the entry bound P of |F(s)|."""
     P = P + P @ RX + (np.sum(P, axis=1) * r * r / (1.0 - r))[:, None]
     # Gershgorin discs of D⁻¹(V⁻¹M(s)V)D, D = diag(d): d from the Perron vector of P (the best
     # diagonal scaling), then checked as it is — row sums of D⁻¹PD below 1 prove every disc inside
     d = _perron(P)
-    worst = float(np.max((P @ d) / d))
-    return worst < 1.0, 1.0 - worst
+    return float(np.max((P @ d) / d))
 
 
 def _perron(P: np.ndarray) -> np.ndarray:
@@ -232,8 +354,8 @@ def _taylor_with_rounding(Na: np.ndarray, dN: np.ndarray, t: float, order: int):
     return [E[:m, k * m:(k + 1) * m] for k in range(K)], [err[:m, k * m:(k + 1) * m] for k in range(K)]
 
 
-def _plant_terms(A, B, dA, t0: float, t1: float):
-    """Taylor coefficients (in δ = s − ½, up to ``ORDER``) of W(s) = top rows of
+def _plant_terms(A, B, dA, t0: float, t1: float, order: int = ORDER):
+    """Taylor coefficients (in δ = s − ½, up to ``order``) of W(s) = top rows of
     exp(N0(s) t0)·exp(N1(s) t1) at the cell's midpoint, the diagonal scaling D (of the augmented
     plant) and the Dyson bounds g ≥ sup‖D⁻¹exp(N(s)τ)D‖ (τ ≤ T_s, s in the cell) and
     h = T_s‖D⁻¹ΔN D‖: ‖D⁻¹W⁽ᵏ⁾(s)D‖ ≤ hᵏ·g for every s in the cell (Leibniz over the two factors)."""
@@ -253,12 +375,72 @@ def _plant_terms(A, B, dA, t0: float, t1: float):
     nd = float(np.linalg.norm(scale(dN), 2))
     # ‖D⁻¹e^{N(s)τ}D‖ ≤ e^{μ⁺τ}, μ(N(s)) ≤ μ(N(½)) + ½‖D⁻¹ΔN D‖ (subadditive logarithmic norm)
     g = math.exp(max(max(_lognorm(scale(N0)), _lognorm(scale(N1))) + 0.5 * nd, 0.0) * (t0 + t1))
-    (c0, e0), (c1, e1) = _taylor_with_rounding(N0, dN, t0, ORDER), _taylor_with_rounding(N1, dN, t1, ORDER)
-    W = [sum(c0[j] @ c1[k - j] for j in range(k + 1))[:n] for k in range(ORDER + 1)]  # Cauchy product
+    (c0, e0), (c1, e1) = _taylor_with_rounding(N0, dN, t0, order), _taylor_with_rounding(N1, dN, t1, order)
+    W = [sum(c0[j] @ c1[k - j] for j in range(k + 1))[:n] for k in range(order + 1)]  # Cauchy product
     # the exponentials' rounding carried through the products, to first order, entry by entry
     dW = [sum(e0[j] @ np.abs(c1[k - j]) + np.abs(c0[j]) @ e1[k - j] for j in range(k + 1))[:n]
-          for k in range(ORDER + 1)]
+          for k in range(order + 1)]
     return W, dW, sc, g, (t0 + t1) * nd
+
+
+def _dyson(g: float, h: float, order: int, r1: bool) -> float:
+    """The bound β of the Taylor remainder's Δ (:func:`_cell_terms`) at ``order`` K: with
+    ρ = g·2^-(K+1)/(K+1)!, ρh^(K+1) for the term W^(K+1)R(τ), plus ρ(½h^(K+1) + (K+1)h^K) for
+    (K+1)W^(K)R1 when R depends on s (``r1``)."""
+    rho = g * 0.5 ** (order + 1) / math.factorial(order + 1)
+    return rho * h ** (order + 1) + (rho * (0.5 * h ** (order + 1) + (order + 1) * h ** order) if r1 else 0.0)
+
+
+def _cell_terms(A, B, C, dA, dC, ctrl, M0, order: int):
+    """The loop matrix over the cell for :func:`disc_test` at Taylor order ``order`` K:
+    (coeffs, left, right, g, h, r1, β_round) — the exact coefficients M_0 … M_K in δ = s − ½, the
+    remainder's factors (its bound is :func:`_dyson` (g, h, K, r1) + β_round, the exponentials'
+    rounding estimate) — or None when the loop's layout is not the one this module knows."""
+    n = A.shape[0]
+    t0, t1, d, R = _layout(ctrl, n, C)
+    W, dW, sc, g, h = _plant_terms(A, B, dA, t0, t1, order)
+    if np.max(np.abs(M0[:n] - W[0] @ R)) > AFFINE_RTOL * max(float(np.max(np.abs(M0))), 1.0):
+        return None  # the loop's layout is not the one this module knows
+    nz = ctrl.Ac.shape[0]
+    R1 = np.zeros_like(R)  # R(s) = R + δ·R1: the command row holds D_c C(s) x when d = 0
+    if d == 0:
+        R1[n, :n] = (ctrl.Dc @ dC).reshape(-1)
+    coeffs = [M0]
+    for k in range(1, order + 1):  # (W R)_k = W_k R + W_{k−1} R1; the controller rows are affine in C
+        Mk = np.zeros_like(M0)
+        Mk[:n] = W[k] @ R + W[k - 1] @ R1
+        if k == 1:
+            Mk[n:n + nz, :n] = ctrl.Bc @ dC
+            Mk[n + nz, :n] = (ctrl.Dc @ dC).reshape(-1)
+        coeffs.append(Mk)
+    # remainder E = ∫_{½}^{s} (s − τ)^K/K!·M^(K+1)(τ) dτ, M^(K+1) = U(W^(K+1) R(τ) + (K+1) W^(K) R1):
+    # E = (U D_x)·[Δa, Δb]·[D⁻¹R; D⁻¹R1] with ‖Δa‖ ≤ ρ h^(K+1), ‖Δb‖ ≤ ρ(½h^(K+1) + (K+1)h^K),
+    # ρ = g·2^-(K+1)/(K+1)! (|s − ½| ≤ ½): :func:`_dyson`
+    N = M0.shape[0]
+    left = np.zeros((N, n))
+    left[:n, :n] = np.diag(sc[:n])
+    right = R / sc[:, None]
+    # the rounding of the exponentials (estimated, :func:`exotune.sampled.loop.expm_rounding`): the
+    # plant rows' terms δᵏ(δW_k R + δW_{k−1} R1), |δ| ≤ ½, are (U D_x)·Δ·(D⁻¹R) and (U D_x)·Δ'·(D⁻¹R1)
+    # with ‖Δ‖₂ ≤ Σ_k 2⁻ᵏ‖D_x⁻¹ δW_k D‖_F (and Δ' alike from δW_{k−1})
+    scaled = [float(np.linalg.norm(e * sc[None, :] / sc[:n, None])) for e in dW]
+    rnd = sum(0.5 ** k * x for k, x in enumerate(scaled))
+    r1 = bool(np.any(R1))
+    if r1:
+        right = np.vstack([right, R1 / sc[:, None]])
+        rnd += sum(0.5 ** k * scaled[k - 1] for k in range(1, order + 1))
+    return coeffs, left, right, g, h, r1, rnd
+
+
+def _retry_order(g: float, h: float, r1: bool, rnd: float):
+    """The Taylor order of the second attempt on a cell whose proof at ``ORDER`` failed: the
+    smallest K ≤ ``MAX_ORDER`` whose Dyson remainder is below the rounding estimate β_round (else
+    ``MAX_ORDER``), or None when no higher order lowers the remainder below its value at ``ORDER``."""
+    base = _dyson(g, h, ORDER, r1)
+    for K in range(ORDER + 1, MAX_ORDER + 1):
+        if _dyson(g, h, K, r1) <= rnd:
+            return K
+    return MAX_ORDER if _dyson(g, h, MAX_ORDER, r1) < 1e-3 * base else None
 
 
 def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float) -> tuple[bool, float]:
@@ -267,6 +449,9 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
     :func:`exotune.sampled.plant_ss`; ``m`` a value inside the cell where the affine form is
     checked. Returns (proven, margin); not proven (margin −inf) when the plant is not affine in
     one parameter over the cell, the state count changes, or the rigid mode cannot be deflated.
+    The Taylor model has order ``ORDER``; a cell it does not prove is tried once more at a higher
+    order (:func:`_retry_order`) when the remainder is what the proof lacks (a stiff damped human:
+    the Dyson bound's hᵏ far above the true coefficients; docs/method.md#guarantees).
 
     Parameters
     ----------
@@ -289,6 +474,10 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
         Whether every member of the cell is proven stable.
     margin : float
         The proof's margin (−inf when not proven).
+
+    References
+    ----------
+    docs/method.md#guarantees; paper §V (the sampled-data loop).
     """
     from ..sampled.loop import closed_loop_matrix, plant_ss
 
@@ -304,48 +493,24 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
         if not (-1e-12 <= s_m <= 1 + 1e-12) or res > AFFINE_RTOL * size:
             return False, -math.inf
     A, B, C = Aa + 0.5 * dA, Ba, Ca + 0.5 * dC
-    n = A.shape[0]
     M0 = closed_loop_matrix(A, B, C, ctrl)
-    t0, t1, d, R = _layout(ctrl, n, C)
-    W, dW, sc, g, h = _plant_terms(A, B, dA, t0, t1)
-    if np.max(np.abs(M0[:n] - W[0] @ R)) > AFFINE_RTOL * max(float(np.max(np.abs(M0))), 1.0):
-        return False, -math.inf  # the loop's layout is not the one this module knows
-    nz = ctrl.Ac.shape[0]
-    R1 = np.zeros_like(R)  # R(s) = R + δ·R1: the command row holds D_c C(s) x when d = 0
-    if d == 0:
-        R1[n, :n] = (ctrl.Dc @ dC).reshape(-1)
-    coeffs = [M0]
-    for k in range(1, ORDER + 1):  # (W R)_k = W_k R + W_{k−1} R1; the controller rows are affine in C
-        Mk = np.zeros_like(M0)
-        Mk[:n] = W[k] @ R + W[k - 1] @ R1
-        if k == 1:
-            Mk[n:n + nz, :n] = ctrl.Bc @ dC
-            Mk[n + nz, :n] = (ctrl.Dc @ dC).reshape(-1)
-        coeffs.append(Mk)
-    # remainder E = ∫_{½}^{s} (s − τ)^K/K!·M^(K+1)(τ) dτ, M^(K+1) = U(W^(K+1) R(τ) + (K+1) W^(K) R1):
-    # E = (U D_x)·[Δa, Δb]·[D⁻¹R; D⁻¹R1] with ‖Δa‖ ≤ ρ h^(K+1), ‖Δb‖ ≤ ρ(½h^(K+1) + (K+1)h^K),
-    # ρ = g·2^-(K+1)/(K+1)! (|s − ½| ≤ ½)
-    K = ORDER
-    rho = g * 0.5 ** (K + 1) / math.factorial(K + 1)
-    N = M0.shape[0]
-    left = np.zeros((N, n))
-    left[:n, :n] = np.diag(sc[:n])
-    right, beta = R / sc[:, None], rho * h ** (K + 1)
-    # the rounding of the exponentials (estimated, :func:`exotune.sampled.loop.expm_rounding`): the
-    # plant rows' terms δᵏ(δW_k R + δW_{k−1} R1), |δ| ≤ ½, are (U D_x)·Δ·(D⁻¹R) and (U D_x)·Δ'·(D⁻¹R1)
-    # with ‖Δ‖₂ ≤ Σ_k 2⁻ᵏ‖D_x⁻¹ δW_k D‖_F (and Δ' alike from δW_{k−1})
-    scaled = [float(np.linalg.norm(e * sc[None, :] / sc[:n, None])) for e in dW]
-    beta += sum(0.5 ** k * x for k, x in enumerate(scaled))
-    if np.any(R1):
-        right = np.vstack([right, R1 / sc[:, None]])
-        beta += rho * (0.5 * h ** (K + 1) + (K + 1) * h ** K)
-        beta += sum(0.5 ** k * scaled[k - 1] for k in range(1, K + 1))
+    terms = _cell_terms(A, B, C, dA, dC, ctrl, M0, ORDER)
+    if terms is None:
+        return False, -math.inf
     rigid = None
     if not (grounded or any(_grounds(*member(v)) for v in (a, b))):
         rigid = _rigid_vector(M0, ctrl, closed_loop_matrix, (Aa, Ba, Ca), (Ab, Bb, Cb))
         if rigid is False:
             return False, -math.inf
-    return disc_test(coeffs, left, right, beta, rigid)
+    coeffs, left, right, g, h, r1, rnd = terms
+    proven, margin, free = _disc_test(coeffs, left, right, _dyson(g, h, ORDER, r1) + rnd, rigid)
+    K = None if proven or not free else _retry_order(g, h, r1, rnd)
+    # the second attempt only when the order-ORDER polynomial with the order-K remainder passes
+    # (a cheap screen: the order-K test adds the exact terms 2⁻ᵏ|F_k|, k = ORDER+1 … K, to it)
+    if K is None or not disc_test(coeffs, left, right, _dyson(g, h, K, r1) + rnd, rigid)[0]:
+        return proven, margin
+    coeffs, left, right, g, h, r1, rnd = _cell_terms(A, B, C, dA, dC, ctrl, M0, K)
+    return disc_test(coeffs, left, right, _dyson(g, h, K, r1) + rnd, rigid)
 
 
 def _grounds(human, env) -> bool:
