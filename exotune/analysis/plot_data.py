@@ -442,9 +442,13 @@ def amplification_at_delays(cfg, result: dict) -> tuple[np.ndarray, list[dict]]:
         A = _qp_response(num, w) / _qp_response(den, w)
         if Td == T:
             mp, bw, locked = amp_res.get("minimum_phase"), amp_res.get("bandwidth_hz"), result.get("locked_stable")
+            if amp_res.get("conclusive") is False:  # the root count did not decide: unknown, not "non-minimum"
+                mp = None
         else:
             a2 = amplification(cfg.plant, cs, 1)
             mp, bw, locked = bool(a2["minimum_phase"][0]), float(a2["bandwidth_hz"][0]), bool(a2["locked_stable"][0])
+            if not bool(a2["conclusive"][0]):
+                mp = None
         out.append({"T": Td, "configured": Td == T, "A": A, "minimum_phase": mp, "bandwidth_hz": bw,
                     "locked_stable": locked})
     return f, out

@@ -299,7 +299,7 @@ def _fig_amplification(figs) -> bytes:
     for run, (col, ls) in zip(runs, styles):
         A, mp, bw, locked = run.A, run.minimum_phase, run.bandwidth_hz, run.locked_stable
         tag = f"T = {_fmt_s(run.delay_s)}" + (" (configured)" if run.configured else "")
-        mp_txt = "minimum phase" if mp else "NON-minimum phase"
+        mp_txt = "minimum phase unknown" if mp is None else ("minimum phase" if mp else "NON-minimum phase")
         lk_txt = "" if locked is None else ("; output-locked stable" if locked else "; output-locked UNSTABLE")
         bw_txt = f"; −3 dB at {bw:.3g} Hz" if finite(bw) else "; −3 dB not reached"
         ax1.semilogx(f, db(A), color=col, ls=ls, label=f"|C6/C5|, {tag}: {mp_txt}{lk_txt}{bw_txt}")
