@@ -185,7 +185,8 @@ def violations(spec: OptimizeSpec, ev: dict, i: int, achieved_latency: float | N
 
 
 def exact_latency_margin(spec: OptimizeSpec, x: np.ndarray, ev: dict | None = None, i: int = 0):
-    """Exact latency margin (:func:`exotune.analysis.latency_margin.latency_margin`) of the design x;
+    """Exact latency margin (:func:`exotune.analysis.latency_margin.latency_margin`) of the design x
+    (with a gain schedule: the smallest over its entries, :func:`~exotune.analysis.latency_margin.schedule_latency_margin`);
     0 without computing when its delay-sensitive verdicts already fail at the nominal delay.
 
     Parameters
@@ -204,7 +205,7 @@ def exact_latency_margin(spec: OptimizeSpec, x: np.ndarray, ev: dict | None = No
     LatencyMargin
         The latency margin (``extra_delay_s`` [s]; 0 when not robust at the nominal delay).
     """
-    from ..analysis.latency_margin import LatencyMargin, latency_margin
+    from ..analysis.latency_margin import LatencyMargin, latency_margin, schedule_latency_margin
     from ..config import design_from_mapping
 
     if ev is not None and not bool(delay_sensitive_ok(ev["analysis"])[i]):
@@ -212,7 +213,8 @@ def exact_latency_margin(spec: OptimizeSpec, x: np.ndarray, ev: dict | None = No
                              spec.cfg.implementation.sample_rate_hz or None, None, "not robust at the nominal delay")
     cfg = design_from_mapping(optimized_design_mapping(spec, {"x": dict(zip(spec.free, map(float, x)))}))
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return latency_margin(cfg)
+        # a gain-scheduled design: the smallest over its entries, as analyze reports it
+        return schedule_latency_margin(cfg, latency_margin(cfg))[0]
 
 
 def latency_record(spec: OptimizeSpec, lm) -> dict:
