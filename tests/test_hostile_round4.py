@@ -237,3 +237,16 @@ def test_a_few_problems_are_all_listed(tmp_path):
     p = _design(tmp_path, lambda d: d.update({f"u{i}": i for i in range(MAX_MORE_LINES)}))
     lines = _run(["design", p]).stderr.strip().splitlines()
     assert len(lines) == MAX_MORE_LINES and not any("more problems" in x for x in lines)
+
+
+def test_library_text_views_escape_terminal_controls_too():
+    """The command line escaped control characters from files, but `to_text()` from Python returned
+    them raw in the verdicts' requirement source and the SEA report's source."""
+    import exotune
+    from exotune.text.verdicts import format_verdicts
+
+    r = exotune.analyze("examples/scheduled.yaml")
+    sd = r.to_dict()["sampled_data"]
+    sd["requirements"]["source"] = "evil \x1b]0;pwned\x07 source"
+    text = "\n".join(format_verdicts(sd))
+    assert "\x1b" not in text and "\x07" not in text and "\\x1b" in text

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..errors import printable
 from .design import format_roots
 from .numbers import fmt_num, unit_text
 
@@ -26,7 +27,7 @@ def format_sea(rep: dict) -> str:
     Paper §II-B; docs/cli.md#sea.
     """
     out = []
-    src = f" — {rep['source']}" if rep.get("source") else ""
+    src = f" — {printable(str(rep['source']))}" if rep.get("source") else ""
     out.append(f"exotune {rep['exotune_version']} sea{src}")
     out.append("SEA compliance shaping (paper §II-B): τ_m = −(K1 + B1 s) θ_m + (K2 + B2 s) τ_s (torque units)")
     out.append("")

@@ -3,6 +3,7 @@ section; docs/method.md#one-model-of-record)."""
 
 from __future__ import annotations
 
+from ..errors import printable
 from .certify import family_line, margin_line, schedule_entry_line
 from .numbers import sampled_verdict_word
 
@@ -37,6 +38,6 @@ def format_verdicts(sd: dict) -> list[str]:
     for e in sd.get("gain_schedule") or []:
         lines.append(schedule_entry_line(e))
     lines.append(margin_line({**sd["latency_margin"], "required_s": req.get("latency_margin_s")})
-                 + f" ({req.get('source')})")
+                 + f" ({printable(str(req.get('source')))})")  # the file's own text: no terminal controls
     lines += [f"  - {p}" for p in sd["problems"]]
     return lines
