@@ -477,7 +477,7 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
 
     References
     ----------
-    docs/method.md#guarantees; paper §V (the sampled-data loop).
+    docs/method.md#guarantees.
     """
     from ..sampled.loop import closed_loop_matrix, plant_ss
 
