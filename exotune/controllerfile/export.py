@@ -326,8 +326,7 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
     doc["predicted"] = None
     problems: list[str] = []
     if analyses:
-        # the sampled-data work's lower bound is refused first, before any analysis spends the budget
-        refuse_excess_work(doc, entries=len((raw.get("transmission") or {}).get("ratio") or []))
+        refuse_excess_work(doc, entries=len((raw.get("transmission") or {}).get("ratio") or []))  # before any analysis
         doc["predicted"] = {"continuous": _predicted(cfg), "latency_margin": predicted_latency_margin(cfg)}
         # certify's own decision on this very document (docs/method.md#one-model-of-record)
         sa, lm, problems = sampled_decision(doc)
