@@ -254,13 +254,11 @@ def _schedule_check(cfg) -> list[ScheduleEntry]:
     """Continuous analysis of the design rescheduled at every joint angle of its ``transmission``
     section (paper §IV gain scheduling: J_m, B_m, K_s × ratio², gains recomputed; one batch over the angles)."""
     tr = cfg.raw["transmission"]
-    r2 = np.asarray(tr["ratio"], float) ** 2
-    g = lambda x: float(np.ravel(x)[0])  # noqa: E731
     from ..config import batch_config
+    from ..model.plant import REFLECTED_FIELDS
 
-    res = analyze_batch(batch_config(cfg, {"plant.motor_inertia": g(cfg.plant.J_m) * r2,
-                                           "plant.motor_damping": g(cfg.plant.B_m) * r2,
-                                           "plant.sea_stiffness": g(cfg.plant.K_s) * r2}))
+    rp = cfg.plant.reflected(np.asarray(tr["ratio"], float))  # one plant per joint angle
+    res = analyze_batch(batch_config(cfg, {f"plant.{k}": getattr(rp, k) for k in REFLECTED_FIELDS}))
     # the names of the report: a family by its loop name, a single loop by its column name
     fams = [*zip(res.human_names(), res.humans),
             *((k, e) for k, e in zip(res.environment_names(), res.environment) if e.stable is None)]

@@ -230,12 +230,7 @@ def schedule_latency_margin(cfg, lm: LatencyMargin) -> tuple[LatencyMargin, tupl
     tr = (cfg.raw or {}).get("transmission")
     if not tr:
         return lm, ()
-    p = cfg.plant
-    entries = []
-    for ratio in tr["ratio"]:
-        r2 = float(ratio) ** 2
-        entries.append(latency_margin(replace(cfg, plant=replace(
-            p, motor_inertia=p.J_m * r2, motor_damping=p.B_m * r2, sea_stiffness=p.K_s * r2))))
+    entries = [latency_margin(replace(cfg, plant=cfg.plant.reflected(float(r)))) for r in tr["ratio"]]
     pick = [(lm, None)] + list(zip(entries, zip(map(float, tr["joint_angle_rad"]), map(float, tr["ratio"]))))
     unknown = [p for p in pick if math.isnan(p[0].extra_delay_s)]
     worst, where = unknown[0] if unknown else min(pick, key=lambda p: p[0].extra_delay_s)

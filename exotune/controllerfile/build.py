@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from ..model.plant import REFLECTED_FIELDS
 from ..sampled import Measured, controller_blocks
 from ..sampled.loop import default_prewarp
 from .model import Controller, ControllerFile, as_controller_file
@@ -119,7 +120,7 @@ def reflected_mapping(raw: dict, ratio: float) -> dict:
 
     r = copy.deepcopy(raw)
     r.pop("transmission", None)
-    for k in ("motor_inertia", "motor_damping", "sea_stiffness"):
+    for k in REFLECTED_FIELDS:  # as Plant.reflected
         r["plant"][k] = float(r["plant"][k]) * ratio * ratio
     return r
 

@@ -18,7 +18,7 @@ Sign conventions (paper Table II): ``τ_m = G_θ θ_m + τ_2``, ``τ_2 = G_s τ_
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Callable
 
 import numpy as np
@@ -29,6 +29,7 @@ from ..numerics.poly import pval
 
 __all__ = [
     "Plant",
+    "REFLECTED_FIELDS",
     "Tf",
     "CompliancePair",
     "parallel",
@@ -37,6 +38,10 @@ __all__ = [
     "virtual_series",
     "seven_systems",
 ]
+
+
+#: the plant fields a transmission ratio r reflects to the joint as r² (paper §IV gain scheduling)
+REFLECTED_FIELDS = ("motor_inertia", "motor_damping", "sea_stiffness")
 
 
 @dataclass(frozen=True)
@@ -73,6 +78,23 @@ class Plant:
     @property
     def K_c(self):
         return np.asarray(self.cuff_stiffness, dtype=float)
+
+    def reflected(self, ratio) -> "Plant":
+        """The plant seen through a transmission ratio ``ratio`` [–] (a scalar or an array: one
+        plant per ratio): J_m, B_m and K_s × ratio² (paper §IV gain scheduling).
+
+        Parameters
+        ----------
+        ratio : float or numpy.ndarray
+            Transmission ratio(s) [–].
+
+        Returns
+        -------
+        Plant
+            The reflected plant.
+        """
+        r2 = np.asarray(ratio, dtype=float) ** 2
+        return replace(self, **{k: np.asarray(getattr(self, k), dtype=float) * r2 for k in REFLECTED_FIELDS})
 
     def to_control(self, index: int = 0):
         """The plant as a ``control.StateSpace`` (paper §II, Fig. 2; docs/method.md#physical-model):

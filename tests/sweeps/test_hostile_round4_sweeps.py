@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
-import json
-import shutil
 from pathlib import Path
 
 import pyarrow as pa
@@ -29,6 +27,7 @@ from exotune.cli import cli
 from exotune.errors import ConfigError
 from exotune.sweeps import SweepReport, load_manifest, load_results, run_sweep
 from exotune.sweeps.dataset import verified_manifest
+from tests.sweeps.sweep_dirs import chunk_path as _chunk, copy_sweep as _copy, edit_manifest as _edit
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -43,21 +42,6 @@ def swept(tmp_path_factory):
     run_sweep(spec, d / "ref", workers=1, progress=False)
     return spec, d / "ref"
 
-
-def _copy(swept, tmp_path) -> Path:
-    d = tmp_path / "sweep"
-    shutil.copytree(swept[1], d)
-    return d
-
-
-def _edit(d: Path, fn) -> None:
-    m = json.loads((d / "manifest.json").read_text())
-    fn(m)
-    (d / "manifest.json").write_text(json.dumps(m))
-
-
-def _chunk(d: Path, i: int) -> Path:
-    return d / "chunks" / f"part-{i:06d}.parquet"
 
 
 def _rewrite(path: Path, name: str, fn) -> None:

@@ -23,6 +23,7 @@ from exotune.sweeps import SweepError, load_manifest, load_results, run_sweep
 from exotune.sweeps.backends import check_dask_address
 from exotune.sweeps.integrity import sha256_file
 from exotune.sweeps.dataset import verified_manifest
+from tests.sweeps.sweep_dirs import chunk_path as _chunk, copy_sweep as _copy, edit_manifest as _edit
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "examples" / "paper.yaml"
@@ -45,21 +46,6 @@ def sweeps(tmp_path_factory):
     run_sweep(other, d / "other", workers=1, progress=False)
     return spec, d / "ref", d / "other", load_results(d / "ref")
 
-
-def _copy(sweeps, tmp_path) -> Path:
-    d = tmp_path / "d"
-    shutil.copytree(sweeps[1], d)
-    return d
-
-
-def _edit(d: Path, fn) -> None:
-    m = json.loads((d / "manifest.json").read_text())
-    fn(m)
-    (d / "manifest.json").write_text(json.dumps(m))
-
-
-def _chunk(d: Path, i: int) -> Path:
-    return d / "chunks" / f"part-{i:06d}.parquet"
 
 
 # ---------------------------------------------------------------------------------------------
