@@ -28,7 +28,7 @@ from ..sampled import loop_eigenvalues, loop_spectra, loop_verdict
 from ..units import PARAM_UNITS, fmt_distinct
 from .build import close
 from .cellbound import loop_cell
-from .continuation import MAX_DEPTH, POINTS, stable_intervals
+from .continuation import MAX_DEPTH, POINTS, covers_range, stable_intervals
 from .fileio import position_feedback
 from .hysteretic import hysteretic_problems, hysteretic_problems_many
 from .latency import requirement_problems, sampled_latency_margin, schedule_minimum
@@ -167,12 +167,6 @@ def _same_intervals(a, b: list, rtol: float = 1e-6) -> bool:
 def _entries(x) -> list:
     """A predicted family list of the file (untrusted): its dict entries, [None] for the others."""
     return [e if isinstance(e, dict) else None for e in x] if isinstance(x, list) else []
-
-
-def _covers(h: dict) -> bool:
-    """Whether a family's stable intervals are its whole range (one interval from end to end)."""
-    ivs = h.get("stable_intervals") or []
-    return len(ivs) == 1 and list(ivs[0]) == list(h["range"])
 
 
 def _unresolved(sa: dict, where: str) -> list[str]:
@@ -499,7 +493,7 @@ def sampled_problems(sa: dict) -> list[str]:
             problems.append(f"{h['kind']} {h['parameter']} [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']} × {box}: "
                             f"not certified — {h['not_certifiable']}")
             continue
-        said_below = _covers(h) and bool(h.get("unresolved") or h.get("inconclusive"))
+        said_below = covers_range(h) and bool(h.get("unresolved") or h.get("inconclusive"))
         if not h["robust"] and not said_below:  # a covered range with unresolved cells: the reason is below
             problems.append(f"{h['kind']} {h['parameter']} in [{h['range'][0]:g}, {h['range'][1]:g}] {h['unit']}: "
                             + (f"stable only in {_fmt_ivs(h['stable_intervals'])}" if h["stable_intervals"]

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-__all__ = ["POINTS", "MAX_DEPTH", "EDGE_SLIVER", "stable_intervals"]
+__all__ = ["POINTS", "MAX_DEPTH", "EDGE_SLIVER", "stable_intervals", "covers_range"]
 
 POINTS = 96
 NEAR_UNIT = 1e-6  # |ρ − 1| below which a member's verdict is decided with its rounding estimate
@@ -381,3 +381,21 @@ def stable_intervals(spectrum, lo: float, hi: float, points: int = POINTS, verdi
                  "loop_states": n,
                  "proof": "step control only" if cell_bound is None else "cell bound", "proven_cells": proven,
                  "stable_points": int(sum(st[i] for i, v in enumerate(grid) if v in base))}
+
+
+def covers_range(family: dict) -> bool:
+    """Whether a family's analysis (certify's per-family mapping) has one stable interval from end
+    to end of its range: every member stable by its eigenvalues (it may still hold unproven cells).
+
+    Parameters
+    ----------
+    family : dict
+        ``range`` and ``stable_intervals`` of one family, as :func:`exotune.controllerfile.certify.sampled_analysis` gives them.
+
+    Returns
+    -------
+    bool
+        True when the stable intervals are exactly ``[range]``.
+    """
+    ivs = family.get("stable_intervals") or []
+    return len(ivs) == 1 and list(ivs[0]) == list(family["range"])

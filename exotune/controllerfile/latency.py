@@ -32,6 +32,7 @@ from ..numerics.threads import one_blas_thread
 from ..sampled.batch import BatchLoops
 from ..sampled.families import MAX_SAMPLES, MARGIN_REL, family_loops, latency_margin
 from ..units import PARAM_UNITS
+from .continuation import covers_range
 from .fileio import discrete_from_file, plant_from_file
 from .model import ControllerFile, as_controller_file
 
@@ -139,8 +140,7 @@ def sampled_latency_margin(doc: ControllerFile | dict, sa: dict, grounded: bool,
     if not _nominal_ok(sa):
         fams = [h for h in sa["humans"] + sa["environment"] if "skipped" not in h]
         unproven = (sa["free_stable"] and sa["locked_stable"]
-                    and all(h.get("robust") or (h.get("unresolved") and len(h.get("stable_intervals") or []) == 1
-                                                and list(h["stable_intervals"][0]) == list(h["range"])) for h in fams))
+                    and all(h.get("robust") or (h.get("unresolved") and covers_range(h)) for h in fams))
         out["method"] = ("not proven stable at the file's delay (unresolved cells, see the problems): margin 0"
                          if unproven else "not stable at the file's delay: margin 0")
         return out

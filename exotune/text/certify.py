@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..controllerfile.continuation import covers_range
 from ..model.humans import PARAM_UNITS
 from .numbers import interval_text, sampled_verdict_word
 
@@ -40,10 +41,8 @@ def family_line(h: dict) -> str:
     if "not_certifiable" in h:
         return head + "not certifiable (" + h["not_certifiable"] + ")"
     verdict = "robust" if h["robust"] else "NOT robust"
-    if not h["robust"] and h.get("unresolved"):
-        ivs = h.get("stable_intervals") or []
-        if len(ivs) == 1 and list(ivs[0]) == list(h["range"]):  # stable by eigenvalues, some cells unproven
-            verdict = "NOT PROVEN robust (unresolved cells)"
+    if not h["robust"] and h.get("unresolved") and covers_range(h):  # stable by eigenvalues, cells unproven
+        verdict = "NOT PROVEN robust (unresolved cells)"
     return head + verdict + "; " + _stable_in(h["stable_intervals"], h["unit"])
 
 
