@@ -139,19 +139,43 @@ def _analyze_chunk(cfg, verify: int, latency: bool = False) -> BatchAnalysis:
 
 
 def _infinite_checked(cfg, m: np.ndarray) -> np.ndarray:
-    """The sweep's margins ``m`` [s] with every infinite one checked by the exact verdicts at the
-    extra delays :data:`~exotune.analysis.latency.INFINITE_PROBES_S` (within the accepted delays),
-    as the single-design margin does: a row unstable at one of them is unknown (NaN), never
-    infinite (docs/method.md#latency-margin). Infinite margins are rare (none in 2 000 random
-    designs around either example), so this costs a sweep nothing in the usual case."""
+    """The sweep's margins ``m`` [s] with every infinite one checked by
+    :func:`first_unstable_probe`, as the single-design margin is: a row unstable at one of the
+    probes is unknown (NaN), never infinite (docs/method.md#latency-margin). Infinite margins are
+    rare (none in 2 000 random designs around either example), so this costs a sweep nothing in
+    the usual case."""
     rows = np.flatnonzero(np.isinf(m))
     if rows.size == 0:
         return m
-    N = m.shape[0]
-    sub = _slice_cfg(cfg, rows) if _cfg_size(cfg) == N and N > 1 else cfg
+    out = m.copy()
+    out[rows[np.isfinite(first_unstable_probe(cfg, rows))]] = np.nan
+    return out
+
+
+def first_unstable_probe(cfg, rows) -> np.ndarray:
+    """The first extra delay of :data:`~exotune.analysis.latency.INFINITE_PROBES_S` (within the
+    accepted delays) at which a loop of each design ``rows`` of the batch ``cfg`` is not stable by
+    the exact verdicts (continuous time); NaN where none is. The check behind every infinite
+    latency margin (docs/method.md#latency-margin).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        A design or a batch.
+    rows : array of int
+        The designs to check.
+
+    Returns
+    -------
+    numpy.ndarray
+        Extra delay [s] per row (NaN: stable at every probe).
+    """
+    rows = np.asarray(rows, dtype=np.int64)
+    N = _cfg_size(cfg)
+    sub = _slice_cfg(cfg, rows) if N > 1 else cfg
     T = np.broadcast_to(np.asarray(cfg.implementation.delay_s, dtype=float), (N,))[rows]
     hi = delay_limit()
-    out = m.copy()
+    first = np.full(rows.size, np.nan)
     for d in INFINITE_PROBES_S:
         inside = T + d <= hi
         if not inside.any():
@@ -160,8 +184,8 @@ def _infinite_checked(cfg, m: np.ndarray) -> np.ndarray:
                                                     delay_s=np.minimum(T + d, hi)))
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             ok = _analyze_chunk(probe, 0).loops_ok()
-        out[rows[inside & ~ok]] = np.nan
-    return out
+        first = np.where(np.isnan(first) & inside & ~ok, d, first)
+    return first
 
 
 def _human_results(humans, edge_res: list, edge_fams: list, edge_of: list, verify: int, N: int) -> list[FamilyBatch]:

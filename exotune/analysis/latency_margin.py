@@ -243,20 +243,20 @@ def schedule_latency_margin(cfg, lm: LatencyMargin) -> tuple[LatencyMargin, tupl
 
 def _infinite_checked(cfg, res: LatencyMargin) -> LatencyMargin:
     """An infinite margin is a claim about every extra delay: it is checked by the exact verdicts at
-    :data:`INFINITE_PROBES_S` (within the accepted delays). A loop unstable at one of them means
-    the crossing search missed its crossing (a pole far beyond the frequency range it resolves):
-    the margin is then unknown (NaN, not verified), never infinite."""
-    T = res.delay_s
-    hi = delay_limit()
-    probes = [T + d for d in INFINITE_PROBES_S if T + d <= hi]
-    cols = _analyze_delays(cfg, probes) if probes else None
-    bad = [d for t, d in enumerate(probes) if not _all_ok(cols, t)]
-    if not bad:
-        return replace(res, verified=True if probes else None)
+    :data:`INFINITE_PROBES_S` (within the accepted delays; :func:`~exotune.analysis.batch.first_unstable_probe`,
+    the sweep column's check too). A loop unstable at one of them means the crossing search missed
+    its crossing (a pole far beyond the frequency range it resolves): the margin is then unknown
+    (NaN, not verified), never infinite."""
+    from .batch import first_unstable_probe
+
+    probed = res.delay_s + INFINITE_PROBES_S[0] <= delay_limit()
+    bad = float(first_unstable_probe(cfg, [0])[0]) if probed else math.nan
+    if math.isnan(bad):
+        return replace(res, verified=True if probed else None)
     loops = tuple(replace(lp, extra_delay_s=math.nan) if lp.extra_delay_s == math.inf else lp for lp in res.loops)
     return replace(res, extra_delay_s=math.nan, verified=False, critical=None, loops=loops,
                    note=(f"no destabilizing crossing was found, yet the loops are not all stable at "
-                         f"{(bad[0] - T) * 1e3:.3g} ms of extra delay: the margin is unknown (a pole beyond the "
+                         f"{bad * 1e3:.3g} ms of extra delay: the margin is unknown (a pole beyond the "
                          "frequency range the analysis resolves?)"))
 
 
