@@ -12,6 +12,7 @@ The modules, lowest first (each imports only the ones above it):
 ``amplification_ratio`` DC value, bandwidth and minimum phase of C6/C5 (paper §II-D)
 ``latency``             the one latency-margin engine: every loop's first destabilizing extra delay, batched
 ``batch``               every metric for a batch of designs (the sweep columns)
+``gain_schedule``       every gain-schedule entry of a batch (paper §IV gain scheduling): one batch of N·E designs
 ``latency_margin``      one design's latency margin (``latency`` for a batch of one, checked by exact verdicts)
 ``plant_margin``        the plant-uncertainty margin (certified lower, witnessed upper bound)
 ``kyp``                 KYP passivity certificates of the rational models of C7 (SDP, Clarabel)

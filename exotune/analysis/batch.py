@@ -26,7 +26,7 @@ from .intervals import FamilySide
 from .latency import INFINITE_PROBES_S, batch_latency_margin, delay_limit
 from .operator_passivity import passivity
 
-__all__ = ["analyze_batch", "BatchAnalysis", "GAIN_NAMES"]
+__all__ = ["analyze_batch", "BatchAnalysis", "GAIN_NAMES", "cfg_size", "slice_cfg", "first_unstable_probe"]
 
 
 def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0, latency: bool = False) -> BatchAnalysis:
@@ -64,9 +64,9 @@ def analyze_batch(cfg, max_chunk: int = 2048, verify: int = 0, latency: bool = F
     # extreme designs overflow intermediate numbers; every result is checked for finiteness and
     # reported inconclusive, so numpy's warnings would only clutter a sweep's terminal
     with _gc_paused(), np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        N = _cfg_size(cfg)
+        N = cfg_size(cfg)
         if N > max_chunk:
-            parts = [_analyze_chunk(_slice_cfg(cfg, slice(i, min(i + max_chunk, N))), verify, latency)
+            parts = [_analyze_chunk(slice_cfg(cfg, slice(i, min(i + max_chunk, N))), verify, latency)
                      for i in range(0, N, max_chunk)]
             return BatchAnalysis.concat(parts)
         return _analyze_chunk(cfg, verify, latency)
@@ -87,7 +87,7 @@ def _gc_paused():
 
 
 def _analyze_chunk(cfg, verify: int, latency: bool = False) -> BatchAnalysis:
-    N = _cfg_size(cfg)
+    N = cfg_size(cfg)
     cs, ds = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ct = char_terms(cfg.plant, cs, N)
     counter = RootCounter()
@@ -171,8 +171,8 @@ def first_unstable_probe(cfg, rows) -> np.ndarray:
         Extra delay [s] per row (NaN: stable at every probe).
     """
     rows = np.asarray(rows, dtype=np.int64)
-    N = _cfg_size(cfg)
-    sub = _slice_cfg(cfg, rows) if N > 1 else cfg
+    N = cfg_size(cfg)
+    sub = slice_cfg(cfg, rows) if N > 1 else cfg
     T = np.broadcast_to(np.asarray(cfg.implementation.delay_s, dtype=float), (N,))[rows]
     hi = delay_limit()
     first = np.full(rows.size, np.nan)
@@ -211,7 +211,20 @@ def _human_results(humans, edge_res: list, edge_fams: list, edge_of: list, verif
     return out
 
 
-def _cfg_size(cfg) -> int:
+def cfg_size(cfg) -> int:
+    """The number of designs N of a configuration (1 for one design, else the length of its
+    array fields).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design or a batch (:func:`exotune.config.batch_config`).
+
+    Returns
+    -------
+    int
+        N.
+    """
     n = 1
     for obj in (cfg.plant, cfg.design, cfg.implementation):
         for v in vars(obj).values():
@@ -238,7 +251,22 @@ def _slice_dc(obj, sl):
     return dataclasses.replace(obj, **kw)
 
 
-def _slice_cfg(cfg, sl):
+def slice_cfg(cfg, sl):
+    """The designs ``sl`` of a batch configuration (every array field indexed by ``sl``; scalar
+    fields, shared by every design, kept).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design or a batch.
+    sl : slice or array_like of int
+        The designs kept, in this order (repeats allowed).
+
+    Returns
+    -------
+    DesignConfig
+        The batch of those designs.
+    """
     import dataclasses
 
     return dataclasses.replace(

@@ -252,13 +252,12 @@ def kyp_certificates(cfg) -> dict:
 
 def _schedule_check(cfg) -> list[ScheduleEntry]:
     """Continuous analysis of the design rescheduled at every joint angle of its ``transmission``
-    section (paper §IV gain scheduling: J_m, B_m, K_s × ratio², gains recomputed; one batch over the angles)."""
-    tr = cfg.raw["transmission"]
-    from ..config import batch_config
-    from ..model.plant import REFLECTED_FIELDS
+    section (paper §IV gain scheduling: J_m, B_m, K_s × ratio², gains recomputed; one batch over
+    the angles, :func:`~exotune.analysis.gain_schedule.analyze_schedule`)."""
+    from .gain_schedule import analyze_schedule
 
-    rp = cfg.plant.reflected(np.asarray(tr["ratio"], float))  # one plant per joint angle
-    res = analyze_batch(batch_config(cfg, {f"plant.{k}": getattr(rp, k) for k in REFLECTED_FIELDS}))
+    sched = analyze_schedule(cfg)
+    res = sched.analysis
     # the names of the report: a family by its loop name, a single loop by its column name
     fams = [*zip(res.human_names(), res.humans),
             *((k, e) for k, e in zip(res.environment_names(), res.environment) if e.stable is None)]
@@ -266,9 +265,9 @@ def _schedule_check(cfg) -> list[ScheduleEntry]:
                *((f"{k}_stable", e.stable) for k, e in zip(res.environment_names(), res.environment)
                  if e.stable is not None)]
     out = []
-    for i, (angle, ratio) in enumerate(zip(tr["joint_angle_rad"], tr["ratio"])):
+    for i, (angle, ratio) in enumerate(zip(sched.joint_angle_rad, sched.ratio)):
         bad = [k for k, f in fams if not bool(f.robust[i])]
         bad += [k for k, stable in singles if not bool(stable[i])]
-        out.append(ScheduleEntry(float(angle), float(ratio), not bad, tuple(bad), res.gain_values(i),
+        out.append(ScheduleEntry(angle, ratio, not bad, tuple(bad), res.gain_values(i),
                                  {k: tuple((a, b) for a, b in f.stable_intervals[i]) for k, f in fams}))
     return out

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .evaluate import column, delay_sensitive_ok, latency_ladder
+from .evaluate import column, delay_sensitive_ok, latency_ladder, schedule_verdicts
 from .space import Archive, from_unit
 from .spec import CONSTRAINTS, OptimizeSpec, optimized_design_mapping
 
@@ -179,8 +179,26 @@ def violations(spec: OptimizeSpec, ev: dict, i: int, achieved_latency: float | N
         elif name == "latency_margin_s":
             out.append({"constraint": name, "value": achieved_latency, "op": ">=",
                         "bound": float(spec.constraints[name]), "unit": "s"})
+        elif name == "gain_schedule":
+            out.extend(_schedule_violations(spec, ev["schedule"], i))
         else:
             out.append({"constraint": name, "value": False, "needed": True})
+    return out
+
+
+def _schedule_violations(spec, sched, i: int) -> list[dict]:
+    """One violation per gain-schedule entry of design ``i`` that breaks a stability constraint,
+    naming the entry (joint angle [rad], transmission ratio) and its loops that fail."""
+    ok = schedule_verdicts(spec, sched)[:, i]
+    out = []
+    for e in np.flatnonzero(~ok):
+        row = sched.entry(int(e)).row(i)
+        loops = [k for k, h in zip(row.human_names(), row.humans) if not bool(h.robust[0])]
+        loops += [k for k, lp in (("free", row.free), ("locked", row.locked)) if not bool(lp.stable[0])]
+        loops += [k for k, env in zip(row.environment_names(), row.environment) if not bool(env.verdict[0])]
+        out.append({"constraint": "gain_schedule", "joint_angle_rad": sched.joint_angle_rad[e],
+                    "ratio": sched.ratio[e], "loops": loops,
+                    "needed": "every gain-schedule entry stable (robust over the whole ranges)"})
     return out
 
 

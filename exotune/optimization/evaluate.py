@@ -25,7 +25,8 @@ import numpy as np
 from .peak import amplification_peak
 from .spec import CONSTRAINTS, OBJECTIVES, OptimizeSpec
 
-__all__ = ["evaluate", "column", "delay_verdicts", "latency_ladder", "LADDER_S", "robust_fraction", "delay_sensitive_ok"]
+__all__ = ["evaluate", "column", "delay_verdicts", "latency_ladder", "LADDER_S", "robust_fraction", "delay_sensitive_ok",
+           "schedule_verdicts"]
 
 #: extra delays [s] of the latency-objective ladder (the estimate is capped at the last one)
 LADDER_S = np.geomspace(1e-5, 0.2, 12)
@@ -136,6 +137,7 @@ def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tupl
         The batch analysis of the n·L designs.
     """
     from ..analysis import analyze_batch
+    from ..analysis.gain_schedule import analyze_schedule
     from ..config.batch import batch_config, continuous
 
     X = np.atleast_2d(X)
@@ -143,10 +145,15 @@ def delay_verdicts(spec: OptimizeSpec, X: np.ndarray, extra: np.ndarray) -> tupl
     L = extra.shape[1]
     ov = _overrides(spec, X, L)
     ov["implementation.delay_s"] = (_delays(spec, X)[:, None] + extra).ravel()
+    cfg = batch_config(continuous(spec.cfg), ov)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         # continuous analysis: the probed delays may exceed the sampled model's delay-state limit
-        res = analyze_batch(batch_config(continuous(spec.cfg), ov))
-    return delay_sensitive_ok(res).reshape(X.shape[0], L), res
+        res = analyze_batch(cfg)
+        ok = delay_sensitive_ok(res)
+        sched = analyze_schedule(cfg)  # a gain schedule: every entry must tolerate the delay too
+    if sched is not None:
+        ok = ok & sched.robust()
+    return ok.reshape(X.shape[0], L), res
 
 
 def latency_ladder(spec: OptimizeSpec, X: np.ndarray) -> np.ndarray:
@@ -216,6 +223,46 @@ def _verdict_violation(spec, res, frac):
     return viol, broken
 
 
+def schedule_verdicts(spec: OptimizeSpec, sched) -> np.ndarray:
+    """Per gain-schedule entry and design, shape (E, N): the entry meets the boolean stability
+    constraints the spec asks for (``robust``: every human family robust; ``free_stable``;
+    ``locked_stable``: the locked loop and every environment), paper §IV gain scheduling.
+
+    Parameters
+    ----------
+    spec : OptimizeSpec
+        The optimization problem.
+    sched : ScheduleBatch
+        The entries' analysis (:func:`exotune.analysis.gain_schedule.analyze_schedule`).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool, (E, N).
+    """
+    res = sched.analysis
+    ok = np.ones(res.n, bool)
+    if spec.constraints["robust"]:
+        for h in res.humans:
+            ok &= np.asarray(h.robust, bool)
+    if spec.constraints["free_stable"]:
+        ok &= np.asarray(res.free.stable, bool)
+    if spec.constraints["locked_stable"]:
+        ok &= np.asarray(res.locked.stable, bool)
+        for e in res.environment:
+            ok &= np.asarray(e.verdict, bool)
+    return ok.reshape(len(sched.ratio), -1)
+
+
+def _schedule_violation(spec, sched):
+    """Violation and broken flag of the gain schedule: every entry must meet the stability
+    constraints (:func:`schedule_verdicts`); the violation is the mean over the entries of the
+    failed flag plus the unstable log-fraction of the families."""
+    ok = schedule_verdicts(spec, sched)
+    fr = robust_fraction(spec.cfg, sched.analysis).reshape(ok.shape) if spec.constraints["robust"] else 1.0
+    return np.mean(~ok + (1.0 - fr), axis=0), ~ok.all(axis=0)
+
+
 def _latency_violation(spec, X, res, frac):
     """Violation and broken flag of ``latency_margin_s ≥ m`` (the checked extra delays)."""
     deltas = spec.checked_delays()
@@ -259,6 +306,7 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
     docs/optimize-spec.md; paper §IV (coupled stability).
     """
     from ..analysis import analyze_batch
+    from ..analysis.gain_schedule import analyze_schedule
     from ..config import batch_config
 
     X = np.atleast_2d(np.asarray(X, float))
@@ -270,6 +318,12 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
         own["amplification_peak_db"], own["amplification_peak_hz"] = amplification_peak(cfg_b)
     frac = robust_fraction(spec.cfg, res)
     viol, broken = _verdict_violation(spec, res, frac)
+    sched = ev["schedule"] = analyze_schedule(cfg_b)
+    if sched is not None:
+        v, bad = _schedule_violation(spec, sched)
+        viol += v
+        broken["gain_schedule"] = bad
+        frac = np.minimum(frac, robust_fraction(spec.cfg, sched.analysis).reshape(len(sched.ratio), -1).min(axis=0))
     for name, (col, op, _unit) in CONSTRAINTS.items():
         if name not in spec.constraints or name == "latency_margin_s":
             continue

@@ -145,14 +145,15 @@ def _read_sweep(sweep_dir: str, m: dict) -> dict:
 
     want = {"point_index", "free_stable", *paths, *METRICS, "amplification_dc"}
     want |= {c for c in col_names if re.match(r"^(sampled_)?(human|env)\d+_.+_(robust|stable|conclusive|stable_intervals)$", c)}
-    want |= {"sampled_free_stable", "sampled_locked_stable"} & set(col_names)
+    want |= {"sampled_free_stable", "sampled_locked_stable", "schedule_robust", "sampled_schedule_robust"} & set(col_names)
     want |= {c for c in col_names if c.endswith("_conclusive")}
     cols = [c for c in col_names if c in want]
     _, table, missing = read_tables(sweep_dir, cols, allow_partial=True, manifest=m)
     if table is None:
         raise ConfigError(sweep_dir, "the sweep has no results yet (no chunk finished); run `exotune sweep` first")
     simple = {c: table.column(c).to_numpy() for c in cols if "intervals" not in c}
-    robust, used = robust_mask({c: simple[c] for c in simple if c in ("free_stable", "sampled_free_stable", "sampled_locked_stable")
+    robust, used = robust_mask({c: simple[c] for c in simple if c in ("free_stable", "sampled_free_stable", "sampled_locked_stable",
+                                                                       "schedule_robust", "sampled_schedule_robust")
                                 or re.match(r"^(sampled_)?(human|env)\d+_.+_(robust|stable)$", c)})
     gidx = np.asarray(simple["point_index"], dtype=np.int64)
     axis_idx = list(np.unravel_index(gidx, shape))

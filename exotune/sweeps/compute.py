@@ -20,6 +20,7 @@ import numpy as np
 
 from ..version import __version__
 from ..analysis import analyze_batch
+from ..analysis.gain_schedule import analyze_schedule
 from ..config import batch_config
 from ..jsonio import write_atomic
 from .plan import SweepPlan, chunk_points
@@ -47,8 +48,12 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
 
     n = g.size
     cfg = batch_config(plan.cfg, vals)
-    res = analyze_batch(cfg, verify=int(plan.spec.get("verify_points", 0)), latency=True)
+    verify = int(plan.spec.get("verify_points", 0))
+    res = analyze_batch(cfg, verify=verify, latency=True)
     cols = res.to_columns()  # the Parquet schema: the column names of docs/sweep-spec.md#columns
+    sched = analyze_schedule(cfg, latency=True, verify=verify)  # None without a gain schedule
+    if sched is not None:
+        cols.update(sched.to_columns(res))
     for k in [k for k in cols if k.endswith("_edges")]:
         del cols[k]  # per-edge details of box families (objects): single-design reports only
     for k in [k for k in cols if k.endswith("_verification_mismatches")]:
@@ -56,9 +61,11 @@ def _table(plan: SweepPlan, index: int, g: np.ndarray, vals: dict):
     if "plant_margin" in plan.spec:
         cols.update(_plant_margin_columns(cfg, res, plan.spec["plant_margin"]["budget"]))
     if plan.spec.get("sampled"):
-        from .sampledcols import sampled_columns
+        from .sampledcols import sampled_columns, sampled_schedule_columns
 
         cols.update(sampled_columns(cfg, res))
+        if sched is not None:
+            cols.update(sampled_schedule_columns(sched, cols))
     names, arrays = ["point_index"], [np_arrow(g, "i")]
     for p in plan.paths:
         names.append(p)

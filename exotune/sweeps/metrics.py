@@ -177,8 +177,9 @@ def derived_metrics(table, manifest: dict) -> dict[str, tuple[np.ndarray, dict]]
 
 
 def robust_mask(columns: dict) -> tuple[np.ndarray, list[str]]:
-    """robust = free_stable ∧ human*_robust ∧ env*_stable/env*_robust, and with sampled-data columns
-    also sampled_free_stable ∧ sampled_locked_stable ∧ sampled_*_robust; returns (mask, columns used).
+    """robust = free_stable ∧ human*_robust ∧ env*_stable/env*_robust (∧ schedule_robust with a gain
+    schedule), and with sampled-data columns also sampled_free_stable ∧ sampled_locked_stable ∧
+    sampled_*_robust (∧ sampled_schedule_robust); returns (mask, columns used).
 
     Parameters
     ----------
@@ -197,6 +198,7 @@ def robust_mask(columns: dict) -> tuple[np.ndarray, list[str]]:
     used += sorted(c for c in columns if re.match(r"^env\d+_.+_(stable|robust)$", c))
     used += sorted(c for c in columns if c in ("sampled_free_stable", "sampled_locked_stable"))
     used += sorted(c for c in columns if re.match(r"^sampled_(human|env)\d+_.+_robust$", c))
+    used += [c for c in ("schedule_robust", "sampled_schedule_robust") if c in columns]
     n = len(next(iter(columns.values()))) if columns else 0
     mask = np.ones(n, dtype=bool)
     for c in used:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["sampled_columns", "sampled_refusal", "checked_intervals"]
+__all__ = ["sampled_columns", "sampled_schedule_columns", "sampled_refusal", "checked_intervals"]
 
 
 def sampled_refusal(cfg) -> str | None:
@@ -130,3 +130,40 @@ def sampled_columns(cfg, res) -> dict:
         return out
 
     return run()
+
+
+def sampled_schedule_columns(sched, nominal: dict) -> dict:
+    """The sampled-data columns of a gain schedule: every entry's loops sampled at the base's rate
+    (:func:`sampled_columns` on the N·E rescheduled designs of ``sched``), reduced per design.
+
+    Parameters
+    ----------
+    sched : ScheduleBatch
+        The continuous analysis of the entries (:func:`exotune.analysis.gain_schedule.analyze_schedule`).
+    nominal : dict
+        The main controller's sampled-data columns (:func:`sampled_columns` of the same N designs).
+
+    Returns
+    -------
+    dict
+        ``sampled_schedule_robust`` (every entry's sampled loops stable and families robust),
+        ``sampled_schedule_failing_entries`` (how many are not), ``sampled_latency_margin_samples``
+        (the design's: the smallest of the main controller's and the entries'; NaN when one is
+        unknown) and ``sampled_latency_margin_main_samples`` (the main controller's).
+
+    References
+    ----------
+    docs/sweep-spec.md#gain-schedule; paper §IV (gain scheduling).
+    """
+    sub = sampled_columns(sched.cfg, sched.analysis)
+    e, n = len(sched.ratio), sched.n
+    ok = np.asarray(sub["sampled_free_stable"], bool) & np.asarray(sub["sampled_locked_stable"], bool)
+    for k, v in sub.items():
+        if k.endswith("_robust"):
+            ok &= np.asarray(v, bool)
+    ok = ok.reshape(e, n)
+    main = np.asarray(nominal["sampled_latency_margin_samples"], float)
+    m = np.vstack([main, np.asarray(sub["sampled_latency_margin_samples"], float).reshape(e, n)])
+    return {"sampled_schedule_robust": ok.all(axis=0), "sampled_schedule_failing_entries": (~ok).sum(axis=0),
+            "sampled_latency_margin_samples": np.where(np.isnan(m).any(axis=0), np.nan, m.min(axis=0)),
+            "sampled_latency_margin_main_samples": main}

@@ -176,7 +176,7 @@ def summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx,
     str
         The Markdown text.
     """
-    L = _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape)
+    L = _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape, schedule_swept="schedule_robust" in used)
     L += _robustness_lines(n, robust, used, simple, metrics)
     L += _per_axis_lines(paths, values, axis_idx, robust, metrics, table_metrics, files)
     L += _best_design_lines(paths, values, axis_idx, robust, metrics, table_metrics)
@@ -194,8 +194,9 @@ def summary_md(sweep_dir, m, n, missing, paths, values, scales, shape, axis_idx,
     return "\n".join(L)
 
 
-def _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape) -> list[str]:
-    """The title, the sweep (directory, hash, designs, sampling, base design, model) and the axes."""
+def _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape, schedule_swept: bool = False) -> list[str]:
+    """The title, the sweep (directory, hash, designs, sampling, base design, its gain schedule,
+    model) and the axes."""
     L = []
     L.append("# exotune sweep report")
     L.append("")
@@ -226,7 +227,14 @@ def _head_lines(sweep_dir, m, n, missing, paths, values, scales, shape) -> list[
     if m.get("base_source"):
         L.append(f"- base design: `{display_path(m['base_source'])}`")
     base = (m.get("spec") or {}).get("base")
-    if isinstance(base, dict) and base.get("transmission"):
+    if isinstance(base, dict) and base.get("transmission") and schedule_swept:
+        tr = base["transmission"]
+        L.append(f"- **gain schedule swept**: every design is also analysed at each of the base's "
+                 f"{len(tr.get('ratio', []))} joint angles (transmission ratios "
+                 f"{', '.join(fmt_num(r) for r in tr.get('ratio', []))}); robust requires every entry "
+                 "(`schedule_robust`), and `latency_margin_s` is the smallest of the main controller's and "
+                 "the entries' (`latency_margin_main_s`: the main controller's)")
+    elif isinstance(base, dict) and base.get("transmission"):
         L.append("- **gain schedule not swept**: the base design has a `transmission` schedule; every column is the "
                  "nominal controller's (transmission ratio 1), the schedule's entries are not analysed, so a design "
                  "robust here may not certify: run `exotune analyze` and `exotune certify` on the design you pick")

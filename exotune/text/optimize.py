@@ -79,6 +79,9 @@ def _violation_lines(r: dict) -> list[str]:
             lines.append(f"  robust: {v['family']} not stable over {v['parameter']} ∈ "
                          f"[{v['range'][0]:.6g}, {v['range'][1]:.6g}] {unit_word(v['unit'])}{part}")
         elif "bound" in v:
+        elif v["constraint"] == "gain_schedule":
+            lines.append(f"  gain_schedule: the entry at joint angle {v['joint_angle_rad']:.6g} rad (transmission ratio "
+                         f"{v['ratio']:.6g}) is not stable for {', '.join(v['loops'])}; needed: {v['needed']}")
             val = "n/a" if v["value"] is None else f"{v['value']:.6g}"
             u = unit_word(v["unit"])
             lines.append(f"  {v['constraint']}: {val} {u}, needed {v['op']} {v['bound']:.6g} {u}")

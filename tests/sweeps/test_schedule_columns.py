@@ -1,0 +1,86 @@
+"""A sweep of a gain-scheduled base analyses every entry (docs/sweep-spec.md#gain-schedule): its
+``schedule_*`` columns and its latency margins agree with ``exotune analyze`` (continuous) and with
+``exotune export`` + ``exotune certify`` of the same design (sampled data), design by design."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+import yaml
+
+import exotune.api as api
+from exotune.analysis import analyze_with_margins
+from exotune.config import design_from_mapping, read_yaml
+from exotune.sweeps import load_results
+from exotune.sweeps.metrics import robust_mask
+
+ALPHA = (4.0, 8.0)
+DELAY = (0.001, 0.003)
+
+
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sched")
+    spec = {"base": str(api.__file__).replace("exotune/api.py", "examples/scheduled.yaml"),
+            "axes": {"design.amplification": list(ALPHA), "implementation.delay_s": list(DELAY)},
+            "sampled": True}
+    (d / "spec.yaml").write_text(yaml.safe_dump(spec))
+    api.sweep(d / "spec.yaml", d / "out", workers=1)
+    df = load_results(d / "out").sort_values("point_index").reset_index(drop=True)
+    return d, df
+
+
+def _design(alpha, delay):
+    raw = read_yaml("examples/scheduled.yaml")
+    raw["design"]["amplification"] = float(alpha)
+    raw["implementation"]["delay_s"] = float(delay)
+    return raw
+
+
+def test_continuous_columns_agree_with_analyze(swept):
+    _, df = swept
+    seen = set()
+    for _, row in df.iterrows():
+        raw = _design(row["design.amplification"], row["implementation.delay_s"])
+        rep = analyze_with_margins(design_from_mapping(copy.deepcopy(raw)), sampled_check=False)
+        entries = rep.gain_schedule
+        assert bool(row["schedule_robust"]) == all(e.robust for e in entries)
+        assert int(row["schedule_failing_entries"]) == sum(not e.robust for e in entries)
+        seen.add(bool(row["schedule_robust"]))
+        # the margin of record is the smallest of the main controller's and the entries'
+        want = min([rep.continuous_latency_margin_s if rep.continuous_latency_margin_s is not None else np.inf]
+                   + [e.latency_margin_s for e in entries])
+        assert row["latency_margin_s"] == pytest.approx(want, rel=1e-5, abs=1e-9)
+        assert row["latency_margin_s"] <= row["latency_margin_main_s"]
+    assert seen == {True, False}  # the grid holds both kinds
+
+
+def test_sampled_columns_agree_with_certify(swept, tmp_path):
+    _, df = swept
+    for _, row in df.iterrows():
+        raw = _design(row["design.amplification"], row["implementation.delay_s"])
+        (tmp_path / "d.yaml").write_text(yaml.safe_dump(raw))
+        api.export(tmp_path / "d.yaml", out=tmp_path / "c.yaml", allow_uncertified=True)
+        cert = api.certify(tmp_path / "c.yaml").to_dict()
+        ok = []
+        for e in cert["gain_schedule"]:
+            s = e["sampled"]
+            ok.append(s["free_stable"] and s["locked_stable"]
+                      and all(h["robust"] for h in s["humans"] + s["environment"] if "robust" in h))
+        assert bool(row["sampled_schedule_robust"]) == all(ok)
+        assert int(row["sampled_schedule_failing_entries"]) == ok.count(False)
+        lm = cert["latency_margin"]["extra_delay_samples"]
+        assert row["sampled_latency_margin_samples"] == pytest.approx(lm, rel=1e-4, abs=1e-9)
+
+
+def test_robust_requires_every_entry_and_the_report_says_so(swept):
+    d, df = swept
+    cols = {c: df[c].to_numpy() for c in df.columns if c.endswith(("_robust", "_stable"))}
+    mask, used = robust_mask(cols)
+    assert "schedule_robust" in used and "sampled_schedule_robust" in used
+    assert not (mask & ~df["schedule_robust"].to_numpy(bool)).any()
+    api.report(d / "out")
+    md = (d / "out" / "report" / "summary.md").read_text()
+    assert "gain schedule swept" in md and "not swept" not in md
