@@ -293,7 +293,7 @@ def sweep(spec, out, *, workers: int | None = None, dask_address: str | None = N
     >>> import os, tempfile
     >>> out = os.path.join(tempfile.mkdtemp(), "sweep")
     >>> spec = {"base": "examples/scheduled.yaml",
-    ...         "axes": {"design.amplification": [4.0, 8.0], "implementation.delay_s": [0.001, 0.003]}}
+    ...         "axes": {"design.amplification": [8.0, 20.0], "implementation.delay_s": [0.001, 0.003]}}
     >>> r = sweep(spec, out, workers=1)
     >>> r.status, r.table().num_rows
     ('complete', 4)

@@ -183,8 +183,10 @@ def test_sweep_optimize_and_simulation_results_plot(tmp_path):
     for iy, t in enumerate(ys):
         for ix, a in enumerate(xs):
             row = df[(df["design.amplification"] == a) & (df["implementation.delay_s"] == t)]
+            # a gain-scheduled base: robust needs every entry too (docs/sweep-spec.md#gain-schedule)
             robust = bool((row["free_stable"] & row["human0_mass_robust"] & row["human1_spring_robust"]
-                           & row["human2_complex_stiffness_robust"] & row["env0_locked_stable"]).iloc[0])
+                           & row["human2_complex_stiffness_robust"] & row["env0_locked_stable"]
+                           & row["schedule_robust"]).iloc[0])
             assert grid[iy, ix] == float(robust)
             lm, *_ = s.map_data("latency_margin_s")
             assert lm[iy, ix] == row["latency_margin_s"].iloc[0]
