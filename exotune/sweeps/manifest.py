@@ -372,11 +372,15 @@ def _spec_diff(a: dict, b: dict) -> list[str]:
 
 
 _ENGINE_PACKAGES = ("numerics", "model", "config", "sampled", "analysis")
+#: the sweep's own modules that compute columns (the chunk's table, the sampled-data and
+#: gain-schedule columns)
+_ENGINE_FILES = ("sweeps/compute.py", "sweeps/sampledcols.py")
 
 
 def engine_hash() -> str:
-    """SHA-256 of the source of the packages that compute the results: a resumed sweep refuses to
-    mix chunks computed by different analysis code (the version string alone is not enough).
+    """SHA-256 of the source of the packages and sweep modules that compute the results: a resumed
+    sweep refuses to mix chunks computed by different analysis code (the version string alone is
+    not enough).
 
     Returns
     -------
@@ -388,9 +392,9 @@ def engine_hash() -> str:
 
     root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
-    for pkg in _ENGINE_PACKAGES:
-        for f in sorted((root / pkg).rglob("*.py")):
-            h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
+    files = [f for pkg in _ENGINE_PACKAGES for f in sorted((root / pkg).rglob("*.py"))]
+    for f in files + [root / p for p in _ENGINE_FILES]:
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
     return h.hexdigest()
 
 

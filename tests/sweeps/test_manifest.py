@@ -168,3 +168,20 @@ def test_an_unknown_format_version_or_status_is_refused_naming_the_field(plan, t
     for status in ("running", "complete", "interrupted", "incomplete", "failed"):  # the known states pass
         _write(tmp_path, _edit(plan, lambda m: m.update(status=status)))
         assert load_manifest(tmp_path)["status"] == status
+
+
+@pytest.mark.parametrize("name", ["compute.py", "sampledcols.py"])
+def test_engine_hash_covers_the_sweep_modules_that_compute_columns(name, monkeypatch):
+    """A change of the sweep's column code (the chunk table, the sampled-data and gain-schedule
+    columns) is a different engine: a resumed sweep must not mix its chunks with older ones."""
+    import pathlib
+
+    before = engine_hash()
+    real = pathlib.Path.read_bytes
+
+    def edited(self):
+        data = real(self)
+        return data + b"\n# edited\n" if self.name == name and self.parent.name == "sweeps" else data
+
+    monkeypatch.setattr(pathlib.Path, "read_bytes", edited)
+    assert engine_hash() != before
