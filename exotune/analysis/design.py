@@ -18,7 +18,7 @@ from .results import (Amplification, BoxEdge, DesignAnalysis, DobMargins, Enviro
                       ScheduleEntry)
 from ..units import METRIC_UNITS  # re-exported
 
-__all__ = ["analyze_design", "analyze_with_margins", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
+__all__ = ["analyze_design", "analyze_with_margins", "design_plant_margin", "kyp_certificates", "METRIC_UNITS", "VERIFY_POINTS"]
 
 
 VERIFY_POINTS = 64
@@ -204,13 +204,11 @@ def analyze_with_margins(cfg, sampled_check: bool = True, of_record=None):
     """
     from ..numerics.beside import beside
     from .latency_margin import latency_margin, schedule_latency_margin
-    from .plant_margin import plant_uncertainty_margin
-
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         cols = analyze_batch(cfg)  # the nominal verdicts, shared by both margins
         # a design that is not robust at the nominal plant has k* = 0: its robust loops' own bounds
         # (seconds of work) are left to plant_uncertainty_margin(cfg) — analyze stays quick
-        with beside("plant_uncertainty_margin", plant_uncertainty_margin, cfg, getattr(cfg, "uncertainty", None),
+        with beside("plant_uncertainty_margin", design_plant_margin, cfg, getattr(cfg, "uncertainty", None),
                     nominal=cols, loop_detail=False) as job:
             rec = analyze_design(cfg, sampled_check)
             lm, per_entry = schedule_latency_margin(cfg, latency_margin(cfg, nominal=cols))
@@ -221,6 +219,36 @@ def analyze_with_margins(cfg, sampled_check: bool = True, of_record=None):
                 rec = dataclasses.replace(rec, sampled=of_record(cfg, lm))
             pm = job.result()
     return dataclasses.replace(rec, margins=(lm, pm))
+
+
+def design_plant_margin(cfg, weights=None, nominal=None, **kw):
+    """The plant-uncertainty margin ``exotune analyze`` reports: the plant section's
+    (:func:`~exotune.analysis.plant_margin.plant_uncertainty_margin`) and, with a gain schedule,
+    the smallest over the entries (:func:`~exotune.analysis.plant_margin.schedule_plant_margin`).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design.
+    weights : None, sequence of 5 floats or mapping
+        The relative plant uncertainty.
+    nominal : BatchAnalysis, optional
+        The design's own batch analysis, if computed.
+    **kw
+        Passed to both (``budget``, ``loop_detail``, …).
+
+    Returns
+    -------
+    PlantMargin
+        The margin.
+
+    References
+    ----------
+    docs/method.md#plant-uncertainty-margin; paper §IV (gain scheduling).
+    """
+    from .plant_margin import plant_uncertainty_margin, schedule_plant_margin
+
+    return schedule_plant_margin(cfg, plant_uncertainty_margin(cfg, weights, nominal=nominal, **kw), weights, **kw)
 
 
 def kyp_certificates(cfg) -> dict:

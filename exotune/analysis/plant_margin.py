@@ -51,10 +51,12 @@ from ..numerics.engine import cached_engine
 from .counting import RootCounter
 from .plant_margin_box import PLANT_FIELDS, PLANT_SYMBOLS, LoopModel, certify_loop, strip_rows
 
-__all__ = ["PlantWitness", "LoopPlantMargin", "PlantMargin", "plant_loops", "plant_uncertainty_margin",
+__all__ = ["PlantWitness", "LoopPlantMargin", "PlantMargin", "plant_loops", "plant_uncertainty_margin", "schedule_plant_margin",
            "loop_counts_at", "vertex_upper_bounds"]
 
 UNIT_K = "1 (multiple of the relative weights)"
+#: the note of a margin computed on the plant section of a design with a gain schedule
+SCHEDULE_NOT_APPLIED = "the transmission schedule is not applied: nominal plant = the plant section"
 K_CAP = 0.999  # k·max(w) < 1 keeps every parameter positive
 MEMBER_GRID = 33
 
@@ -120,6 +122,10 @@ class PlantMargin(Result):
     note: str = ""
     evaluations: int = 0
     seconds: float = 0.0
+    #: with a gain schedule whose entry has the smallest lower bound: (joint angle [rad], ratio)
+    gain_schedule_entry: tuple[float, float] | None = None
+    #: with a gain schedule: the main controller's own (lower, upper)
+    main_controller: tuple[float, float] | None = None
 
     @property
     def ratio(self) -> float:
@@ -132,6 +138,10 @@ class PlantMargin(Result):
                 "witness": None if self.witness is None else self.witness.to_dict(),
                 "loops": [m.to_dict() for m in self.loops], "weights": dict(self.weights), "note": self.note,
                 "evaluations": self.evaluations,
+                **({} if self.main_controller is None else {
+                    "gain_schedule_entry": None if self.gain_schedule_entry is None else
+                    {"joint_angle_rad": self.gain_schedule_entry[0], "ratio": self.gain_schedule_entry[1]},
+                    "main_controller": {"lower": self.main_controller[0], "upper": self.main_controller[1]}}),
                 "units": {"lower": UNIT_K, "upper": UNIT_K, "weights": "1 (relative)"}}
 
     def to_text(self) -> str:
@@ -534,6 +544,56 @@ def _lower_search(loops, w, k_start, rel_tol, budget, max_steps=4, k_up=math.inf
     return lo, used, new_wit
 
 
+def schedule_plant_margin(cfg, pm: PlantMargin, weights=None, **kw) -> PlantMargin:
+    """The plant-uncertainty margin of a design with a gain schedule (a ``transmission`` table):
+    the runtime runs the design rescheduled at each joint angle (paper §IV gain scheduling), each
+    entry designed on its nominal reflected plant, so the margin is the smallest over the main
+    controller's ``pm`` and the entries' (the smallest certified lower bound, the smallest
+    witnessed upper bound with its witness), naming the entry of the lower bound
+    (``gain_schedule_entry``) and keeping the main controller's bounds (``main_controller``).
+
+    Parameters
+    ----------
+    cfg : DesignConfig
+        One design, with or without ``transmission``.
+    pm : PlantMargin
+        Its own margin (:func:`plant_uncertainty_margin`).
+    weights : None, sequence of 5 floats or mapping
+        The relative uncertainty, as given for ``pm``.
+    **kw
+        The other keywords given for ``pm`` (``families``, ``budget``, ``rel_tol``, ``loop_detail``).
+
+    Returns
+    -------
+    PlantMargin
+        ``pm`` without a schedule; else the schedule's margin.
+
+    References
+    ----------
+    docs/method.md#plant-uncertainty-margin; paper §IV (gain scheduling).
+    """
+    tr = (cfg.raw or {}).get("transmission")
+    if not tr:
+        return pm
+    import dataclasses
+
+    from .gain_schedule import rescheduled
+
+    each = [(None, pm)] + [((float(a), float(r)), plant_uncertainty_margin(rescheduled(cfg, float(r)), weights, **kw))
+                           for a, r in zip(tr["joint_angle_rad"], tr["ratio"])]
+    low_at, low = min(each, key=lambda e: e[1].lower)
+    up_at, up = min(each, key=lambda e: e[1].upper)
+    where = (lambda at: "the main controller" if at is None else  # noqa: E731
+             f"the gain-schedule entry at joint angle {at[0]:.6g} rad (ratio {at[1]:.6g})")
+    notes = [f"the smallest over the main controller and the {len(each) - 1} gain-schedule entries: lower bound "
+             f"of {where(low_at)}, upper bound (and witness) of {where(up_at)}"]
+    notes += [n for n in low.note.split("; ") if n and n != SCHEDULE_NOT_APPLIED]
+    return dataclasses.replace(low, upper=up.upper, witness=up.witness, note="; ".join(notes),
+                               evaluations=sum(m.evaluations for _, m in each),
+                               seconds=sum(m.seconds for _, m in each), gain_schedule_entry=low_at,
+                               main_controller=(pm.lower, pm.upper))
+
+
 def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 150_000, rel_tol: float = 0.01,
                              nominal=None, loop_detail: bool = True) -> PlantMargin:
     """Plant-uncertainty margin of a design (module docstring): certified lower and witnessed upper
@@ -544,7 +604,8 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
     ----------
     cfg : DesignConfig
         One design. Its ``plant`` section is the nominal plant; a ``transmission`` schedule is not
-        applied (the margin is that of the plant section, transmission ratio 1).
+        applied (the margin is that of the plant section, transmission ratio 1; the schedule's is
+        :func:`schedule_plant_margin`, which ``exotune analyze`` and the sweep report).
     weights : None, sequence of 5 floats or mapping
         Relative uncertainty per parameter (J_m, B_m, K_s, J_j, K_c), by symbol or field name;
         default 1 each. q_i = q0_i (1 + δ_i), |δ_i| ≤ k w_i.
@@ -580,7 +641,7 @@ def plant_uncertainty_margin(cfg, weights=None, *, families=None, budget: int = 
         loops = _make_loops(cfg, families, nominal)
         notes = []
         if cfg.raw.get("transmission") is not None:
-            notes.append("the transmission schedule is not applied: nominal plant = the plant section")
+            notes.append(SCHEDULE_NOT_APPLIED)
         robust = [lp for lp in loops if lp.ok]
         detail = loop_detail or len(robust) == len(loops)
         ups = _loops_upper(robust, w, rel_tol, k_cap) if detail else {}

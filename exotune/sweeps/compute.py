@@ -85,7 +85,7 @@ def _plant_margin_columns(cfg, res, budget: int) -> dict:
     """The opt-in columns ``plant_margin_lower`` / ``plant_margin_upper`` (multiples of the base
     design's declared ``uncertainty``, docs/method.md#plant-uncertainty-margin), one design at a
     time; 0 for a design that is not robust at the nominal plant (no search is spent on it)."""
-    from ..analysis.plant_margin import plant_uncertainty_margin
+    from ..analysis.design import design_plant_margin
     from ..config import design_row
     from ..numerics.beside import serial
 
@@ -94,8 +94,8 @@ def _plant_margin_columns(cfg, res, budget: int) -> dict:
     weights = getattr(cfg, "uncertainty", None)
     with serial():  # the sweep's workers already use every core: no child process per design
         for i in range(n):
-            pm = plant_uncertainty_margin(design_row(cfg, i), weights, nominal=res.row(i), budget=budget,
-                                          loop_detail=False)
+            pm = design_plant_margin(design_row(cfg, i), weights, nominal=res.row(i), budget=budget,
+                                     loop_detail=False)  # with a gain schedule: the smallest over its entries
             lower[i], upper[i] = pm.lower, pm.upper
     return {"plant_margin_lower": lower, "plant_margin_upper": upper}
 

@@ -100,6 +100,10 @@ def format_margins(margins: dict | None) -> list[str]:
             root = w.get("rightmost_root")
             where = f", root {fmt_num(root['re'], 4)} {'+' if root['im'] >= 0 else '−'} {fmt_num(abs(root['im']), 6)}j rad/s" if root else ""
             L.append(f"    witness (unstable at k = {fmt_num(w['k'], 4)}): {w['loop']}{member}; plant {dev or 'nominal'}{where}")
+        mc = pm.get("main_controller")
+        if mc:
+            mu = "∞" if mc["upper"] is None or math.isinf(mc["upper"]) else fmt_num(mc["upper"], 4)
+            L.append(f"    the main controller alone (transmission ratio 1): {fmt_num(mc['lower'], 4)} ≤ k* ≤ {mu}")
         if pm.get("note"):
             L.append(f"    note: {pm['note']}")
     return L

@@ -12,6 +12,7 @@ import pytest
 from exotune.analysis import analyze_batch, analyze_with_margins
 from exotune.analysis.gain_schedule import analyze_schedule
 from exotune.config import batch_config, design_from_mapping, read_yaml
+from reflected_design import by_hand
 
 ALPHAS = np.array([3.0, 8.0, 20.0])
 
@@ -25,13 +26,7 @@ def _raw(ratios=(1.0, 2.0), delay=0.003):
 
 
 def _by_hand(raw, alpha, ratio):
-    """One design file: amplification alpha, the plant section reflected by ratio² by hand."""
-    r = copy.deepcopy(raw)
-    del r["transmission"]
-    r["design"]["amplification"] = float(alpha)
-    for k in ("motor_inertia", "motor_damping", "sea_stiffness"):
-        r["plant"][k] = float(r["plant"][k]) * ratio * ratio
-    return design_from_mapping(r)
+    return by_hand(raw, ratio, alpha)
 
 
 @pytest.fixture(scope="module")
