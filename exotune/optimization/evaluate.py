@@ -26,7 +26,7 @@ from .peak import amplification_peak
 from .spec import CONSTRAINTS, OBJECTIVES, OptimizeSpec
 
 __all__ = ["evaluate", "column", "delay_verdicts", "latency_ladder", "LADDER_S", "robust_fraction", "delay_sensitive_ok",
-           "schedule_verdicts"]
+           "schedule_verdicts", "schedule_worst"]
 
 #: extra delays [s] of the latency-objective ladder (the estimate is capped at the last one)
 LADDER_S = np.geomspace(1e-5, 0.2, 12)
@@ -254,6 +254,56 @@ def schedule_verdicts(spec: OptimizeSpec, sched) -> np.ndarray:
     return ok.reshape(len(sched.ratio), -1)
 
 
+def schedule_worst(ev: dict, sched, want: dict) -> dict:
+    """Metric columns worst over the main controller and every gain-schedule entry (the runtime
+    runs each: paper §IV gain scheduling): the smallest value of a ``>=`` column (a lower bound
+    or a maximized metric), the largest of a ``<=`` one; NaN when any of them is NaN.
+
+    Parameters
+    ----------
+    ev : dict
+        The evaluation of the main controllers (its ``analysis`` and ``own_columns``).
+    sched : ScheduleBatch
+        Their entries (:func:`exotune.analysis.gain_schedule.analyze_schedule`).
+    want : dict
+        Column name (docs/sweep-spec.md#columns, or ``amplification_peak_db``) → ``">="`` or ``"<="``.
+
+    Returns
+    -------
+    dict
+        Column name → values (N,), in the column's unit; ``amplification_peak_hz`` goes with the
+        worst ``amplification_peak_db``.
+    """
+    e = len(sched.ratio)
+    out = {}
+    for col, op in want.items():
+        if col == "amplification_peak_db":
+            db, hz = amplification_peak(sched.cfg)
+            main_db, main_hz = (column(ev, col), column(ev, "amplification_peak_hz")) if col in ev["own_columns"] \
+                else amplification_peak(ev["cfg"])
+            vals = np.vstack([np.asarray(main_db, float), np.asarray(db, float).reshape(e, -1)])
+            hzs = np.vstack([np.asarray(main_hz, float), np.asarray(hz, float).reshape(e, -1)])
+        else:
+            vals = np.vstack([np.asarray(column(ev, col), float),
+                              np.asarray(sched.analysis.column(col), float).reshape(e, -1)])
+        k = (np.argmin(np.where(np.isnan(vals), np.inf, vals), axis=0) if op == ">=" else
+             np.argmax(np.where(np.isnan(vals), -np.inf, vals), axis=0))
+        cols = np.arange(vals.shape[1])
+        out[col] = np.where(np.isnan(vals).any(axis=0), np.nan, vals[k, cols])
+        if col == "amplification_peak_db":
+            out["amplification_peak_hz"] = hzs[k, cols]
+    return out
+
+
+def _spec_columns(spec) -> dict:
+    """The metric columns the constraints and the objective read, with their direction."""
+    want = {CONSTRAINTS[n][0]: CONSTRAINTS[n][1] for n in spec.constraints if n in CONSTRAINTS and n != "latency_margin_s"}
+    what, sense, _u = OBJECTIVES[spec.objective]
+    if what not in spec.free and what != "latency_margin_s":
+        want.setdefault(what, ">=" if sense == "max" else "<=")
+    return want
+
+
 def _schedule_violation(spec, sched):
     """Violation and broken flag of the gain schedule: every entry must meet the stability
     constraints (:func:`schedule_verdicts`); the violation is the mean over the entries of the
@@ -312,18 +362,21 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
     X = np.atleast_2d(np.asarray(X, float))
     paths = list(spec.free)
     cfg_b = batch_config(spec.cfg, _overrides(spec, X))
-    ev = {"X": X, "analysis": analyze_batch(cfg_b), "own_columns": {}}
+    ev = {"X": X, "analysis": analyze_batch(cfg_b), "own_columns": {}, "cfg": cfg_b}
     res, own = ev["analysis"], ev["own_columns"]
     if "amplification_peak_db" in spec.constraints:
         own["amplification_peak_db"], own["amplification_peak_hz"] = amplification_peak(cfg_b)
     frac = robust_fraction(spec.cfg, res)
     viol, broken = _verdict_violation(spec, res, frac)
+    dob_stable = np.asarray(res.dob.stable, bool)
     sched = ev["schedule"] = analyze_schedule(cfg_b)
     if sched is not None:
         v, bad = _schedule_violation(spec, sched)
         viol += v
         broken["gain_schedule"] = bad
         frac = np.minimum(frac, robust_fraction(spec.cfg, sched.analysis).reshape(len(sched.ratio), -1).min(axis=0))
+        own.update(schedule_worst(ev, sched, _spec_columns(spec)))  # every entry's metrics meet the bounds
+        dob_stable = dob_stable & np.asarray(sched.analysis.dob.stable, bool).reshape(len(sched.ratio), -1).all(axis=0)
     for name, (col, op, _unit) in CONSTRAINTS.items():
         if name not in spec.constraints or name == "latency_margin_s":
             continue
@@ -332,7 +385,7 @@ def evaluate(spec: OptimizeSpec, X: np.ndarray) -> dict:
         val = np.where(np.isnan(val), -np.inf if op == ">=" else np.inf, val)
         gap = (b - val) if op == ">=" else (val - b)
         if name.startswith("dob_"):  # a DOB margin of an unstable DOB loop never meets a bound
-            gap = np.where(np.asarray(res.dob.stable, bool), gap, np.inf)
+            gap = np.where(dob_stable, gap, np.inf)
         v = np.clip(gap / max(abs(b), 1e-12), 0.0, 10.0)
         v = np.where(np.isfinite(v), v, 10.0)
         viol += v

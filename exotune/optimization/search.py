@@ -279,22 +279,32 @@ def _certificates(spec, out) -> None:
 
 def _metrics(spec, final) -> dict:
     from ..config import batch_config
+    from .evaluate import schedule_worst
 
     res = final["analysis"]
     g = lambda v: float(np.asarray(v)[0])  # noqa: E731
     cfg1 = batch_config(spec.cfg, {p: final["X"][:, j] for j, p in enumerate(spec.free)})
     pk_db, pk_hz = amplification_peak(cfg1)
+    vals = {"passivity_max_phase_excess_deg": res.passivity.max_phase_excess_deg,
+            "dob_phase_margin_deg": res.dob.phase_margin_deg, "dob_gain_margin_db": res.dob.gain_margin_db,
+            "dob_delay_margin_s": res.dob.delay_margin_s, "amplification_bandwidth_hz": res.amplification.bandwidth_hz,
+            "amplification_peak_db": pk_db, "amplification_peak_hz": pk_hz}
+    sched = final.get("schedule")
+    over = None
+    if sched is not None:  # every entry runs on the joint: the worst of them (the constraints' values)
+        worst = {"passivity_max_phase_excess_deg": "<=", "dob_phase_margin_deg": ">=", "dob_gain_margin_db": ">=",
+                 "dob_delay_margin_s": ">=", "amplification_bandwidth_hz": ">=", "amplification_peak_db": "<="}
+        vals.update(schedule_worst({**final, "own_columns": {"amplification_peak_db": pk_db, "amplification_peak_hz": pk_hz}},
+                                   sched, worst))
+        over = f"the worst of the main controller and its {len(sched.ratio)} gain-schedule entries"
+    units = {"passivity_max_phase_excess_deg": "deg", "dob_phase_margin_deg": "deg", "dob_gain_margin_db": "dB",
+             "dob_delay_margin_s": "s", "amplification_bandwidth_hz": "Hz", "amplification_peak_db": "dB"}
     # the keys of the optimize result (docs/optimize-spec.md#result): the sweep's column names
-    return {
-        "passivity_max_phase_excess_deg": {"value": g(res.passivity.max_phase_excess_deg), "unit": "deg"},
-        "dob_phase_margin_deg": {"value": g(res.dob.phase_margin_deg), "unit": "deg"},
-        "dob_gain_margin_db": {"value": g(res.dob.gain_margin_db), "unit": "dB"},
-        "dob_delay_margin_s": {"value": g(res.dob.delay_margin_s), "unit": "s"},
-        "amplification_bandwidth_hz": {"value": g(res.amplification.bandwidth_hz), "unit": "Hz"},
-        "amplification_peak_db": {"value": float(pk_db[0]), "unit": "dB", "frequency_hz": float(pk_hz[0])},
-        "human_stable_intervals": {f"{key}_stable_intervals": h.stable_intervals[0]
-                                   for key, h in zip(res.human_names(), res.humans)},
-    }
+    out = {k: {"value": g(vals[k]), "unit": u, **({"over": over} if over else {})} for k, u in units.items()}
+    out["amplification_peak_db"]["frequency_hz"] = g(vals["amplification_peak_hz"])
+    out["human_stable_intervals"] = {f"{key}_stable_intervals": h.stable_intervals[0]
+                                     for key, h in zip(res.human_names(), res.humans)}
+    return out
 
 
 def _pareto(spec, ar: Archive) -> list[dict]:

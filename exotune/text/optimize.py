@@ -161,6 +161,9 @@ def format_optimize(r: dict) -> str:
         lines.append(_latency_line(r))
     lines += _sampled_lines(r)
     for k, m in r["metrics"].items():
+    over = next((m["over"] for m in r["metrics"].values() if isinstance(m, dict) and m.get("over")), None)
+    if over:
+        lines.append(f"  metrics below: {over}")
         if k == "human_stable_intervals":
             for fk, iv in m.items():
                 lines.append(f"  {fk}: {_intervals(fk, iv)}")

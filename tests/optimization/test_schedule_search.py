@@ -61,3 +61,38 @@ def test_the_latency_constraint_holds_for_every_entry():
     cfg = design_from_mapping(copy.deepcopy(raw))
     assert schedule_latency_margin(cfg, latency_margin(cfg))[0].extra_delay_s < DEFAULT_LATENCY_MARGIN_S
     assert got["scheduled"] == pytest.approx(got["plain"], rel=0.2)
+
+
+def test_metric_constraints_judge_the_worst_entry():
+    """A bound on a metric (passivity, DOB margins, bandwidth, amplification peak) must hold for
+    every controller the runtime runs: the evaluation's value is the worst over the main
+    controller and the entries, each analysed here from a hand-reflected design file."""
+    import numpy as np
+
+    from exotune.analysis import analyze_batch
+    from exotune.optimization.evaluate import column, evaluate
+    from exotune.optimization.peak import amplification_peak
+    from reflected_design import by_hand
+
+    tr = {"joint_angle_rad": [0.0, 2.0], "ratio": [0.85, 1.25]}
+    raw = _raw(0.001, tr)
+    spec = load_optimize_spec({"base": raw, "free": {"design.amplification": [4.0, 20.0]},
+                               "objective": "amplification_bandwidth_hz",
+                               "constraints": {"max_phase_excess_deg": 4.0, "amplification_peak_db": 3.0,
+                                               "dob_phase_margin_deg": 20.0}, "budget": 50})
+    alphas = np.array([5.0, 12.0])
+    ev = evaluate(spec, alphas[:, None])
+    for i, a in enumerate(alphas):
+        refs = [analyze_batch(by_hand(raw, r, a)) for r in (1.0, *tr["ratio"])]
+        peaks = [float(amplification_peak(by_hand(raw, r, a))[0][0]) for r in (1.0, *tr["ratio"])]
+        pe = [float(x.passivity.max_phase_excess_deg[0]) for x in refs]
+        bw = [float(x.amplification.bandwidth_hz[0]) for x in refs]
+        pm = [float(x.dob.phase_margin_deg[0]) for x in refs]
+        assert column(ev, "passivity_max_phase_excess_deg")[i] == pytest.approx(max(pe), rel=1e-9)
+        assert column(ev, "amplification_peak_db")[i] == pytest.approx(max(peaks), rel=1e-9)
+        assert column(ev, "dob_phase_margin_deg")[i] == pytest.approx(min(pm), rel=1e-9)
+        assert ev["objective"][i] == pytest.approx(min(bw), rel=1e-9)  # the worst bandwidth is maximized
+        assert bool(ev["broken"]["max_phase_excess_deg"][i]) == (max(pe) > 4.0)
+    # the entries matter here: the worst is not the main controller's for every metric
+    main = [float(analyze_batch(by_hand(raw, 1.0, a)).amplification.bandwidth_hz[0]) for a in alphas]
+    assert any(ev["objective"][i] < main[i] * (1 - 1e-6) for i in range(alphas.size))
