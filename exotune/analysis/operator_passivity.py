@@ -93,8 +93,11 @@ def passivity(side: FamilySide) -> PassivityBatch:
     Nd = D0.n
     task, w, c, over = _samples(D0, D1, lv)
     # passive gaps that end a listable band early (or split it) but hold no sample
-    task, w, c = _insert(task, w, c, *_gaps(D0, D1, task, w, c))
-    im, ex, same, first, resolved, last, inside, newrun = _runs(task, c)
+    *gaps, pre = _gaps(D0, D1, task, w, c)
+    if gaps[0].size:  # the samples changed: their runs and maxima are those of the new samples
+        task, w, c = _insert(task, w, c, *gaps)
+        pre = None
+    im, ex, same, first, resolved, last, inside, newrun = _runs(task, c) if pre is None else pre[0]
     best = np.zeros(Nd)
     starts_t = np.flatnonzero(np.r_[True, ~same]) if task.size else np.zeros(0, np.int64)
     if task.size:  # samples are grouped by design: segment maxima
@@ -102,7 +105,7 @@ def passivity(side: FamilySide) -> PassivityBatch:
     rid = np.cumsum(newrun) - 1
     starts = np.flatnonzero(newrun)
     peak = np.maximum.reduceat(ex, starts) if starts.size else np.zeros(0)
-    ct, ca, cb, at = _peak_cells(D0, D1, task, w, c, ex, same, best)
+    ct, ca, cb, at = _peak_cells(D0, D1, task, w, c, ex, same, best, None if pre is None else pre[1])
     j90, f90 = _through_90(D0, D1, task, w, c, im, resolved, same)
     ct, at = np.r_[ct, task[j90]], np.r_[at, j90]
     if ct.size:
@@ -413,20 +416,21 @@ def _local_maxima(w, c, ex, same):
     return top, reach
 
 
-def _peak_cells(D0, D1, task, w, c, ex, same, best):
+def _peak_cells(D0, D1, task, w, c, ex, same, best, maxima=None):
     """The brackets where the maximum of the excess is refined by golden section: around every
     sampled local maximum whose reach (:func:`_local_maxima`) attains its design's largest sampled
     excess ``best`` (it may hold the maximum), or, below ``BAND_MIN_EXCESS_DEG``, attains that
     threshold or lies within a factor 2 below it (it may decide whether its band is listed).
     The bracket runs between the sample's neighbours, or from the zero of Im C7 towards a passive
     neighbour (:func:`_edges`): the excess is positive inside, so golden section cannot turn away
-    from the lobe where the excess is flat (zero). Returns ``(task, a, b, sample)``: the sample
-    names the run that the refined value belongs to."""
+    from the lobe where the excess is flat (zero). ``maxima``: :func:`_local_maxima` of these
+    samples when already known. Returns ``(task, a, b, sample)``: the sample names the run that
+    the refined value belongs to."""
     n = task.size
     if n < 2:
         z = np.zeros(0, np.int64)
         return z, np.zeros(0), np.zeros(0), z
-    top, reach = _local_maxima(w, c, ex, same)
+    top, reach = _local_maxima(w, c, ex, same) if maxima is None else maxima
     low = ex < BAND_MIN_EXCESS_DEG
     i = np.flatnonzero(top & ((reach >= best[task]) | (low & ((reach >= BAND_MIN_EXCESS_DEG)
                                                                | (ex >= 0.5 * BAND_MIN_EXCESS_DEG)))))
@@ -469,34 +473,39 @@ def _gaps(D0, D1, task, w, c):
     cell by golden section; where its maximum is positive (Im C7 < 0: a gap), that point is
     returned (docs/method.md#passivity-of-the-operator-compliance).
 
-    Returns ``(after, w, c7)``: the index of the sample each new point follows, the point [rad/s]
-    and C7 there."""
+    Returns ``(after, w, c7, pre)``: the index of the sample each new point follows, the point
+    [rad/s] and C7 there, and the :func:`_runs` and :func:`_local_maxima` of the given samples
+    (None when fewer than two), for the caller to reuse when no point is found."""
     n = task.size
     z = np.zeros(0, np.int64)
     if n < 2:
-        return z, np.zeros(0), np.zeros(0, complex)
-    im, ex, same, first, resolved, last, inside, newrun = _runs(task, c)
+        return z, np.zeros(0), np.zeros(0, complex), None
+    runs = _runs(task, c)
+    im, ex, same, first, resolved, last, inside, newrun = runs
     rid = np.cumsum(newrun) - 1
     starts = np.flatnonzero(newrun)
-    _, reach = _local_maxima(w, c, ex, same)
+    maxima = _local_maxima(w, c, ex, same)
+    reach = maxima[1]
     listable = (inside[starts] & (np.maximum.reduceat(reach, starts) >= BAND_MIN_EXCESS_DEG))[rid]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        u = np.where(resolved & (im > 0), im / np.abs(c), np.nan)  # NaN: not a resolved band sample
-    i = np.arange(n - 1)
-    ua, ub = u[:-1], u[1:]
+    # the cells of one run of a listable band (the tests below only there: a fraction of the samples)
+    i = np.flatnonzero(same & listable[:-1] & listable[1:] & (rid[:-1] == rid[1:]))
+
+    def u(k):  # sin arg C7 at samples k; NaN: not a resolved band sample
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(resolved[k] & (im[k] > 0), im[k] / np.abs(c[k]), np.nan)
+
+    ua, ub = u(i), u(i + 1)
     dec = ua > ub
     hi_, lo_ = np.fmax(ua, ub), np.fmin(ua, ub)
     # the lower sample's other neighbour (beyond the cell): a higher band sample makes it a dip
     o = np.where(dec, i + 2, i - 1)
     ok_o = (o >= 0) & (o < n)
     o = np.clip(o, 0, n - 1)
-    uo = np.where(ok_o & (task[o] == task[i]), u[o], np.nan)
+    uo = np.where(ok_o & (task[o] == task[i]), u(o), np.nan)
     with np.errstate(invalid="ignore"):
-        cand = (same & listable[:-1] & listable[1:] & (rid[:-1] == rid[1:]) & (ua != ub) & ~(uo > lo_)
-                & (lo_ < DIP_RISE_UNEVEN * (hi_ - lo_)))
-    j = np.flatnonzero(cand)
+        j = i[(ua != ub) & ~(uo > lo_) & (lo_ < DIP_RISE_UNEVEN * (hi_ - lo_))]
     if j.size == 0:
-        return z, np.zeros(0), np.zeros(0, complex)
+        return z, np.zeros(0), np.zeros(0, complex), (runs, maxima)
     tj = task[j]
     if compiled():
         from ..numerics import kernels as _fastphase
@@ -511,7 +520,7 @@ def _gaps(D0, D1, task, w, c):
     j, ws = j[hit], ws[hit]
     a, _ = D0.eval(task[j], ws, deriv=False)
     b, _ = D1.eval(task[j], ws, deriv=False)
-    return j, ws, b / a
+    return j, ws, b / a, (runs, maxima)
 
 
 def _insert(task, w, c, after, wd, cd):

@@ -18,7 +18,7 @@ try:  # numba is optional: the numpy path is used without it
 except Exception:  # pragma: no cover - exercised only where numba is missing
     njit = None
 
-# (the compiled primitives eval_quasi, interval_ok, log_derivative, cdiv and push_interval exist only
+# (the compiled primitives eval_quasi, eval_quasi_n, interval_ok, log_derivative, cdiv and push_interval exist only
 # when numba is available)
 __all__ = ["AVAILABLE", "MAX_TASK_EVALS", "MAX_TASK_LEAVES", "MAX_GROUP_EVALS", "GEO_SPLIT_RATIO", "MAG_LEVEL_TOL", "njit",
            "coefficients"]
@@ -34,7 +34,13 @@ if AVAILABLE:
     def horner(c, t, w):
         """Value and derivative of row t of c (ascending coefficients) at s = jω, in real
         arithmetic: multiplying by the pure-imaginary s costs two products, not a complex one."""
-        m = c.shape[1]
+        return horner_n(c, t, w, c.shape[1])
+
+    @njit(cache=True, inline="always")
+    def horner_n(c, t, w, m):
+        """:func:`horner` over the first ``m`` ≥ 1 coefficients of row t only (the row's higher ones
+        zero: a row padded to a batch's width). The same values, bit for bit: the skipped steps of
+        the full recurrence carry exact zeros (ω ≥ 0)."""
         vr = c[t, m - 1].real
         vi = c[t, m - 1].imag
         dr = 0.0
@@ -50,10 +56,10 @@ if AVAILABLE:
         return vr, vi, dr, di
 
     @njit(cache=True, inline="always")
-    def eval_quasi(c0, c1, t, T, w):
-        """Δ(jω) = P0 + P1 e^{−jωT} and dΔ/ds of row t (coefficients row-major: c[t, k])."""
-        v0r, v0i, d0r, d0i = horner(c0, t, w)
-        v1r, v1i, d1r, d1i = horner(c1, t, w)
+    def eval_quasi_n(c0, c1, t, T, w, m0, m1):
+        """:func:`eval_quasi` with P0 and P1 of row t of lengths m0, m1 ≥ 1 (:func:`horner_n`)."""
+        v0r, v0i, d0r, d0i = horner_n(c0, t, w, m0)
+        v1r, v1i, d1r, d1i = horner_n(c1, t, w, m1)
         er = math.cos(w * T)
         ei = -math.sin(w * T)
         # v1·e and (d1 − T v1)·e
@@ -64,6 +70,19 @@ if AVAILABLE:
         val = complex(v0r + pr, v0i + pi)
         der = complex(d0r + qr * er - qi * ei, d0i + qr * ei + qi * er)
         return val, der
+
+    @njit(cache=True, inline="always")
+    def row_length(c, t):
+        """1 + the index of the highest nonzero coefficient of row t (1 for a zero row)."""
+        for k in range(c.shape[1] - 1, 0, -1):
+            if c[t, k] != 0:
+                return k + 1
+        return 1
+
+    @njit(cache=True, inline="always")
+    def eval_quasi(c0, c1, t, T, w):
+        """Δ(jω) = P0 + P1 e^{−jωT} and dΔ/ds of row t (coefficients row-major: c[t, k])."""
+        return eval_quasi_n(c0, c1, t, T, w, c0.shape[1], c1.shape[1])
 
     @njit(cache=True, inline="always")
     def interval_ok(a, b, xa, xb, La, Lb, tan_arg, der_step):

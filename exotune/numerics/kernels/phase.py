@@ -18,7 +18,7 @@ from .common import AVAILABLE, GEO_SPLIT_RATIO, MAX_GROUP_EVALS, MAX_TASK_EVALS,
 
 if AVAILABLE:
     from .bounds import omega_max_rows
-    from .common import cdiv, eval_quasi, interval_ok, log_derivative, push_interval
+    from .common import cdiv, eval_quasi, eval_quasi_n, interval_ok, log_derivative, push_interval, row_length
 
 __all__ = ["phase_sums", "count_tasks"]
 
@@ -44,16 +44,19 @@ if AVAILABLE:
     def _task_sum(c0T, c1T, t, T, grid, gi, K, tan_arg, der_step, max_levels, sa, sb, sd, sva, svb, sla, slb,
                   max_evals):
         """(Σ accepted phase steps, resolved, evaluations) of row t over grid[gi, :K]; unresolved
-        once ``max_evals`` evaluations are spent."""
+        once ``max_evals`` evaluations are spent. Δ is evaluated on the row's coefficients up to its
+        highest nonzero ones only (rows padded to a batch's width: the same values, fewer steps)."""
+        m0 = row_length(c0T, t)
+        m1 = row_length(c1T, t)
         acc = 0.0
         res = True
         cnt = 0
         wa = grid[gi, 0]
-        va, da = eval_quasi(c0T, c1T, t, T, wa)
+        va, da = eval_quasi_n(c0T, c1T, t, T, wa, m0, m1)
         cnt += 1
         for j in range(1, K):
             wb = grid[gi, j]
-            vb, db = eval_quasi(c0T, c1T, t, T, wb)
+            vb, db = eval_quasi_n(c0T, c1T, t, T, wb, m0, m1)
             cnt += 1
             top = push_interval(sa, sb, sd, sva, svb, sla, slb, 0, wa, wb, 0, va, vb, log_derivative(da, va), log_derivative(db, vb))
             if (va == 0) or (vb == 0):
@@ -84,7 +87,7 @@ if AVAILABLE:
                 if cnt >= max_evals:  # budget spent: unresolved (see MAX_TASK_EVALS)
                     return acc, False, cnt
                 m = _split_point(a, b)
-                vm, dm = eval_quasi(c0T, c1T, t, T, m)
+                vm, dm = eval_quasi_n(c0T, c1T, t, T, m, m0, m1)
                 cnt += 1
                 Lm = log_derivative(dm, vm)
                 if vm == 0:
