@@ -497,6 +497,11 @@ def export(source, sample_rate_hz: float | None = None, out=None, *, require_lat
     if require_latency_margin_s is not None:
         require_latency_margin_s = latency_requirement_value("require_latency_margin_s", require_latency_margin_s)
     check_outputs([path], outputs={"`out`": path_value("out", out)})
+    if isinstance(source, (str, os.PathLike)):  # an SEA or controller file is named as one, not asked for a rate
+        from .config.design import refuse_other_kind
+        from .config.yamlio import read_yaml
+
+        refuse_other_kind(read_yaml(source), "design", os.fspath(source))
     with numpy_engine():
         return export_design(path, sample_rate_hz, out, require_latency_margin_s=require_latency_margin_s,
                              time_budget_s=time_budget_s, allow_uncertified=allow_uncertified)

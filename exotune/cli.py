@@ -91,7 +91,11 @@ def _usage_line(e: click.UsageError) -> str:
         name = e.option_name
     if name is None:
         name = e.ctx.command_path if e.ctx is not None else "exotune"
-    return f"{name}: {' '.join(str(reason).split())}"
+    import re
+
+    # click quotes the value as given: a 5 000-character argument is cut to an excerpt
+    reason = re.sub(r"\S{81,}", lambda m: f"{m.group(0)[:60]}… ({len(m.group(0))} characters)", str(reason))
+    return f"{name}: {' '.join(reason.split())}"
 
 
 def _as_flags(flags: dict, text: str) -> str:
@@ -194,8 +198,13 @@ class _Int(click.IntRange):
     def convert(self, value, param, ctx):
         from .options import INTEGER_TEXT
 
+        shown = repr(value) if not isinstance(value, str) or len(value) <= 40 else \
+            f"{value[:40]!r}… ({len(value)} characters)"  # a 5 000-digit value is not echoed whole
         if isinstance(value, str) and not INTEGER_TEXT.fullmatch(value.strip(" \t\r\n")):
-            self.fail(f"{value!r} is not a valid integer (decimal digits, without '_')", param, ctx)
+            self.fail(f"{shown} is not a valid integer (decimal digits, without '_')", param, ctx)
+        if isinstance(value, str) and len(value.strip(" \t\r\n").lstrip("+-")) > 30:
+            # beyond any count or seed (and Python refuses to read more than 4300 digits)
+            self.fail(f"{shown} is too large", param, ctx)
         return super().convert(value, param, ctx)
 
     def _describe_range(self) -> str:

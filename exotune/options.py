@@ -28,19 +28,34 @@ _HINT = "(write it as a design file does: ASCII digits, an optional '.' and expo
 MAX_LATENCY_REQUIREMENT_S = 1.0
 
 
+#: The most characters of an option's text an error quotes (a 5 000-digit number is cut).
+_SHOWN_CHARS = 40
+
+
+def _shown(text) -> str:
+    """An option's value as an error quotes it: its repr, a long text cut to its first
+    40 characters and its length."""
+    if isinstance(text, (str, bytes)) and len(text) > _SHOWN_CHARS:
+        return f"{text[:_SHOWN_CHARS]!r}… ({len(text)} characters)"
+    return repr(text)
+
+
 def _number_text(name: str, text, noun: str) -> None:
     """Refuse the text of a number that YAML 1.2 would not read as one (``1_000``, ``١٠``)."""
-    s = text.decode("utf-8", "replace") if isinstance(text, bytes) else text
-    s = s.strip(" \t\r\n")
+    s = _text(text).strip(" \t\r\n")
     if NUMBER_TEXT.fullmatch(s):
         return
     if _NON_FINITE_TEXT.fullmatch(s):
-        raise ConfigError(name, f"must be a finite number, got {text!r}")
+        raise ConfigError(name, f"must be a finite number, got {_shown(text)}")
     try:
         float(s)
     except (TypeError, ValueError, OverflowError):
-        raise ConfigError(name, f"expected {noun}, got {text!r}") from None
-    raise ConfigError(name, f"expected {noun}, got {text!r} {_HINT}")
+        raise ConfigError(name, f"expected {noun}, got {_shown(text)}") from None
+    raise ConfigError(name, f"expected {noun}, got {_shown(text)} {_HINT}")
+
+
+def _text(text) -> str:
+    return text.decode("utf-8", "replace") if isinstance(text, bytes) else text
 
 
 def _is_bool(value) -> bool:
@@ -86,17 +101,19 @@ def number_value(name: str, text, positive: bool = False, noun: str = "a number"
     2.5
     """
     if _is_bool(text) or (not strings and isinstance(text, (str, bytes))):
-        raise ConfigError(name, f"expected {noun}, got {text!r}")
+        raise ConfigError(name, f"expected {noun}, got {_shown(text)}")
     if isinstance(text, (str, bytes)):
         _number_text(name, text, noun)
     try:
         v = float(text)
     except (TypeError, ValueError, OverflowError):
-        raise ConfigError(name, f"expected {noun}, got {text!r}") from None
+        raise ConfigError(name, f"expected {noun}, got {_shown(text)}") from None
     if not math.isfinite(v):
-        raise ConfigError(name, f"must be a finite number, got {text!r}")
+        big = isinstance(text, (str, bytes)) and not _NON_FINITE_TEXT.fullmatch(_text(text).strip(" \t\r\n"))
+        raise ConfigError(name, f"must be a finite number, got {_shown(text)}"
+                                + (" (beyond the largest floating-point number, about 1.8e308)" if big else ""))
     if positive and not v > 0:
-        raise ConfigError(name, f"must be > 0, got {text!r}")
+        raise ConfigError(name, f"must be > 0, got {_shown(text)}")
     return v
 
 
@@ -138,7 +155,7 @@ def latency_requirement_value(name: str, text, strings: bool = True) -> float:
     v = number_value(name, text, noun="a number of seconds", strings=strings)
     if not 0.0 <= v <= MAX_LATENCY_REQUIREMENT_S:
         raise ConfigError(name, f"out of the accepted range: must be in [0, {MAX_LATENCY_REQUIREMENT_S:g}] s, got "
-                                f"{text!r} (the extra delay the loop must tolerate: the analyses accept total delays "
+                                f"{_shown(text)} (the extra delay the loop must tolerate: the analyses accept total delays "
                                 f"up to {MAX_LATENCY_REQUIREMENT_S:g} s, as a design file's "
                                 "requirements.latency_margin_s does; docs/design-file.md#input-limits-and-accepted-ranges)")
     return v
@@ -197,7 +214,7 @@ def path_value(name: str, value, required: bool = False):
     ------
     exotune.errors.ConfigError
         When the value is neither a string nor an ``os.PathLike`` (a number, a list, bytes; None
-        when ``required``).
+        when ``required``), or holds a NUL character (no file system accepts one).
 
     Examples
     --------
@@ -206,4 +223,6 @@ def path_value(name: str, value, required: bool = False):
     """
     if (required or value is not None) and not isinstance(value, (str, os.PathLike)):
         raise ConfigError(name, f"expected a path (str or os.PathLike), got {type(value).__name__} {value!r}")
+    if value is not None and "\x00" in str(os.fspath(value)):  # the OS refuses it with a bare "embedded null byte"
+        raise ConfigError(name, f"{_shown(os.fspath(value))}: a path cannot contain a NUL character")
     return value

@@ -57,8 +57,9 @@ def write_templates(directory) -> list[Path]:
     Raises
     ------
     ConfigError
-        When one of the files already exists (nothing is written then) or the directory cannot
-        be created.
+        When ``directory`` is empty, when one of the files already exists (nothing is written
+        then) or when the directory or a file cannot be written (nothing is left then: the files
+        and the directories made are removed again).
 
     Examples
     --------
@@ -66,6 +67,8 @@ def write_templates(directory) -> list[Path]:
     >>> [p.name for p in write_templates(tempfile.mkdtemp())]
     ['design.yaml', 'sweep.yaml', 'optimize.yaml']
     """
+    if not os.fspath(directory):  # Path("") is the current directory, and the next step read "/design.yaml"
+        raise ConfigError("directory", "an empty path (give a directory; '.' for the current one)")
     d = Path(directory)
     if d.exists() and not d.is_dir():
         raise ConfigError(str(d), "exists and is not a directory")
@@ -73,14 +76,29 @@ def write_templates(directory) -> list[Path]:
     if taken:
         raise ConfigError(str(d / taken[0]), "already exists; exotune init never overwrites a file (choose another directory)")
     texts = {n: template_text(n) for n in TEMPLATES}
+    missing = []  # the directories made here, deepest first: removed again when a write fails
+    p = d.absolute()
+    while not os.path.lexists(p) and p != p.parent:
+        missing.append(p)
+        p = p.parent
+    tmps, written = [d / f".{n}.tmp-{os.getpid()}" for n in TEMPLATES], []
     try:
         d.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise ConfigError(str(d), e.strerror or str(e)) from None
-    written = []
-    for n in TEMPLATES:
-        tmp = d / f".{n}.tmp-{os.getpid()}"
-        tmp.write_text(texts[n], encoding="utf-8")
-        os.replace(tmp, d / n)
-        written.append(d / n)
+        for n, tmp in zip(TEMPLATES, tmps):  # every file complete before any is in place
+            tmp.write_text(texts[n], encoding="utf-8")
+        for n, tmp in zip(TEMPLATES, tmps):
+            os.replace(tmp, d / n)
+            written.append(d / n)
+    except OSError as e:  # all or none: a full disk on the second file leaves no first one behind
+        for q in tmps + written:
+            try:
+                q.unlink()
+            except OSError:
+                pass
+        for q in missing:
+            try:
+                q.rmdir()
+            except OSError:
+                break
+        raise ConfigError(str(d), f"cannot write output: {e.strerror or e}") from None
     return written

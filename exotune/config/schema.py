@@ -41,6 +41,7 @@ __all__ = [
     "ENV_KINDS",
     "HUMAN_MODELS",
     "ENV_MODELS",
+    "MAX_SCHEDULE_ENTRIES",
     "PlantIn",
     "SeaPlantIn",
     "DesignIn",
@@ -120,6 +121,12 @@ class ImplementationIn(_Strict):
         return v
 
 
+#: The most joint angles of a transmission table (1° steps over 127°): the controller file
+#: ``export`` writes holds one controller per angle (up to ~15 kB and ~800 values each), which must
+#: stay within the limits of ``exotune.config.yamlio`` (``MAX_YAML_BYTES``, ``MAX_YAML_NODES``).
+MAX_SCHEDULE_ENTRIES = 128
+
+
 class TransmissionIn(_Strict):
     """Joint-angle dependent transmission (paper §IV gain scheduling): at ``joint_angle_rad[i]``
     the transmission Jacobian is ``ratio[i]`` times the one the plant section is reflected with,
@@ -133,6 +140,10 @@ class TransmissionIn(_Strict):
     def _angles(cls, v):
         if len(v) < 2:
             raise ValueError(f"at least two joint angles are needed for a schedule, got {len(v)}")
+        if len(v) > MAX_SCHEDULE_ENTRIES:  # export writes one controller per angle: a file certify must read
+            raise ValueError(f"at most {MAX_SCHEDULE_ENTRIES} joint angles, got {len(v)} (export writes one "
+                             "controller per angle, and the controller file must stay within the size a YAML "
+                             "input may have, docs/design-file.md#input-limits-and-accepted-ranges)")
         if any(b <= a for a, b in zip(v, v[1:])):
             raise ValueError("joint angles must be strictly increasing")
         return v

@@ -11,7 +11,7 @@ Limits (docs/design-file.md#input-limits-and-accepted-ranges):
 
 * only regular files are read (a directory, a FIFO or a device such as ``/dev/zero`` is refused
   before anything is read, so nothing blocks);
-* a YAML file holds at most :data:`MAX_YAML_BYTES` (1 MiB), a JSON file (a sweep manifest) at most
+* a YAML file holds at most :data:`MAX_YAML_BYTES` (4 MiB), a JSON file (a sweep manifest) at most
   :data:`MAX_JSON_BYTES` (16 MiB);
 * mappings and lists nest at most :data:`MAX_DEPTH` (64) levels deep;
 * a YAML document expands (aliases counted as copies of what they name) to at most
@@ -34,7 +34,12 @@ from .validate import excerpt, join_path, kind_of
 __all__ = ["load_yaml_text", "read_yaml", "read_json_guarded", "read_guarded", "spec_base",
            "MAX_YAML_BYTES", "MAX_JSON_BYTES", "MAX_DEPTH", "MAX_YAML_NODES"]
 
-MAX_YAML_BYTES = 1 << 20  # 1 MiB: the largest controller file exotune writes is ~40 kB
+# 4 MiB: a controller file holds one controller per gain-schedule entry (up to ~15 kB and ~800
+# values each with float32 realizations, more with listed inconclusive cells; ~45 kB without a
+# schedule): the design files' bound of 128 entries (exotune.config.schema.MAX_SCHEDULE_ENTRIES)
+# keeps the file exotune writes within what it reads, bytes and values (a 100-entry schedule made
+# a 1.2 MB file that certify refused as too large at 1 MiB)
+MAX_YAML_BYTES = 4 << 20
 MAX_JSON_BYTES = 16 << 20  # 16 MiB: a sweep manifest of ~10^5 chunks
 MAX_DEPTH = 64  # nesting levels of mappings/lists (exotune's files use at most 8)
 MAX_YAML_NODES = 250_000  # nodes of a YAML document once its aliases are expanded
@@ -96,6 +101,10 @@ def read_guarded(path, what: str = "file", max_bytes: int = MAX_YAML_BYTES) -> b
     def refuse(reason: str):
         return ConfigError(name, f"{where}: {reason}")
 
+    if not name:  # named as given: '' (the message would otherwise start with its reason)
+        raise ConfigError("''", f"{where}: an empty path (give a file)")
+    if "\x00" in name:  # os.stat raises a bare ValueError ("embedded null byte") naming nothing
+        raise refuse("a path cannot contain a NUL character")
     try:
         st = os.stat(name)
         if not stat.S_ISREG(st.st_mode):
@@ -339,7 +348,7 @@ def read_yaml(path, max_bytes: int = MAX_YAML_BYTES) -> dict:
     path : str or os.PathLike
         A regular file of at most ``max_bytes`` bytes, UTF-8.
     max_bytes : int
-        The size limit (:data:`MAX_YAML_BYTES`, 1 MiB).
+        The size limit (:data:`MAX_YAML_BYTES`, 4 MiB).
 
     Returns
     -------
@@ -400,14 +409,21 @@ def spec_base(spec) -> str | None:
     -------
     str or None
         The path of the base design file, or None.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        When ``spec`` is a path holding a NUL character (no file system accepts one).
     """
     if not isinstance(spec, (str, os.PathLike)):
         return None
+    if "\x00" in str(os.fspath(spec)):  # refused here, before the output checks stat it (a bare ValueError)
+        read_guarded(spec)
     try:
         base = read_yaml(spec).get("base")
     except ConfigError:
         return None
-    if not isinstance(base, str) or not base:
+    if not isinstance(base, str) or not base or "\x00" in base:  # the loader names a NUL in the base path
         return None
     spec = os.fspath(spec)
     return base if os.path.isabs(base) else os.path.join(os.path.dirname(os.path.abspath(spec)), base)

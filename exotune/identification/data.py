@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config.validate import in_limits, limit_text
+from ..config.validate import excerpt, in_limits, limit_text
 from ..errors import ConfigError
 from ..units import fmt_num
 
@@ -115,7 +115,11 @@ def _check_time(t: np.ndarray) -> float:
             why = f"step {fmt_num(d)} s after sample {k} is not the median step {fmt_num(step)} s within {JITTER:.0%}"
         raise ConfigError("t", why + ": a constant rate is needed")
     i = np.arange(t.size) - (t.size - 1) / 2.0
-    return float(np.dot(i, t - t.mean()) / np.dot(i, i))  # the least-squares step: jitter averages out
+    # the least-squares step (jitter averages out), on the stamps scaled to order one: stamps 1e300
+    # apart must not overflow the sums (the rate check then names the step)
+    scale = float(np.max(np.abs(t))) or 1.0
+    u = t / scale
+    return float(np.dot(i, u - u.mean()) / np.dot(i, i)) * scale
 
 
 def _column(c: str, v) -> np.ndarray:
@@ -416,6 +420,15 @@ def _decimal_time(t, t0):
         return np.array([float(decimal.Decimal(x.strip()) - base) for x in t.to_pylist()]), t0
 
 
+def _number_text(x: str) -> bool:
+    """Whether a cell's text is a number as a design file writes one (YAML 1.2 decimal, surrounding
+    blanks aside) or a spelt-out non-finite value (``nan``, ``inf``: refused afterwards, named)."""
+    from ..options import NUMBER_TEXT
+
+    t = x.strip()
+    return bool(NUMBER_TEXT.fullmatch(t)) or t.lstrip("+-").lower() in ("inf", "infinity", "nan")
+
+
 def _is_number(x: str) -> bool:
     try:
         float(x)
@@ -433,8 +446,12 @@ def _row_columns(raw: bytes, path) -> dict:
     except UnicodeDecodeError:
         raise ConfigError(str(path), "not UTF-8 text (a CSV log is expected)") from None
     reader = csv.reader(io.StringIO(text))
-    rows = [(reader.line_num, r) for r in reader  # blank lines and comment lines (# …) skipped
-            if r and any(x.strip() for x in r) and not r[0].lstrip().startswith("#")]
+    try:
+        rows = [(reader.line_num, r) for r in reader  # blank lines and comment lines (# …) skipped
+                if r and any(x.strip() for x in r) and not r[0].lstrip().startswith("#")]
+    except csv.Error as e:  # a field beyond the csv module's limit (131072 characters), a NUL in a quoted field, …
+        raise ConfigError(f"{path}:{reader.line_num}", f"not a CSV log ({excerpt(str(e), 60)}): a header row and "
+                          "one row of numbers per sample are expected") from None
     if not rows:
         raise ConfigError(str(path), "empty: a header row and one row per sample are expected")
     line, header = rows[0][0], [h.strip() for h in rows[0][1]]
@@ -462,6 +479,8 @@ def _row_columns(raw: bytes, path) -> dict:
             raise ConfigError(f"{path}:{i}", f"{len(r)} values, the header names {len(header)} columns")
         for h, x in zip(header, r):
             try:
+                if not _number_text(x):  # Python reads '1_0' (10) and non-ASCII digits; a design file does not
+                    raise ValueError(x)
                 v = float(x)
                 if h == "t" and math.isfinite(v):  # relative to the first stamp, in decimal: epoch stamps keep their µs
                     t0 = decimal.Decimal(x.strip()) if t0 is None else t0
@@ -470,6 +489,8 @@ def _row_columns(raw: bytes, path) -> dict:
             except (ValueError, decimal.InvalidOperation):
                 other = _delimiter(x)
                 hint = "" if other is None else f" (split by {other}: a log is CSV, with ',' between the values)"
+                if not hint and _is_number(x):  # '1_0', '١٠': Python's float reads them, a design file does not
+                    hint = " (write it as a design file does: ASCII digits, an optional '.' and exponent, no '_')"
                 raise ConfigError(f"{path}:{i}", f"{h} = {x.strip()[:40]!r} is not a number{hint}") from None
     return cols
 

@@ -39,7 +39,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from ..config.batch import OVERRIDABLE, OVERRIDE_LIMITS
-from ..config.validate import in_limits, limit_text
+from ..config.validate import excerpt, in_limits, limit_text
 from ..errors import ConfigError
 from ..numerics.threads import one_blas_thread
 from ..units import fmt_num
@@ -96,6 +96,11 @@ def _number_text(text: str) -> bool:
     return bool(NUMBER_TEXT.fullmatch(t)) or t.lstrip("+-").lower() in ("inf", ".inf", "nan", ".nan", "infinity")
 
 
+def _shown(value) -> str:
+    """A ``--fix`` value as the messages quote it: its repr, a long text cut to an excerpt."""
+    return repr(excerpt(value, 40)) if isinstance(value, str) else repr(value)
+
+
 def parse_fix(fix) -> dict:
     """``{key: value}`` from a mapping or from ``NAME=VALUE`` strings (NAME a design-file key
     such as ``motor_damping`` or its symbol such as ``B_m``; ``coulomb_friction`` / ``F_c``).
@@ -134,24 +139,27 @@ def parse_fix(fix) -> dict:
     for name, value in items:
         key = name.strip() if name.strip() in _FIXABLE else by_symbol.get(name.strip().lower())
         if key is None:
-            raise ConfigError("fix", f"{name!r} is not a plant parameter (known: {', '.join(_FIXABLE)} or their "
+            raise ConfigError("fix", f"{excerpt(name, 40)!r} is not a plant parameter (known: {', '.join(_FIXABLE)} or their "
                               "symbols J_m, B_m, K_s, J_j, K_c, F_c), as NAME=VALUE")
         try:
             # text as a design file reads it (YAML 1.2 numbers: no '1_000'); a number as given
             v = None if isinstance(value, bool) or (isinstance(value, str) and not _number_text(value)) else float(value)
         except (TypeError, ValueError, OverflowError):
             v = None
+        if value is None:  # 'motor_inertia' without '=VALUE' (it read "motor_inertia=None")
+            raise ConfigError("fix", f"{excerpt(name, 40)!r} has no value: give it as NAME=VALUE (SI units), "
+                                     f"e.g. {key}=1.0")
         if v is None:
-            raise ConfigError("fix", f"{name}={value!r}: the value must be a number (SI units)")
+            raise ConfigError("fix", f"{name}={_shown(value)}: the value must be a number (SI units)")
         if not math.isfinite(v):
-            raise ConfigError("fix", f"{name}={value!r}: the value must be a finite number")
+            raise ConfigError("fix", f"{name}={_shown(value)}: the value must be a finite number")
         # the design file's rule for the parameter (docs/design-file.md); Coulomb friction ≥ 0
         op, bound = OVERRIDABLE.get(f"plant.{key}", (">=", 0.0))
         if not (v > bound if op == ">" else v >= bound):
-            raise ConfigError("fix", f"{name}={value!r}: {key} must be {op} {bound:g} {_FIXABLE[key][2]}")
+            raise ConfigError("fix", f"{name}={_shown(value)}: {key} must be {op} {bound:g} {_FIXABLE[key][2]}")
         kind = OVERRIDE_LIMITS.get(f"plant.{key}")
         if kind is not None and not in_limits(v, kind):  # the range `exotune design` accepts
-            raise ConfigError("fix", f"{name}={value!r}: {key} must be in {limit_text(kind)}, the design file's "
+            raise ConfigError("fix", f"{name}={_shown(value)}: {key} must be in {limit_text(kind)}, the design file's "
                               "accepted range (docs/design-file.md#input-limits-and-accepted-ranges)")
         if key in out and out[key] != v:  # the same value twice (under two names) is no conflict
             unit = _FIXABLE[key][2]

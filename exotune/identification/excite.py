@@ -221,13 +221,19 @@ def _periods(period_samples: int, fs: float, periods, duration_s, period_given: 
         n = int(periods)
     elif duration_s is not None:
         d = _number("duration_s", duration_s)
-        n = int(math.floor(d / T * (1 + _REL)))
+        whole = math.floor(d / T * (1 + _REL)) if d / T * (1 + _REL) <= MAX_SAMPLES else None
+        if whole is None:  # more periods than samples written (``1e308`` s would overflow an int)
+            raise ConfigError("duration_s", f"{d:g} s at {fs:g} Hz is more than {MAX_SAMPLES} samples: at most "
+                                            f"{MAX_SAMPLES} samples are written")
+        n = int(whole)
         if n < 1:
             raise ConfigError("duration_s", f"{d:g} s is shorter than one period ({T:.6g} s)")
     else:
         n = max(2, int(math.ceil(DEFAULT_DURATION_S / T * (1 - _REL))))
     if n * period_samples > MAX_SAMPLES:
-        what = f"{n} period{'' if n == 1 else 's'} of {period_samples} samples"
+        # a count beyond any file (``--duration-s 1e308``: 309 digits) in its short form
+        count = f"{n}" if n < 10**9 else f"about 10^{int(n.bit_length() * math.log10(2))}"
+        what = f"{count} period{'' if n == 1 else 's'} of {period_samples} samples"
         if periods is not None or duration_s is not None:
             raise ConfigError("periods" if periods is not None else "duration_s",
                               f"{what}: at most {MAX_SAMPLES} samples are written")

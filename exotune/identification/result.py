@@ -272,4 +272,6 @@ class PlantEstimate(Result):
             bad = ", ".join(p.key for p in self.parameters if p.value <= 0 and p.key != "coulomb_friction")
             lines.append(f"  NOT A PLANT: {bad} ≤ 0 (too little excitation, or the log's signs or units differ from "
                          "docs/identification.md)")
-        return "\n".join(lines)
+        from ..errors import printable
+
+        return printable("\n".join(lines), keep="\n")  # the log's file names quoted: their control characters escaped

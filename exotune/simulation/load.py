@@ -4,7 +4,8 @@ consistency checks), or a design file exported in memory at a sample rate."""
 from __future__ import annotations
 
 from ..config import read_yaml
-from ..config.validate import in_limits, limit_text
+from ..config.design import refuse_other_kind
+from ..config.validate import fmt_outside, in_limits, limit_text
 from ..controllerfile import ControllerFile, as_controller_file, build_export, checked_controller, design_at_rate, load_controller
 from ..controllerfile.model import ScheduleEntry
 from ..controllerfile.certify import certify
@@ -170,6 +171,7 @@ def load_for_simulation(path, sample_rate_hz: float | None = None, check: bool =
         if check:
             check_consistent(doc)
         return doc
+    refuse_other_kind(raw, "design", name)  # an SEA file is named as one, not asked for a sample rate
     fs = sample_rate_hz
     if fs is None and isinstance(raw, dict) and isinstance(raw.get("implementation"), dict):
         fs = raw["implementation"].get("sample_rate_hz")
@@ -234,11 +236,13 @@ def schedule_entry(doc: ControllerFile | dict, joint_angle_rad: float) -> Schedu
         end = hi if joint_angle_rad > hi else lo  # the end entry is the nearest
         at = (f"entries at {', '.join(fmt_num(a) for a in angles)} rad" if len(angles) <= 8
               else f"{len(angles)} entries")
-        raise ConfigError("joint_angle", f"{fmt_num(joint_angle_rad)} rad is outside the gain schedule's joint angles "
+        # the digits that show why (2.0000000000000004 printed "2" read as inside [0, 2])
+        shown = fmt_outside(joint_angle_rad, lambda v: lo <= v <= hi)
+        raise ConfigError("joint_angle", f"{shown} rad is outside the gain schedule's joint angles "
                           f"[{fmt_num(lo)}, {fmt_num(hi)}] rad: the file describes no plant there ({at}); "
                           "the runtime would run the nearest entry "
                           f"({fmt_num(end)} rad), but its plant is not the joint's at "
-                          f"{fmt_num(joint_angle_rad)} rad; give an angle in [{fmt_num(lo)}, {fmt_num(hi)}] rad")
+                          f"{shown} rad; give an angle in [{fmt_num(lo)}, {fmt_num(hi)}] rad")
     return cf.gain_schedule.nearest(joint_angle_rad)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..controllerfile.continuation import covers_range
+from ..errors import printable
 from ..model.humans import PARAM_UNITS
 from .numbers import interval_text, sampled_verdict_word
 
@@ -168,4 +169,4 @@ def format_certify(rep: dict) -> str:
     else:
         lines.append("NOT CERTIFIED:")
         lines += [f"  - {p}" for p in rep["problems"]]
-    return "\n".join(lines)
+    return printable("\n".join(lines), keep="\n")  # a hand-tuned file's own texts (names, reasons) cannot drive the terminal

@@ -3,6 +3,8 @@ factor and the frequency resolution, each with its unit (docs/identification.md#
 
 from __future__ import annotations
 
+from ..errors import printable
+
 __all__ = ["excitation_text"]
 
 
@@ -35,4 +37,4 @@ def excitation_text(e) -> str:
         "  play it as the motor command and log tau_cmd with the measured signals; the first period is the "
         "plant's transient",
     ]
-    return "\n".join(lines)
+    return printable("\n".join(lines), keep="\n")  # the output's file name quoted: its control characters escaped

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..controllerfile.model import as_controller_file
+from ..errors import printable
 from .numbers import sampled_verdict_word
 
 __all__ = ["format_export"]
@@ -46,6 +47,7 @@ def format_export(doc, out) -> str:
     bad = cf.provenance.uncertified
     tail = (f"; WRITTEN UNCERTIFIED (--allow-uncertified): {'; '.join(bad)}" if bad
             else f"; run `exotune certify {out}`")
-    return (f"wrote {out}: {cf.sample_rate_hz:g} Hz, {n} sos filters, "
-            f"sampled-data loop free {sampled_verdict_word(sa['free_stable'])}, "
-            f"locked {sampled_verdict_word(sa['locked_stable'])}{margin}{tail}")
+    # the output's path (and the file's own texts) quoted: their control characters escaped
+    return printable(f"wrote {out}: {cf.sample_rate_hz:g} Hz, {n} sos filters, "
+                     f"sampled-data loop free {sampled_verdict_word(sa['free_stable'])}, "
+                     f"locked {sampled_verdict_word(sa['locked_stable'])}{margin}{tail}")

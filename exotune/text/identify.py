@@ -4,6 +4,7 @@ tests and the warnings (docs/identification.md#validation)."""
 
 from __future__ import annotations
 
+from ..errors import printable
 from .numbers import count_text
 
 __all__ = ["validation_text"]
@@ -42,4 +43,4 @@ def validation_text(v) -> str:
                      f"{'independent of' if t.independent else 'correlated with'} {t.input_name} "
                      f"(largest at lag {t.peak_lag} samples, bound ±{t.cross_bound:.2g})")
     lines += [f"  warning: {w}" for w in v.warnings]
-    return "\n".join(lines)
+    return printable("\n".join(lines), keep="\n")  # the logs' file names quoted: their control characters escaped

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from ..errors import printable
 from ..units import PARAM_UNITS, path_unit
 from .kyp import format_certificates
 
@@ -78,10 +79,10 @@ def _violation_lines(r: dict) -> list[str]:
             part = (", unstable for " + ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in unst) + f" {unit_word(v['unit'])}") if unst else ""
             lines.append(f"  robust: {v['family']} not stable over {v['parameter']} ∈ "
                          f"[{v['range'][0]:.6g}, {v['range'][1]:.6g}] {unit_word(v['unit'])}{part}")
-        elif "bound" in v:
         elif v["constraint"] == "gain_schedule":
             lines.append(f"  gain_schedule: the entry at joint angle {v['joint_angle_rad']:.6g} rad (transmission ratio "
                          f"{v['ratio']:.6g}) is not stable for {', '.join(v['loops'])}; needed: {v['needed']}")
+        elif "bound" in v:
             val = "n/a" if v["value"] is None else f"{v['value']:.6g}"
             u = unit_word(v["unit"])
             lines.append(f"  {v['constraint']}: {val} {u}, needed {v['op']} {v['bound']:.6g} {u}")
@@ -149,7 +150,7 @@ def format_optimize(r: dict) -> str:
                  f"{r['evaluated']} exact analyses; the best one breaks: {', '.join(r['broken'])}"]
         lines += [f"  {p} = {_value(p, v)}" for p, v in r["x"].items()]
         lines += _violation_lines(r) + _bound_lines(r)
-        return "\n".join(lines)
+        return printable("\n".join(lines), keep="\n")
     o = r["objective"]
     lines = [f"optimum ({r['evaluated']} designs analysed exactly): {o['name']} = {o['value']:.6g} {unit_word(o['unit'])} ({o['sense']}imized)"]
     lines += [f"  {p} = {_value(p, v)}" for p, v in r["x"].items()]
@@ -160,10 +161,10 @@ def format_optimize(r: dict) -> str:
     if "latency_margin" in r:
         lines.append(_latency_line(r))
     lines += _sampled_lines(r)
-    for k, m in r["metrics"].items():
     over = next((m["over"] for m in r["metrics"].values() if isinstance(m, dict) and m.get("over")), None)
     if over:
         lines.append(f"  metrics below: {over}")
+    for k, m in r["metrics"].items():
         if k == "human_stable_intervals":
             for fk, iv in m.items():
                 lines.append(f"  {fk}: {_intervals(fk, iv)}")
@@ -177,4 +178,4 @@ def format_optimize(r: dict) -> str:
         lines.append("  WARNING: " + r["latency_warning"])
     if "pareto" in r:
         lines.append(f"  Pareto front (objective vs robust fraction): {len(r['pareto'])} designs")
-    return "\n".join(lines)
+    return printable("\n".join(lines), keep="\n")  # the spec's paths and texts cannot drive the terminal

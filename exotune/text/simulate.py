@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..errors import printable
 from .numbers import count_text, unit_text
 
 __all__ = ["format_simulation"]
@@ -116,4 +117,4 @@ def format_simulation(rep: dict) -> str:
     if "summary_without_dob" in rep:
         out.append("  without the DOB:")
         out += [_line(k, v, "    ") for k, v in rep["summary_without_dob"].items() if k != "verdict_basis"]
-    return "\n".join(out)
+    return printable("\n".join(out), keep="\n")  # the input's own texts quoted cannot drive the terminal

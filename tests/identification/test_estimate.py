@@ -64,8 +64,10 @@ def test_parse_fix():
     with pytest.raises(ConfigError) as ei:
         parse_fix(["gear=3"])
     assert ei.value.field == "fix" and "'gear' is not a plant parameter" in ei.value.reason
-    with pytest.raises(ConfigError, match="the value must be a number"):
+    with pytest.raises(ConfigError, match="'J_m' has no value: give it as NAME=VALUE"):
         parse_fix(["J_m"])
+    with pytest.raises(ConfigError, match="the value must be a number"):
+        parse_fix(["J_m=x"])
     with pytest.raises(ConfigError, match="finite number"):
         parse_fix(["J_m=inf"])
     # the design file's rule of each parameter
