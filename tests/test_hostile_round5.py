@@ -337,3 +337,36 @@ def test_a_controller_file_over_the_old_limit_is_read(tmp_path):
     p.write_text("notes:\n" + "".join(f"  - '{i} {'x' * 1200}'\n" for i in range(1000)), encoding="utf-8")
     assert p.stat().st_size > 1.2e6
     assert len(read_yaml(p)["notes"]) == 1000
+
+
+@pytest.mark.parametrize("value, named", [("!!set {a, b}", "a set (YAML !!set)"),
+                                          ("!!binary aGVsbG8=", "binary data (YAML !!binary)"),
+                                          ("2001-12-14", "a date (an unquoted YAML timestamp: quote it)")])
+def test_controller_file_schema_of_an_odd_yaml_type_is_named_not_repred(tmp_path, value, named):
+    """A YAML set, binary or timestamp where the schema string belongs is named in words (the
+    message printed Python reprs: {'a', 'b'}, b'hello', datetime.date(2001, 12, 14))."""
+    from click.testing import CliRunner
+
+    from exotune.cli import cli
+
+    f = tmp_path / "c.yaml"
+    f.write_text(f"schema: {value}\n")
+    res = CliRunner().invoke(cli, ["certify", str(f)])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    assert f"schema: must be 'exotune.controller/1', got {named}" in res.output
+    assert "datetime" not in res.output and "b'" not in res.output and "{'" not in res.output
+
+
+def test_library_views_of_codegen_and_report_neutralize_escapes(tmp_path):
+    """The library's to_text() of codegen and report results shows an ESC in a directory name
+    escaped, as the command line does."""
+    from exotune.controllerfile.results import GeneratedC
+    from exotune.sweeps.result import SweepReport
+    from pathlib import Path
+
+    d = Path("dir\x1b]0;x\x07")
+    g = GeneratedC(directory=d, files=("a.h", "a.c", "t.c"), controllers=1, sections=3, flags="-O2",
+                   sha256="0" * 64, certified=True)
+    assert "\x1b" not in g.to_text() and "\\x1b" in g.to_text()
+    r = SweepReport(directory=d, maps=(), missing_chunks=(), running=False, sweep_dir=None)
+    assert "\x1b" not in r.to_text() and "\\x1b" in r.to_text()

@@ -521,6 +521,14 @@ def kind_of(v: Any) -> str:
         return "a list"
     if isinstance(v, dict):
         return "a mapping"
+    if isinstance(v, (set, frozenset)):
+        return "a set (YAML !!set)"
+    if isinstance(v, (bytes, bytearray)):
+        return "binary data (YAML !!binary)"
+    import datetime
+
+    if isinstance(v, (datetime.date, datetime.datetime)):
+        return "a date (an unquoted YAML timestamp: quote it)"
     return type(v).__name__
 
 
@@ -667,15 +675,17 @@ def pydantic_reason(e: dict) -> str:
         return f"expected a mapping, got {got}"
     if typ in ("list_type", "tuple_type", "set_type", "iterable_type"):
         return f"expected a list, got {got}"
+    # a scalar is quoted; anything else (a YAML !!set, !!binary or date) is named, not repr'd
+    scalar = fmt_value(inp) if inp is None or isinstance(inp, (str, int, float, bool)) else got
     if typ == "literal_error":
-        return f"must be {ctx.get('expected', '')}, got {fmt_value(inp)}"
+        return f"must be {ctx.get('expected', '')}, got {scalar}"
     if typ == "enum":
-        return f"must be one of {ctx.get('expected', '')}, got {fmt_value(inp)}"
+        return f"must be one of {ctx.get('expected', '')}, got {scalar}"
     if typ in ("too_short", "too_long"):
         n, actual = ctx.get("min_length" if typ == "too_short" else "max_length"), ctx.get("actual_length")
         return f"expected {'at least' if typ == 'too_short' else 'at most'} {n} item(s), got {actual}"
     if typ == "string_pattern_mismatch":
-        return f"{fmt_value(inp)} does not have the expected form (pattern {ctx.get('pattern')})"
+        return f"{scalar} does not have the expected form (pattern {ctx.get('pattern')})"
     if typ == "missing":
         return "required parameter is missing"
     if typ == "extra_forbidden":

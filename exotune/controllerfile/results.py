@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import printable
 from ..record import Record, Result
 from .model import as_controller_file
 
@@ -147,10 +148,11 @@ class GeneratedC(Result):
             The two or three lines.
         """
         d = self.directory
-        return (f"wrote {', '.join(self.files)} to {d} ({self.controllers} controller"
+        text = (f"wrote {', '.join(self.files)} to {d} ({self.controllers} controller"
                 f"{'' if self.controllers == 1 else 's'}, {self.sections} sections)\n"
                 f"check on the target: cc {self.flags} -o exotune_golden_test {d / self.files[1]} "
                 f"{d / self.files[2]} -lm && ./exotune_golden_test\n"
                 f"source sha256 {self.sha256}: "
                 + ("certified (exotune certify passed)" if self.certified else
                    "NOT CERTIFIED (--allow-uncertified; the code says so): it must not drive a joint"))
+        return printable(text, keep="\n")  # a directory name cannot drive the terminal

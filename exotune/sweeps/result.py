@@ -11,6 +11,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import printable
 from ..record import Record, Result
 
 __all__ = ["SweepResult", "SweepReport", "chunk_list"]
@@ -231,4 +232,4 @@ class SweepReport(Result):
             text += (f"\npartial sweep: {chunk_list(self.missing_chunks)} missing; the report covers the finished "
                      f"chunks only; rerun `exotune sweep` with the same spec{where} to compute "
                      f"{'it' if len(self.missing_chunks) == 1 else 'them'}, then `exotune report` again")
-        return text
+        return printable(text, keep="\n")  # a directory name cannot drive the terminal

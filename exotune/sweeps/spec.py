@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..config import batch_config, design_from_mapping, read_yaml
-from ..config.validate import check_analysis_filters, number_field
+from ..config.validate import check_analysis_filters, kind_of, number_field
 from ..errors import ConfigError
 from .plan import SweepPlan
 
@@ -101,8 +101,7 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
         if len(set(out)) < len(out):  # start and stop a few ulps apart
             raise ConfigError(field, f"{num} values from {start!r} to {stop!r} are not distinct in floating point")
         return out, scale
-    kind = "null" if spec is None else type(spec).__name__
-    raise ConfigError(field, f"expected a list of values or a mapping {{start, stop, num, scale}}, got {kind}")
+    raise ConfigError(field, f"expected a list of values or a mapping {{start, stop, num, scale}}, got {kind_of(spec)}")
 
 
 def _plant_margin_option(v: Any) -> dict | None:
@@ -209,7 +208,7 @@ def load_base(base, root: str):
             return design_from_mapping(base, source="<inline base>"), None
         except ConfigError as e:
             raise ConfigError(f"base.{e.field}", e.reason) from None
-    raise ConfigError("base", f"expected a design file path or a mapping, got {'null' if base is None else type(base).__name__}")
+    raise ConfigError("base", f"expected a design file path or a mapping, got {kind_of(base)}")
 
 
 def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_size: int | None = None) -> "SweepPlan":
@@ -247,7 +246,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
     elif isinstance(spec, dict):
         mapping, root, source = spec, os.getcwd(), None
     else:
-        raise ConfigError("<spec>", f"expected a spec file path or a mapping, got {type(spec).__name__}")
+        raise ConfigError("<spec>", f"expected a spec file path or a mapping, got {kind_of(spec)}")
     unknown = [k for k in mapping if k not in _SPEC_KEYS]
     if unknown:
         raise ConfigError(str(unknown[0]), f"unknown key in a sweep spec (allowed: {', '.join(_SPEC_KEYS)})", in_file=True)
@@ -260,7 +259,7 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
         raise ConfigError("axes", "required key is missing (a mapping of dotted parameter paths to values)")
     axes_in = mapping["axes"]
     if not isinstance(axes_in, dict):
-        raise ConfigError("axes", f"expected a mapping of dotted parameter paths to values, got {type(axes_in).__name__}")
+        raise ConfigError("axes", f"expected a mapping of dotted parameter paths to values, got {kind_of(axes_in)}")
     if not axes_in:
         raise ConfigError("axes", "at least one axis is required")
     axes: dict[str, dict] = {}

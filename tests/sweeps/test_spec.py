@@ -63,14 +63,14 @@ def test_spec_file_base_is_relative_to_the_spec(tmp_path):
      "axes.design.amplification.step", "unknown key"),
     (_spec(axes={"design.amplification": [0.5]}), "axes.design.amplification", ""),  # α < 1: the design rules
     (_spec(axes={"humans": [1.0]}), "axes.humans", ""),  # not sweepable
-    (_spec(axes={"design.amplification": "x"}), "axes.design.amplification", "got str"),
+    (_spec(axes={"design.amplification": "x"}), "axes.design.amplification", "got the string 'x'"),
     (_spec(chunk_size=0), "chunk_size", "must be >= 1"),
     (_spec(chunk_size=True), "chunk_size", "expected an integer"),
     (_spec(verify_points=5000), "verify_points", "at most 1000"),
     (_spec(plant_margin="yes"), "plant_margin", "expected true, false or a mapping"),
     (_spec(plant_margin={"budget": 10}), "plant_margin.budget", "must be >= 1000"),
     (_spec(sampled="yes"), "sampled", "expected true or false"),
-    (_spec(base=3), "base", "expected a design file path or a mapping, got int"),
+    (_spec(base=3), "base", "expected a design file path or a mapping, got the number 3"),
 ])
 def test_bad_specs_name_the_field(spec, field, reason):
     with pytest.raises(ConfigError) as ei:
