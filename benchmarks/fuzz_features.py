@@ -188,48 +188,9 @@ class SampledRef:
         self._zoh = {}
 
     def matrix(self, human, env, T=None):
-        Ts = 1.0 / self.fs
         T = self.T if T is None else float(T)
         Ap, Bp, Cp, _, grounded = fv.plant_matrices(self.plant, human, env, ("th_m", "w_m", "tau_s", "dtau_s", "tau_c"))
-        Ak, Bk, Ck, Dk = self.K
-        D = T * self.fs
-        d = int(math.floor(D + 1e-9))
-        f = D - d
-        if f < 1e-9:
-            f = 0.0
-        npl, nk = Ap.shape[0], Ak.shape[0]
-        Dz = np.zeros((Cp.shape[0], 1))
-        Phi, G_new = scipy.signal.cont2discrete((Ap, Bp, Cp, Dz), Ts, method="zoh")[:2]
-        G_old = np.zeros_like(G_new)
-        if f > 0.0:
-            Pf, Gf = scipy.signal.cont2discrete((Ap, Bp, Cp, Dz), f * Ts, method="zoh")[:2]
-            Pr, Gr = scipy.signal.cont2discrete((Ap, Bp, Cp, Dz), (1.0 - f) * Ts, method="zoh")[:2]
-            Phi, G_old, G_new = Pr @ Pf, Pr @ Gf, Gr
-        m = d + (1 if f > 0 else 0)
-        n = npl + nk + m
-        u_row = np.zeros(n)
-        u_row[:npl] = (Dk @ Cp)[0]
-        u_row[npl:npl + nk] = Ck[0]
-
-        def u_lag(j):
-            if j == 0:
-                return u_row
-            r = np.zeros(n)
-            r[npl + nk + j - 1] = 1.0
-            return r
-
-        M = np.zeros((n, n))
-        M[:npl, :npl] = Phi
-        M[:npl] += G_new @ u_lag(d)[None, :]
-        if f > 0:
-            M[:npl] += G_old @ u_lag(d + 1)[None, :]
-        M[npl:npl + nk, :npl] = Bk @ Cp
-        M[npl:npl + nk, npl:npl + nk] = Ak
-        if m:
-            M[npl + nk] = u_row
-            for j in range(1, m):
-                M[npl + nk + j, npl + nk + j - 1] = 1.0
-        return M, grounded
+        return fv.delayed_loop_matrix(Ap, Bp, Cp, self.K, T, self.fs), grounded
 
     def verdict(self, human, env, T=None):
         """(stable, spectral radius) of one loop member."""

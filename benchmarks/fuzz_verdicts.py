@@ -895,18 +895,13 @@ def file_controller(doc: dict) -> control.StateSpace:
     return control.ss(closed.A, closed.B[:, :-1], closed.C, closed.D[:, :-1], dt)
 
 
-def sampled_loop_matrix(doc: dict, human, env, delay_s=None):
-    """The loop matrix of the file's controller on the plant (+ human, + environment), the plant
-    discretized here with scipy.signal.cont2discrete (zero-order hold), the latency
-    T = (d + f) T_s exact: within each period the command of k − d − 1 acts for f·T_s, that of
-    k − d for the rest. Returns (Φ_cl, grounded)."""
-    fs = float(doc["sample_rate_hz"]["value"])
+def delayed_loop_matrix(Ap, Bp, Cp, K, T: float, fs: float) -> np.ndarray:
+    """The closed-loop matrix of the plant (Ap, Bp, Cp) sampled with a zero-order hold at ``fs``
+    and the discrete controller K = (Ak, Bk, Ck, Dk), the latency T = (d + f) T_s exact: within
+    each period the command of k − d − 1 acts for f·T_s, that of k − d for the rest (state: plant,
+    controller, the past commands u[k−1] … u[k−m])."""
     Ts = 1.0 / fs
-    T = float(doc["delay_s"]["value"] if delay_s is None else delay_s)
-    plant = {k: float(v["value"]) for k, v in doc["plant"].items()}
-    Ap, Bp, Cp, names, grounded = plant_matrices(plant, human, env, ("th_m", "w_m", "tau_s", "dtau_s", "tau_c"))
-    K = file_controller(doc)
-    Ak, Bk, Ck, Dk = (np.asarray(x, float) for x in (K.A, K.B, K.C, K.D))
+    Ak, Bk, Ck, Dk = K
     D = T * fs
     d = int(math.floor(D + 1e-9))
     f = D - d
@@ -945,7 +940,21 @@ def sampled_loop_matrix(doc: dict, human, env, delay_s=None):
         M[npl + nk] = u_row
         for j in range(1, m):
             M[npl + nk + j, npl + nk + j - 1] = 1.0
-    return M, grounded
+    return M
+
+
+def sampled_loop_matrix(doc: dict, human, env, delay_s=None):
+    """The loop matrix of the file's controller on the plant (+ human, + environment), the plant
+    discretized here with scipy.signal.cont2discrete (zero-order hold), the latency
+    T = (d + f) T_s exact: within each period the command of k − d − 1 acts for f·T_s, that of
+    k − d for the rest. Returns (Φ_cl, grounded)."""
+    fs = float(doc["sample_rate_hz"]["value"])
+    T = float(doc["delay_s"]["value"] if delay_s is None else delay_s)
+    plant = {k: float(v["value"]) for k, v in doc["plant"].items()}
+    Ap, Bp, Cp, names, grounded = plant_matrices(plant, human, env, ("th_m", "w_m", "tau_s", "dtau_s", "tau_c"))
+    K = file_controller(doc)
+    Ak, Bk, Ck, Dk = (np.asarray(x, float) for x in (K.A, K.B, K.C, K.D))
+    return delayed_loop_matrix(Ap, Bp, Cp, (Ak, Bk, Ck, Dk), T, fs), grounded
 
 
 def sampled_verdict(doc, human, env, delay_s=None):
