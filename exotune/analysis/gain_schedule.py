@@ -24,7 +24,51 @@ import numpy as np
 from .batch import analyze_batch, cfg_size, slice_cfg
 from .batch_result import BatchAnalysis
 
-__all__ = ["ScheduleBatch", "analyze_schedule", "rescheduled"]
+__all__ = ["ScheduleBatch", "analyze_schedule", "rescheduled", "worst_over", "WORST_METRICS"]
+
+#: The sweep's scalar metric columns (docs/sweep-spec.md#columns) reduced over a gain schedule, and
+#: the direction that is better: ``">="`` (a margin or a bandwidth: the smallest is the worst) or
+#: ``"<="`` (the passivity phase excess: the largest is the worst).
+WORST_METRICS = {
+    "passivity_max_phase_excess_deg": "<=",
+    "dob_phase_margin_deg": ">=",
+    "dob_gain_margin_db": ">=",
+    "dob_delay_margin_s": ">=",
+    "amplification_bandwidth_hz": ">=",
+}
+
+
+def worst_over(values, op: str):
+    """The worst of each column of ``values`` over its rows (the main controller and the
+    gain-schedule entries): the smallest where ``op`` is ``">="``, the largest where it is ``"<="``;
+    NaN in a column where any row is NaN (one unknown value leaves the worst unknown).
+
+    Parameters
+    ----------
+    values : array_like, shape (R, N)
+        One row per controller (main first, then the entries), one column per design, in the
+        metric's unit.
+    op : str
+        ``">="`` or ``"<="``: the direction that is better.
+
+    Returns
+    -------
+    worst : numpy.ndarray, shape (N,)
+        The worst value per design, in the metric's unit.
+    row : numpy.ndarray of int, shape (N,)
+        The row that holds it (0: the main controller).
+
+    References
+    ----------
+    Paper §IV (gain scheduling); docs/sweep-spec.md#gain-schedule.
+    """
+    vals = np.asarray(values, dtype=float)
+    if op not in (">=", "<="):
+        raise ValueError(f"op must be '>=' or '<=', got {op!r}")
+    row = (np.argmin(np.where(np.isnan(vals), np.inf, vals), axis=0) if op == ">=" else
+           np.argmax(np.where(np.isnan(vals), -np.inf, vals), axis=0))
+    worst = np.where(np.isnan(vals).any(axis=0), np.nan, vals[row, np.arange(vals.shape[1])])
+    return worst, row
 
 
 @dataclass(frozen=True)
@@ -91,6 +135,22 @@ class ScheduleBatch:
             mm = np.asarray(mm, float)
             out["latency_margin_s"] = np.where(np.isnan(mm) | np.isnan(me), np.nan, np.minimum(mm, me))
             out["latency_margin_main_s"] = mm
+        out.update(self.worst_columns(nominal))
+        return out
+
+    def worst_columns(self, nominal: BatchAnalysis) -> dict:
+        """``schedule_worst_{metric}`` for every metric of :data:`WORST_METRICS`: the worst value
+        over the main controller (``nominal``, the same N designs) and the entries, in the
+        metric's unit (docs/sweep-spec.md#gain-schedule); and ``schedule_passivity_conclusive``,
+        every one of those passivity analyses conclusive."""
+        e = len(self.ratio)
+        main, entries = nominal.to_columns(), self.analysis.to_columns()
+        out: dict = {}
+        for col, op in WORST_METRICS.items():
+            rows = np.vstack([np.asarray(main[col], float), np.asarray(entries[col], float).reshape(e, self.n)])
+            out[f"schedule_worst_{col}"] = worst_over(rows, op)[0]
+        ok = np.asarray(self.analysis.passivity.conclusive, bool).reshape(e, self.n).all(axis=0)
+        out["schedule_passivity_conclusive"] = ok & np.asarray(nominal.passivity.conclusive, bool)
         return out
 
 

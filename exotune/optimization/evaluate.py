@@ -274,6 +274,8 @@ def schedule_worst(ev: dict, sched, want: dict) -> dict:
         Column name → values (N,), in the column's unit; ``amplification_peak_hz`` goes with the
         worst ``amplification_peak_db``.
     """
+    from ..analysis.gain_schedule import worst_over
+
     e = len(sched.ratio)
     out = {}
     for col, op in want.items():
@@ -286,12 +288,9 @@ def schedule_worst(ev: dict, sched, want: dict) -> dict:
         else:
             vals = np.vstack([np.asarray(column(ev, col), float),
                               np.asarray(sched.analysis.column(col), float).reshape(e, -1)])
-        k = (np.argmin(np.where(np.isnan(vals), np.inf, vals), axis=0) if op == ">=" else
-             np.argmax(np.where(np.isnan(vals), -np.inf, vals), axis=0))
-        cols = np.arange(vals.shape[1])
-        out[col] = np.where(np.isnan(vals).any(axis=0), np.nan, vals[k, cols])
+        out[col], k = worst_over(vals, op)
         if col == "amplification_peak_db":
-            out["amplification_peak_hz"] = hzs[k, cols]
+            out["amplification_peak_hz"] = hzs[k, np.arange(vals.shape[1])]
     return out
 
 

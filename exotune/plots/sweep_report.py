@@ -147,6 +147,7 @@ def _read_sweep(sweep_dir: str, m: dict) -> dict:
     want |= {c for c in col_names if re.match(r"^(sampled_)?(human|env)\d+_.+_(robust|stable|conclusive|stable_intervals)$", c)}
     want |= {"sampled_free_stable", "sampled_locked_stable", "schedule_robust", "sampled_schedule_robust"} & set(col_names)
     want |= {c for c in col_names if c.endswith("_conclusive")}
+    want |= {f"schedule_worst_{c}" for c in METRICS} & set(col_names)
     cols = [c for c in col_names if c in want]
     _, table, missing = read_tables(sweep_dir, cols, allow_partial=True, manifest=m)
     if table is None:
@@ -197,14 +198,20 @@ def _slices(d: dict, others: list[int]) -> dict[int, int]:
 def _key_metrics(table, m: dict, simple: dict) -> dict[str, tuple[np.ndarray, dict]]:
     """{column: (values, info)} of the metrics the report maps: the :data:`METRICS` columns that
     are defined somewhere, then the derived family metrics (the stiffest stable spring only where
-    some design is not robust for its family)."""
+    some design is not robust for its family). With a gain schedule swept, a metric is its worst
+    over the main controller and the entries (``schedule_worst_*``, docs/sweep-spec.md#gain-schedule)."""
     metrics: dict[str, tuple[np.ndarray, dict]] = {}
     for c, (title, unit, factor, worst, cmap) in METRICS.items():
-        if c in simple:
-            v = np.asarray(simple[c], dtype=float)
+        if f"schedule_worst_{c}" in simple:
+            c_src, title = f"schedule_worst_{c}", f"{title}, worst over the gain schedule"
+        else:
+            c_src = c
+        if c_src in simple:
+            v = np.asarray(simple[c_src], dtype=float)
             if np.all(np.isnan(v)):
                 continue
-            metrics[c] = (v, {"title": title, "unit": unit, "factor": factor, "worst": worst, "cmap": cmap, "log": False})
+            metrics[c] = (v, {"title": title, "unit": unit, "factor": factor, "worst": worst, "cmap": cmap, "log": False,
+                              "column": c_src})
     derived = derived_metrics(table, m)
     for k, (v, info) in derived.items():
         fam_rob = info["family"].replace("_stable_intervals", "_robust")

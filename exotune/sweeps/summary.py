@@ -287,7 +287,7 @@ def _robustness_lines(n, robust, used, simple, metrics) -> list[str]:
             f = info["factor"]
             vr = v[robust]
             L.append(
-                f"| `{metric_label(mk, info['unit'])}` | {info['unit']} | {fmt_num(np.nanmin(v) * f if np.any(~np.isnan(v)) else np.nan, 4)} | "
+                f"| `{metric_label(info.get('column', mk), info['unit'])}` | {info['unit']} | {fmt_num(np.nanmin(v) * f if np.any(~np.isnan(v)) else np.nan, 4)} | "
                 f"{fmt_num(np.nanmax(v) * f if np.any(~np.isnan(v)) else np.nan, 4)} | "
                 f"{fmt_num(np.nanmin(vr) * f if vr.size and np.any(~np.isnan(vr)) else np.nan, 4)} |"
             )
@@ -320,7 +320,7 @@ def _per_axis_lines(paths, values, axis_idx, robust, metrics, table_metrics, fil
         csv_head = [f"{p} [{unit}]", "designs", "fraction_robust"]
         for mk in table_metrics:
             info = metrics[mk][1]
-            lab = metric_label(mk, info["unit"])
+            lab = metric_label(info.get("column", mk), info["unit"])
             head += [f"{lab} min [{info['unit']}]", f"{lab} max [{info['unit']}]"]
             csv_head += [f"{lab}_min [{info['unit']}]", f"{lab}_max [{info['unit']}]"]
         L.append("| " + " | ".join(head) + " |")
@@ -351,7 +351,7 @@ def _best_design_lines(paths, values, axis_idx, robust, metrics, table_metrics) 
         L.append("")
         L.append("## Robust design with the largest amplification")
         L.append("")
-        L.append("| " + " | ".join(f"`{p}`" for p in paths) + " | " + " | ".join(f"`{metric_label(mk, metrics[mk][1]['unit'])}` [{metrics[mk][1]['unit']}]" for mk in table_metrics) + " |")
+        L.append("| " + " | ".join(f"`{p}`" for p in paths) + " | " + " | ".join(f"`{metric_label(metrics[mk][1].get('column', mk), metrics[mk][1]['unit'])}` [{metrics[mk][1]['unit']}]" for mk in table_metrics) + " |")
         L.append("|" + "---|" * (len(paths) + len(table_metrics)))
         row = [f"{values[jj][axis_idx[jj][best]]:.4g}" for jj in range(len(paths))]
         row += [fmt_num(metrics[mk][0][best] * metrics[mk][1]["factor"], 4) for mk in table_metrics]

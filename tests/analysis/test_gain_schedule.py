@@ -90,3 +90,39 @@ def test_no_schedule_is_none():
     raw = _raw()
     del raw["transmission"]
     assert analyze_schedule(design_from_mapping(raw)) is None
+
+
+def test_worst_metric_columns_are_the_worst_of_the_hand_reflected_designs():
+    """``schedule_worst_*`` (docs/sweep-spec.md#gain-schedule): the worst over the main controller
+    and every entry, each analysed on its own from a plant reflected by hand."""
+    from exotune.analysis.gain_schedule import WORST_METRICS
+
+    raw = _raw(ratios=(0.85, 1.25), delay=0.001)
+    cfg = batch_config(design_from_mapping(copy.deepcopy(raw)), {"design.amplification": ALPHAS})
+    cols = analyze_schedule(cfg).to_columns(analyze_batch(cfg))
+    changed = set()
+    for i, a in enumerate(ALPHAS):
+        refs = [analyze_batch(_by_hand(raw, a, r)).to_columns() for r in (1.0, 0.85, 1.25)]
+        for col, op in WORST_METRICS.items():
+            vals = [float(np.asarray(c[col])[0]) for c in refs]
+            want = max(vals) if op == "<=" else min(vals)
+            assert cols[f"schedule_worst_{col}"][i] == pytest.approx(want, rel=1e-9), col
+            if want != vals[0]:
+                changed.add(col)
+        assert bool(cols["schedule_passivity_conclusive"][i]) == all(bool(c["passivity_conclusive"][0]) for c in refs)
+    # an entry, not the main controller, is the worst for the passivity excess and the bandwidth here
+    assert {"passivity_max_phase_excess_deg", "amplification_bandwidth_hz"} <= changed
+
+
+def test_worst_over_rows():
+    from exotune.analysis.gain_schedule import worst_over
+
+    v = np.array([[1.0, 5.0, np.nan, 2.0], [3.0, 4.0, 1.0, -np.inf], [0.5, 6.0, 2.0, 0.0]])
+    lo, k = worst_over(v, ">=")
+    assert np.array_equal(lo[[0, 1, 3]], [0.5, 4.0, -np.inf]) and np.isnan(lo[2])
+    assert list(k[[0, 1, 3]]) == [2, 1, 1]
+    hi, k = worst_over(v, "<=")
+    assert np.array_equal(hi[[0, 1, 3]], [3.0, 6.0, 2.0]) and np.isnan(hi[2])
+    assert list(k[[0, 1, 3]]) == [1, 2, 0]
+    with pytest.raises(ValueError, match="op"):
+        worst_over(v, "==")

@@ -84,3 +84,18 @@ def test_robust_requires_every_entry_and_the_report_says_so(swept):
     api.report(d / "out")
     md = (d / "out" / "report" / "summary.md").read_text()
     assert "gain schedule swept" in md and "not swept" not in md
+
+
+def test_metric_columns_and_maps_are_the_worst_over_the_schedule(swept):
+    from exotune.analysis.gain_schedule import WORST_METRICS
+
+    d, df = swept
+    for col, op in WORST_METRICS.items():
+        w, main = df[f"schedule_worst_{col}"].to_numpy(float), df[col].to_numpy(float)
+        both = ~np.isnan(w) & ~np.isnan(main)
+        assert ((w <= main) if op == ">=" else (w >= main))[both].all(), col
+    # the entries' passivity is worse than the main controller's somewhere on this grid
+    assert (df["schedule_worst_passivity_max_phase_excess_deg"] > df["passivity_max_phase_excess_deg"]).any()
+    api.report(d / "out")
+    md = (d / "out" / "report" / "summary.md").read_text()
+    assert "`schedule_worst_passivity_max_phase_excess_deg`" in md
