@@ -36,13 +36,11 @@ tests/test_fuzz_regressions.py.
 from __future__ import annotations
 
 import os
-import warnings
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from exotune.cli import cli
+from cli_refusal import files, refused, run
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEDULED = ROOT / "examples" / "scheduled.yaml"
@@ -52,31 +50,7 @@ RLO = "\u202e"  # right-to-left override
 EXCITE = ["excite", "--sample-rate-hz", "1000", "--f-lo-hz", "1", "--f-hi-hz", "10", "--rms-nm", "1"]
 
 
-def _run(args):
-    """``exotune ARGS`` in-process; (result, RuntimeWarnings raised)."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        res = CliRunner().invoke(cli, [str(a) for a in args])
-    return res, [w for w in caught if issubclass(w.category, RuntimeWarning)]
-
-
-def _refused(args, field: str, *contains: str) -> str:
-    """Exit 2, a first line ``exotune: error: <field>: …`` holding ``contains``, short, no traceback."""
-    res, caught = _run(args)
-    assert res.exit_code == 2, (res.exit_code, res.output, res.exception)
-    assert res.exception is None or isinstance(res.exception, SystemExit), res.exception
-    first = res.stderr.splitlines()[0]
-    assert first.startswith(f"exotune: error: {field}: "), first
-    for c in contains:
-        assert c in first, first
-    assert len(res.stderr) < 400, "an error quotes more than a short excerpt"
-    assert "Traceback" not in res.output and res.stdout == ""
-    assert not caught, [str(w.message) for w in caught]
-    return first
-
-
-def _files(d: Path) -> set[str]:
-    return {os.path.relpath(os.path.join(r, n), d) for r, ds, ns in os.walk(d) for n in ds + ns}
+_run, _refused, _files = run, refused, files
 
 
 def _log(path: Path, seed: int = 5) -> Path:

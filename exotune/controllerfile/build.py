@@ -15,10 +15,11 @@ import math
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..model.plant import REFLECTED_FIELDS
 from ..sampled import Measured, controller_blocks
 from ..sampled.loop import default_prewarp
-from .model import Controller, ControllerFile, as_controller_file
+from .model import Controller, ControllerFile, Filter, as_controller_file
 from .schema import GAIN_UNITS, SIGNAL_UNITS, SIX_GAIN_UNITS
 from .sos import tustin_sos
 
@@ -169,7 +170,9 @@ def implementation_mismatches(doc: ControllerFile | dict, rtol: float = 1e-9) ->
     Raises
     ------
     exotune.errors.ConfigError
-        When the plant, design or implementation section does not validate.
+        When the plant, design or implementation section does not validate, or the ``dob``
+        summary's Q cutoff or damping is not the implementation section's (its filters being the
+        section's).
     """
     from ..config import design_from_mapping
 
@@ -181,7 +184,10 @@ def implementation_mismatches(doc: ControllerFile | dict, rtol: float = 1e-9) ->
     for where, v in views:
         mapping = {"plant": v.plant.values(), "design": cf.design.values(),
                    "implementation": impl.mapping, "humans": [_ANY_HUMAN], "environment": []}
-        gains, filters, _six = controller_section(design_from_mapping(mapping), fs)
+        cfg = design_from_mapping(mapping)
+        if not where:
+            dob = cfg.implementation.dob
+        gains, filters, _six = controller_section(cfg, fs)
         have, built = v.controller, Controller.from_dict({"gains": gains, "filters": filters})
         got_gains = {k: float(g) for k, g in have.gains.items()}
         for sig in sorted(set(built.gains) | set(got_gains)):
@@ -198,10 +204,49 @@ def implementation_mismatches(doc: ControllerFile | dict, rtol: float = 1e-9) ->
                     or not np.allclose(a, b, rtol=rtol, atol=rtol * max(float(np.max(np.abs(b))), 1e-300))):
                 out.append(f"{where}controller.filters[{f_have.name}] is not the filter the implementation "
                            "section builds")
+            elif not _same_origin(f_have, f_built, rtol):
+                out.append(f"{where}controller.filters[{f_have.name}]: prewarp_hz or continuous block not the "
+                           "implementation section's")
     # after design_from_mapping has validated the section (a non-number is a ConfigError naming its field)
     # (a missing or null value is NaN, never close; 0.0 is a value: a delay-free runtime)
     timing = [f"implementation.{key} {given!r} is not the file's {key} {own!r}"
               for key, given, own in (("delay_s", impl.delay_s, cf.delay_s), ("sample_rate_hz", impl.sample_rate_hz,
                                                                                cf.sample_rate_hz))
               if not close(math.nan if given is None else float(given), float(own), rtol)]
+    if not out:  # the filters are the implementation's: the summary must state their Q
+        _check_dob_summary(cf, dob, rtol)
     return timing + out
+
+
+def _same_origin(have: Filter, built: Filter, rtol: float) -> bool:
+    """The filter's stated origin — its prewarp frequency and the continuous block (num, den) it
+    was discretized from — is the rebuilt filter's (a file states them to its reader; the runtime
+    runs the sos alone)."""
+    if (have.prewarp_hz is None) != (built.prewarp_hz is None):
+        return False
+    if have.prewarp_hz is not None and not close(float(have.prewarp_hz), float(built.prewarp_hz), rtol):
+        return False
+    if have.continuous is None:  # optional in the schema
+        return True
+    for key in ("num", "den"):
+        try:
+            a = np.asarray(have.continuous.get(key, ()), float)
+        except (TypeError, ValueError, AttributeError):  # not a list of numbers: not the built block
+            return False
+        b = np.asarray(built.continuous[key], float)
+        if a.shape != b.shape or not np.allclose(a, b, rtol=rtol, atol=rtol * max(float(np.max(np.abs(b))), 1e-300)):
+            return False
+    return True
+
+
+def _check_dob_summary(cf: ControllerFile, dob, rtol: float) -> None:
+    """The ``dob`` summary (Q's cutoff and damping, as the file states them to its reader) must be
+    the implementation section's ``dob``, which built the filters: a ConfigError naming the
+    summary's field otherwise (an edited summary, not an edited controller)."""
+    if cf.dob is None or dob is None:  # the filters already tie a missing summary to a missing DOB
+        return
+    for key, have, src, want in (("q_cutoff_hz", cf.dob.q_cutoff_hz, "cutoff_hz", dob.cutoff_hz),
+                                 ("q_damping", cf.dob.q_damping, "damping", dob.damping)):
+        if not close(float(have), float(want), rtol):
+            raise ConfigError(f"dob.{key}.value", f"{have!r}, but the implementation section's dob.{src}, which "
+                                                  f"built the DOB's filters, is {float(want)!r}")

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
 
 from ..errors import ConfigError, RunFailed
 from .ccode32 import generate32
@@ -274,13 +275,20 @@ def write_c_sources(controller_file, out_dir, allow_uncertified: bool = False) -
     from .certify import certify, golden_problems
     from .fileio import load_controller_file
 
+    from ..config.yamlio import read_guarded
+
+    # the sha256 stamped into the C must be that of the bytes certified: the file is read (through
+    # the guarded reader, as the load reads it) before the load and again after the certification
+    sha = hashlib.sha256(read_guarded(os.fspath(controller_file))).hexdigest()
     doc = load_controller_file(controller_file)
     check_size(doc)  # before the heavy work: certification grows with the cube of the sections
     problems, _n, _err = golden_problems(doc)
     if problems:
         raise ConfigError("golden", problems[0] + " (was the file edited? re-export it)")
-    sha = hashlib.sha256(Path(controller_file).read_bytes()).hexdigest()
     cert = certify(doc)
+    if hashlib.sha256(read_guarded(os.fspath(controller_file))).hexdigest() != sha:
+        raise ConfigError(os.fspath(controller_file), "the file changed while codegen read and certified it: "
+                                                      "nothing written; run codegen again")
     if not cert.certified and not allow_uncertified:
         raise RunFailed(f"not written: {controller_file} does not certify: {'; '.join(cert.reasons)} "
                         "(`allow_uncertified` writes C stamped as uncertified)")

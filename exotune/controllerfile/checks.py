@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ..errors import ConfigError
+from ..options import MAX_LATENCY_REQUIREMENT_S
 from ..sampled import Measured
 from .model import Controller, Dob, PlantSection, SixGains, as_controller_file
 from .schema import DESIGN_UNITS, GAIN_UNITS, PLANT_UNITS, SIGNAL_UNITS, SIX_GAIN_UNITS
@@ -75,6 +76,12 @@ def check_controller_file(doc) -> None:
     n = cf.delay.samples
     if n is not None and abs(n - T * fs) > 1e-9 * max(1.0, T * fs):
         raise ConfigError("delay_s.samples", f"{n!r} samples, but {T!r} s at {fs!r} Hz is {T * fs!r}")
+    req = cf.requirements
+    if req is not None and not req.latency_margin_s <= MAX_LATENCY_REQUIREMENT_S:  # ≥ 0: the schema
+        raise ConfigError("requirements.latency_margin_s",
+                          f"out of the accepted range: must be in [0, {MAX_LATENCY_REQUIREMENT_S:g}] s, got "
+                          f"{req.latency_margin_s:g} s (as in a design file: no analysis checks an extra delay "
+                          "beyond the accepted delays)")
     _check_plant(cf.plant, "plant")
     for k, unit in cf.design.units.items():
         _unit(f"design.{k}.unit", unit, DESIGN_UNITS[k])

@@ -123,7 +123,31 @@ def precision_of(doc: ControllerFile | dict) -> str:
                               "missing: a float32 file (implementation.precision) carries the float32 realization of "
                               "every controller" if not has else
                               f"present in a {p} file: set implementation.precision: float32, or remove it")
+        if has:
+            _check_float32_values(c.realization, f"{where}.realization")
     return p
+
+
+def _check_float32_values(real: Realization, where: str) -> None:
+    """Every number of a realization must be a float32 value: the target (the C port,
+    :class:`Float32Runtime`) rounds a coefficient to float32, while certify's state space
+    (:func:`linearize`) takes it as written, so a value float32 does not hold would make certify
+    analyse another controller than the one executed (a hand-edited file; an export writes
+    float32 values only)."""
+    values = [(f"{where}.gains.{s}", g) for s, g in real.gains.items()]
+    for i, f in enumerate(real.filters):
+        values += [(f"{where}.filters[{i}].sections[{r}][{k}]", x)
+                   for r, row in enumerate(f.sections) for k, x in enumerate(row)]
+    values.append((f"{where}.loop_divisor", real.loop_divisor))
+    for field, x in values:
+        with np.errstate(over="ignore"):
+            v = float(np.float32(x))
+        if not math.isfinite(v):
+            raise ConfigError(field, f"{x!r} does not fit in float32 (|x| > 3.4e38), which the target executes")
+        if v != x:
+            raise ConfigError(field, f"{x!r} is not a float32 value (float32 holds {v!r}): a float32 realization "
+                                     "holds the coefficients the target executes, and certify analyses them as "
+                                     "written; export the file again, or write the float32 value")
 
 
 def _f32(x: float, where: str) -> float:

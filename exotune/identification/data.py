@@ -14,6 +14,7 @@ import decimal
 import io
 import math
 import os
+import re
 import stat
 from dataclasses import dataclass
 
@@ -23,8 +24,8 @@ from ..config.validate import excerpt, in_limits, limit_text
 from ..errors import ConfigError
 from ..units import fmt_num
 
-__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "MAX_SIGNAL", "JITTER", "MeasuredLog", "read_log", "log_from_columns",
-           "same_samples", "sample_rate"]
+__all__ = ["COLUMNS", "MIN_SAMPLES", "MAX_LOG_BYTES", "MAX_SIGNAL", "JITTER", "DRIFT", "MeasuredLog", "read_log",
+           "log_from_columns", "same_samples", "sample_rate"]
 
 # column → (unit, meaning); t, theta_m and tau_s are required, and tau_m or tau_cmd
 COLUMNS = {
@@ -41,6 +42,7 @@ REQUIRED = ("theta_m", "tau_s")  # and t, unless the sample rate is given
 MIN_SAMPLES = 200
 MAX_LOG_BYTES = 256 << 20  # 256 MiB: ~10^6 rows of eight columns
 JITTER = 0.1  # a step may differ from the median step by this fraction (time-stamp jitter)
+DRIFT = 0.5  # in samples: a time stamp may stray this far from the straight line through the stamps
 DELAY_TOLERANCE = 1e-4  # in samples: --delay-s must be a whole number of samples within this
 # the largest magnitude of a signal sample [rad or N·m]: far beyond any joint (a value beyond it is
 # a wrong unit or corrupt data), and small enough that the filters' and regressions' sums of
@@ -122,6 +124,41 @@ def _check_time(t: np.ndarray) -> float:
     return float(np.dot(i, u - u.mean()) / np.dot(i, i)) * scale
 
 
+_UNIT_IN_NAME = re.compile(r"^\s*([A-Za-z_]+)\s*(?:\[[^\]]*\]|\([^)]*\)|\{[^}]*\})\s*$")
+
+
+def _unknown_column(c) -> str:
+    """Why a column name is not known, in words: a unit written into the name (``t [s]``,
+    ``theta_m (rad)``) or another case (``T``) is named as such."""
+    known = f"known: {', '.join(COLUMNS)}"
+    m = _UNIT_IN_NAME.match(c) if isinstance(c, str) else None
+    base = m.group(1) if m else c
+    match = next((k for k in COLUMNS if isinstance(base, str) and k == base.lower()), None)
+    if m and match:
+        return (f"unknown column: a column name carries no unit: name it {match} (its unit is fixed: "
+                f"{COLUMNS[match][0]}, docs/identification.md#the-log)")
+    if match:
+        return f"unknown column; did you mean {match}? (names are lower case; {known})"
+    return f"unknown column ({known})"
+
+
+def _check_drift(t: np.ndarray, step: float) -> None:
+    """Refuse time stamps that stray more than :data:`DRIFT` samples from the straight line fitted
+    to them (``step`` its slope): a rate that drifts over the log (each step may still be within
+    :data:`JITTER` of the median) puts the late samples whole samples away from where a constant
+    rate puts them."""
+    i = np.arange(t.size) - (t.size - 1) / 2.0
+    scale = float(np.max(np.abs(t))) or 1.0
+    u = t / scale
+    off = (u - u.mean() - (step / scale) * i) / (step / scale)  # in samples
+    k = int(np.argmax(np.abs(off)))
+    if abs(off[k]) > DRIFT:
+        raise ConfigError("t", f"the sample rate drifts: sample {k} is {fmt_num(abs(off[k]), 3)} samples "
+                               f"{'after' if off[k] > 0 else 'before'} its time at the log's mean rate "
+                               f"{fmt_num(1.0 / step)} Hz (more than {DRIFT:g}): a constant rate is needed (or "
+                               "give the rate, `sample_rate_hz`, if only the time stamps drift)")
+
+
 def _column(c: str, v) -> np.ndarray:
     """The column ``c`` as a 1-D float array (long double kept): refused, naming the column, when
     it is not numbers (complex values, None or text among them are named, not read as NaN), holds
@@ -186,7 +223,7 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
     """
     unknown = [c for c in columns if c not in COLUMNS]
     if unknown:
-        raise ConfigError(unknown[0], f"unknown column (known: {', '.join(COLUMNS)})")
+        raise ConfigError(unknown[0], _unknown_column(unknown[0]))
     for c in REQUIRED + (("t",) if sample_rate_hz is None else ()):
         if c not in columns:
             raise ConfigError(c, f"missing column ({COLUMNS[c][1]} [{COLUMNS[c][0]}])")
@@ -198,7 +235,8 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
     if any(a.size != n for a in sig.values()):
         raise ConfigError("t" if "t" in sig else "theta_m", "the columns have different lengths")
     if n < MIN_SAMPLES:
-        raise ConfigError("t" if "t" in sig else "theta_m", f"{n} samples: at least {MIN_SAMPLES} are needed")
+        raise ConfigError("t" if "t" in sig else "theta_m",
+                          f"{n} sample{'' if n == 1 else 's'}: at least {MIN_SAMPLES} are needed")
     if "t" in sig:
         sig["t"] = np.asarray(sig["t"] - sig["t"][0], dtype=float)  # exact for nearby floats, epoch stamps too
         step = _check_time(sig["t"])
@@ -212,6 +250,7 @@ def log_from_columns(columns: dict, source: str = "<log>", delay_s="0", sample_r
         if not in_limits(fs, "frequency"):
             raise ConfigError("t", f"a step of {fmt_num(step)} s is a sample rate of {fmt_num(fs)} Hz, outside "
                               f"{limit_text('frequency')}: is t in seconds? (or give the rate, `sample_rate_hz`)")
+        _check_drift(sig["t"], step)
     at = f"{fmt_num(fs)} Hz ({source})"
     delay = None
     if isinstance(delay_s, str) and delay_s.strip().lower() == "auto":

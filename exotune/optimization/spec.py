@@ -15,7 +15,7 @@ import numpy as np
 from ..config.validate import fmt_value, number_field
 from ..errors import ConfigError
 
-__all__ = ["OBJECTIVES", "CONSTRAINTS", "DEFAULT_LATENCY_MARGIN_S", "LATENCY_CHECKS", "OptimizeSpec",
+__all__ = ["OBJECTIVES", "CONSTRAINTS", "DEFAULT_LATENCY_MARGIN_S", "LATENCY_CHECKS", "MAX_BUDGET", "OptimizeSpec",
            "load_optimize_spec", "default_budget", "optimized_design_mapping"]
 
 #: objective name → (what: a dotted parameter path or an analyze_batch column, sense, unit)
@@ -53,6 +53,9 @@ BOOL_DEFAULT = {"robust": True, "free_stable": True, "locked_stable": True, "nom
 KEYS = ("base", "objective", "free", "constraints", "seed", "budget")
 #: the largest seed (numpy's generators take 0 … 2**32 − 1)
 MAX_SEED = 2**32 - 1
+#: the largest budget (exact analyses; the default is 1500 per free parameter): beyond it a budget is
+#: a typo, and 10^400 cannot even be scaled as a float
+MAX_BUDGET = 1_000_000
 #: default latency margin without a sample rate [s] (with one: one sample period)
 DEFAULT_LATENCY_MARGIN_S = 0.0005
 #: extra delays m·k/K (k = 1..K) checked per candidate for the constraint latency_margin_s ≥ m
@@ -303,6 +306,9 @@ def load_optimize_spec(spec, seed: int | None = None) -> OptimizeSpec:
     budget = mapping.get("budget", default_budget(len(free)))
     if not _is_int(budget) or budget < 50:
         raise ConfigError("budget", f"expected an integer ≥ 50, got {_shown(budget)}")
+    if budget > MAX_BUDGET:
+        raise ConfigError("budget", f"{_shown(budget)} exact analyses; at most {MAX_BUDGET} (the default is 1500 "
+                                    "per free parameter)")
     budget = int(budget)
     raw = {"objective": objective, "free": {p: list(v) for p, v in free.items()}, "constraints": cons,
            "seed": s, "budget": budget}

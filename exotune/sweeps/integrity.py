@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 
 import numpy as np
 
@@ -200,6 +201,7 @@ def scan_chunks(out_dir: str, m: dict, plan: SweepPlan, strict: bool) -> dict:
     """
     chunk_dir = os.path.join(out_dir, CHUNK_DIR)
     refuse_link(chunk_dir)
+    _refuse_strays(chunk_dir, plan)
     old = {c["index"]: c for c in m["chunks"]}
     where = {c["index"]: k for k, c in enumerate(m["chunks"])}
     signed = records_checksums(m)
@@ -230,6 +232,11 @@ def scan_chunks(out_dir: str, m: dict, plan: SweepPlan, strict: bool) -> dict:
             recompute.append(i)
             entries.append(e)
             continue
+        if not os.path.islink(path) and not os.path.isfile(path):  # a directory, a FIFO: never read nor replaced
+            kind = "a directory" if os.path.isdir(path) else "a special file (FIFO, device or socket)"
+            raise ConfigError(path, f"{kind} where chunk {i}'s file belongs: exotune "
+                                    "neither reads nor deletes it; remove it, then rerun `exotune sweep` with the "
+                                    "same spec to compute the chunk")
         why, info = chunk_problem(out_dir, plan, m, i, prev.get("sha256") if recorded else None)
         if why is not None:
             if strict:
@@ -246,6 +253,27 @@ def scan_chunks(out_dir: str, m: dict, plan: SweepPlan, strict: bool) -> dict:
     changed = m["chunks"] != entries
     m["chunks"] = entries
     return {"reconciled": reconciled, "recompute": recompute, "changed": changed}
+
+
+_CHUNK_NAME = re.compile(r"part-(\d+)\.parquet")
+
+
+def _refuse_strays(chunk_dir: str, plan: SweepPlan) -> None:
+    """A chunk file the sweep does not have (an index beyond its chunks: left by another sweep, or
+    copied in) is refused, naming it: ``pandas.read_parquet(DIR/chunks)`` would read its rows with
+    the sweep's."""
+    try:
+        names = os.listdir(chunk_dir)
+    except OSError:  # absent (nothing computed yet, or deleted): the chunks are missing, not stray
+        return
+    own = {os.path.basename(chunk_rel(i)) for i in range(plan.n_chunks)}
+    stray = sorted(n for n in names if _CHUNK_NAME.fullmatch(n) and n not in own)
+    if stray:
+        raise ConfigError(os.path.join(chunk_dir, stray[0]),
+                          f"not a chunk of this sweep (it has {plan.n_chunks} chunk{'s' if plan.n_chunks != 1 else ''}"
+                          f", {os.path.basename(chunk_rel(0))} to {os.path.basename(chunk_rel(plan.n_chunks - 1))}"
+                          f"{f'; {len(stray)} such files' if len(stray) > 1 else ''}): reading the directory "
+                          "with pandas would mix its rows in; remove it (exotune does not delete it)")
 
 
 def count_failed_designs(m: dict) -> tuple[int, list[dict]]:

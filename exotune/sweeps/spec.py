@@ -13,12 +13,12 @@ from typing import Any
 import numpy as np
 
 from ..config import batch_config, design_from_mapping, read_yaml
-from ..config.validate import check_analysis_filters, kind_of, number_field
+from ..config.validate import check_analysis_filters, fmt_value, kind_of, number_field
 from ..errors import ConfigError
 from .plan import SweepPlan
 
-__all__ = ["load_spec", "load_base", "is_number", "int_option", "DEFAULT_CHUNK_SIZE", "MAX_VERIFY_POINTS",
-           "MAX_AXIS_VALUES"]
+__all__ = ["load_spec", "load_base", "is_number", "int_option", "DEFAULT_CHUNK_SIZE", "MAX_CHUNK_SIZE",
+           "MAX_VERIFY_POINTS", "MAX_AXIS_VALUES"]
 
 DEFAULT_CHUNK_SIZE = 10000
 _SPEC_KEYS = ("base", "axes", "chunk_size", "verify_points", "plant_margin", "sampled")
@@ -26,6 +26,8 @@ DEFAULT_PLANT_MARGIN_BUDGET = 150_000  # interval evaluations per loop and certi
 _AXIS_KEYS = ("start", "stop", "num", "scale")
 _MAX_POINTS = 2**62
 MAX_VERIFY_POINTS = 1000  # spec key verify_points (the single-design report uses 64)
+# a chunk is analysed as one batch in memory (a few chunks in flight): 100 times the default at most
+MAX_CHUNK_SIZE = 1_000_000
 MAX_AXIS_VALUES = 100_000  # per axis: the values are listed in the manifest (a 10⁵ × 10⁵ grid is fine)
 
 
@@ -46,6 +48,14 @@ def is_number(v: Any) -> bool:
         Whether ``v`` is a number.
     """
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+def _shown(v) -> str:
+    """A value where an integer belongs, as an error shows it: a float as a float (``1.0``, not
+    ``1``), a long integer or text cut short (:func:`~exotune.config.validate.fmt_value`)."""
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    return fmt_value(v.item() if isinstance(v, np.generic) else v)
 
 
 def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
@@ -78,12 +88,12 @@ def _axis_values(path: str, spec: Any) -> tuple[list[float], str]:
             if isinstance(num, float) and num.is_integer():
                 num = int(num)
             else:
-                raise ConfigError(f"{field}.num", f"expected an integer >= 1, got {num!r}")
+                raise ConfigError(f"{field}.num", f"expected an integer >= 1, got {_shown(num)}")
         num = int(num)
         if num < 1:
             raise ConfigError(f"{field}.num", f"must be >= 1, got {num}")
         if num > MAX_AXIS_VALUES:
-            raise ConfigError(f"{field}.num", f"{num} values; an axis has at most {MAX_AXIS_VALUES} "
+            raise ConfigError(f"{field}.num", f"{fmt_value(num)} values; an axis has at most {MAX_AXIS_VALUES} "
                                              "(a grid of several axes can still have up to 2^62 points)")
         scale = spec.get("scale", "lin")
         if scale not in ("lin", "log"):
@@ -163,9 +173,9 @@ def int_option(field: str, v: Any, minimum: int, in_file: bool = False) -> int:
         When ``v`` is not an integer or is below ``minimum``.
     """
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
-        raise ConfigError(field, f"expected an integer >= {minimum}, got {v!r}", in_file=in_file)
+        raise ConfigError(field, f"expected an integer >= {minimum}, got {_shown(v)}", in_file=in_file)
     if int(v) < minimum:
-        raise ConfigError(field, f"must be >= {minimum}, got {int(v)}", in_file=in_file)
+        raise ConfigError(field, f"must be >= {minimum}, got {fmt_value(int(v))}", in_file=in_file)
     return int(v)
 
 
@@ -277,6 +287,9 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
     from_spec = chunk_size is None
     chunk_size = int_option("chunk_size", mapping.get("chunk_size", DEFAULT_CHUNK_SIZE) if from_spec else chunk_size, 1,
                             in_file=from_spec)
+    if chunk_size > MAX_CHUNK_SIZE:
+        raise ConfigError("chunk_size", f"{fmt_value(chunk_size)} design points per chunk; at most {MAX_CHUNK_SIZE} "
+                                        "(a chunk is analysed in memory at once)", in_file=from_spec)
 
     shape = tuple(len(a["values"]) for a in axes.values())
     total = 1
@@ -294,7 +307,8 @@ def load_spec(spec, sample: int | None = None, seed: int | None = None, chunk_si
 
     verify = int_option("verify_points", mapping.get("verify_points", 0), 0)
     if verify > MAX_VERIFY_POINTS:
-        raise ConfigError("verify_points", f"{verify} exact counts per family and design; at most {MAX_VERIFY_POINTS}")
+        raise ConfigError("verify_points", f"{fmt_value(verify)} exact counts per family and design; at most "
+                                           f"{MAX_VERIFY_POINTS}")
     normalized = {
         "base": cfg.raw,
         "axes": axes,
