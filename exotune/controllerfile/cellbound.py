@@ -15,7 +15,8 @@ is convex in δ, so its ends bound it) plus a rounding allowance on the diagonal
 vector of P (the best scaling), max_i (Pd)_i/d_i < 1 puts every disc of every member inside the
 open unit disk: M(s) is Schur stable for every s in the cell — a statement about each member, no
 continuity argument, no sample inside the cell trusted. An eigenvalue whose eigenvector v
-satisfies M(s)v = v for every s (the rigid-body z = 1 of an ungrounded structure) is deflated:
+satisfies M(s)v = v for every s (the rigid-body z = 1 of an ungrounded structure, v built from
+the structure: :mod:`exotune.sampled.rigid`) is deflated:
 with Q = [v Q₂] orthogonal, M(s)Q = Q[[1, *], [0, Q₂ᵀM(s)Q₂]] for every s, and the test runs on
 Q₂ᵀM(s)Q₂.
 
@@ -65,13 +66,14 @@ import math
 import numpy as np
 
 from ..sampled.loop import expm_rounding, split_delay
+from ..sampled.rigid import rigid_vectors
 
 __all__ = ["disc_test", "loop_cell", "taylor_expm", "ORDER", "AFFINE_RTOL"]
 
 ORDER = 3  # Taylor terms of the loop matrix in s kept exactly; the next is bounded (Dyson)
 MAX_ORDER = 12  # the order of a second attempt on a cell ORDER did not prove (loop_cell), at most
 AFFINE_RTOL = 1e-9  # the plant's affine form in s and the rigid eigenvector, checked to this relative size
-RIGID_TOL = 1e-7  # an eigenvalue this close to z = 1 of an ungrounded loop is the rigid-body mode
+RIGID_TOL = 1e-7  # no structural eigenvector: an eigenvalue this close to z = 1 (ungrounded) is the rigid mode
 
 
 def disc_test(coeffs, left=None, right=None, beta: float = 0.0, rigid=None) -> tuple[bool, float]:
@@ -479,7 +481,7 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
     ----------
     docs/method.md#guarantees.
     """
-    from ..sampled.loop import closed_loop_matrix, plant_ss
+    from ..sampled.loop import closed_loop_matrix, plant_ss, plant_structure, rigid_plant_vector
 
     (Aa, Ba, Ca), (Ab, Bb, Cb), (Am, Bm, Cm) = (plant_ss(plant, *member(v)) for v in (a, b, m))
     if not (Aa.shape == Ab.shape == Am.shape and np.array_equal(Ba, Bb) and np.array_equal(Ba, Bm)):
@@ -499,7 +501,8 @@ def loop_cell(plant, ctrl, grounded: bool, member, a: float, b: float, m: float)
         return False, -math.inf
     rigid = None
     if not (grounded or any(_grounds(*member(v)) for v in (a, b))):
-        rigid = _rigid_vector(M0, ctrl, closed_loop_matrix, (Aa, Ba, Ca), (Ab, Bb, Cb))
+        x = rigid_plant_vector(plant_structure(*member(m)))
+        rigid = _rigid_vector(M0, ctrl, closed_loop_matrix, (Aa, Ba, Ca), (Ab, Bb, Cb), x)
         if rigid is False:
             return False, -math.inf
     coeffs, left, right, g, h, r1, rnd = terms
@@ -520,19 +523,26 @@ def _grounds(human, env) -> bool:
             or (human is not None and human.get("stiffness", 0.0) > 0))
 
 
-def _rigid_vector(M0, ctrl, closed_loop_matrix, ends_a, ends_b):
-    """The rigid-body eigenvector v of an ungrounded loop (eigenvalue within ``RIGID_TOL`` of 1),
-    verified to be an eigenvector of every member: A(s)x_v = 0 and the command columns of R(s)
-    vanish on v at both ends (both affine in s, so for every s: then Φ(s)x_v = x_v), and
-    M(s)v = v at both ends (the controller rows are affine in s). None: no such eigenvalue
-    (nothing to deflate); False: one near 1 that is not parameter-independent."""
-    lam, V = np.linalg.eig(M0)
-    k = int(np.argmin(np.abs(lam - 1.0)))
-    if abs(lam[k] - 1.0) > RIGID_TOL:
-        return None
-    v = np.real_if_close(V[:, k])
-    if np.iscomplexobj(v):
-        return False
+def _rigid_vector(M0, ctrl, closed_loop_matrix, ends_a, ends_b, x=None):
+    """The rigid-body eigenvector v of an ungrounded loop, verified to be an eigenvector of every
+    member: A(s)x_v = 0 and the command columns of R(s) vanish on v at both ends (both affine in
+    s, so for every s: then Φ(s)x_v = x_v), and M(s)v = v at both ends (the controller rows are
+    affine in s). v is built from the structure (:func:`exotune.sampled.rigid.rigid_vectors` of
+    the plant's rigid vector ``x``, :func:`exotune.sampled.loop.rigid_plant_vector`) when it is
+    M0's eigenvector at z = 1 to rounding, else the eigenvector of M0's eigenvalue nearest 1 when
+    within ``RIGID_TOL`` of it. None: no such vector (nothing to deflate); False: one that is not
+    parameter-independent."""
+    vs, ok = rigid_vectors(M0[None], x) if x is not None else (None, [False])
+    if ok[0]:
+        v = vs[0]
+    else:
+        lam, V = np.linalg.eig(M0)
+        k = int(np.argmin(np.abs(lam - 1.0)))
+        if abs(lam[k] - 1.0) > RIGID_TOL:
+            return None
+        v = np.real_if_close(V[:, k])
+        if np.iscomplexobj(v):
+            return False
     v = v / np.linalg.norm(v)
     n = ends_a[0].shape[0]
     for A_, B_, C_ in (ends_a, ends_b):

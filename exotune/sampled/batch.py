@@ -17,7 +17,8 @@ engine of :mod:`exotune.sampled.families`).
 What is batched: the plant matrices of many (design, member, delay) jobs are built as stacks, their
 matrix exponentials computed on stacks, the loop matrices assembled on stacks of equal size, and the
 eigenvalues found by one ``numpy.linalg.eigvals`` call per stack. The rigid-body eigenvalue z = 1 of
-an ungrounded loop is set aside exactly as :func:`exotune.sampled.loop_eigenvalues` does.
+an ungrounded loop is set aside as :func:`exotune.sampled.loop_eigenvalues` does: deflated exactly
+by its eigenvector (:mod:`exotune.sampled.rigid`, on the stack), else within ``RIGID_TOL`` of 1.
 """
 
 from __future__ import annotations
@@ -28,12 +29,13 @@ import numpy as np
 
 from ..numerics.engine import compiled
 from .loop import NEAR_UNIT as ROUND_NEAR
-from .loop import ROUNDING_TRIALS, Measured, expm_rounding, plant_stack, split_delay
+from .loop import ROUNDING_TRIALS, Measured, expm_rounding, plant_stack, rigid_plant_vector, split_delay
+from .rigid import deflate, rigid_deflation
 from .sos import bilinear_batch, df2t_batch, sos_ss_batch, tustin_sections_batch
 
 __all__ = ["RIGID_TOL", "NEAR_UNIT", "BatchLoops", "Loop", "batch_controller", "expm_stack"]
 
-RIGID_TOL = 1e-7  # |λ − 1| within which the rigid-body eigenvalue is set aside (loop_eigenvalues)
+RIGID_TOL = 1e-7  # |λ − 1| within which the rigid-body eigenvalue is set aside if not deflated (loop_eigenvalues)
 NEAR_UNIT = 1e-6  # |ρ − 1| within which a verdict is decided with the rounding estimate (certify's band)
 
 
@@ -411,9 +413,10 @@ class BatchLoops:
         """(spectral radii (k,), eigenvalues (k, width), stable (k,)) of the jobs (designs ``des``,
         members ``v`` of ``loop``, total delays ``delay`` [s], default each design's own).
 
-        The rigid-body eigenvalue of an ungrounded loop (within ``RIGID_TOL`` of z = 1) is
-        replaced by 0; shorter spectra are padded with distinct constants (:func:`_pad`: neither
-        counts in the radius nor moves).
+        The rigid-body eigenvalue of an ungrounded loop is replaced by 0 (deflated exactly by its
+        eigenvector, :meth:`_eigenvalues`; else the eigenvalue within ``RIGID_TOL`` of z = 1);
+        shorter spectra are padded with distinct constants (:func:`_pad`: neither counts in the
+        radius nor moves). The rounding verdict of a deflated loop is the deflated matrix's.
         The radius includes the fixed moduli of the DOB copies left out (:func:`batch_controller`).
         ``stable`` is radius < 1, except within ``NEAR_UNIT`` of 1 where certify's rounding
         estimate decides (:func:`_rounding_verdict`; inconclusive is not stable) — unless
@@ -426,28 +429,56 @@ class BatchLoops:
         delay = self.delay[des] if delay is None else np.asarray(delay, dtype=float)
         rho = np.zeros(des.size)
         grounded = loop.grounded(v) | self.position_feedback[des]
+        x = rigid_plant_vector((loop.env == "locked", loop.human is not None, *loop.structure()))
         groups = self.matrices(des, loop, v, delay)
         W = max(M.shape[1] for _p, M in groups) if width is None else width
         eig = np.zeros((des.size, W), dtype=complex)
         stable = np.zeros(des.size, bool)
         with np.errstate(over="ignore", invalid="ignore"):
             for pos, M in groups:
-                lam = _eigvals_or_inf(M)
-                free = ~grounded[pos]
-                r = np.argmin(np.abs(lam - 1.0), axis=1)
-                rigid = free & (np.abs(lam[np.arange(pos.size), r] - 1.0) <= RIGID_TOL)
-                lam[np.nonzero(rigid)[0], r[rigid]] = 0.0
+                lam, basis, defl = self._eigenvalues(M, ~grounded[pos], x)
                 rho[pos] = np.maximum(np.max(np.abs(lam), axis=1) if lam.shape[1] else 0.0,
                                       np.max(self.fixed[des[pos]], axis=1))
                 eig[pos, :lam.shape[1]] = lam
                 eig[pos, lam.shape[1]:] = _pad(W - lam.shape[1])
                 stable[pos] = rho[pos] < 1.0
-                near = np.nonzero(np.abs(rho[pos] - 1.0) < NEAR_UNIT)[0]
-                if near.size and rounding:
-                    jobs = pos[near]
+                near = np.abs(rho[pos] - 1.0) < NEAR_UNIT
+                for part, b in ((near & defl, basis), (near & ~defl, None)):
+                    if not part.any() or not rounding:
+                        continue
+                    b = None if b is None else tuple(x_[near[defl]] for x_ in b)
+                    jobs, Np = pos[part], M.shape[1] - (b is not None)
                     trial = self._zoh_trial(des[jobs], loop, v[jobs], delay[jobs])
-                    stable[jobs] = _rounding_verdict(M[near], lam[near], trial)
+                    stable[jobs] = _rounding_verdict(M[part], lam[part, :Np], trial, b)
         return rho, eig, stable
+
+    @staticmethod
+    def _eigenvalues(M: np.ndarray, free: np.ndarray, x):
+        """(eigenvalues (k, N), deflations (s, Q₂) of the jobs ``defl`` (in order) or None,
+        ``defl`` (k,) bool) of a stack of loop matrices: an ungrounded loop (``free``) whose
+        rigid-body eigenvector checks (:func:`exotune.sampled.rigid.rigid_deflation`, plant part
+        ``x``) is deflated exactly (the N − 1 eigenvalues of the deflated matrix, then a 0);
+        another ungrounded one has its eigenvalue nearest 1 replaced by 0 when within
+        ``RIGID_TOL`` of it, as :func:`exotune.sampled.loop_eigenvalues` sets them aside."""
+        k, N, _ = M.shape
+        defl = np.zeros(k, bool)
+        basis = None
+        lam = np.zeros((k, N), dtype=complex)
+        if x is not None and N > 1 and free.any():
+            f = np.nonzero(free)[0]
+            ok, s, Q2, Md = rigid_deflation(M[f], x)
+            defl[f[ok]] = True
+            if ok.any():
+                basis = (s, Q2)
+                lam[defl, :N - 1] = _eigvals_or_inf(Md)
+        rest = np.nonzero(~defl)[0]
+        if rest.size:
+            lr = _eigvals_or_inf(M[rest])
+            r = np.argmin(np.abs(lr - 1.0), axis=1)
+            rigid = free[rest] & (np.abs(lr[np.arange(rest.size), r] - 1.0) <= RIGID_TOL)
+            lr[np.nonzero(rigid)[0], r[rigid]] = 0.0
+            lam[rest] = lr
+        return lam, basis, defl
 
 
     def _zoh_trial(self, des, loop: Loop, v, delay):
@@ -494,16 +525,19 @@ def _pad(k: int) -> np.ndarray:
     return 0.5 * np.arange(1, k + 1) / (k + 1)
 
 
-def _rounding_verdict(M: np.ndarray, lam: np.ndarray, trial=None) -> np.ndarray:
+def _rounding_verdict(M: np.ndarray, lam: np.ndarray, trial=None, basis=None) -> np.ndarray:
     """:func:`exotune.sampled.loop.spectral_verdict` is True, on a stack (eigenvalues ``lam``, the
     rigid-body one already set to 0): every |λ| plus its rounding estimate (ten times its largest
     move under ``ROUNDING_TRIALS`` perturbations: ``trial(rng, j)`` the stack ``j`` with its
     zero-order hold perturbed within its rounding, then relative 8ε perturbations of the entries,
-    the same pseudo-random ones as certify's; at least 4Nε) below 1."""
+    the same pseudo-random ones as certify's; at least 4Nε) below 1. With the deflations
+    ``basis`` = (s (k, N), Q₂ (k, N, N − 1)) of :func:`exotune.sampled.rigid.rigid_deflation`,
+    ``lam`` (k, N − 1) are the eigenvalues of the deflated matrices and every perturbed matrix is
+    deflated the same way (as :func:`exotune.sampled.loop_verdict` does)."""
     k, N, _ = M.shape
     mod = np.abs(lam)
     eps = np.finfo(float).eps
-    err = np.full(lam.shape, 4.0 * N * eps)
+    err = np.full(lam.shape, 4.0 * lam.shape[1] * eps)
     near = np.abs(mod - 1.0) < ROUND_NEAR
     alive = np.all(mod + err < 1.0, axis=1)  # the estimates only grow: a matrix not stable here never is
     rng = np.random.default_rng(0)
@@ -513,7 +547,7 @@ def _rounding_verdict(M: np.ndarray, lam: np.ndarray, trial=None) -> np.ndarray:
             break
         base = M[j] if trial is None else trial(rng, j)  # drawn every trial: the same sequence as certify's
         pert = 1.0 + 8.0 * eps * rng.uniform(-1.0, 1.0, (N, N))
-        wp = _eigvals_or_inf(base * pert)
+        wp = _eigvals_or_inf(base * pert if basis is None else deflate(base * pert, basis[0][j], basis[1][j]))
         moved = np.min(np.abs(wp[:, None, :] - lam[j, :, None]), axis=2)
         err[j] = np.where(near[j], np.maximum(err[j], 10.0 * moved), err[j])
         alive[j] = np.all(mod[j] + err[j] < 1.0, axis=1)

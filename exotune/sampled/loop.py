@@ -13,7 +13,7 @@ discretization of the continuous plant ẋ = A x + B τ_m (Åström & Wittenmark
 with the past commands as shift states. Closing the loop with the discrete controller gives one
 matrix; the sampled-data loop is stable iff its eigenvalues lie inside the unit circle (a
 rigid-body mode of the free exoskeleton is the eigenvalue z = 1, tolerated like s = 0 in the
-continuous analysis).
+continuous analysis: deflated exactly by its eigenvector, :mod:`exotune.sampled.rigid`).
 
 The plant is written here from the physical equations (docs/method.md#physical-model), independently of the transfer
 function algebra of :mod:`exotune.model` / :mod:`exotune.analysis`, so that the continuous analysis
@@ -35,8 +35,9 @@ import numpy as np
 import scipy.linalg
 
 from ..numerics.statespace import tf2ss
+from .rigid import deflate, rigid_deflation
 
-__all__ = ["Measured", "plant_ss", "plant_structure", "plant_stack", "loop_matrices", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
+__all__ = ["Measured", "plant_ss", "plant_structure", "plant_states", "rigid_plant_vector", "plant_stack", "loop_matrices", "Block", "controller_blocks", "DiscreteController", "discretize", "assemble",
            "closed_loop_matrix", "sampled_stable", "sampled_verdict", "loop_stable", "loop_verdict", "spectral_verdict", "loop_eigenvalues", "loop_spectra", "tustin", "prewarped",
            "zoh_fractional", "zoh_rounding", "expm_rounding", "split_delay", "default_prewarp"]
 
@@ -155,8 +156,7 @@ def plant_stack(joint: tuple, human: tuple, env: tuple, structure: tuple[bool, b
     me, be, ke = env
     locked, has_human, mass, first_order = structure
     k = hm.shape[0]
-    names = ["theta_m", "omega_m"] + ([] if locked else ["theta_j", "omega_j"])
-    names += ["theta_h", "omega_h"] if mass else ["theta_h"] if first_order else []
+    names = plant_states(structure)
     n = len(names)
     ix = {s: i for i, s in enumerate(names)}
     eye = np.eye(n)
@@ -192,6 +192,47 @@ def plant_stack(joint: tuple, human: tuple, env: tuple, structure: tuple[bool, b
     for row, form in enumerate((th_m, om_m, tau_s, dtau_s, tau_c)):
         C[:, row] = form
     return A, B, C
+
+
+def plant_states(structure: tuple[bool, bool, bool, bool]) -> list[str]:
+    """The state names of :func:`plant_ss`'s layout ``structure`` (:func:`plant_structure`):
+    θ_m, ω_m[, θ_j, ω_j][, θ_h[, ω_h]] as ``"theta_m"``, ``"omega_m"``, ….
+
+    Parameters
+    ----------
+    structure : tuple of bool
+        (locked, human present, mass states, first-order state).
+
+    Returns
+    -------
+    list of str
+        The plant's states in order.
+    """
+    locked, _has_human, mass, first_order = structure
+    names = ["theta_m", "omega_m"] + ([] if locked else ["theta_j", "omega_j"])
+    return names + (["theta_h", "omega_h"] if mass else ["theta_h"] if first_order else [])
+
+
+def rigid_plant_vector(structure: tuple[bool, bool, bool, bool]) -> np.ndarray | None:
+    """The plant's part of the rigid-body mode of layout ``structure``: 1 on every position state,
+    0 on every velocity (the whole structure displaced by one radian, every spring undeflected), so
+    A x = 0 whenever nothing grounds the structure (no human or environment stiffness); None when
+    the joint is locked (grounded). Completed to the loop's eigenvector by
+    :func:`exotune.sampled.rigid.rigid_vectors`.
+
+    Parameters
+    ----------
+    structure : tuple of bool
+        (locked, human present, mass states, first-order state) (:func:`plant_structure`).
+
+    Returns
+    -------
+    numpy.ndarray or None
+        x (n,) over :func:`plant_states`, or None for a locked joint.
+    """
+    if structure[0]:
+        return None
+    return np.array([1.0 if s.startswith("theta") else 0.0 for s in plant_states(structure)])
 
 
 @dataclass(frozen=True)
@@ -618,7 +659,8 @@ def sampled_stable(plant, cs, sample_rate_hz: float, human: dict | None = None, 
     prewarp : dict or None, optional
         Prewarp frequencies [Hz] per block kind (:func:`discretize`).
     rigid_tol : float, optional
-        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped when it cannot be
+        deflated by its eigenvector (:mod:`exotune.sampled.rigid`).
 
     Returns
     -------
@@ -651,7 +693,8 @@ def sampled_verdict(plant, cs, sample_rate_hz: float, human: dict | None = None,
     prewarp : dict or None, optional
         Prewarp frequencies [Hz] per block kind (:func:`discretize`).
     rigid_tol : float, optional
-        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped when it cannot be
+        deflated by its eigenvector (:mod:`exotune.sampled.rigid`).
 
     Returns
     -------
@@ -685,7 +728,8 @@ def loop_stable(plant, ctrl: DiscreteController, position_feedback: bool, human:
     env : str or dict, optional
         The environment, as in :func:`plant_ss`.
     rigid_tol : float, optional
-        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped when it cannot be
+        deflated by its eigenvector (:mod:`exotune.sampled.rigid`).
 
     Returns
     -------
@@ -722,7 +766,8 @@ def loop_verdict(plant, ctrl: DiscreteController, position_feedback: bool, human
     env : str or dict, optional
         The environment, as in :func:`plant_ss`.
     rigid_tol : float, optional
-        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped when it cannot be
+        deflated by its eigenvector (:mod:`exotune.sampled.rigid`).
 
     Returns
     -------
@@ -738,14 +783,17 @@ def loop_verdict(plant, ctrl: DiscreteController, position_feedback: bool, human
     exotune.errors.ConfigError
         When the loop matrix overflows, or when an active time budget is spent.
     """
-    M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
+    M, (lam, Md, basis, drop) = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
     held = []  # the zero-order hold and its rounding estimate, computed once for every trial
 
     def trial(rng):
         if not held:
             held.append(_held(plant_ss(plant, human, env), ctrl))
-        return _zoh_trial(held[0], ctrl, M, rng)
+        Mt = _zoh_trial(held[0], ctrl, M, rng)
+        return Mt if basis is None else deflate(Mt[None], *(b[None] for b in basis))[0]  # as M is deflated
 
+    if Md is not None:  # the rigid-body mode deflated exactly: the verdict on the other eigenvalues
+        return _verdict(Md, lam, None, trial)
     return _verdict(M, lam, None if drop is None else rigid_tol, trial)
 
 
@@ -917,9 +965,12 @@ def zoh_rounding(A: np.ndarray, B: np.ndarray, Ts: float, f: float):
 
 def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, human: dict | None = None,
                      env: str | dict = "free", rigid_tol: float = 1e-7) -> np.ndarray:
-    """Eigenvalues of the sampled-data loop; one eigenvalue at z = 1 (the rigid-body mode,
-    |λ − 1| ≤ rigid_tol) is removed when nothing grounds the structure (no position feedback K1,
-    no human or environment stiffness, not locked), as in the continuous analysis.
+    """Eigenvalues of the sampled-data loop; the rigid-body eigenvalue z = 1 is set aside when
+    nothing grounds the structure (no position feedback K1, no human or environment stiffness, not
+    locked), as in the continuous analysis: deflated exactly by its eigenvector, built from the
+    structure (:mod:`exotune.sampled.rigid`: the other eigenvalues are those of the deflated
+    matrix), or — when that vector is not an eigenvector to rounding — the eigenvalue nearest 1
+    dropped if within ``rigid_tol`` of it.
 
     Parameters
     ----------
@@ -934,7 +985,8 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
     env : str or dict, optional
         The environment, as in :func:`plant_ss`.
     rigid_tol : float, optional
-        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped when it cannot be
+        deflated by its eigenvector (:mod:`exotune.sampled.rigid`).
 
     Returns
     -------
@@ -946,19 +998,47 @@ def loop_eigenvalues(plant, ctrl: DiscreteController, position_feedback: bool, h
     exotune.errors.ConfigError
         When the loop matrix overflows, or when an active time budget is spent.
     """
-    _M, lam, drop = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
+    _M, (lam, _Md, _basis, drop) = _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol)
     return lam if drop is None else np.delete(lam, drop)
 
 
 def _loop_spectrum(plant, ctrl, position_feedback, human, env, rigid_tol):
-    """(loop matrix, its eigenvalues, index of the rigid-body eigenvalue to drop or None)."""
+    """(loop matrix, :func:`_spectra` of it)."""
     from ..numerics.timebudget import check_time
 
     check_time()  # export/certify at a high rate: stop once the time budget is spent
     A, B, C = plant_ss(plant, human, env)
     M = _finite(closed_loop_matrix(A, B, C, ctrl))
-    lam = np.linalg.eigvals(M)
-    return M, lam, _rigid_index(lam, position_feedback, human, env, rigid_tol)
+    return M, _spectra(M[None], [_rigid_plant(position_feedback, human, env)], rigid_tol)[0]
+
+
+def _rigid_plant(position_feedback: bool, human, env):
+    """:func:`rigid_plant_vector` of a loop that nothing grounds, else None."""
+    grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
+                or (human is not None and human.get("stiffness", 0.0) > 0) or position_feedback)
+    return None if grounded else rigid_plant_vector(plant_structure(human, env))
+
+
+def _spectra(Ms: np.ndarray, rigid: list, rigid_tol: float) -> list:
+    """Per loop matrix of the stack ``Ms``: (eigenvalues, deflated matrix, deflation (s, Q₂),
+    index of the rigid-body eigenvalue to drop). ``rigid[i]``: :func:`_rigid_plant` of matrix i.
+    A loop whose rigid-body eigenvector checks (:func:`exotune.sampled.rigid.rigid_deflation`) is
+    deflated exactly (the eigenvalues are the deflated matrix's, nothing to drop); another
+    ungrounded loop drops its eigenvalue nearest 1 when within ``rigid_tol`` of it (matrix and
+    basis None). One LAPACK call per matrix: each result is the same in a stack of any size."""
+    out: list = [None] * Ms.shape[0]
+    free = [i for i, x in enumerate(rigid) if x is not None]
+    if free:
+        ok, s, Q2, Md = rigid_deflation(Ms[free], np.stack([rigid[i] for i in free]))
+        good = [i for i, o in zip(free, ok) if o]
+        if good:
+            for j, (i, lam) in enumerate(zip(good, np.linalg.eigvals(Md))):
+                out[i] = (lam, Md[j], (s[j], Q2[j]), None)
+    rest = [i for i, o in enumerate(out) if o is None]
+    if rest:
+        for i, lam in zip(rest, np.linalg.eigvals(Ms[rest])):
+            out[i] = (lam, None, None, _rigid_index(lam, rigid[i] is not None, rigid_tol))
+    return out
 
 
 def _finite(M: np.ndarray) -> np.ndarray:
@@ -971,11 +1051,10 @@ def _finite(M: np.ndarray) -> np.ndarray:
     return M
 
 
-def _rigid_index(lam: np.ndarray, position_feedback: bool, human, env, rigid_tol: float):
-    """Index of the rigid-body eigenvalue (|λ − 1| ≤ rigid_tol) of a loop that nothing grounds, else None."""
-    grounded = (env == "locked" or (isinstance(env, dict) and env.get("stiffness", 0.0) > 0)
-                or (human is not None and human.get("stiffness", 0.0) > 0) or position_feedback)
-    if not grounded and lam.size:
+def _rigid_index(lam: np.ndarray, free: bool, rigid_tol: float):
+    """Index of the rigid-body eigenvalue (|λ − 1| ≤ rigid_tol) of a loop that nothing grounds
+    (``free``), else None."""
+    if free and lam.size:
         i = int(np.argmin(np.abs(lam - 1.0)))
         if abs(lam[i] - 1.0) <= rigid_tol:
             return i
@@ -1003,7 +1082,8 @@ def loop_spectra(plant, ctrl: DiscreteController, position_feedback: bool, human
     env : str, dict or list, optional
         The environment, as in :func:`plant_ss`, one for all loops or a list (one per loop).
     rigid_tol : float, optional
-        Distance from z = 1 within which the rigid-body eigenvalue is dropped.
+        Distance from z = 1 within which the rigid-body eigenvalue is dropped when it cannot be
+        deflated by its eigenvector (:mod:`exotune.sampled.rigid`).
 
     Returns
     -------
@@ -1038,10 +1118,9 @@ def loop_spectra(plant, ctrl: DiscreteController, position_feedback: bool, human
         E0, E1 = _zoh_exponentials(aug, Ts, f)
         Phi0 = E0[:, :n, :n]
         Ms = _finite(loop_matrices(Phi0 @ E1[:, :n, :n], E0[:, :n, n:], Phi0 @ E1[:, :n, n:], C, ctrl))
-        lams = np.linalg.eigvals(Ms)
-        for k_, i in enumerate(idx):
-            drop = _rigid_index(lams[k_], position_feedback, humans[i], envs[i], rigid_tol)
-            out[i] = lams[k_] if drop is None else np.delete(lams[k_], drop)
+        spectra = _spectra(Ms, [_rigid_plant(position_feedback, humans[i], envs[i]) for i in idx], rigid_tol)
+        for (lam, _Md, _basis, drop), i in zip(spectra, idx):
+            out[i] = lam if drop is None else np.delete(lam, drop)
     return out
 
 
