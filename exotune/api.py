@@ -520,7 +520,7 @@ def certify(source, *, precision: str | None = None, time_budget_s: float | str 
         docs/controller-file.md#precision); the file is not changed.
     time_budget_s : float, optional
         Refuse or stop the analysis beyond this many seconds (default 600;
-        :class:`~exotune.errors.RunFailed` then).
+        :class:`~exotune.errors.ConfigError` on ``time_budget_s`` then, exit code 2).
 
     Returns
     -------
@@ -814,7 +814,8 @@ def excite(out=None, *, sample_rate_hz: float, f_lo_hz: float, f_hi_hz: float, p
 def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
              human_inertia: float | None = None, duration: float | None = None, start: str = "bumpless",
              joint_angle: float | None = None, plots=None,
-             progress: Callable[[float], None] | None = None) -> SimulationRun:
+             progress: Callable[[float], None] | None = None,
+             time_budget_s: float | str | None = None) -> SimulationRun:
     """Time-domain run of the runtime controller on the plant (the library twin of
     ``exotune simulate``).
 
@@ -842,6 +843,10 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
         Also write the time-series PNGs into this directory (``--plots``).
     progress : callable, optional
         Called with the completed fraction (0–1) of the main run.
+    time_budget_s : float, optional
+        Stop the simulation beyond this many seconds (default 600; ``--time-budget-s``):
+        :class:`~exotune.errors.ConfigError` on ``time_budget_s`` then, naming the runs finished
+        and where the current one stopped; nothing written.
 
     Returns
     -------
@@ -851,8 +856,9 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     Raises
     ------
     ConfigError
-        For bad input (a file, the scenario, an option, a joint angle outside the gain schedule)
-        or an output that would overwrite an input.
+        For bad input (a file, the scenario, an option, a joint angle outside the gain schedule,
+        runs longer together than the scenario's sample limit: ``duration``, before any run), an
+        output that would overwrite an input, or a spent time budget (``time_budget_s``).
     TypeError
         When ``source`` is none of the kinds above, or ``progress`` is neither callable nor None.
 
@@ -872,6 +878,7 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     from .simulation import load_for_simulation, run_scenario
     from .simulation.load import check_joint_angle
     from .simulation.report import check_run_options
+    from .numerics.timebudget import check_budget_option, time_budget
 
     if isinstance(source, ExportedController):
         source = source.path if source.path is not None else source.to_dict()
@@ -887,7 +894,9 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
     check_run_options(scenario, start, human_inertia, duration)  # bad options before the file is loaded
     check_joint_angle(joint_angle)
     fs = _rate_override(sample_rate_hz)
-    with numpy_engine():
+    budget = check_budget_option(time_budget_s)
+    with numpy_engine(), time_budget(budget, f"simulating scenario {getattr(scenario, 'name', scenario)}", "shorten `duration` or lower the rate",
+                                     writes=plots is not None):
         doc = load_for_simulation(source, fs)
         r = run_scenario(doc, scenario, human_inertia=human_inertia, duration_s=duration, start=start,
                          progress=progress, joint_angle=joint_angle)
@@ -895,5 +904,5 @@ def simulate(source, scenario: str, *, sample_rate_hz: float | None = None,
         from .jsonio import write_outputs
         from .plots.simulate import plot_simulation
 
-        write_outputs(dirs={plots: plot_simulation(r.full_report())})
+        write_outputs(dirs={plots: plot_simulation(r.plot_report())})  # long runs thinned for drawing
     return r

@@ -558,7 +558,10 @@ def excite_cmd(out, sample_rate_hz, f_lo_hz, f_hi_hz, peak_nm, rms_nm, period_s,
                    "within the schedule's angles.")
 @click.option("--plots", "plots", metavar="DIR", default=None, help="Write time-series plots (PNG) to DIR.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (summary, no time series).")
-def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, start, joint_angle, plots, as_json):
+@click.option("--time-budget-s", "time_budget_s", default=None, metavar="S",
+              help="Stop the simulation beyond this many seconds (default 600); nothing is written then.")
+def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, start, joint_angle, plots, as_json,
+                 time_budget_s):
     """Nonlinear time-domain run of the runtime controller on the plant (friction, backlash,
     saturation), judged by the growth rate of its oscillation envelope."""
     import sys
@@ -580,7 +583,8 @@ def simulate_cmd(input_file, scenario, sample_rate_hz, human_inertia, duration, 
 
     shown: list = []
     r = simulate(input_file, scenario, sample_rate_hz=sample_rate_hz, human_inertia=human_inertia, duration=duration,
-                 start=start, joint_angle=joint_angle, plots=plots, progress=progress if sys.stderr.isatty() else None)
+                 start=start, joint_angle=joint_angle, plots=plots, progress=progress if sys.stderr.isatty() else None,
+                 time_budget_s=time_budget_s)
     _echo(r.to_json() if as_json else r.to_text())
 
 

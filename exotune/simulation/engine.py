@@ -29,6 +29,7 @@ from typing import Callable
 import numpy as np
 
 from ..controllerfile import ControllerFile, Runtime, as_controller_file
+from ..numerics.timebudget import check_time
 from .fastpath import NP, LinearLoop, runtime_state, set_runtime_state
 from .plant import JointPlant
 
@@ -144,7 +145,8 @@ def check_start(start) -> str:
 
 def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, duration_s: float | None = None,
              start: str = "bumpless", clamp: bool = True,
-             progress: Callable[[float], None] | None = None, fast: bool = True) -> dict:
+             progress: Callable[[float], None] | None = None, fast: bool = True,
+             series: "tuple[str, ...] | None" = None) -> dict:
     """Run ``scenario`` with the controller file ``doc``.
 
     Parameters
@@ -167,6 +169,9 @@ def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, du
     fast : bool
         Run linear stretches by the linear recursion of :mod:`.fastpath` (same result to
         rounding); False: every sample through the runtime's step.
+    series : tuple of str, optional
+        Record only these of :data:`SERIES` (default: all; 8 bytes per sample each): a run
+        kept only for one signal needs no memory for the others.
 
     Returns
     -------
@@ -175,6 +180,15 @@ def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, du
         ``start``, ``diverged`` (None, or why the run stopped: an angle beyond ``STATE_BOUND``, a
         non-finite state or command), ``nonlinear_intervals`` (plant intervals integrated by
         ``solve_ivp``), ``fast_samples`` (samples run by the linear recursion).
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        On ``time_budget_s``, when the enclosing time budget
+        (:func:`exotune.numerics.timebudget.time_budget`) is spent: checked once per stretch
+        (at most ``CHUNK`` samples, or a short run sample by sample).
+    ValueError
+        When ``series`` names a signal that is not one of :data:`SERIES`.
 
     References
     ----------
@@ -190,12 +204,16 @@ def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, du
         tau0, note = bumpless_start(run.rt, run.plant.measure(run.x))
         run.past = [tau0] * len(run.past)
     n = max(1, int(round(sc.duration_s * run.fs)))
-    run.rec = {k: np.empty(n) for k in SERIES}
+    keep = SERIES if series is None else tuple(series)
+    if not set(keep) <= set(SERIES):
+        raise ValueError(f"series: unknown {sorted(set(keep) - set(SERIES))} (known: {', '.join(SERIES)})")
+    run.rec = {k: np.empty(n) if k in keep else _DISCARD for k in SERIES}
     k = 0
     span = CHUNK  # the next fast attempt's length: shrinks while attempts stop early (a limit, a mode
     # change: the rest of the attempt is computed for nothing), grows back while they succeed
     with np.errstate(over="ignore", invalid="ignore"):
         while k < n and run.diverged is None:
+            check_time()  # once per stretch: at most CHUNK samples, or a short run sample by sample
             end = min(n, k + span)
             k1 = run.fast(k, end) if fast else k
             if k1 < end:  # at a limit or a mode change: sample by sample for a while
@@ -206,12 +224,21 @@ def simulate(doc: ControllerFile | dict, scenario, without_dob: bool = False, du
             k = k1
             if progress is not None:
                 progress(k / n)
-    for key in run.rec:
-        run.rec[key] = run.rec[key][:k]
-    return {"series": run.rec, "sample_rate_hz": run.fs, "delay_samples": run.q, "locked": sc.locked,
+    rec = {key: v[:k] for key, v in run.rec.items() if key in keep}
+    return {"series": rec, "sample_rate_hz": run.fs, "delay_samples": run.q, "locked": sc.locked,
             "start": start + (f" ({note})" if note else ""), "diverged": run.diverged,
             "nonlinear_intervals": run.plant.nonlinear_intervals, "fast_samples": run.fast_samples,
             "duration_s": sc.duration_s}
+
+
+class _Discard:
+    """A series that is not recorded: every write to it is dropped."""
+
+    def __setitem__(self, index, value) -> None:
+        pass
+
+
+_DISCARD = _Discard()
 
 
 class _Run:

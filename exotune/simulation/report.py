@@ -11,6 +11,7 @@ import numpy as np
 
 from ..controllerfile import ControllerFile, Runtime, as_controller_file
 from ..errors import ConfigError
+from ..numerics.timebudget import FIELD as TIME_FIELD, active_budget, check_time
 from ..options import number_value
 from ..units import fmt_num
 from .engine import bumpless_start, check_start, simulate, strip_dob
@@ -20,8 +21,10 @@ from .scenarios import SCENARIOS, Nonlinearities, Scenario
 from .verdict import (FIT_FRACTION, MARGINAL_TOL, MIN_PERIODS, LoopSpectrum, classify, dominant_frequency,
                       envelope_growth, judge, loop_spectrum)
 
-__all__ = ["run_scenario", "check_run_options", "summarize"]
+__all__ = ["run_scenario", "check_run_options", "summarize", "scenario_runs", "check_budget", "MAX_SAMPLES",
+           "BYTES_PER_SAMPLE"]
 
+CHECK_EVERY = 4096  # samples of the DOB's replay between two looks at the time budget
 LIMIT_CYCLE_NM = 1e-3  # a sustained spring-torque swing above this × max(|push|, 1 N·m) is a limit cycle
 
 
@@ -240,41 +243,88 @@ def dob_estimate(doc: ControllerFile, sim: dict) -> np.ndarray | None:
     used += [(s["tau_cmd"], filt) for name, filt in zip(loop, rt.loop) if name in names]
     est = np.zeros(s["t"].size)
     for k in range(est.size):
+        if k % CHECK_EVERY == 0:
+            check_time()
         est[k] = sum(filt.step(float(sig[k])) for sig, filt in used)
     return est
 
 
-MAX_SAMPLES = 10_000_000  # per run: about 1 GB of time series and a few minutes, refused beyond
+BYTES_PER_SAMPLE = 144  # peak memory [B] per sample of each run (measured ≤ 130: 12 float64 series, temporaries)
+MAX_SAMPLES = 6_000_000  # per scenario, all its runs together: 144 B × 6e6 ≈ 0.86 GB at most, refused beyond
 MIN_SAMPLES = 16  # per run: the envelope's growth rate needs 9 samples at least (envelope_growth)
 
 
-def check_budget(sample_rate_hz: float, duration_s: float) -> None:
-    """Refuse, before anything runs, a run longer than :data:`MAX_SAMPLES` samples (its time series
-    and its time would exceed what a single run may take; docs/cli.md#simulate), or shorter than
-    :data:`MIN_SAMPLES` (too short for a verdict: its envelope cannot be fitted, and "marginal"
-    would be a claim the run does not support). The samples are counted as the run counts them
-    (duration × rate, rounded), and the message gives both counts exactly with the longest run in
-    seconds at that rate.
+def scenario_runs(doc: ControllerFile | dict, sc: Scenario) -> tuple[str, ...]:
+    """The runs :func:`run_scenario` makes for the scenario ``sc`` with the controller file
+    ``doc``, by name, in the order it makes them (each a whole run of the scenario's duration).
+
+    Parameters
+    ----------
+    doc : ControllerFile or dict
+        A validated controller file (whether it has a DOB decides the DOB comparisons).
+    sc : Scenario
+        The scenario.
+
+    Returns
+    -------
+    tuple of str
+        ``controller``; ``without_clamp`` (a motor limit and a release: windup recovery),
+        ``without_backlash`` (backlash: the limit-cycle comparison), ``frictionless``,
+        ``without_dob`` and ``frictionless_without_dob`` (a scenario comparing the joint with
+        and without the DOB, for a file with DOB filters; the last one records the joint angle
+        only).
+
+    Examples
+    --------
+    >>> from exotune.simulation import SCENARIOS, load_for_simulation
+    >>> doc = load_for_simulation("examples/scheduled.yaml")
+    >>> scenario_runs(doc, SCENARIOS["saturation"]), len(scenario_runs(doc, SCENARIOS["dob-friction"]))
+    (('controller', 'without_clamp'), 4)
+    """
+    nl = sc.nonlinear
+    runs = ["controller"]
+    if math.isfinite(nl.saturation_nm) and math.isfinite(sc.release_at_s):
+        runs.append("without_clamp")
+    if nl.backlash_rad > 0:
+        runs.append("without_backlash")
+    doc = as_controller_file(doc)
+    if sc.compare_without_dob and doc.dob is not None and doc.dob.filters:
+        runs += ["frictionless", "without_dob", "frictionless_without_dob"]
+    return tuple(runs)
+
+
+def check_budget(sample_rate_hz: float, duration_s: float, runs: int = 1, scenario: str | None = None) -> None:
+    """Refuse, before anything runs, a scenario whose runs together exceed :data:`MAX_SAMPLES`
+    samples (their time series would take more than about
+    :data:`BYTES_PER_SAMPLE` × :data:`MAX_SAMPLES` bytes; docs/cli.md#simulate), or a run shorter
+    than :data:`MIN_SAMPLES` (too short for a verdict: its envelope cannot be fitted, and
+    "marginal" would be a claim the run does not support). The samples are counted as a run
+    counts them (duration × rate, rounded); the message gives the counts exactly, the scenario's
+    runs, and the longest duration accepted at that rate.
 
     Parameters
     ----------
     sample_rate_hz : float
-        The run's sample rate [Hz].
+        The runs' sample rate [Hz].
     duration_s : float
-        The run's length [s].
+        The length of each run [s].
+    runs : int, optional
+        How many runs of that length the scenario makes (:func:`scenario_runs`).
+    scenario : str, optional
+        The scenario's name, for the message.
 
     Raises
     ------
     exotune.errors.ConfigError
-        On ``duration``, when the run is too long or too short.
+        On ``duration``, when the runs are too long or a run too short.
 
     Examples
     --------
-    >>> check_budget(1000.0, 6.0)
-    >>> check_budget(1000.0, 10001.0)
+    >>> check_budget(1000.0, 6.0, runs=4, scenario="dob-friction")
+    >>> check_budget(1000.0, 1501.0, runs=4, scenario="dob-friction")
     Traceback (most recent call last):
     ...
-    exotune.errors.ConfigError: duration: 10001 s at 1000 Hz is 10001000 samples, over the limit of 10000000 samples per run (10000 s at 1000 Hz; shorten `duration` or lower the rate)
+    exotune.errors.ConfigError: duration: 1501 s at 1000 Hz is 1501000 samples per run; scenario dob-friction makes 4 runs, 6004000 samples in all, over the limit of 6000000 samples per scenario (at most 1500 s at 1000 Hz for its 4 runs; shorten `duration` or lower the rate)
     >>> check_budget(1000.0, 0.005)
     Traceback (most recent call last):
     ...
@@ -285,11 +335,17 @@ def check_budget(sample_rate_hz: float, duration_s: float) -> None:
         raise ConfigError("duration", f"{fmt_num(duration_s)} s at {fmt_num(sample_rate_hz)} Hz is {round(n)} samples; "
                                       f"a verdict needs a run of at least {MIN_SAMPLES} samples "
                                       f"({fmt_num(MIN_SAMPLES / sample_rate_hz)} s at this rate)")
-    if not (math.isfinite(n) and round(n) <= MAX_SAMPLES):  # the run's own count: round(duration × rate)
-        count = f"{round(n)}" if n < 1e15 else f"about {fmt_num(n, 3)}"  # exact where a float counts exactly
-        raise ConfigError("duration", f"{fmt_num(duration_s)} s at {fmt_num(sample_rate_hz)} Hz is {count} samples, "
-                                      f"over the limit of {MAX_SAMPLES} samples per run "
-                                      f"({fmt_num(MAX_SAMPLES / sample_rate_hz)} s at {fmt_num(sample_rate_hz)} Hz; "
+    runs = max(1, int(runs))
+    if not (math.isfinite(n) and round(n) * runs <= MAX_SAMPLES):  # the runs' own count: round(duration × rate)
+        exact = n < 1e15  # a float counts exactly here: no 300-digit integer beyond
+        count = f"{round(n)}" if exact else f"about {fmt_num(n, 3)}"
+        total = f"{round(n) * runs}" if exact else f"about {fmt_num(n * runs, 3)}"
+        name = f"scenario {scenario}" if scenario else "the scenario"
+        longest = fmt_num((MAX_SAMPLES // runs) / sample_rate_hz)
+        raise ConfigError("duration", f"{fmt_num(duration_s)} s at {fmt_num(sample_rate_hz)} Hz is {count} samples per "
+                                      f"run; {name} makes {runs} run{'s' if runs > 1 else ''}, {total} samples in "
+                                      f"all, over the limit of {MAX_SAMPLES} samples per scenario (at most {longest} s "
+                                      f"at {fmt_num(sample_rate_hz)} Hz for its {runs} run{'s' if runs > 1 else ''}; "
                                       "shorten `duration` or lower the rate)")
 
 
@@ -368,17 +424,23 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
         ``sample_rate_hz``, ``delay_samples``, ``gain_schedule_entry`` (with ``joint_angle``: the
         angle asked for, the entry's angle and ratio), ``summary`` and the scenario's measurements
         (``windup_recovery``, ``limit_cycle``, ``friction_estimate``, ``friction_sensitivity``);
-        ``runs``: the time series, keyed ``controller``, ``without_dob``, ``without_clamp``.
+        ``runs``: the time series, keyed ``controller``, ``without_clamp``, ``without_backlash``,
+        ``frictionless``, ``without_dob`` (the runs of :func:`scenario_runs` but the last
+        frictionless one, which is used for its joint angle only).
 
     Raises
     ------
     exotune.errors.ConfigError
-        A bad option (:func:`check_run_options`), a run too long or too short (``duration``), or a
-        joint angle the file's gain schedule does not cover (``joint_angle``).
+        A bad option (:func:`check_run_options`), runs too long together or a run too short
+        (``duration``, :func:`check_budget`: decided before any run starts), a joint angle the
+        file's gain schedule does not cover (``joint_angle``), or a spent time budget
+        (``time_budget_s``, within :func:`exotune.numerics.timebudget.time_budget`: the message
+        adds the runs finished and where the current one stopped).
 
     References
     ----------
-    Paper §V; docs/cli.md#simulate.
+    Paper §V (the hardware experiments these scenarios reproduce in time-domain simulation);
+    docs/cli.md#simulate.
     """
     sc, human_inertia, duration_s = check_run_options(name, start, human_inertia, duration_s)
     entry = None
@@ -390,9 +452,64 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
     if duration_s is not None:
         sc = replace(sc, duration_s=duration_s)
     doc = as_controller_file(doc)
-    check_budget(float(doc.sample_rate_hz), sc.duration_s)
+    plan = scenario_runs(doc, sc)
+    check_budget(float(doc.sample_rate_hz), sc.duration_s, len(plan), sc.name)  # all its runs, before any
+    runs = _Runs(doc, sc, start, plan, progress)
+    try:
+        rep = _report(doc, sc, runs)
+    except ConfigError as e:
+        if e.field != TIME_FIELD:
+            raise
+        raise ConfigError(e.field, runs.stopped(e.reason)) from None
+    if entry is not None:
+        rep["gain_schedule_entry"] = {
+            "joint_angle_requested": _q(float(joint_angle), "rad"),
+            "joint_angle": _q(float(entry.joint_angle_rad), "rad"), "ratio": _q(float(entry.ratio), "1"),
+            "note": "the entry nearest the requested angle, as the runtime picks it: its plant and controller, "
+                    "frozen at the entry's angle"}
+    return SimulationRun.from_report(rep)
+
+
+class _Runs:
+    """The runs of one scenario (:func:`scenario_runs`), made one after the other: what has been
+    done, for the message of a spent time budget."""
+
+    def __init__(self, doc: ControllerFile, sc: Scenario, start: str, plan: tuple, progress):
+        self.doc, self.sc, self.start, self.plan, self.progress = doc, sc, start, plan, progress
+        self.done, self.current, self.fraction = 0, None, 0.0
+
+    def run(self, label: str, sc: Scenario | None = None, **options) -> dict:
+        """The run ``label`` of the plan (``sc``: the scenario changed for it; ``options``:
+        :func:`~.engine.simulate`'s)."""
+        self.current, self.fraction = label, 0.0
+        user = self.progress if label == "controller" else None
+
+        def progress(frac):
+            self.fraction = frac
+            if user is not None:
+                user(frac)
+
+        sim = simulate(self.doc, self.sc if sc is None else sc, start=self.start, progress=progress, **options)
+        self.done, self.current = self.done + 1, None
+        return sim
+
+    def stopped(self, reason: str) -> str:
+        """``reason`` (a spent time budget) with what was done: the runs finished, where the
+        current one stopped."""
+        budget = active_budget()
+        tail = budget[3] if budget is not None else ""
+        head = reason[: len(reason) - len(tail)] if tail and reason.endswith(tail) else reason
+        where = (f" and stopped the run {self.current} at t = {self.fraction * self.sc.duration_s:.4g} s of "
+                 f"{self.sc.duration_s:.6g} s" if self.current is not None else "")
+        total = f"{len(self.plan)} run{'s' if len(self.plan) > 1 else ''}"
+        return (f"{head}; it had finished {self.done} of the {total} of scenario {self.sc.name} "
+                f"({', '.join(self.plan)}){where}{tail}")
+
+
+def _report(doc: ControllerFile, sc: Scenario, runs: _Runs) -> dict:
+    """The report of the scenario ``sc``: its runs (``runs``), their summaries and its own measurements."""
     alpha = float(doc.design.amplification)
-    sim = simulate(doc, sc, start=start, progress=progress)
+    sim = runs.run("controller")
     rho = loop_spectrum(doc, sc.human, sc.locked)
     nl = sc.nonlinear
     rep = {"scenario": sc.name, "description": sc.description, "human": sc.human,
@@ -400,21 +517,15 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
                               "saturation_nm": nl.saturation_nm,
                               "units": {"coulomb_nm": "N·m", "backlash_rad": "rad", "saturation_nm": "N·m"}},
            "sample_rate_hz": sim["sample_rate_hz"], "delay_samples": sim["delay_samples"], "design_alpha": alpha}
-    if entry is not None:
-        rep["gain_schedule_entry"] = {
-            "joint_angle_requested": _q(float(joint_angle), "rad"),
-            "joint_angle": _q(float(entry.joint_angle_rad), "rad"), "ratio": _q(float(entry.ratio), "1"),
-            "note": "the entry nearest the requested angle, as the runtime picks it: its plant and controller, "
-                    "frozen at the entry's angle"}
     rep.update(summary=summarize(sim, sc, alpha, rho), runs={"controller": sim})
     verdict = rep["summary"]["verdict"]
-    if math.isfinite(nl.saturation_nm) and math.isfinite(sc.release_at_s):
-        free = simulate(doc, sc, start=start, clamp=False)
+    if "without_clamp" in runs.plan:
+        free = runs.run("without_clamp", clamp=False)
         rep["runs"]["without_clamp"] = free
         rep["windup_recovery"] = {"release_at": _q(sc.release_at_s, "s"), "with_clamp": _windup(sim, sc, alpha),
                                   "without_clamp": _windup(free, sc, alpha)}
-    if nl.backlash_rad > 0:
-        lin = simulate(doc, replace(sc, nonlinear=replace(nl, backlash_rad=0.0)), start=start)
+    if "without_backlash" in runs.plan:
+        lin = runs.run("without_backlash", replace(sc, nonlinear=replace(nl, backlash_rad=0.0)))
         rep["runs"]["without_backlash"] = lin
         rep["limit_cycle"] = _limit_cycle(sim, sc, verdict, summarize(lin, sc, alpha, rho))
     if nl.coulomb_nm > 0:
@@ -428,19 +539,21 @@ def run_scenario(doc: ControllerFile | dict, name: "str | Scenario", human_inert
                                         "relative_error": _q(e / rms if rms > 0 else None, "1"),
                                         "note": "the DOB's estimate (the sum of its filters' outputs) against the "
                                                 "true friction F_c·tanh(θ̇_m/ε)"}
-    if sc.compare_without_dob and doc.dob is not None and doc.dob.filters:
-        _friction_sensitivity(doc, sc, sim, rep, alpha, start)
-    return SimulationRun.from_report(rep)
+    if "without_dob" in runs.plan:
+        _friction_sensitivity(doc, sc, sim, rep, alpha, runs)
+    return rep
 
 
-def _friction_sensitivity(doc, sc, sim, rep, alpha, start) -> None:
+def _friction_sensitivity(doc, sc, sim, rep, alpha, runs: _Runs) -> None:
     """The joint trajectory with friction against the same controller's frictionless one, with
     the file's controller (DOB) and with its DOB filters removed."""
     clean = replace(sc, nonlinear=Nonlinearities())
     sens = {}
     for label, wo in (("with_dob", False), ("without_dob", True)):
-        fr = sim if not wo else simulate(doc, sc, without_dob=True, start=start)
-        ref = simulate(doc, clean, without_dob=wo, start=start)
+        fr = sim if not wo else runs.run("without_dob", without_dob=True)
+        # the frictionless run without the DOB is kept for its joint angle only
+        ref = runs.run("frictionless" + ("_without_dob" if wo else ""), clean, without_dob=wo,
+                       series=("t", "theta_j") if wo else None)
         a, b = fr["series"]["theta_j"], ref["series"]["theta_j"]
         m = min(a.size, b.size)
         sens[label] = _q(float(np.sqrt(np.mean((a[:m] - b[:m]) ** 2)) / max(np.sqrt(np.mean(b[:m] ** 2)), 1e-300)),

@@ -86,8 +86,8 @@ def envelope_growth(t: np.ndarray, s: np.ndarray, fraction: float = FIT_FRACTION
     if peak == 0.0:
         return -math.inf, float(t[0])
     floor = FLOOR * peak
-    above = np.flatnonzero(a > floor)
-    last = int(above[-1]) + 1 if above.size else 0
+    above = a > floor  # (a mask: one byte per sample, not the indices' eight)
+    last = a.size - int(np.argmax(above[::-1])) if above.any() else 0  # after the last sample above the floor
     m = max(8, int(round(fraction * a.size)))
     died = last < a.size - m // 2
     stop = last if died else a.size

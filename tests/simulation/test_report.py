@@ -105,18 +105,20 @@ def test_the_run_budget():
     with pytest.raises(ConfigError) as ei:
         check_budget(1000.0, 1e6)
     assert ei.value.field == "duration"
-    assert ei.value.reason == ("1e+06 s at 1000 Hz is 1000000000 samples, over the limit of 10000000 samples per "
-                               "run (10000 s at 1000 Hz; shorten `duration` or lower the rate)")
+    assert ei.value.reason == ("1e+06 s at 1000 Hz is 1000000000 samples per run; the scenario makes 1 run, "
+                               "1000000000 samples in all, over the limit of 6000000 samples per scenario (at most "
+                               "6000 s at 1000 Hz for its 1 run; shorten `duration` or lower the rate)")
 
 
 def test_the_run_budget_gives_exact_counts_near_the_limit():
     """10001 s at 1 kHz read "is 1e+07 samples; … limited to 1e+07 samples": both counts rounded
     to the same text. Now both are exact, and the limit is also given in seconds at the rate."""
     with pytest.raises(ConfigError) as ei:
-        check_budget(1000.0, 10001.0)
-    assert ei.value.reason == ("10001 s at 1000 Hz is 10001000 samples, over the limit of 10000000 samples per run "
-                               "(10000 s at 1000 Hz; shorten `duration` or lower the rate)")
-    check_budget(1000.0, 10000.0004)  # 10000000.4 samples: the run's count (rounded) is within the limit
+        check_budget(1000.0, 6001.0)
+    assert ei.value.reason == ("6001 s at 1000 Hz is 6001000 samples per run; the scenario makes 1 run, 6001000 "
+                               "samples in all, over the limit of 6000000 samples per scenario (at most 6000 s at "
+                               "1000 Hz for its 1 run; shorten `duration` or lower the rate)")
+    check_budget(1000.0, 6000.0004)  # 6000000.4 samples: the run's count (rounded) is within the limit
     with pytest.raises(ConfigError) as ei:
         check_budget(1e7, 1e300)  # beyond any float count: no 300-digit integer
     assert "about 1e+307 samples" in ei.value.reason

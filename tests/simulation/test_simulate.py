@@ -513,7 +513,7 @@ def test_a_run_beyond_the_sample_budget_is_refused_before_it_starts():
     p = subprocess.run([sys.executable, "-m", "exotune", "simulate", str(ROOT / "examples" / "scheduled.yaml"),
                         "--scenario", "locked-output", "--duration", "1e6"], capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and p.stdout == ""
-    assert p.stderr.startswith("exotune: error: --duration:") and "limit of 10000000 samples per run" in p.stderr
+    assert p.stderr.startswith("exotune: error: --duration:") and "over the limit of 6000000 samples per scenario" in p.stderr
     assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
     assert time.perf_counter() - t < 60
 
