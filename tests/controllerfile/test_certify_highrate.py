@@ -72,7 +72,14 @@ def test_loop_verdict_is_the_spectral_verdict_of_its_loop_matrix(path, human, en
     lam = np.linalg.eigvals(M)
     rigid = 1e-7 if ungrounded and np.min(np.abs(lam - 1.0)) <= 1e-7 else None
     got, want = loop_verdict(plant, ctrl, grounded, human, env), spectral_verdict(M, rigid_tol=rigid)
-    assert got[:2] == want[:2]
+    assert got[0] == want[0]
+    if ungrounded:
+        # loop_verdict deflates the rigid-body mode by its eigenvector (docs/method.md#sampled-data):
+        # its radius is the other eigenvalues', not those of the full matrix's solve, which the
+        # rigid eigenvalue next to them moves by up to ~1e-9 (relative) at 20 kHz
+        assert got[1] == pytest.approx(want[1], rel=1e-8)
+    else:
+        assert got[1] == want[1]
     assert want[2] / 20.0 <= got[2] <= 20.0 * want[2]
 
 
