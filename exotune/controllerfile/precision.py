@@ -140,10 +140,7 @@ def _check_float32_values(real: Realization, where: str) -> None:
                    for r, row in enumerate(f.sections) for k, x in enumerate(row)]
     values.append((f"{where}.loop_divisor", real.loop_divisor))
     for field, x in values:
-        with np.errstate(over="ignore"):
-            v = float(np.float32(x))
-        if not math.isfinite(v):
-            raise ConfigError(field, f"{x!r} does not fit in float32 (|x| > 3.4e38), which the target executes")
+        v = _f32(x, field)
         if v != x:
             raise ConfigError(field, f"{x!r} is not a float32 value (float32 holds {v!r}): a float32 realization "
                                      "holds the coefficients the target executes, and certify analyses them as "
