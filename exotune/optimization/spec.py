@@ -179,6 +179,12 @@ def _constraints(cfg, cons_in) -> tuple[dict, str | None]:
             cons[k] = number_field(f"constraints.{k}", v)
             if k == "max_phase_excess_deg" and cons[k] < 0:
                 raise ConfigError(f"constraints.{k}", f"must be >= 0 (the phase excess is never negative), got {v!r}")
+            if k == "amplification_bandwidth_hz" and cons[k] < 0:
+                raise ConfigError(f"constraints.{k}", f"must be >= 0 Hz (a bandwidth is never negative, so a negative "
+                                                      f"bound constrains nothing), got {v!r}")
+            if k == "amplification_peak_db" and cons[k] < 0:
+                raise ConfigError(f"constraints.{k}", f"must be >= 0 dB (the peak is measured over the DC value, so "
+                                                      f"it is never below 0 dB and no design could meet it), got {v!r}")
             if k == "latency_margin_s" and cons[k] < 0:
                 raise ConfigError(f"constraints.{k}", f"must be >= 0 s (0 disables the latency margin), got {v!r}")
             if k in DOB_MEASURES and cons[k] <= 0:

@@ -30,6 +30,12 @@ any tolerance that tells it from a physical mode, and moved the slow mode by as 
 first matters: an orthogonal reflector of the unbalanced matrix (‖M‖ ~ 1e12 with a companion
 realization of the cuff filter, most entries of order 1) spreads the rounding of its largest entries over all of
 them, and the eigenvalues near the circle lost 3e-8; in balanced coordinates they keep 1e-14.
+
+Engines: with the compiled engine (:func:`exotune.numerics.engine.compiled`: the sweep's sampled
+columns, the latency margin) :func:`rigid_deflation` and :func:`deflate` run as one compiled loop
+over the stack, :mod:`exotune.numerics.kernels.rigid` (the same steps; equal to rounding, not bit
+for bit: another QR); the numpy code here is their reference and runs on the numpy engine
+(certify, export).
 """
 
 from __future__ import annotations
@@ -108,8 +114,9 @@ def _vectors(M: np.ndarray, x: np.ndarray):
         if ok.any():  # R_w is triangular: back substitution by solve (one LAPACK call per matrix)
             v[ok, n:] = np.linalg.solve(Rw[ok], rhs[ok])[:, :, 0]
     res = np.linalg.norm(np.einsum("kij,kj->ki", Mb, v) - v, axis=1)
-    size = np.linalg.norm(Mb.reshape(k, -1), axis=1) * np.linalg.norm(v, axis=1)
-    ok &= res <= RIGID_ULPS * N * np.finfo(float).eps * size  # NaN: not ok
+    vn = np.linalg.norm(v, axis=1)
+    size = np.linalg.norm(Mb.reshape(k, -1), axis=1) * vn
+    ok &= (res <= RIGID_ULPS * N * np.finfo(float).eps * size) & (vn > 0.0)  # NaN: not ok
     v[~ok] = 0.0
     return v, s, ok, Mb
 
@@ -145,7 +152,8 @@ def rigid_deflation(M: np.ndarray, x: np.ndarray):
     """The exact deflation of the rigid-body eigenvalue of a stack of loop matrices (module
     docstring): in the balanced coordinates of each matrix (:func:`balancing`), the last N − 1
     columns Q₂ of the Householder reflector H = I − 2uuᵀ/uᵀu, u = v̂ + sign(v̂₁)e₁, whose first
-    column is −sign(v̂₁)v̂ (v̂ the unit rigid-body eigenvector, :func:`rigid_vectors`).
+    column is −sign(v̂₁)v̂ (v̂ the unit rigid-body eigenvector, :func:`rigid_vectors`). Compiled
+    with the compiled engine (:func:`exotune.numerics.kernels.rigid.rigid_deflation_stack`).
 
     Parameters
     ----------
@@ -166,6 +174,12 @@ def rigid_deflation(M: np.ndarray, x: np.ndarray):
         Their deflated matrices (m, N − 1, N − 1), :func:`deflate` (M, s, Q₂) (the other
         eigenvalues).
     """
+    from ..numerics.engine import compiled
+
+    if compiled():
+        from ..numerics.kernels.rigid import rigid_deflation_stack
+
+        return rigid_deflation_stack(M, x, RIGID_ULPS)
     with np.errstate(all="ignore"):
         v, s, ok, Mb = _vectors(M, x)
     u = v[ok] / np.linalg.norm(v[ok], axis=1, keepdims=True)
@@ -183,7 +197,10 @@ def _project(Mb: np.ndarray, Q2: np.ndarray) -> np.ndarray:
 
 def deflate(M: np.ndarray, s: np.ndarray, Q2: np.ndarray) -> np.ndarray:
     """Q₂ᵀ D⁻¹ M D Q₂ of a stack (k, N, N) with the scalings and bases of :func:`rigid_deflation`:
-    the loop matrices with their rigid-body eigenvalue taken out (module docstring).
+    the loop matrices with their rigid-body eigenvalue taken out (module docstring). Compiled with
+    the compiled engine (:func:`exotune.numerics.kernels.rigid.deflate_stack`: the projection of
+    :func:`rigid_deflation`'s kernel, so the deflated matrix of a loop and its deflation by its basis
+    are the same numbers on either engine).
 
     Parameters
     ----------
@@ -199,4 +216,10 @@ def deflate(M: np.ndarray, s: np.ndarray, Q2: np.ndarray) -> np.ndarray:
     numpy.ndarray
         The deflated matrices (k, N − 1, N − 1).
     """
+    from ..numerics.engine import compiled
+
+    if compiled():
+        from ..numerics.kernels.rigid import deflate_stack
+
+        return deflate_stack(M, s, Q2)
     return _project(_balanced(np.asarray(M, dtype=float), s), Q2)

@@ -60,6 +60,9 @@ def test_a_latency_margin_of_zero_checks_no_delay(base):
     (dict(constraints={"foo": 1.0}), "constraints.foo"),
     (dict(constraints={"max_phase_excess_deg": -1.0}), "constraints.max_phase_excess_deg"),
     (dict(constraints={"latency_margin_s": -1e-3}), "constraints.latency_margin_s"),
+    # a bandwidth is never negative (a vacuous bound), a peak over the DC value never below 0 dB (unsatisfiable)
+    (dict(constraints={"amplification_bandwidth_hz": -1.0}), "constraints.amplification_bandwidth_hz"),
+    (dict(constraints={"amplification_peak_db": -0.5}), "constraints.amplification_peak_db"),
     (dict(constraints=[]), "constraints"),
     (dict(seed=-1), "seed"),
     (dict(seed=True), "seed"),
@@ -70,6 +73,14 @@ def test_a_bad_entry_is_refused_naming_its_field(base, change, field):
     with pytest.raises(ConfigError) as e:
         load_optimize_spec(_spec(base, **change))
     assert e.value.field == field
+
+
+def test_bandwidth_and_peak_bounds_of_zero_are_accepted(base):
+    """The edges of the accepted ranges: 0 Hz (any bandwidth) and 0 dB (no peak above DC)."""
+    spec = load_optimize_spec(_spec(base, constraints={"amplification_bandwidth_hz": 0.0,
+                                                       "amplification_peak_db": 0.0}))
+    assert spec.constraints["amplification_bandwidth_hz"] == 0.0
+    assert spec.constraints["amplification_peak_db"] == 0.0
 
 
 def test_the_base_is_required_and_the_spec_must_be_a_mapping(base):

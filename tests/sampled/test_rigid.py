@@ -1,7 +1,9 @@
 """exotune.sampled.rigid on synthetic matrices with a known spectrum (the loops themselves:
 tests/sampled/test_rigid_deflation.py): a matrix V diag(λ) V⁻¹ with λ_0 = 1 and an eigenvector
 whose first n entries are the given plant vector is deflated to a matrix whose eigenvalues are the
-other λ_i; its balancing is LAPACK's (scipy.linalg.matrix_balance) and exact."""
+other λ_i; its balancing is LAPACK's (scipy.linalg.matrix_balance) and exact. The deflation runs on
+both engines: the numpy reference and the compiled kernel (exotune.numerics.kernels.rigid, the
+sweep's; compared with each other in tests/numerics/kernels/test_rigid.py)."""
 
 from __future__ import annotations
 
@@ -10,7 +12,21 @@ import pytest
 import scipy.linalg
 from scipy.optimize import linear_sum_assignment
 
+from exotune.numerics.engine import compiled, numpy_engine
+from exotune.numerics.kernels.common import AVAILABLE
 from exotune.sampled.rigid import balancing, deflate, rigid_deflation, rigid_vectors
+
+
+@pytest.fixture(params=["numpy", "numba"])
+def engine(request):
+    """Runs the test inside the numpy engine, or on the compiled one (skipped without numba)."""
+    if request.param == "numpy":
+        with numpy_engine():
+            yield request.param
+        return
+    if not (AVAILABLE and compiled()):
+        pytest.skip("the compiled engine is not in use (numba missing or EXOTUNE_NUMPY_ONLY)")
+    yield request.param
 
 
 def _synthetic(seed: int, N: int = 9, n: int = 4, spread: float = 4.0):
@@ -27,7 +43,7 @@ def _synthetic(seed: int, N: int = 9, n: int = 4, spread: float = 4.0):
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_deflation_leaves_the_other_eigenvalues(seed):
+def test_deflation_leaves_the_other_eigenvalues(seed, engine):
     M, x, others = _synthetic(seed)
     v, ok = rigid_vectors(M[None], x)
     assert ok[0]
@@ -43,7 +59,7 @@ def test_deflation_leaves_the_other_eigenvalues(seed):
     assert np.max(np.abs(others[r] - got[c])) < 1e-9
 
 
-def test_no_eigenvector_no_deflation():
+def test_no_eigenvector_no_deflation(engine):
     """A plant vector that is not the start of an eigenvector at 1 is refused, as is a matrix with
     no eigenvalue at 1 at all or a non-finite one."""
     M, x, _ = _synthetic(7)

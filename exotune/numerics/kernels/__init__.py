@@ -18,11 +18,14 @@ One module per kernel family:
 - :mod:`.loopmat`: the assembly of the sampled-data loop matrices on a stack; reference: the
   numpy operations of :meth:`exotune.sampled.batch.BatchLoops.matrices`;
 - :mod:`.expm`: matrix exponentials of stacks of small matrices (the zero-order holds);
-  reference: ``scipy.linalg.expm``.
+  reference: ``scipy.linalg.expm``;
+- :mod:`.rigid`: the exact deflation of the rigid-body eigenvalue z = 1 of stacks of ungrounded
+  sampled-data loop matrices; reference: the numpy code of :mod:`exotune.sampled.rigid`.
 
 Which engine runs is decided in one place, :mod:`exotune.numerics.engine`. The kernels are
 compiled with ``cache=True``: numba keys each cached kernel on its own module's file only, so after
-editing :mod:`.common` (or :mod:`.bounds`) delete this package's ``__pycache__`` (or touch the
+editing :mod:`.common` (or :mod:`.bounds`, or :mod:`.eig`, whose ``balance`` :mod:`.expm` and
+:mod:`.rigid` call) delete this package's ``__pycache__`` (or touch the
 modules that use it) to recompile the kernels that inline it.
 """
 
