@@ -39,13 +39,17 @@ def _ticks(values: np.ndarray, scale: float = 1.0, maxn: int = 8):
     return idx, tick_labels(values[idx], scale)
 
 
-def _cells_fit(fig, ax, shape) -> bool:
-    """Whether a cell of ``ax`` (rows × columns ``shape``) has room for a short annotation."""
-    fig.canvas.draw()  # final layout, so that the axes' size is known
-    bb = ax.get_window_extent()
-    w = bb.width * 72.0 / fig.dpi / max(shape[1], 1)
-    h = bb.height * 72.0 / fig.dpi / max(shape[0], 1)
-    return w >= _MIN_CELL_PT[0] and h >= _MIN_CELL_PT[1]
+def _cells_fit(fig, axes_shapes) -> list[bool]:
+    """Whether a cell of each ``(ax, shape)`` (rows × columns ``shape``) has room for a short
+    annotation: one layout pass of the whole figure (no rendering), then every axes' size."""
+    fig.draw_without_rendering()  # final layout, so that the axes' sizes are known
+    fits = []
+    for ax, shape in axes_shapes:
+        bb = ax.get_window_extent()
+        w = bb.width * 72.0 / fig.dpi / max(shape[1], 1)
+        h = bb.height * 72.0 / fig.dpi / max(shape[0], 1)
+        fits.append(w >= _MIN_CELL_PT[0] and h >= _MIN_CELL_PT[1])
+    return fits
 
 
 def _norm_and_cmap(data, cmap, vmin, vmax, log):
@@ -70,10 +74,22 @@ def _norm_and_cmap(data, cmap, vmin, vmax, log):
     return cm, norm, log, vmax
 
 
-def _draw_heatmap(fig, ax, grid_: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *, vmin=None,
-                  vmax=None, cmap="viridis", log=False, annotate=False, fmt="{:.2f}", fontsize=10) -> dict:
+def _draw_heatmap(fig, ax, grid_: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *, annotate=False,
+                  **kw) -> dict:
     """Draw grid[iy, ix] into ``ax`` with a colour bar; +inf cells get the colormap's "over" colour,
-    NaN cells are grey. Returns what the figure's note must explain (``{"nan": bool, "inf": bool}``)."""
+    NaN cells are grey; the values written into the cells when ``annotate`` and they fit. Returns
+    what the figure's note must explain (``{"nan": bool, "inf": bool}``)."""
+    flags, cells = _draw_cells(fig, ax, grid_, xvals, yvals, xlabel, ylabel, title, cbar_label, **kw)
+    if annotate and _cells_fit(fig, [(ax, np.shape(grid_))])[0]:
+        _annotate(ax, *cells)
+    return flags
+
+
+def _draw_cells(fig, ax, grid_: np.ndarray, xvals, yvals, xlabel, ylabel, title, cbar_label, *, vmin=None,
+                vmax=None, cmap="viridis", log=False, fmt="{:.2f}", fontsize=10):
+    """:func:`_draw_heatmap` without the cell values: (its flags, the arguments of
+    :func:`_annotate` after ``ax``) — a figure of several panels lays itself out once before it
+    writes the values of those whose cells fit."""
     data = np.array(grid_, dtype=float)
     has_over = bool(np.any(np.isposinf(data)))
     cm, norm, log, vmax = _norm_and_cmap(data, cmap, vmin, vmax, log)
@@ -94,9 +110,8 @@ def _draw_heatmap(fig, ax, grid_: np.ndarray, xvals, yvals, xlabel, ylabel, titl
     ax.set_xlabel(label(xlabel), fontsize=fontsize - 1)
     ax.set_ylabel(label(ylabel), fontsize=fontsize - 1)
     ax.set_title(_physical(title), fontsize=fontsize)
-    if annotate and _cells_fit(fig, ax, grid_.shape):
-        _annotate(ax, grid_, plot, cm, norm, log, fmt)
-    return {"nan": bool(np.any(np.isnan(data))), "inf": has_over, "zero": bool(np.any(zero))}
+    flags = {"nan": bool(np.any(np.isnan(data))), "inf": has_over, "zero": bool(np.any(zero))}
+    return flags, (grid_, plot, cm, norm, log, fmt)
 
 
 def _annotate(ax, grid_, plot, cm, norm, log, fmt) -> None:
@@ -226,17 +241,24 @@ def heatmap_panels(panels: list[dict], xvals, yvals, xlabel, ylabel, suptitle) -
     w, h = FIGSIZE["panel"]
     fig = new_figure((w * ncols, h * nrows + 0.5))
     axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
-    flags = []
+    flags, pending = [], []
     for ax, p in zip(axes, panels):
         p = dict(p)
-        grid_ = p.pop("grid")
+        grid_ = np.asarray(p.pop("grid"))
+        p.pop("annotate", None)
         p["fmt"] = "{:.2g}"  # two digits: the cells of a panel are small
-        flags.append(_draw_heatmap(fig, ax, grid_, xvals, yvals, xlabel, ylabel, fontsize=9,
-                                   annotate=grid_.size <= 36, **p))
+        f, cells = _draw_cells(fig, ax, grid_, xvals, yvals, xlabel, ylabel, fontsize=9, **p)
+        flags.append(f)
+        if grid_.size <= 36:
+            pending.append((ax, cells))
     for ax in axes[n:]:
         ax.set_visible(False)
     fig.suptitle(_physical(suptitle), fontsize=11)
     _note(fig, flags)
+    if pending:  # one layout of the finished figure decides every panel (a layout per panel cost seconds each)
+        for (ax, cells), fit in zip(pending, _cells_fit(fig, [(ax, np.shape(c[0])) for ax, c in pending])):
+            if fit:
+                _annotate(ax, *cells)
     return png(fig)
 
 

@@ -266,6 +266,11 @@ def test_a_default_length_over_the_limit_names_an_option_that_was_given(tmp_path
     assert line.startswith(f"exotune: error: {option}: the default length, whole periods making 20 s (at least 2), ")
     assert line.endswith("at most 10000000 samples are written; give fewer --periods or a shorter --duration-s")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_length_at_the_limit_is_written(tmp_path):
+    """The edge of the refusals above: one period of 1 s at 10 MHz is exactly the 1e7 samples
+    allowed, and is written (once here: writing 1e7 rows takes tens of seconds)."""
     res = CliRunner().invoke(cli, ["excite", "-o", str(tmp_path / "e.csv"), "--sample-rate-hz", "1e7", "--f-lo-hz",
                                    "1", "--f-hi-hz", "40", "--peak-nm", "1", "--periods", "1"])
     assert res.exit_code == 0 and "1 period of 1 s (10000000 samples)" in res.output
