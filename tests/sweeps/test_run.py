@@ -302,8 +302,10 @@ def test_workers_die_with_a_killed_sweep(tmp_path):
 @pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.isdir("/proc"), reason="Linux process table")
 def test_sigterm_interrupts_the_sweep_cleanly(tmp_path):
     """``kill PID`` ends the sweep like Ctrl-C: exit 143, the manifest says "interrupted", the
-    workers end, and rerunning the command completes the dataset."""
-    proc, out, kids = _big_sweep_process(tmp_path)
+    workers end, and rerunning the command completes the dataset. The sweep is the 100 × 100 one of
+    the Ctrl-C test (20 chunks): long enough to be signalled while both workers run, and the rerun
+    that completes it computes at most 18 chunks instead of the 300 × 300 sweep's 178."""
+    proc, out, kids = _big_sweep_process(tmp_path, num=100)
     os.kill(proc.pid, signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143, err[-2000:]

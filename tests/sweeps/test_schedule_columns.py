@@ -11,7 +11,8 @@ import pytest
 import yaml
 
 import exotune.api as api
-from exotune.analysis import analyze_with_margins
+from exotune.analysis import analyze_batch, analyze_design
+from exotune.analysis.latency_margin import latency_margin, schedule_latency_margin
 from exotune.config import design_from_mapping, read_yaml
 from exotune.sweeps import load_results
 from exotune.sweeps.metrics import robust_mask
@@ -32,6 +33,26 @@ def swept(tmp_path_factory):
     return d, df
 
 
+@pytest.fixture(scope="module")
+def report_md(swept):
+    """``summary.md`` of ``exotune report`` of the sweep (written once for the tests that read it)."""
+    d, _ = swept
+    api.report(d / "out")
+    return (d / "out" / "report" / "summary.md").read_text()
+
+
+def _analyze(cfg):
+    """What ``exotune analyze`` (:func:`exotune.analysis.analyze_with_margins`) reports of the gain
+    schedule: its entries (verdicts of :func:`analyze_design`, latency margins of
+    :func:`schedule_latency_margin`) and the main controller's continuous latency margin [s] —
+    the same calls, without the plant-uncertainty margin (half of the work) that no check here reads."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        lm, per_entry = schedule_latency_margin(cfg, latency_margin(cfg, nominal=analyze_batch(cfg)))
+        entries = analyze_design(cfg, False).gain_schedule
+    assert len(per_entry) == len(entries)
+    return [(e.robust, m.extra_delay_s) for e, m in zip(entries, per_entry)], float(lm.extra_delay_s)
+
+
 def _design(alpha, delay):
     raw = read_yaml("examples/scheduled.yaml")
     raw["design"]["amplification"] = float(alpha)
@@ -44,14 +65,12 @@ def test_continuous_columns_agree_with_analyze(swept):
     seen = set()
     for _, row in df.iterrows():
         raw = _design(row["design.amplification"], row["implementation.delay_s"])
-        rep = analyze_with_margins(design_from_mapping(copy.deepcopy(raw)), sampled_check=False)
-        entries = rep.gain_schedule
-        assert bool(row["schedule_robust"]) == all(e.robust for e in entries)
-        assert int(row["schedule_failing_entries"]) == sum(not e.robust for e in entries)
+        entries, main_margin = _analyze(design_from_mapping(copy.deepcopy(raw)))
+        assert bool(row["schedule_robust"]) == all(robust for robust, _ in entries)
+        assert int(row["schedule_failing_entries"]) == sum(not robust for robust, _ in entries)
         seen.add(bool(row["schedule_robust"]))
         # the margin of record is the smallest of the main controller's and the entries'
-        want = min([rep.continuous_latency_margin_s if rep.continuous_latency_margin_s is not None else np.inf]
-                   + [e.latency_margin_s for e in entries])
+        want = min([main_margin] + [m for _, m in entries])
         assert row["latency_margin_s"] == pytest.approx(want, rel=1e-5, abs=1e-9)
         assert row["latency_margin_s"] <= row["latency_margin_main_s"]
     assert seen == {True, False}  # the grid holds both kinds
@@ -75,27 +94,23 @@ def test_sampled_columns_agree_with_certify(swept, tmp_path):
         assert row["sampled_latency_margin_samples"] == pytest.approx(lm, rel=1e-4, abs=1e-9)
 
 
-def test_robust_requires_every_entry_and_the_report_says_so(swept):
-    d, df = swept
+def test_robust_requires_every_entry_and_the_report_says_so(swept, report_md):
+    _, df = swept
     cols = {c: df[c].to_numpy() for c in df.columns if c.endswith(("_robust", "_stable"))}
     mask, used = robust_mask(cols)
     assert "schedule_robust" in used and "sampled_schedule_robust" in used
     assert not (mask & ~df["schedule_robust"].to_numpy(bool)).any()
-    api.report(d / "out")
-    md = (d / "out" / "report" / "summary.md").read_text()
-    assert "gain schedule swept" in md and "not swept" not in md
+    assert "gain schedule swept" in report_md and "not swept" not in report_md
 
 
-def test_metric_columns_and_maps_are_the_worst_over_the_schedule(swept):
+def test_metric_columns_and_maps_are_the_worst_over_the_schedule(swept, report_md):
     from exotune.analysis.gain_schedule import WORST_METRICS
 
-    d, df = swept
+    _, df = swept
     for col, op in WORST_METRICS.items():
         w, main = df[f"schedule_worst_{col}"].to_numpy(float), df[col].to_numpy(float)
         both = ~np.isnan(w) & ~np.isnan(main)
         assert ((w <= main) if op == ">=" else (w >= main))[both].all(), col
     # the entries' passivity is worse than the main controller's somewhere on this grid
     assert (df["schedule_worst_passivity_max_phase_excess_deg"] > df["passivity_max_phase_excess_deg"]).any()
-    api.report(d / "out")
-    md = (d / "out" / "report" / "summary.md").read_text()
-    assert "`schedule_worst_passivity_max_phase_excess_deg`" in md
+    assert "`schedule_worst_passivity_max_phase_excess_deg`" in report_md
