@@ -36,7 +36,7 @@ from .model import ControllerFile, as_controller_file
 from .results import Certificate
 
 __all__ = ["POINTS", "sampled_analysis", "sampled_decision", "sampled_problems", "schedule_section", "stable_intervals", "position_feedback",
-           "certify", "design_mismatches", "check_built_from_design", "hand_tuned", "golden_problems"]
+           "decision_and_nominal", "runs_the_file_itself", "certify", "design_mismatches", "check_built_from_design", "hand_tuned", "golden_problems"]
 
 def _human_dict(fam, v: float) -> dict:
     h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
@@ -523,15 +523,66 @@ def sampled_decision(doc: ControllerFile | dict, sa: dict | None = None) -> tupl
     -------
     (dict, dict, list of str)
     """
+    return decision_and_nominal(doc, sa)[:3]
+
+
+def decision_and_nominal(doc: ControllerFile | dict, sa: dict | None = None) -> tuple[dict, dict, list[str], tuple]:
+    """:func:`sampled_decision`, and copies of its analysis and latency margin as computed, before
+    the hysteretic check adds to them (the ``nominal`` of :func:`schedule_section`).
+
+    Parameters
+    ----------
+    doc : ControllerFile or dict
+        A controller document.
+    sa : dict, optional
+        Its :func:`sampled_analysis` when already computed.
+
+    Returns
+    -------
+    (dict, dict, list of str, (dict, dict))
+    """
+    import copy
+
     cf = as_controller_file(doc)
     if sa is None:
         sa = sampled_analysis(cf)
     lm = sampled_latency_margin(cf, sa, position_feedback(cf.controller), lambda d: sampled_analysis(d, proof=False))
+    nominal = (copy.deepcopy(sa), copy.deepcopy(lm))
     hyst = hysteretic_problems(cf, sa, margin=lm)  # first: it may bound the margin
-    return sa, lm, sampled_problems(sa) + requirement_problems(lm) + hyst
+    return sa, lm, sampled_problems(sa) + requirement_problems(lm) + hyst, nominal
 
 
-def schedule_section(doc: ControllerFile | dict, analyses: list | None = None) -> tuple[list, list[str], list[str]]:
+def runs_the_file_itself(top: dict, entry: dict) -> bool:
+    """Whether a gain-schedule entry (its mapping ``entry``) runs the file's own loop: its plant,
+    six gains and complete controller are the top-level ones (``top``: the file's mapping) value for
+    value, compared as their exact text (types, signed zeros and key order included) — the entry at
+    transmission ratio 1 of an exported file. Its view (:meth:`ControllerFile.entry_view`) is then
+    the file itself but for the six gains' ``convention`` note, so its sampled-data analysis and
+    latency margin (deterministic functions of the view) are the file's.
+
+    Parameters
+    ----------
+    top : dict
+        The controller file's mapping.
+    entry : dict
+        One of its ``gain_schedule.entries`` (a mapping).
+
+    Returns
+    -------
+    bool
+        True when the entry's loop is the file's own.
+    """
+    def six(g):
+        return {k: v for k, v in g.items() if k != "convention"} if isinstance(g, dict) else g
+
+    return (repr(entry.get("plant")) == repr(top.get("plant"))
+            and repr(six(entry.get("gains"))) == repr(six(top.get("gains")))
+            and isinstance(entry.get("controller"), dict) and isinstance(top.get("controller"), dict)
+            and repr({**top["controller"], **entry["controller"]}) == repr(top["controller"]))
+
+
+def schedule_section(doc: ControllerFile | dict, analyses: list | None = None,
+                     nominal: tuple[dict, dict] | None = None) -> tuple[list, list[str], list[str]]:
     """(report entries, problems, prediction mismatches) of the gain schedule's entries, each
     analysed as a controller of its own: its sampled-data verdicts, its hysteretic humans and its
     own sampled-data latency margin against the file's ``requirements.latency_margin_s`` (the
@@ -543,6 +594,10 @@ def schedule_section(doc: ControllerFile | dict, analyses: list | None = None) -
         The validated controller file, with a gain schedule.
     analyses : list of dict, optional
         Each entry's :func:`sampled_analysis` when already computed (export's ``predicted_sampled``).
+    nominal : (dict, dict), optional
+        The file's own :func:`sampled_analysis` and sampled-data latency margin (:func:`sampled_decision`):
+        an entry that runs the file's own plant, gains and controller (transmission ratio 1) takes
+        copies of them instead of computing the same analyses again (the same values).
 
     Returns
     -------
@@ -555,18 +610,28 @@ def schedule_section(doc: ControllerFile | dict, analyses: list | None = None) -
     mismatches : list of str
         Where an entry's ``predicted_sampled`` differs from the analysis.
     """
+    import copy
+
     cf = as_controller_file(doc)
     entries, problems, mism, hyst = [], [], [], []
+    top = cf.to_dict() if nominal is not None else None
     for j, e in enumerate(cf.gain_schedule.entries):
         view = cf.entry_view(e)
-        sa_e = sampled_analysis(view) if analyses is None else analyses[j]
+        same = top is not None and runs_the_file_itself(top, e.to_dict())
+        if analyses is not None:
+            sa_e = analyses[j]
+        else:
+            sa_e = copy.deepcopy(nominal[0]) if same else sampled_analysis(view)
         where = f"gain schedule at joint angle {e.joint_angle_rad:g} rad: "
         hyst.append((view, sa_e, where))
         bad = [f"{h['kind']} {h['parameter']}" for h in sa_e["humans"] + sa_e["environment"]
                if "skipped" not in h and not h.get("robust")]
         bad += [k for k in ("free_stable", "locked_stable") if not sa_e[k]]
-        lm_e = sampled_latency_margin(view, sa_e, position_feedback(view.controller),
-                                      lambda d: sampled_analysis(d, proof=False))
+        if same and repr(sa_e) == repr(nominal[0]):  # the file's own loop and analysis: the file's margin
+            lm_e = copy.deepcopy(nominal[1])
+        else:
+            lm_e = sampled_latency_margin(view, sa_e, position_feedback(view.controller),
+                                          lambda d: sampled_analysis(d, proof=False))
         entries.append({"joint_angle_rad": e.joint_angle_rad, "ratio": e.ratio,
                         "robust": not bad, "not_robust": bad, "sampled": sa_e, "latency_margin": lm_e})
         problems += _unresolved(sa_e, where)
@@ -604,12 +669,12 @@ def _certify(doc: ControllerFile, predictions: bool = True) -> dict:
            "provenance": doc.provenance.to_dict()}
     problems, samples, err = golden_problems(doc)
     rep["golden"] = {"samples": samples, "max_abs_error": {"value": err, "unit": "N·m"}}
-    rep["sampled"], rep["latency_margin"], decided = sampled_decision(doc)
+    rep["sampled"], rep["latency_margin"], decided, nominal = decision_and_nominal(doc)
     sa = rep["sampled"]
     problems += decided
     mism = []
     if doc.gain_schedule is not None:
-        rep["gain_schedule"], sched_problems, mism = schedule_section(doc)
+        rep["gain_schedule"], sched_problems, mism = schedule_section(doc, nominal=nominal)
         problems += sched_problems
         rep["latency_margin"] = schedule_minimum(rep["latency_margin"], rep["gain_schedule"])
     if not [h for h in sa["humans"] if "skipped" not in h]:

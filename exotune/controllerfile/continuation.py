@@ -60,11 +60,16 @@ MARCH_STEPS = 600  # proven cells tried per family on the stable sides of its in
 PROOFS = 1000  # cell proofs tried per family (scaled like MAX_REFINED for big loops, at least 200); past it, unresolved
 
 
+_LSAP = []  # scipy's linear_sum_assignment, imported on the first match (not on every one: ~1e5 per family)
+
+
 def _match(la: np.ndarray, lb: np.ndarray):
     """Minimum-cost assignment of two eigenvalue sets (indices into la, lb)."""
-    from scipy.optimize import linear_sum_assignment
+    if not _LSAP:
+        from scipy.optimize import linear_sum_assignment
 
-    return linear_sum_assignment(np.abs(la[:, None] - lb[None, :]))
+        _LSAP.append(linear_sum_assignment)
+    return _LSAP[0](np.abs(la[:, None] - lb[None, :]))
 
 
 def _cell_resolved(la: np.ndarray, lb: np.ndarray, length: float, derivatives) -> bool:
@@ -80,10 +85,10 @@ def _cell_resolved(la: np.ndarray, lb: np.ndarray, length: float, derivatives) -
         return True
     r, c = _match(la, lb)
     dist = np.minimum(np.abs(1.0 - np.abs(la[r])), np.abs(1.0 - np.abs(lb[c])))
-    if not np.all(np.abs(lb[c] - la[r]) <= CHORD * dist):
+    if not (np.abs(lb[c] - la[r]) <= CHORD * dist).all():
         return False
     da, db = derivatives()
-    return bool(np.all(length * np.maximum(np.abs(da[r]), np.abs(db[c])) <= CHORD * dist))
+    return bool((length * np.maximum(np.abs(da[r]), np.abs(db[c])) <= CHORD * dist).all())
 
 
 def _prove(grid: list, stable: list, unresolved: list, cell_bound, refine, budget: int) -> tuple[list, int, int]:

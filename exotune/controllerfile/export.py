@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..sampled import Measured
 from .build import controller_section, quantity, reflected_mapping
-from .certify import refuse_excess_work, sampled_analysis, sampled_decision, schedule_section
+from .certify import decision_and_nominal, refuse_excess_work, runs_the_file_itself, sampled_analysis, schedule_section
 from .latency import schedule_minimum
 from .fileio import schedule_entry_doc, write_controller
 from .precision import add_realizations, realization
@@ -79,7 +79,12 @@ def _golden_inputs(n: int = 200, fs: float = 1000.0, seed: int = 20251122) -> di
 
 
 
-def _gain_schedule(cfg, fs: float, doc: dict, analyses: bool = True) -> dict:
+def _gain_schedule(cfg, fs: float, doc: dict, analyses: bool = True, nominal: tuple | None = None) -> dict:
+    """The gain schedule's entries; ``nominal``: the file's own analysis and margin as computed
+    (:func:`~exotune.controllerfile.certify.decision_and_nominal`), copied for an entry that runs
+    the file's own loop instead of analysed again."""
+    import copy
+
     from ..config import design_from_mapping
 
     tr = cfg.raw["transmission"]
@@ -97,7 +102,9 @@ def _gain_schedule(cfg, fs: float, doc: dict, analyses: bool = True) -> dict:
         if doc["controller"].get("realization") is not None:  # float32: each entry's own realization
             entry["controller"]["realization"] = realization(entry["controller"],
                                                              f"gain_schedule.entries[{len(entries)}].controller")
-        if analyses:
+        if analyses and nominal is not None and runs_the_file_itself(doc, entry):
+            entry["predicted_sampled"] = copy.deepcopy(nominal[0])  # the file's own loop: its analysis
+        elif analyses:
             entry["predicted_sampled"] = sampled_analysis(schedule_entry_doc(doc, entry))
         entries.append(entry)
     return {"variable": "joint_angle_rad", "unit": "rad", "entries": entries}
@@ -329,14 +336,14 @@ def build_export(cfg, sample_rate_hz: float, source: str | None = None, input_ha
         refuse_excess_work(doc, entries=len((raw.get("transmission") or {}).get("ratio") or []))  # before any analysis
         doc["predicted"] = {"continuous": _predicted(cfg), "latency_margin": predicted_latency_margin(cfg)}
         # certify's own decision on this very document (docs/method.md#one-model-of-record)
-        sa, lm, problems = sampled_decision(doc)
+        sa, lm, problems, nominal = decision_and_nominal(doc)
         doc["predicted"]["sampled"] = sa
         doc["predicted"]["sampled_latency_margin"] = lm
     if raw.get("transmission"):
-        doc["gain_schedule"] = _gain_schedule(cfg, fs, doc, analyses)
+        doc["gain_schedule"] = _gain_schedule(cfg, fs, doc, analyses, nominal if analyses else None)
         if analyses:  # certify's own decision on every entry (docs/method.md#one-model-of-record)
             entries, sched_problems, _ = schedule_section(
-                doc, [e["predicted_sampled"] for e in doc["gain_schedule"]["entries"]])
+                doc, [e["predicted_sampled"] for e in doc["gain_schedule"]["entries"]], nominal=nominal)
             problems += sched_problems
             doc["predicted"]["sampled_latency_margin"] = schedule_minimum(doc["predicted"]["sampled_latency_margin"],
                                                                           entries)

@@ -112,7 +112,7 @@ def design_verdicts(cfg, require_latency_margin_s: float | None = None, continuo
     ----------
     docs/method.md#one-model-of-record.
     """
-    from .certify import sampled_decision, schedule_section
+    from .certify import decision_and_nominal, schedule_section
     from .latency import schedule_minimum
     from .export import build_export, latency_hint, predicted_latency_margin
     from .model import ControllerFile
@@ -126,10 +126,10 @@ def design_verdicts(cfg, require_latency_margin_s: float | None = None, continuo
     doc["predicted"] = {"latency_margin": (predicted_latency_margin(cfg) if continuous_margin is None
                                            else latency_hint(continuous_margin))}
     cf = ControllerFile.from_dict(doc)
-    sa, lm, problems = sampled_decision(cf)
+    sa, lm, problems, nominal = decision_and_nominal(cf)
     schedule = ()
     if cf.gain_schedule is not None:
-        entries, sched_problems, _ = schedule_section(cf)
+        entries, sched_problems, _ = schedule_section(cf, nominal=nominal)
         problems += sched_problems
         lm = schedule_minimum(lm, entries)
         schedule = tuple({k: v for k, v in e.items()} for e in entries)

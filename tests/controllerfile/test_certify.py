@@ -82,3 +82,29 @@ def test_tampered_gain_is_refused_naming_the_field(scheduled_doc):
         check_built_from_design(d)
     with pytest.raises(ConfigError, match="B1"):
         certify(d)
+
+
+def test_the_schedule_entry_that_runs_the_file_itself_reuses_an_identical_analysis(scheduled_doc):
+    """certify and export analyse the file's own loop once: the gain-schedule entry at ratio 1 runs
+    the file's plant, gains and controller (``runs_the_file_itself``) and takes the file's own
+    analysis (``decision_and_nominal``). Only that entry is recognised, one ulp of a gain makes it
+    another loop, and the analysis it takes equals a fresh analysis of its own view."""
+    from exotune.controllerfile import ControllerFile
+    from exotune.controllerfile.certify import decision_and_nominal, runs_the_file_itself, sampled_analysis
+
+    entries = scheduled_doc["gain_schedule"]["entries"]
+    flags = [runs_the_file_itself(scheduled_doc, e) for e in entries]
+    assert flags == [e["ratio"] == 1.0 for e in entries]
+    own = entries[flags.index(True)]
+    for key in ("B1", "K2_hat"):
+        moved = copy.deepcopy(own)
+        moved["gains"][key]["value"] = float(np.nextafter(moved["gains"][key]["value"], np.inf))
+        assert not runs_the_file_itself(scheduled_doc, moved)
+    moved = copy.deepcopy(own)
+    moved["plant"]["sea_stiffness"]["value"] *= 1.0 + 1e-15
+    assert not runs_the_file_itself(scheduled_doc, moved)
+
+    cf = ControllerFile.from_dict(copy.deepcopy(scheduled_doc))
+    _sa, _lm, _problems, (nominal_sa, _nominal_lm) = decision_and_nominal(cf)
+    fresh = sampled_analysis(cf.entry_view(cf.gain_schedule.entries[flags.index(True)]))
+    assert repr(fresh) == repr(nominal_sa)

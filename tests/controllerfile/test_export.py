@@ -78,8 +78,10 @@ def _impulses(n=60):
 
 @pytest.mark.parametrize("dob", [True, False])
 def test_file_filters_equal_the_analysis_discretization(dob):
+    """(The file's controller section only: built without the sampled-data predictions, which
+    are computed from it afterwards and play no part here.)"""
     cfg = _cfg(dob=dob)
-    doc = build_export(cfg, 1000.0)
+    doc = build_export(cfg, 1000.0, analyses=False)
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)
     ref = discretize(cs, cfg.plant, 1000.0, default_prewarp(cfg.implementation))
     ins = _impulses()
@@ -104,7 +106,8 @@ def test_runtime_matches_state_space_and_golden(paper_doc):
 
 
 def test_runtime_without_dob_is_gains_plus_sosfilt():
-    doc = build_export(_cfg(dob=False), 1000.0)
+    """(The file's controller and golden inputs only: built without the sampled-data predictions.)"""
+    doc = build_export(_cfg(dob=False), 1000.0, analyses=False)
     ins = {s: np.asarray(v["values"]) for s, v in doc["golden"]["inputs"].items()}
     c = doc["controller"]
     ref = sum(g["gain"] * ins[s] for s, g in c["gains"].items())

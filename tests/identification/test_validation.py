@@ -6,6 +6,7 @@ margin. Logs simulated independently of exotune (solve_ivp, or simulated_logs.py
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -40,11 +41,12 @@ def _friction_held_log(seed):
     ph = rng.uniform(0, 2 * np.pi, f.size)
     u = 0.6 * np.sin(2 * np.pi * np.multiply.outer(t, f) + ph).sum(-1) + 0.5 * rng.standard_normal(n)
     applied = np.concatenate([[0.0], u[:-1]])
+    b_u, b_th, w_th = B[:, 0].copy(), B[:, 1].copy(), 2 * np.pi * 0.7  # (the solver calls rhs ~1e6 times)
 
     def rhs(s, x):
         k = min(int(s * FS + 1e-9), n - 1)
-        th = 2.0 * np.sin(2 * np.pi * 0.7 * s)
-        return A @ x + B[:, 0] * (applied[k] - FC * np.tanh(x[1] / 1e-3)) + B[:, 1] * th
+        th = 2.0 * math.sin(w_th * s)  # the joint moved by 2 sin(2π·0.7 t) rad
+        return A @ x + b_u * (applied[k] - FC * np.tanh(x[1] / 1e-3)) + b_th * th
 
     sol = solve_ivp(rhs, (0, t[-1]), np.zeros(6), t_eval=t, method="LSODA", rtol=1e-8, atol=1e-11, max_step=0.5 / FS)
     x = sol.y
