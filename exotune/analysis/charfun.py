@@ -27,7 +27,7 @@ import numpy as np
 
 from ..model.controller import ControllerStructure
 from ..model.plant import Plant
-from ..numerics.poly import as_poly, padd, pmul, pscale, psub, strip_common_low_zeros
+from ..numerics.poly import as_poly, pad_cols, padd, pmul, pscale, psub, strip_common_low_zeros
 from ..numerics.quasipoly import QP
 
 __all__ = ["CharTerms", "KEYS", "char_terms", "controller_polys", "amplification_qps", "trim_poly", "strip_qps",
@@ -50,6 +50,30 @@ class CharTerms:
     def rows(self, sl) -> "CharTerms":
         """The terms of the designs ``sl`` (a slice or an index array) of the batch."""
         return CharTerms({k: QP(t.p0[sl], t.p1[sl], t.T[sl]) for k, t in self.terms.items()}, self.T[sl])
+
+    @classmethod
+    def stack(cls, parts) -> "CharTerms":
+        """The terms of several batches as one batch (rows in order; coefficient rows padded with
+        zeros to the widest, which leaves every polynomial unchanged).
+
+        Parameters
+        ----------
+        parts : sequence of CharTerms
+            Batches with the same keys.
+
+        Returns
+        -------
+        CharTerms
+            Their rows, one after the other.
+        """
+        def cat(arrays):
+            n = max(a.shape[1] for a in arrays)
+            return np.concatenate([pad_cols(np.asarray(a, dtype=float), n) for a in arrays])
+
+        T = np.concatenate([np.asarray(c.T, dtype=float) for c in parts])
+        keys = parts[0].terms.keys()
+        return cls({k: QP(cat([c.terms[k].p0 for c in parts]), cat([c.terms[k].p1 for c in parts]),
+                          np.concatenate([c.terms[k].T for c in parts])) for k in keys}, T)
 
     def combine(self, key0: str, key1: str, z0: np.ndarray) -> tuple[QP, QP]:
         """(Δ_0, Δ_1') with Δ_0 = Δ{key0} + z0(s)·Δ{key1}, Δ_1' = Δ{key1}."""

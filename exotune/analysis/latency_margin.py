@@ -176,31 +176,49 @@ def latency_margin(cfg, nominal=None, verify: bool = True) -> LatencyMargin:
     >>> latency_margin(exotune.load_design("examples/paper.yaml")).note   # light masses unstable already
     'not robust at the nominal delay'
     """
+    return _latency_margins([cfg], [nominal], verify)[0]
+
+
+def _latency_margins(cfgs: list, nominals: list, verify: bool) -> list:
+    """:func:`latency_margin` of designs that share their human families and environments (a design
+    and its gain-schedule entries): the crossing search of every loop runs on them as one batch
+    (:func:`~exotune.analysis.latency.loop_latency_margins` treats each row on its own), then each
+    margin is checked on its own design."""
     from .batch import analyze_batch
+    from .charfun import CharTerms
 
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        cols = nominal if nominal is not None else analyze_batch(cfg)
-        ct = _terms(cfg)
-        T = float(ct.T[0])
-        fs = cfg.implementation.sample_rate_hz or None
-        loops = []
-        names, dTs, ws, ps = loop_latency_margins(ct, cfg.humans, cfg.environment)
-        for (name, fam, _key), dT, w, p in zip(names, dTs[:, 0], ws[:, 0], ps[:, 0]):
-            kw = {} if fam is None else {"parameter": fam.param, "unit": fam.unit}
-            if not _nominal_ok(cols, name):
-                loops.append(LoopMargin(name, 0.0, **kw))
-                continue
-            found = bool(np.isfinite(dT))
-            loops.append(LoopMargin(name, float(dT), float(w) / TWO_PI if found else None,
-                                    value=float(p) if found and fam is not None else None, **kw))
-        crit = min(loops, key=lambda m: m.extra_delay_s) if loops else None
-        margin = crit.extra_delay_s if crit else math.inf
-        if verify and margin == math.inf:
-            return _infinite_checked(cfg, LatencyMargin(margin, crit, tuple(loops), T, fs))
-        if not verify or not math.isfinite(margin) or margin == 0.0:
-            note = "not robust at the nominal delay" if margin == 0.0 else ""
-            return LatencyMargin(margin, crit, tuple(loops), T, fs, None, note)
-        return _verified(cfg, ct, LatencyMargin(margin, crit, tuple(loops), T, fs))
+        cts = [_terms(c) for c in cfgs]
+        ct = cts[0] if len(cts) == 1 else CharTerms.stack(cts)
+        names, dTs, ws, ps = loop_latency_margins(ct, cfgs[0].humans, cfgs[0].environment)
+        out = []
+        for i, (cfg, nominal) in enumerate(zip(cfgs, nominals)):
+            cols = nominal if nominal is not None else analyze_batch(cfg)
+            out.append(_design_margin(cfg, cols, cts[i], names, dTs[:, i], ws[:, i], ps[:, i], verify))
+        return out
+
+
+def _design_margin(cfg, cols, ct, names, dTs, ws, ps, verify: bool) -> LatencyMargin:
+    """One design's margin from its loops' crossing-search results (``cols``: its nominal analysis)."""
+    T = float(ct.T[0])
+    fs = cfg.implementation.sample_rate_hz or None
+    loops = []
+    for (name, fam, _key), dT, w, p in zip(names, dTs, ws, ps):
+        kw = {} if fam is None else {"parameter": fam.param, "unit": fam.unit}
+        if not _nominal_ok(cols, name):
+            loops.append(LoopMargin(name, 0.0, **kw))
+            continue
+        found = bool(np.isfinite(dT))
+        loops.append(LoopMargin(name, float(dT), float(w) / TWO_PI if found else None,
+                                value=float(p) if found and fam is not None else None, **kw))
+    crit = min(loops, key=lambda m: m.extra_delay_s) if loops else None
+    margin = crit.extra_delay_s if crit else math.inf
+    if verify and margin == math.inf:
+        return _infinite_checked(cfg, LatencyMargin(margin, crit, tuple(loops), T, fs))
+    if not verify or not math.isfinite(margin) or margin == 0.0:
+        note = "not robust at the nominal delay" if margin == 0.0 else ""
+        return LatencyMargin(margin, crit, tuple(loops), T, fs, None, note)
+    return _verified(cfg, ct, LatencyMargin(margin, crit, tuple(loops), T, fs))
 
 
 def schedule_latency_margin(cfg, lm: LatencyMargin) -> tuple[LatencyMargin, tuple[LatencyMargin, ...]]:
@@ -230,7 +248,8 @@ def schedule_latency_margin(cfg, lm: LatencyMargin) -> tuple[LatencyMargin, tupl
     tr = (cfg.raw or {}).get("transmission")
     if not tr:
         return lm, ()
-    entries = [latency_margin(replace(cfg, plant=cfg.plant.reflected(float(r)))) for r in tr["ratio"]]
+    cfgs = [replace(cfg, plant=cfg.plant.reflected(float(r))) for r in tr["ratio"]]
+    entries = _latency_margins(cfgs, [None] * len(cfgs), True)  # one crossing search for every entry
     pick = [(lm, None)] + list(zip(entries, zip(map(float, tr["joint_angle_rad"]), map(float, tr["ratio"]))))
     unknown = [p for p in pick if math.isnan(p[0].extra_delay_s)]
     worst, where = unknown[0] if unknown else min(pick, key=lambda p: p[0].extra_delay_s)

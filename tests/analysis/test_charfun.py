@@ -88,6 +88,26 @@ def test_batched_terms_equal_the_single_design_terms():
             np.testing.assert_allclose(_at(batch.qp(k), row=i), _at(one.qp(k)), rtol=1e-10)
 
 
+def test_stacked_terms_are_the_parts_rows_in_order_with_their_polynomials_unchanged():
+    from exotune.analysis.charfun import CharTerms
+
+    cfg = _cfg()
+    parts = []
+    for dob, k in ((False, 1.0), (True, 2.0), (False, 0.5)):  # with and without the DOB: other widths
+        c = _cfg(dob=dob)
+        cs, _ = build_controller(c.plant, c.design, c.implementation)
+        parts.append(char_terms(dataclasses.replace(c.plant, sea_stiffness=float(cfg.plant.K_s) * k), cs, 1))
+    widths = {p.qp("00").p0.shape[1] for p in parts}
+    assert len(widths) > 1  # the padding is exercised
+    st_ = CharTerms.stack(parts)
+    assert st_.T.shape == (3,)
+    for i, one in enumerate(parts):
+        assert st_.T[i] == one.T[0]
+        for k in one.terms:
+            np.testing.assert_array_equal(st_.qp(k).T[i], one.qp(k).T[0])
+            np.testing.assert_array_equal(_at(st_.qp(k), row=i), _at(one.qp(k)))  # zeros appended: same values
+
+
 def test_the_combined_term_is_the_affine_sum():
     cfg = _cfg()
     cs, _ = build_controller(cfg.plant, cfg.design, cfg.implementation)

@@ -316,3 +316,31 @@ def test_a_margin_beyond_the_accepted_delays_is_reported_unverified():
     with np.errstate(all="ignore"):
         cols = analyze_batch(batch_config(cfg, {"implementation.delay_s": delays}))
     assert bool(np.all(cols.loops_ok()))
+
+
+def test_gain_schedule_entries_searched_as_one_batch_equal_each_entry_alone():
+    """schedule_latency_margin runs the crossing search of all entries as one batch; every entry's
+    margin (value, critical loop and member, every loop's margin, verification) is the one of the
+    entry's design analysed alone."""
+    import dataclasses
+
+    import exotune
+    from exotune.analysis.latency_margin import schedule_latency_margin
+
+    cfg = exotune.load_design(EXAMPLES / "scheduled.yaml")
+    ratios = [float(r) for r in cfg.raw["transmission"]["ratio"]]
+    assert len(ratios) > 2
+    _, entries = schedule_latency_margin(cfg, latency_margin(cfg))
+    assert len(entries) == len(ratios)
+    for r, got in zip(ratios, entries):
+        alone = latency_margin(dataclasses.replace(cfg, plant=cfg.plant.reflected(r)))
+        assert got.verified == alone.verified and got.note == alone.note
+        assert got.critical.loop == alone.critical.loop
+        assert got.extra_delay_s == pytest.approx(alone.extra_delay_s, rel=1e-12)
+        for a, b in zip(got.loops, alone.loops):
+            assert a.loop == b.loop
+            assert a.extra_delay_s == pytest.approx(b.extra_delay_s, rel=1e-12)
+            assert (a.value is None) == (b.value is None)
+            if a.value is not None:
+                assert a.value == pytest.approx(b.value, rel=1e-12)
+    assert len({e.extra_delay_s for e in entries}) > 1  # the entries are different designs
