@@ -2,7 +2,8 @@
 (:class:`~.model.ControllerFile`, :mod:`.model`), consistency
 checks (:mod:`.checks`), reading and writing (:mod:`.fileio`), discretization to second-order
 sections (:mod:`.sos`), building it from a design (:mod:`.export`), the reference runtime
-(:mod:`.runtime`) and its sampled-data certification (:mod:`.certify`).
+(:mod:`.runtime`), its sampled-data certification (:mod:`.certify`) and certify's consistency checks
+alone (:mod:`.consistency`, for ``simulate``).
 
 (The function ``certify`` is not re-exported here: ``exotune.controllerfile.certify`` is the
 module.)"""

@@ -36,7 +36,8 @@ from .model import ControllerFile, as_controller_file
 from .results import Certificate
 
 __all__ = ["POINTS", "sampled_analysis", "sampled_decision", "sampled_problems", "schedule_section", "stable_intervals", "position_feedback",
-           "decision_and_nominal", "runs_the_file_itself", "certify", "design_mismatches", "check_built_from_design", "hand_tuned", "golden_problems"]
+           "decision_and_nominal", "runs_the_file_itself", "certify", "design_mismatches", "check_built_from_design", "hand_tuned", "golden_problems",
+           "prediction_mismatches", "float32_realization_check"]
 
 def _human_dict(fam, v: float) -> dict:
     h = {k: val for k, val in fam.fixed().items() if k in ("inertia", "damping", "stiffness")}
@@ -640,23 +641,41 @@ def schedule_section(doc: ControllerFile | dict, analyses: list | None = None,
                             f"not stable for {', '.join(bad)}")
         elif lm_e.get("extra_delay_s") is not None:  # an unstable entry's margin 0 says nothing more
             problems += [where + p for p in requirement_problems(lm_e)]
-        mism += _prediction_mismatches(e.predicted_sampled, sa_e,
+        mism += prediction_mismatches(e.predicted_sampled, sa_e,
                                        f"gain_schedule[{e.joint_angle_rad:g} rad].predicted_sampled")
     for more in hysteretic_problems_many(hyst):  # one continuous-time batch for every entry
         problems += more
     return entries, problems, mism
 
 
-def _float32_section(doc: ControllerFile, rep: dict, asked: bool) -> None:
-    """The float32 part of the report: the realization checked against the file's sos and gains
-    (a mismatch is an invalid file unless hand-tuned), and the rounding bound."""
+def float32_realization_check(doc: ControllerFile) -> None:
+    """Refuse a float32 file whose realization is not that of its sos and gains (an invalid file
+    unless hand-tuned).
+
+    Parameters
+    ----------
+    doc : ControllerFile
+        A controller file analysed in float32.
+
+    Raises
+    ------
+    exotune.errors.ConfigError
+        Naming ``controller.realization``.
+    """
     from ..errors import ConfigError
     from .precision import realization_problems
-    from .roundoff import roundoff_bound
 
     bad = [] if hand_tuned(doc) else realization_problems(doc)
     if bad:
         raise ConfigError("controller.realization", f"{bad[0]}; export the file again from its design")
+
+
+def _float32_section(doc: ControllerFile, rep: dict, asked: bool) -> None:
+    """The float32 part of the report: the realization checked (:func:`float32_realization_check`),
+    and the rounding bound."""
+    from .roundoff import roundoff_bound
+
+    float32_realization_check(doc)
     rep["precision"] = roundoff_bound(doc)
     if asked:
         rep["precision"]["asked"] = ("certify --precision float32: the file's float64 controller analysed as its "
@@ -679,7 +698,7 @@ def _certify(doc: ControllerFile, predictions: bool = True) -> dict:
         rep["latency_margin"] = schedule_minimum(rep["latency_margin"], rep["gain_schedule"])
     if not [h for h in sa["humans"] if "skipped" not in h]:
         problems.append("the file names no rational human family to certify against (certify.humans)")
-    mism += _prediction_mismatches(doc.predicted.sampled, sa, "predicted.sampled")
+    mism += prediction_mismatches(doc.predicted.sampled, sa, "predicted.sampled")
     if not predictions:  # certify --precision: the predictions were made for the file's own precision
         mism = []
     if mism:
@@ -701,10 +720,25 @@ _FAMILY_KEYS = ("kind", "parameter", "unit", "range", "robust", "stable_interval
                 "not_certifiable")
 
 
-def _prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
+def prediction_mismatches(pred, sa: dict, where: str) -> list[str]:
     """Every sampled-data prediction of the file (``pred``: untrusted, anything malformed is a
     mismatch) against the recomputed ``sa``: the free and locked verdicts and spectral radii, and
-    per family its identity, range, robust verdict and stable intervals."""
+    per family its identity, range, robust verdict and stable intervals.
+
+    Parameters
+    ----------
+    pred : object
+        The file's ``predicted.sampled`` (or an entry's ``predicted_sampled``), as read.
+    sa : dict
+        The :func:`sampled_analysis` of the same loop.
+    where : str
+        The field path that names a mismatch.
+
+    Returns
+    -------
+    list of str
+        The mismatching fields (``where`` + key), empty when the prediction is the analysis.
+    """
     if not isinstance(pred, dict):
         return [f"{where} missing"]
     out = [f"{where}.{k}" for k in ("free_stable", "locked_stable") if pred.get(k) is not sa[k]]

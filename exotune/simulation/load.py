@@ -8,7 +8,7 @@ from ..config.design import refuse_other_kind
 from ..config.validate import fmt_outside, in_limits, limit_text
 from ..controllerfile import ControllerFile, as_controller_file, build_export, checked_controller, design_at_rate, load_controller
 from ..controllerfile.model import ScheduleEntry
-from ..controllerfile.certify import certify
+from ..controllerfile.consistency import consistency_problems
 from ..errors import ConfigError
 from ..options import number_value
 from ..units import fmt_num
@@ -111,13 +111,12 @@ def check_consistent(doc: dict) -> None:
     ----------
     docs/cli.md#certify.
     """
-    rep = certify(doc).to_dict()
-    mism = rep.get("prediction_mismatches") or []
+    mism, golden = consistency_problems(doc)  # certify's checks, without the decision's margin searches
     if mism:
-        raise ConfigError(mism[0].split(" ")[0], "disagrees with the sampled-data analysis of the file's own plant, "
+        raise ConfigError(mism[0].split(" (")[0], "disagrees with the sampled-data analysis of the file's own plant, "
                           "controller, sample_rate_hz and delay_s (was the file edited? re-export it; "
                           "`exotune certify` lists every mismatch)")
-    bad = [p for p in rep.get("problems", []) if "golden vectors" in p]
+    bad = [p for p in golden if "golden vectors" in p]
     if bad:
         raise ConfigError("golden.tau_cmd", bad[0])
 
