@@ -157,3 +157,71 @@ def test_an_integer_too_long_to_convert_is_named_with_its_line():
         load_yaml_text("x: 1\ny: " + "9" * 5000 + "\n", "big.yaml")
     assert ei.value.field == "big.yaml" and "an integer of 5000 digits at line 2" in ei.value.reason
     assert load_yaml_text("x: " + "9" * 400)["x"] == int("9" * 400)  # long but convertible: validation names it
+
+
+# ---------------------------------------------------------------------------------------------
+# libyaml's events and PyYAML's own parser give the same documents and the same errors
+# ---------------------------------------------------------------------------------------------
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+import yaml  # noqa: E402
+
+_SCALARS = st.one_of(
+    st.integers(-10**30, 10**30), st.floats(allow_nan=False), st.booleans(), st.none(),
+    st.sampled_from(["yes", "on", "1:30", "1_000", "0300", "0o17", "0x1F", "1e3", ".inf", "~", "null", "",
+                     "a: b", "- x", "#c", "&a", "*a", "!!str", "'q'", '"dq"', "é ☃ 𝄞", "\t", " lead"]),
+    st.text(max_size=12))
+_DOCS = st.recursive(_SCALARS, lambda kids: st.one_of(
+    st.lists(kids, max_size=4), st.dictionaries(st.text(min_size=1, max_size=8), kids, max_size=4)), max_leaves=20)
+_ALPHABET = list("abcxyz019.-+eE:,[]{}#&*!|>'\"%@`?~ \t\n") + ["\u00e9", "\u2603", "\x85", "\ufeff", "\x07"]
+
+
+def _outcome(text: str, libyaml: bool, monkeypatch):
+    monkeypatch.setattr(yaml, "__with_libyaml__", libyaml)
+    try:
+        return ("ok", repr(load_yaml_text(text, "in.yaml")))
+    except ConfigError as e:
+        return ("error", e.field, e.reason)
+    except yaml.YAMLError as e:  # load_yaml_text leaves the wording to its callers (read_yaml)
+        return ("yaml", type(e).__name__, str(e))
+
+
+@pytest.mark.skipif(not getattr(yaml, "__with_libyaml__", False), reason="PyYAML built without libyaml")
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(doc=_DOCS, flow=st.sampled_from([None, True, False]), key=st.text(min_size=1, max_size=6))
+def test_libyaml_events_load_every_document_as_pyyamls_parser(doc, flow, key, monkeypatch):
+    """A document dumped in any style loads to the same value through libyaml's events as through
+    PyYAML's pure-Python parser (YAML 1.2 scalars, bounds and duplicate checks are shared)."""
+    text = yaml.safe_dump({key: doc}, default_flow_style=flow, allow_unicode=True)
+    assert _outcome(text, True, monkeypatch) == _outcome(text, False, monkeypatch)
+
+
+@pytest.mark.skipif(not getattr(yaml, "__with_libyaml__", False), reason="PyYAML built without libyaml")
+@settings(max_examples=600, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=st.text(alphabet=_ALPHABET, max_size=40))
+def test_libyaml_events_accept_and_refuse_text_as_pyyamls_parser(text, monkeypatch):
+    """Arbitrary YAML-ish text, mostly invalid: the same value or the same error (field and reason)
+    through either parser."""
+    assert _outcome(text, True, monkeypatch) == _outcome(text, False, monkeypatch)
+
+
+def test_libyaml_is_used_and_its_refusals_are_worded_by_pyyamls_parser(monkeypatch):
+    """With libyaml, text nested past libyaml's own limit is still refused by the bounded composer's
+    message (PyYAML's parser words every refusal), and a valid file loads."""
+    if not getattr(yaml, "__with_libyaml__", False):
+        pytest.skip("PyYAML built without libyaml")
+    deep = "x: " + "[" * 1200 + "]" * 1200
+    with pytest.raises(ConfigError) as ei:
+        load_yaml_text(deep, "in.yaml")
+    assert f"{MAX_DEPTH} levels" in ei.value.reason
+    calls = []
+    real = yaml._yaml.CParser
+
+    class Spy(real):
+        def __init__(self, *a):
+            calls.append(1)
+            super().__init__(*a)
+
+    monkeypatch.setattr(yaml._yaml, "CParser", Spy)
+    assert load_yaml_text("a: [1, 2e3, yes]\n") == {"a": [1, 2000.0, "yes"]}
+    assert calls == [1]
