@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .certify import (check_built_from_design, golden_problems, prediction_mismatches, refuse_excess_work,
-                      runs_the_file_itself, sampled_analysis)
+from .certify import (check_built_from_design, float32_realization_check, golden_problems, prediction_mismatches,
+                      refuse_excess_work, runs_the_file_itself, sampled_analysis)
 from .model import ControllerFile, as_controller_file
 
 __all__ = ["consistency_problems"]
@@ -55,7 +55,6 @@ def consistency_problems(doc: ControllerFile | dict) -> tuple[list[str], list[st
     ----------
     docs/controller-file.md#certify.
     """
-    from .certify import float32_realization_check
     from .precision import precision_of
 
     cf = as_controller_file(doc)
