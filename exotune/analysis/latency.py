@@ -120,11 +120,12 @@ class _Jw:
 def _horner(c: np.ndarray, x: np.ndarray, flat: bool = False) -> np.ndarray:
     if c.shape[1] == 0:
         return np.zeros(x.shape)
-    col = (lambda k: c[:, k]) if flat else (lambda k: c[:, k : k + 1])
-    acc = np.broadcast_to(col(c.shape[1] - 1), x.shape).copy()
+    cT = c.T if flat else c.T[:, :, None]  # column k: the k-th coefficient of every row
+    acc = np.empty(x.shape)
+    acc[...] = cT[-1]
     for k in range(c.shape[1] - 2, -1, -1):
         acc *= x
-        acc += col(k)
+        acc += cT[k]
     return acc
 
 
