@@ -348,18 +348,17 @@ def _loader_class(text: str):
     return _Loader
 
 
-def _compose_construct(text: str, name: str, loader_class=None):
+def _compose_construct(text: str, name: str):
     """Compose (bounded), check duplicate keys, construct: one parse of ``text``. Text that
     libyaml's parser refuses is parsed again by PyYAML's own, whose verdict and message stand (the
     two word their errors differently, and libyaml stops at 1000 nesting levels with a message of
     its own, where the bounded composer names the path at level 65)."""
-    cls = loader_class or _loader_class(text)
-    if cls is _CEventLoader:
+    if _loader_class(text) is _CEventLoader:
         try:
             return _load(_CEventLoader, text, name)
         except yaml.YAMLError:
-            cls = _Loader
-    return _load(cls, text, name)
+            pass
+    return _load(_Loader, text, name)
 
 
 def _load(cls, text: str, name: str):
