@@ -95,12 +95,13 @@ def _horner_vd(cT: np.ndarray, idx: np.ndarray, s: np.ndarray, deriv: bool):
     """Value and derivative of rows ``idx`` at ``s`` in one Horner pass; ``cT`` holds the
     coefficients transposed (power-major, contiguous) so each gather is a 1-D take."""
     m = cT.shape[0]
-    v = np.take(cT[m - 1], idx).astype(complex)
+    rows = cT[:, idx]  # one gather of every power's coefficients (the same values as a take per power)
+    v = rows[m - 1].astype(complex)
     d = np.zeros_like(v) if deriv else None
     for k in range(m - 2, -1, -1):
         if deriv:
             d = d * s + v
-        v = v * s + np.take(cT[k], idx)
+        v = v * s + rows[k]
     return v, d
 
 
