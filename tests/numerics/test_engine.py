@@ -25,7 +25,8 @@ def test_numpy_engine_context_is_scoped():
 
 
 def test_single_design_command_compiles_no_kernel(tmp_path):
-    """`exotune analyze` (in-process) leaves every numba dispatcher without a compiled signature
+    """`exotune analyze` (in-process) leaves every numba dispatcher of every kernel module
+    (continuous, latency, passivity and sampled-data kernels alike) without a compiled signature
     when nothing is in numba's cache (an empty ``NUMBA_CACHE_DIR``): single designs never wait on
     the JIT (with a cache, the plant margin's large count batches load the cached kernels:
     :func:`exotune.numerics.engine.cached_engine`)."""
@@ -36,7 +37,9 @@ def test_single_design_command_compiles_no_kernel(tmp_path):
         "try:\n    main(['analyze', 'examples/scheduled.yaml'])\nexcept SystemExit as e:\n    assert not e.code, e.code\n"
         "import exotune.numerics.kernels as k\n"
         "from numba.core.registry import CPUDispatcher\n"
-        "mods = [getattr(k, n) for n in ('bounds', 'leaves', 'pair', 'phase', 'common')]\n"
+        "import importlib, pkgutil\n"
+        "mods = [importlib.import_module(f'{k.__name__}.{m.name}') for m in pkgutil.iter_modules(k.__path__)]\n"
+        "assert len(mods) >= 12, [m.__name__ for m in mods]\n"
         "compiled = [f'{m.__name__}.{a}' for m in mods for a, f in vars(m).items() "
         "if isinstance(f, CPUDispatcher) and f.signatures]\n"
         "print('COMPILED', compiled, file=sys.stderr)\n"
