@@ -9,6 +9,16 @@ for _p in (_ROOT, _HERE):
     if _p not in sys.path:
         sys.path.insert(0, _p)
 
+# Python's bytecode caches stay on for the suite even where the environment turns them off
+# (PYTHONDONTWRITEBYTECODE, set in many container images): without them every xdist worker rewrites
+# the assertions of every test module again at collection (about half a minute of CPU per worker)
+# and every command a test starts compiles exotune's modules again. The caches are written beside
+# the sources (``__pycache__``, ignored by git), as numba's kernel cache is;
+# EXOTUNE_TEST_NO_BYTECODE=1 keeps the environment's choice.
+if os.environ.get("PYTHONDONTWRITEBYTECODE") and not os.environ.get("EXOTUNE_TEST_NO_BYTECODE"):
+    del os.environ["PYTHONDONTWRITEBYTECODE"]  # the workers and the commands tests start inherit it
+    sys.dont_write_bytecode = False
+
 # Property tests run a fixed, reproducible set of examples (CI must not depend on the draw);
 # set HYPOTHESIS_PROFILE=explore to search with fresh random examples instead.
 from hypothesis import settings as _hsettings  # noqa: E402

@@ -10,6 +10,7 @@ the lazy table of every package ``__init__`` (``attach(__name__, {name: submodul
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -107,8 +108,10 @@ def lazy_tables() -> dict[str, dict[str, str]]:
 VIEW_METHODS = {"plot", "to_text", "__str__", "summary"}  # a result's views: late-bound, see test_imports_point_downward
 
 
+@functools.cache
 def _edges():
-    """(module, target, imported name or None, line, enclosing function name or None)."""
+    """(module, target, imported name or None, line, enclosing function name or None); parsed on
+    first use (not at collection, which every worker does)."""
     edges = []
     for mod, path in MODULES.items():
         tree = ast.parse(path.read_text(), str(path))
@@ -141,9 +144,6 @@ def _edges():
     return edges
 
 
-EDGES = _edges()
-
-
 def _top(mod: str) -> str:
     return mod.split(".")[0]
 
@@ -158,7 +158,7 @@ def test_imports_point_downward():
     (``plot``, ``to_text``, ``__str__``, ``summary``) import the ``plots``/``text`` layer when called, so that
     ``exotune.analyze(path).plot()`` works while nothing below depends on the views at import time."""
     bad = []
-    for src, tgt, name, line, func in EDGES:
+    for src, tgt, name, line, func in _edges():
         a, b = _top(src), _top(tgt)
         if a == b:
             continue
@@ -197,13 +197,13 @@ def test_package_inits_are_lazy_tables():
 
 def test_library_never_imports_the_root_package():
     """Subpackages import ``exotune.version``, never the package root (which is the public API)."""
-    bad = [f"{s}:{ln}" for s, t, _, ln, _f in EDGES if t == "__init__" and s not in ("__init__", "cli", "__main__", "api")]
+    bad = [f"{s}:{ln}" for s, t, _, ln, _f in _edges() if t == "__init__" and s not in ("__init__", "cli", "__main__", "api")]
     assert not bad, bad
 
 
 def test_module_graph_is_acyclic():
     graph: dict[str, set[str]] = {m: set() for m in MODULES}
-    for src, tgt, _, _, _func in EDGES:  # view methods included: no exception
+    for src, tgt, _, _, _func in _edges():  # view methods included: no exception
         if tgt in graph and tgt != src:
             graph[src].add(tgt)
     # a package __init__ that re-exports is an edge __init__ → submodule; a submodule importing its
@@ -229,7 +229,7 @@ def test_module_graph_is_acyclic():
 
 
 def test_no_private_names_across_modules():
-    bad = [f"{s}:{ln} imports {n} from {t}" for s, t, n, ln, _f in EDGES
+    bad = [f"{s}:{ln} imports {n} from {t}" for s, t, n, ln, _f in _edges()
            if n and n.startswith("_") and not n.startswith("__") and t != s]
     assert not bad, "\n".join(bad)
 
@@ -469,7 +469,7 @@ def test_plots_import_no_computing_function_from_the_analysis():
     import inspect
 
     bad = []
-    for mod, tgt, name, line, _func in EDGES:
+    for mod, tgt, name, line, _func in _edges():
         if _top(mod) != "plots" or _top(tgt) != "analysis":
             continue
         if name is None:  # a whole module: any of its functions could be called
