@@ -430,12 +430,18 @@ def test_high_rate_family_is_resolved_and_converges_to_the_continuous_boundary()
     """At 100 kHz (a 116-state loop: a 1 ms delay is 100 samples) the light-mass family of the
     paper's design is resolved (it was unresolved: 63 cells, the budget spent) and its boundary lies
     within 0.5 % of the continuous-time one (the sampled-data loop tends to the continuous loop as
-    the rate grows; the hold adds 5 µs of delay)."""
+    the rate grows; the hold adds 5 µs of delay).
+
+    Only the light-mass family is analysed: the file's certify section is cut to that family
+    (sampled_analysis searches every family on its own, so its entry is the one the whole section
+    gives, to the last bit); the spring family's search, two fifths of the sampled analysis' time,
+    is read by no assertion here."""
     from exotune.analysis import analyze_design
     from exotune.config import load_design
     from exotune.controllerfile import design_at_rate
 
     doc = build_export(design_at_rate(load_design(PAPER).raw, 100000.0), 100000.0, analyses=False)
+    doc["certify"] = {"humans": doc["certify"]["humans"][:1], "environment": []}
     mass = sampled_analysis(doc)["humans"][0]
     assert mass["kind"] == "mass" and mass["loop_states"] > 100
     assert not mass["budget_spent"]
