@@ -50,11 +50,19 @@ def solved(spec):
     return optimize(spec)
 
 
-def test_verdicts_at_are_the_verdicts_of_record_of_the_design(spec):
+@pytest.fixture(scope="module")
+def at_8_with_margin():
+    """``verdicts_at`` at α = 8 with one sample of latency margin required: compared below with the
+    verdicts of record of the same design, and one of the α of the infeasibility scan (computed
+    once, read by both tests)."""
+    return verdicts_at(_spec(REQ), np.array([8.0]))
+
+
+def test_verdicts_at_are_the_verdicts_of_record_of_the_design(spec, at_8_with_margin):
     raw = _base()
     raw["design"]["amplification"] = 8.0
     ref = design_verdicts(design_from_mapping(raw), require_latency_margin_s=REQ)
-    got = verdicts_at(_spec(REQ), np.array([8.0]))
+    got = at_8_with_margin
     assert got.certifiable == ref.certifiable and got.robust == ref.robust
     assert got.required_latency_margin_s == pytest.approx(REQ, rel=1e-12)
     assert got.latency_margin_s == pytest.approx(ref.latency_margin_s, rel=1e-9)
@@ -76,15 +84,16 @@ def test_optimum_is_certifiable_and_alpha_above_is_not(spec, solved):
     v = design_verdicts(cfg)
     assert v.certifiable and v.robust
     up = np.array([a * (1 + 10 * POLISH_REL)])
-    assert not (_other_constraints_ok(spec, up) and verdicts_at(spec, up).certifiable)
+    others_ok = _other_constraints_ok(spec, up)
+    assert not (others_ok and verdicts_at(spec, up).certifiable)
     # the continuous model (exact delay, no hold) accepts α above the sampled-data optimum
-    assert _other_constraints_ok(spec, up)
+    assert others_ok
 
 
-def test_unreachable_sampled_margin_is_reported_infeasible():
+def test_unreachable_sampled_margin_is_reported_infeasible(at_8_with_margin):
     s = _spec(REQ)
     for a in (1.5, 8.0, 60.0):
-        v = verdicts_at(s, np.array([a]))
+        v = at_8_with_margin if a == 8.0 else verdicts_at(s, np.array([a]))  # the same call at α = 8
         assert not v.certifiable
     r = optimize(s)
     assert r["feasible"] is False and "latency_margin_s" in r["broken"]
