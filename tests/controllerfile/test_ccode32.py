@@ -91,6 +91,13 @@ def doc32(tmp_path_factory):
     return doc
 
 
+@pytest.fixture(scope="module")
+def src32(doc32):
+    """``c_sources(doc32)``, generated once for the tests that only read it (the generator is a
+    deterministic function of the document)."""
+    return c_sources(doc32)
+
+
 def _build(d: Path, files: dict, extra: dict, main: str, flags=(), warn=True) -> Path:
     for name, text in {**files, **extra}.items():
         (d / name).write_text(text, encoding="ascii")
@@ -101,8 +108,8 @@ def _build(d: Path, files: dict, extra: dict, main: str, flags=(), warn=True) ->
 
 
 @pytest.fixture(scope="module")
-def harness(doc32, tmp_path_factory):
-    return _build(tmp_path_factory.mktemp("h32"), c_sources(doc32), {"harness.c": HARNESS}, "harness.c")
+def harness(src32, tmp_path_factory):
+    return _build(tmp_path_factory.mktemp("h32"), src32, {"harness.c": HARNESS}, "harness.c")
 
 
 def _run(exe: Path, lines: list[str]) -> list[str]:
@@ -128,10 +135,10 @@ def _sanitizers() -> list[str]:
     return flags if res.returncode == 0 else []
 
 
-def test_literals_are_the_realizations_floats(doc32):
+def test_literals_are_the_realizations_floats(doc32, src32):
     """Every coefficient literal of the float32 port is a float literal that parses to the
     realization's float32 value, in the order the reference steps them."""
-    src = c_sources(doc32)["exotune_controller.c"]
+    src = src32["exotune_controller.c"]
     lits = re.findall(r"[-+0-9.eE]+f\b", src.split("SECTIONS[")[1].split("};")[0])
     ctrls = [doc32["controller"]] + [e["controller"] for e in doc32["gain_schedule"]["entries"]]
     want = []
@@ -140,17 +147,17 @@ def test_literals_are_the_realizations_floats(doc32):
         want += [x for _s, secs in K["sensed"] for row in secs for x in row]
         want += [x for secs in K["loop"] for row in secs for x in row]
     assert [float(np.float32(float(s[:-1]))) for s in lits] == want
-    h = c_sources(doc32)["exotune_controller.h"]
+    h = src32["exotune_controller.h"]
     assert "#define EXOTUNE_PRECISION_BITS 32" in h and "#define EXOTUNE_HAS_BUMPLESS 0" in h
     assert f"#define EXOTUNE_FLUSH_BELOW {c_float(FLUSH32)}" in h
     defined = dict(re.findall(r"#define (EXOTUNE_(?:OK|FAULT_[A-Z]+|ERR_[A-Z_]+)) (\d+)  /\* \S", h))
     assert defined == {name: str(v) for name, v, _what in RETURN_CODES}
     assert [(n, v) for n, v, _w in RETURN_CODES32] == [(n, v) for n, v, _w in RETURN_CODES]
-    src = c_sources(doc32)["exotune_controller.c"].split("exotune_build_info[]")[1]
+    src = src32["exotune_controller.c"].split("exotune_build_info[]")[1]
     returned = set(re.findall(r"return (EXOTUNE_[A-Z_]+);", src))
     assert returned == set(defined)  # every code is returned somewhere
     assert not re.findall(r"return -?\d+;", src.split("int exotune_init")[1])  # never a bare number
-    for text in c_sources(doc32).values():
+    for text in src32.values():
         assert max(text.encode("utf-8")) < 128
 
 
@@ -172,12 +179,12 @@ def test_input_limit_is_where_float_conversion_overflows():
 
 
 @needs_cc
-def test_golden_test_passes_exactly_with_werror(doc32, tmp_path):
+def test_golden_test_passes_exactly_with_werror(doc32, src32, tmp_path):
     """-std=c99 -O2 -ffp-contract=off, the pedantic warnings, -Werror and (where available) the
     sanitizers: the golden test passes, every output exactly the float32 reference's; its rows after
     each controller's first init are the flushed inputs (command 0) then the file's golden inputs
     with the file's golden outputs."""
-    exe = _build(tmp_path, c_sources(doc32), {}, "exotune_golden_test.c", flags=_sanitizers())
+    exe = _build(tmp_path, src32, {}, "exotune_golden_test.c", flags=_sanitizers())
     res = subprocess.run([str(exe)], capture_output=True, text=True)
     assert res.returncode == 0 and res.stdout.rstrip().endswith("OK"), res.stdout + res.stderr
     assert "every output exact" in res.stdout
@@ -197,13 +204,13 @@ def test_golden_test_passes_exactly_with_werror(doc32, tmp_path):
 
 
 @needs_cc
-def test_a_coefficient_changed_by_1e_6_fails_the_golden_test(doc32, tmp_path):
+def test_a_coefficient_changed_by_1e_6_fails_the_golden_test(src32, tmp_path):
     """Every nonzero coefficient of the port (168: section beta/alpha, static gains, loop divisors),
     one at a time, multiplied by 1 + 1e-6: the compiled golden test fails each time, and passes
     unperturbed. Moved by one float32 ulp (6e-8..1.2e-7 of itself), 152 of the 168 fail it (measured:
     159 at 2 ulps, 162 at 4, all at 8, i.e. <= 9.5e-7); the rest are small terms (a beta2 of 8e-5,
     a beta0 of 0.03) whose one-ulp change is rounded away in every one of the golden outputs."""
-    files = c_sources(doc32)
+    files = src32
     for name, text in {**files, "hook.c": '#include "exotune_controller.c"\n' + PERTURB_HOOK,
                        "m.c": PERTURB_MAIN}.items():
         (tmp_path / name).write_text(text, encoding="ascii")
@@ -226,9 +233,9 @@ def test_a_coefficient_changed_by_1e_6_fails_the_golden_test(doc32, tmp_path):
 
 
 @needs_cc
-def test_fast_math_builds_do_not_compile(doc32, tmp_path):
+def test_fast_math_builds_do_not_compile(src32, tmp_path):
     """-ffast-math, -Ofast and -ffinite-math-only: the float32 port refuses to compile (#error)."""
-    for name, text in c_sources(doc32).items():
+    for name, text in src32.items():
         (tmp_path / name).write_text(text, encoding="ascii")
     errors = [subprocess.run([CC, "-std=c99", *flags, "-c", "-o", str(tmp_path / "x.o"),
                               str(tmp_path / "exotune_controller.c")], capture_output=True, text=True).stderr
@@ -245,7 +252,7 @@ def _has_fma() -> bool:
 
 @needs_cc
 @pytest.mark.skipif(not _has_fma(), reason="no FMA on this CPU (x86 -mfma)")
-def test_fma_contraction_is_refused_at_init(doc32, tmp_path):
+def test_fma_contraction_is_refused_at_init(src32, harness, tmp_path):
     """Built with FMA and -ffp-contract=fast (GCC's default outside ISO C mode), the step's a*b + c
     would be fused (other bits than the certified float32 controller): exotune_init's self-check
     sees it and returns EXOTUNE_ERR_FLOAT_ENV; the state cannot be stepped."""
@@ -253,10 +260,10 @@ def test_fma_contraction_is_refused_at_init(doc32, tmp_path):
                            capture_output=True, text=True)
     if probe.returncode != 0:
         pytest.skip("this compiler has no -mfma")
-    ok = _run(_build(tmp_path, c_sources(doc32), {"harness.c": HARNESS}, "harness.c"), ["init 0 0"])
+    ok = _run(harness, ["init 0 0"])  # the same sources and flags without FMA: the module's build
     d = tmp_path / "fma"
     d.mkdir()
-    exe = _build(d, c_sources(doc32), {"harness.c": HARNESS}, "harness.c", flags=["-mfma", "-ffp-contract=fast"])
+    exe = _build(d, src32, {"harness.c": HARNESS}, "harness.c", flags=["-mfma", "-ffp-contract=fast"])
     bad = _run(exe, ["init 0 0", _step([0.01, 0.1, 1.0, 10.0, 1.0])])
     assert ok == ["0"] and bad[0] == "5" and bad[1].split()[0] == "4"  # EXOTUNE_ERR_FLOAT_ENV, then ERR_ARGUMENT
 

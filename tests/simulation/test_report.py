@@ -6,17 +6,28 @@ import math
 import numpy as np
 import pytest
 
+from exotune.controllerfile import build_export
 from exotune.errors import ConfigError
 from exotune.simulation.report import check_budget, check_run_options, run_scenario, summarize
 from exotune.simulation.result import SimulationRun
 from exotune.simulation.scenarios import SCENARIOS
 from exotune.simulation.verdict import LoopSpectrum
 
-from paper_design import paper_controller
+from paper_design import paper_design
 
 FS = 1000.0
 T = np.arange(0.0, 4.0, 1 / FS)
 MARGINAL = 0.05
+
+
+@pytest.fixture(scope="module")
+def paper_doc():
+    """examples/paper.yaml's controller at 1 kHz, built once for the module (run_scenario only reads
+    it): the sections the runtime executes, as ``exotune simulate`` builds a design file's
+    (``build_export(..., analyses=False)``). The sampled-data predictions of a written controller
+    file (``paper_design.paper_controller``) are not computed: neither the simulator nor these
+    tests read them (the runs are the same bit for bit)."""
+    return build_export(paper_design(sample_rate_hz=FS), FS, analyses=False)
 
 
 def _sim(tau_s, tau_c, theta_h=None, diverged=None):
@@ -139,9 +150,8 @@ def test_the_shortest_run_is_counted_as_the_run_counts_its_samples():
     assert ei.value.reason.startswith("0.0024 s at 1000 Hz is 2 samples;")
 
 
-def test_run_scenario_returns_the_typed_run():
-    doc = paper_controller(FS)
-    run = run_scenario(doc, "locked-output", duration_s=1.0)
+def test_run_scenario_returns_the_typed_run(paper_doc):
+    run = run_scenario(paper_doc, "locked-output", duration_s=1.0)
     assert isinstance(run, SimulationRun) and run.scenario == "locked-output"
     rep = run.to_dict()
     assert rep["summary"]["verdict"] in ("decaying", "marginal") and "runs" not in rep
@@ -159,13 +169,13 @@ def test_run_scenario_returns_the_typed_run():
     ({"human_inertia": False}, "human_inertia", "expected a number of kg·m², got False"),
     ({"human_inertia": "0.02"}, "human_inertia", "expected a number of kg·m², got '0.02'"),
 ])
-def test_run_options_are_refused_naming_their_keyword(kw, field, reason):
+def test_run_options_are_refused_naming_their_keyword(kw, field, reason, paper_doc):
     args = {"name": "locked-output", **kw}
     with pytest.raises(ConfigError) as ei:
         check_run_options(**args)
     assert ei.value.field == field and reason in ei.value.reason
     with pytest.raises(ConfigError) as ei:  # run_scenario checks them itself, before any run
-        run_scenario(paper_controller(), args.pop("name"), **args)
+        run_scenario(paper_doc, args.pop("name"), **args)
     assert ei.value.field == field
 
 
